@@ -1,0 +1,42 @@
+# Two set-up commands work on a fresh machine: `make demo` and `make test`.
+# Each creates .venv and installs what is missing (apt packages included) first.
+PY      ?= python3
+VENV    := .venv
+BIN     := $(VENV)/bin
+STAMP   := $(VENV)/.installed
+APT_PKGS := libusb-1.0-0 gdal-bin
+DEMO_OUT ?= demo-out
+
+.PHONY: demo test install sysdeps lint bench clean
+
+$(STAMP): pyproject.toml
+	@$(MAKE) --no-print-directory sysdeps
+	test -x $(BIN)/python || $(PY) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip wheel
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+sysdeps:
+	@missing=""; for p in $(APT_PKGS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing system packages:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing >/dev/null; \
+	fi
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+demo: $(STAMP)
+	bash scripts/demo.sh $(DEMO_OUT)
+
+lint: $(STAMP)
+	$(BIN)/ruff check vinecli tests benchmarks
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/terrain.py
+
+clean:
+	rm -rf $(DEMO_OUT) .pytest_cache

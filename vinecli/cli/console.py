@@ -1,0 +1,98 @@
+"""The one place that maps errors to exit codes and renders them.
+
+Commands are wrapped with :func:`handles_errors`: a :class:`~vinecli.errors.VinecliError`
+becomes one red line on stderr (``vinecli: error: FILE: problem``) and its exit code;
+anything unexpected becomes one line and exit 3. ``vinecli --debug`` re-raises so the
+traceback is shown.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import sys
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import typer
+from rich.console import Console
+from rich.logging import RichHandler
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from vinecli.errors import VinecliError
+
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+out_console = Console(highlight=False, soft_wrap=True)
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+class _State:
+    debug: bool = False
+
+
+STATE = _State()
+
+
+def setup_logging(verbosity: int, debug: bool) -> None:
+    """Route stdlib logging to Rich on stderr; WARNING by default, -v INFO, -vv DEBUG."""
+    STATE.debug = debug
+    level = logging.DEBUG if (debug or verbosity >= 2) else logging.INFO if verbosity == 1 else logging.WARNING
+    root = logging.getLogger("vinecli")
+    root.handlers.clear()
+    handler = RichHandler(console=err_console, show_time=False, show_path=False, markup=False)
+    root.addHandler(handler)
+    root.setLevel(level)
+    root.propagate = False
+
+
+def error_line(message: str) -> None:
+    """Print one error line on stderr."""
+    err_console.print(f"[bold red]vinecli: error:[/] {message}", markup=True, highlight=False)
+
+
+def handles_errors(fn: F) -> F:
+    """Decorator for Typer commands: map errors to one stderr line and an exit code."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except VinecliError as exc:
+            if STATE.debug:
+                raise
+            error_line(_escape(str(exc)))
+            raise typer.Exit(exc.exit_code) from None
+        except KeyboardInterrupt:
+            error_line("interrupted")
+            raise typer.Exit(130) from None
+        except Exception as exc:  # noqa: BLE001 - the one catch-all, by design
+            if STATE.debug:
+                raise
+            error_line(_escape(f"internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback)"))
+            raise typer.Exit(3) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def _escape(text: str) -> str:
+    """Escape Rich markup and fold to one line."""
+    from rich.markup import escape
+
+    return escape(" ".join(str(text).split()))
+
+
+def progress() -> Progress:
+    """A Rich progress bar on stderr (hidden when stderr is not a terminal and not forced)."""
+    return Progress(
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TextColumn("{task.fields[info]}"),
+        console=err_console,
+        transient=not sys.stderr.isatty(),
+        disable=not err_console.is_terminal,
+    )

@@ -1,0 +1,7 @@
+"""``vinecli report`` command."""
+
+from __future__ import annotations
+
+import typer
+
+app = typer.Typer()

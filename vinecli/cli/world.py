@@ -1,0 +1,7 @@
+"""``vinecli world ...`` commands."""
+
+from __future__ import annotations
+
+import typer
+
+app = typer.Typer(help="Build simulator worlds from terrain, vehicles and wind.", no_args_is_help=True)

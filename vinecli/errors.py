@@ -1,0 +1,64 @@
+"""One error hierarchy for the whole library.
+
+Every error the library raises on purpose is a :class:`VinecliError`. Each class carries
+the process exit code the CLI maps it to (see :mod:`vinecli.cli.console`):
+
+* 1 - the run finished but a check failed (:class:`ChecksFailed`)
+* 2 - bad input or usage (:class:`InputError` and subclasses)
+* 3 - runtime failure (:class:`RuntimeFailure` and subclasses)
+
+Messages are one line and name the file (or endpoint) and the problem.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class VinecliError(Exception):
+    """Root of every error vinecli raises on purpose."""
+
+    exit_code: int = 3
+
+    def __init__(self, message: str, *, path: str | Path | None = None) -> None:
+        self.path = str(path) if path is not None else None
+        self.problem = message
+        super().__init__(f"{self.path}: {message}" if self.path else message)
+
+
+class InputError(VinecliError, ValueError):
+    """Bad input: unreadable or invalid file, bad option value (exit 2)."""
+
+    exit_code = 2
+
+
+class SpecError(InputError):
+    """A YAML/JSON spec that does not validate; the message names file and field."""
+
+
+class TerrainError(InputError):
+    """A raster or point cloud that cannot be turned into terrain."""
+
+
+class OutputError(InputError):
+    """The output location cannot be written (exists, not writable...)."""
+
+
+class RuntimeFailure(VinecliError, RuntimeError):
+    """Something failed while running (engine, network peer...) (exit 3)."""
+
+    exit_code = 3
+
+
+class AutopilotError(RuntimeFailure):
+    """The autopilot backend failed (PX4 unreachable, refused to arm...)."""
+
+
+class AutopilotTimeout(AutopilotError, TimeoutError):
+    """The autopilot backend did not answer in time."""
+
+
+class ChecksFailed(VinecliError):
+    """The work finished but at least one check failed (exit 1)."""
+
+    exit_code = 1

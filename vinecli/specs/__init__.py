@@ -1,0 +1,101 @@
+"""Loading user-written YAML specs into validated pydantic models.
+
+``load_spec(path, Model)`` reads YAML with ``safe_load``, resolves ``base:`` inheritance
+(a path relative to the file, or a bare name looked up in the same folder; the child's keys
+are deep-merged over the base's), validates, and turns every problem into one
+:class:`~vinecli.errors.SpecError` line naming the file and the field.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, TypeVar
+
+import yaml
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from vinecli.errors import SpecError
+
+M = TypeVar("M", bound=BaseModel)
+
+
+class StrictModel(BaseModel):
+    """Base for every spec: unknown keys are errors (typos must not pass silently)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def read_yaml(path: Path) -> dict[str, Any]:
+    """Read a YAML mapping; SpecError if missing, unreadable, invalid YAML or not a mapping."""
+    path = Path(path)
+    if not path.is_file():
+        raise SpecError("file not found", path=path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise SpecError(f"invalid YAML{where}: {problem}", path=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"cannot read: {exc}", path=path) from None
+    if data is None:
+        raise SpecError("file is empty", path=path)
+    if not isinstance(data, dict):
+        raise SpecError(f"expected a mapping at the top level, got {type(data).__name__}", path=path)
+    return data
+
+
+def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """Recursively merge ``over`` into a copy of ``base`` (mappings merge, other values replace)."""
+    out = dict(base)
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = deep_merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """Resolve a ``base:`` key (recursively) and return the merged mapping without it."""
+    base = data.get("base")
+    if base is None:
+        return data
+    data = {k: v for k, v in data.items() if k != "base"}
+    candidates = [path.parent / str(base), path.parent / f"{base}.yaml"]
+    base_path = next((c for c in candidates if c.is_file()), None)
+    if base_path is None:
+        raise SpecError(f"base: {base!r} not found next to the file", path=path)
+    base_path = base_path.resolve()
+    if base_path in _seen:
+        raise SpecError(f"base: {base!r} is circular", path=path)
+    base_data = resolve_base(base_path, read_yaml(base_path), (*_seen, base_path))
+    return deep_merge(base_data, data)
+
+
+def format_validation_error(exc: ValidationError) -> str:
+    """First validation problem as 'field.path: message' (plus how many more)."""
+    errs = exc.errors()
+    first = errs[0]
+    loc = ".".join(str(p) for p in first["loc"]) or "(top level)"
+    msg = first["msg"]
+    if first["type"] == "extra_forbidden":
+        msg = "unknown field"
+    more = f" (and {len(errs) - 1} more problem{'s' if len(errs) > 2 else ''})" if len(errs) > 1 else ""
+    return f"{loc}: {msg}{more}"
+
+
+def validate_spec(model: type[M], data: dict[str, Any], path: Path | str) -> M:
+    """Validate ``data`` against ``model``; SpecError naming ``path`` and the field."""
+    try:
+        return model.model_validate(data, context={"path": Path(path)})
+    except ValidationError as exc:
+        raise SpecError(format_validation_error(exc), path=path) from None
+
+
+def load_spec(path: Path | str, model: type[M]) -> M:
+    """Read, resolve ``base:``, and validate a YAML spec file."""
+    path = Path(path)
+    data = resolve_base(path.resolve(), read_yaml(path))
+    return validate_spec(model, data, path)
