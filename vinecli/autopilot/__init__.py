@@ -1,0 +1,1 @@
+"""Autopilot backends behind one interface (:class:`vinecli.autopilot.base.Autopilot`)."""

@@ -1,0 +1,1 @@
+"""Simulation: PyBullet engine adapter, the one simulation loop, and its data types."""

@@ -1,0 +1,93 @@
+"""Data passed between the simulation loop, the sensors and the autopilot backends.
+
+World frame ENU, body frame FLU, SI units, quaternions (x, y, z, w) body -> world,
+integer-microsecond time stamps. These are plain slotted dataclasses (no numpy) because
+they are created every physics step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from vinecli.frames import QuatXYZW, Vec3
+
+
+@dataclass(slots=True)
+class RigidState:
+    """Ground-truth state of the vehicle's base (centre of mass)."""
+
+    t_us: int
+    pos: Vec3  # m, world ENU
+    quat: QuatXYZW  # body FLU -> world ENU
+    vel: Vec3  # m/s, world ENU
+    omega_body: Vec3  # rad/s, body FLU
+    acc: Vec3 = (0.0, 0.0, 0.0)  # m/s², world ENU (finite difference of vel over the step)
+    on_ground: bool = True  # touching the terrain
+
+
+@dataclass(slots=True)
+class ImuSample:
+    t_us: int
+    accel_flu: Vec3  # specific force, m/s², body FLU (level at rest: (0, 0, +9.81))
+    gyro_flu: Vec3  # rad/s, body FLU
+
+
+@dataclass(slots=True)
+class BaroSample:
+    t_us: int
+    pressure_pa: float
+    temperature_c: float
+    altitude_m: float  # pressure altitude, m AMSL
+
+
+@dataclass(slots=True)
+class MagSample:
+    t_us: int
+    field_flu_gauss: Vec3  # body FLU, gauss
+
+
+@dataclass(slots=True)
+class GnssSample:
+    t_us: int
+    lat_deg: float
+    lon_deg: float
+    alt_m: float  # AMSL
+    vel_enu: Vec3  # m/s
+    fix_type: int = 3
+    satellites: int = 12
+    eph_m: float = 0.3
+    epv_m: float = 0.5
+
+
+@dataclass(slots=True)
+class Observation:
+    """What an autopilot sees at one physics step: sensor samples (None when a sensor has no
+    new sample this step) plus ground truth (for ``--truth`` runs and HIL_STATE_QUATERNION)."""
+
+    t_us: int
+    truth: RigidState
+    imu: ImuSample
+    baro: BaroSample | None = None
+    mag: MagSample | None = None
+    gnss: GnssSample | None = None
+    terrain_height_m: float = 0.0  # terrain z (ENU) under the vehicle, m (a rangefinder would give this)
+    tank_level_l: float = 0.0
+
+
+@dataclass(slots=True)
+class ActuatorCommand:
+    """Autopilot output for one step."""
+
+    rotor_speed_cmd: tuple[float, ...]  # rad/s per rotor, vehicle rotor order
+    spray_flow_lps: float = 0.0  # commanded nozzle flow, L/s
+    armed: bool = False
+
+
+@dataclass(slots=True)
+class Event:
+    """Something that happened during a run (mode change, lift-off, geofence, tank empty...)."""
+
+    t_us: int
+    kind: str  # e.g. "mode", "liftoff", "touchdown", "geofence", "tank_empty", "phase", "status"
+    message: str = ""
+    data: dict[str, object] = field(default_factory=dict)

@@ -1,0 +1,174 @@
+"""Mission specification (``pipelines/missions/*.yaml``): phases the autopilot flies and
+checks evaluated on the recorded run.
+
+Positions are metres in the world ENU frame of the built world; altitudes ``*_agl_m`` are
+above the terrain at the home position (PX4 "relative altitude"). Times in seconds.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from vinecli.specs import StrictModel
+from vinecli.specs.wind import WindSpec
+
+Vec2L = tuple[float, float]
+Vec3L = tuple[float, float, float]
+
+
+class TakeoffPhase(StrictModel):
+    type: Literal["takeoff"] = "takeoff"
+    altitude_agl_m: float = Field(gt=0, description="target height above home, m")
+    climb_speed_mps: float | None = Field(None, gt=0, description="default: vehicle max_vel_up")
+    tolerance_m: float = Field(0.3, gt=0, description="phase ends when within this of the target")
+    timeout_s: float = Field(30.0, gt=0)
+
+
+class HoldPhase(StrictModel):
+    type: Literal["hold"] = "hold"
+    duration_s: float = Field(gt=0)
+
+
+class GotoPhase(StrictModel):
+    type: Literal["goto"] = "goto"
+    position_enu: Vec2L = Field(description="target x east, y north, m")
+    altitude_agl_m: float | None = Field(None, description="default: keep the current altitude")
+    speed_mps: float | None = Field(None, gt=0)
+    acceptance_radius_m: float = Field(0.5, gt=0)
+    yaw_deg: float | None = Field(None, description="ENU yaw, deg from east CCW; default: keep")
+    timeout_s: float = Field(120.0, gt=0)
+
+
+class WaypointsPhase(StrictModel):
+    """Fly through waypoints (ENU x, y, altitude AGL) at a speed; optional sprayer flow."""
+
+    type: Literal["waypoints"] = "waypoints"
+    waypoints: list[Vec3L] = Field(min_length=1, description="(x east m, y north m, altitude AGL m)")
+    speed_mps: float = Field(2.0, gt=0)
+    acceptance_radius_m: float = Field(0.5, gt=0)
+    flow_lps: float | None = Field(None, ge=0, description="sprayer flow during the phase, L/s (None = unchanged)")
+    timeout_s: float = Field(600.0, gt=0)
+
+
+class SprayPhase(StrictModel):
+    """Boustrophedon passes along the world's vine rows at a height above the canopy, flow on
+    along each row and off in the turns."""
+
+    type: Literal["spray"] = "spray"
+    rows: Literal["world"] | list[int] | list[list[Vec2L]] = Field(
+        "world", description="'world' = all rows of the world, indices into them, or explicit polylines (ENU)"
+    )
+    height_agl_m: float = Field(2.0, gt=0, description="height above the terrain under the drone, m")
+    speed_mps: float = Field(1.5, gt=0)
+    flow_lps: float = Field(gt=0, description="nozzle flow while over a row, L/s")
+    until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
+    timeout_s: float = Field(900.0, gt=0)
+
+
+class SprayerPhase(StrictModel):
+    """Switch the sprayer (DO_SET_ACTUATOR): flow in L/s, 0 = off. Instantaneous."""
+
+    type: Literal["sprayer"] = "sprayer"
+    flow_lps: float = Field(ge=0)
+
+
+class LandPhase(StrictModel):
+    type: Literal["land"] = "land"
+    descent_speed_mps: float = Field(0.7, gt=0)
+    timeout_s: float = Field(60.0, gt=0)
+
+
+class RtlPhase(StrictModel):
+    type: Literal["rtl"] = "rtl"
+    return_altitude_agl_m: float = Field(5.0, gt=0)
+    timeout_s: float = Field(180.0, gt=0)
+
+
+class InitialState(StrictModel):
+    """State an open-loop test starts from (default: at rest on the ground at the spawn pose)."""
+
+    position_enu: Vec3L | None = Field(None, description="m; z is height above terrain")
+    velocity_enu: Vec3L = (0.0, 0.0, 0.0)
+    rpy_deg: Vec3L = (0.0, 0.0, 0.0)
+    angular_velocity_flu: Vec3L = (0.0, 0.0, 0.0)
+
+
+class OpenLoopPhase(StrictModel):
+    """Autopilot off: rotor speeds held or scheduled (step tests, system identification).
+
+    ``rotor_speeds_rad_s`` is one speed for all rotors or one per rotor; ``schedule`` is a list of
+    ``[t_s, speeds]`` breakpoints relative to the phase start (held piecewise constant).
+    """
+
+    type: Literal["open_loop"] = "open_loop"
+    duration_s: float = Field(gt=0)
+    rotor_speeds_rad_s: float | list[float] | None = None
+    schedule: list[tuple[float, float | list[float]]] | None = None
+    flow_lps: float = Field(0.0, ge=0)
+    initial_state: InitialState | None = None
+
+    @model_validator(mode="after")
+    def _one_source(self) -> OpenLoopPhase:
+        if (self.rotor_speeds_rad_s is None) == (self.schedule is None):
+            raise ValueError("give exactly one of rotor_speeds_rad_s or schedule")
+        return self
+
+
+Phase = Annotated[
+    TakeoffPhase | HoldPhase | GotoPhase | WaypointsPhase | SprayPhase | SprayerPhase | LandPhase | RtlPhase | OpenLoopPhase,
+    Field(discriminator="type"),
+]
+
+
+class GeofenceSpec(StrictModel):
+    """Polygon (ENU, m) + max altitude + cylinder around home; action as PX4's GF_ACTION."""
+
+    polygon_enu: list[Vec2L] | None = Field(None, description="inclusion polygon vertices, m")
+    max_altitude_agl_m: float | None = Field(None, gt=0)
+    max_horizontal_distance_m: float | None = Field(None, gt=0, description="GF_MAX_HOR_DIST from home")
+    action: Literal["none", "warn", "hold", "rtl", "land", "terminate"] = "hold"
+
+    @model_validator(mode="after")
+    def _polygon(self) -> GeofenceSpec:
+        if self.polygon_enu is not None and len(self.polygon_enu) < 3:
+            raise ValueError("polygon_enu needs at least 3 vertices")
+        return self
+
+
+class CheckSpec(StrictModel):
+    """A check evaluated after the run: reduce(quantity over window) op bound.
+
+    ``window`` ends may be numbers (s from start), or event-relative strings such as
+    ``"liftoff-1.0"``, ``"liftoff+3"``, ``"end-5"``, ``"phase:2"`` (start of phase 2),
+    ``"phase_end:2"``.
+    """
+
+    name: str
+    quantity: str = Field(description="time-series column or derived metric ('metric:<name>'), or 'status'")
+    reduce: Literal["max", "min", "mean", "final", "at", "std", "absmax", "range"] = "final"
+    window: tuple[float | str, float | str] | None = None
+    at: float | str | None = Field(None, description="time for reduce 'at'")
+    op: Literal["<", "<=", ">", ">=", "==", "!=", "between", "within_pct"] = "<="
+    bound: float | str | tuple[float, float] = Field(description="number, [lo, hi] for between, or a status string")
+    reference: float | str | None = Field(None, description="for within_pct: the expected value or a metric name")
+    description: str = ""
+
+
+class MissionSpec(StrictModel):
+    """A test mission."""
+
+    name: str
+    description: str = ""
+    vehicle: str | None = Field(None, description="vehicle name (vehicles/<name>.yaml) or path; default: the world's")
+    autopilot: Literal["builtin", "px4"] = "builtin"
+    truth: bool = Field(False, description="controllers use ground truth instead of the estimator")
+    tank_fill_l: float | None = Field(None, ge=0, description="default: full")
+    payload_kg: float | None = Field(None, ge=0, description="replaces the vehicle's payload mass")
+    wind: WindSpec | None = Field(None, description="replaces the world's wind law")
+    geofence: GeofenceSpec | None = Field(None, description="replaces the world's geofence")
+    max_duration_s: float = Field(120.0, gt=0)
+    record_rate_hz: float = Field(50.0, gt=0)
+    phases: list[Phase] = Field(min_length=1)
+    checks: list[CheckSpec] = Field(default_factory=list)

@@ -1,0 +1,223 @@
+"""Vehicle specification (``vehicles/*.yaml``), validated with pydantic.
+
+Frames: positions are metres in the body FLU frame, origin at the frame's centre of mass.
+Units are in every field name or description. A file may start with ``base: other.yaml``
+and override a few fields (PX4 airframe style).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from vinecli.specs import StrictModel
+
+Vec3L = tuple[float, float, float]
+
+
+class FrameSpec(StrictModel):
+    """Rigid airframe without liquid, payload or rotors' own mass."""
+
+    mass_kg: float = Field(gt=0, description="frame mass incl. empty tank, kg")
+    inertia_kgm2: Vec3L = Field(description="principal inertia (ixx, iyy, izz) about the CoM, kg m², body FLU")
+    collision_box_m: Vec3L = Field((0.35, 0.35, 0.12), description="collision box size (x, y, z), m")
+    landing_gear_height_m: float = Field(0.10, ge=0, description="height of the CoM above the skids, m")
+
+
+class MotorSpec(StrictModel):
+    """Motor/propeller constants shared by every rotor (design.md §3)."""
+
+    k_f: float = Field(gt=0, description="thrust constant, N/(rad/s)²")
+    k_m: float = Field(ge=0, description="reaction torque / thrust, m")
+    k_d: float = Field(0.0, ge=0, description="rotor drag (H-force) coefficient, N/(rad/s)/(m/s)")
+    k_roll: float = Field(0.0, ge=0, description="rolling-moment coefficient, N m/(rad/s)/(m/s)")
+    w_max: float = Field(gt=0, description="maximum rotor speed, rad/s")
+    w_min_armed: float = Field(0.0, ge=0, description="rotor speed at zero throttle while armed, rad/s")
+    tau_up_s: float = Field(gt=0, description="first-order time constant when spinning up, s")
+    tau_down_s: float = Field(gt=0, description="first-order time constant when spinning down, s")
+    rotor_mass_kg: float = Field(0.005, ge=0, description="mass of one rotor link, kg")
+
+
+class RotorSpec(StrictModel):
+    """One rotor: where it is and which way it spins (order = PX4 motor order)."""
+
+    position_m: Vec3L = Field(description="rotor hub position, m, body FLU")
+    spin: Literal["ccw", "cw"] = Field(description="direction seen from above; ccw -> s=+1 (reaction torque yaws CW)")
+    axis: Vec3L = Field((0.0, 0.0, 1.0), description="thrust axis, unit vector, body FLU")
+
+    @property
+    def s(self) -> float:
+        """+1 for CCW, -1 for CW."""
+        return 1.0 if self.spin == "ccw" else -1.0
+
+
+class DragLinkSpec(StrictModel):
+    """Quadratic wind drag of one link: c = ½ ρ S C_D0 (given directly or as area + C_D0)."""
+
+    coefficient_kg_per_m: float | None = Field(None, ge=0, description="c in F = c |V_app|², kg/m")
+    area_m2: float | None = Field(None, ge=0, description="reference area S, m²")
+    cd0: float | None = Field(None, ge=0, description="zero-lift drag coefficient C_D0")
+    position_m: Vec3L = Field((0.0, 0.0, 0.0), description="centre of pressure, m, body FLU")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> DragLinkSpec:
+        direct = self.coefficient_kg_per_m is not None
+        area = self.area_m2 is not None and self.cd0 is not None
+        if direct == area:
+            raise ValueError("give either coefficient_kg_per_m or both area_m2 and cd0")
+        return self
+
+    def coefficient(self, air_density: float) -> float:
+        """c in kg/m for the given air density (kg/m³)."""
+        if self.coefficient_kg_per_m is not None:
+            return self.coefficient_kg_per_m
+        return 0.5 * air_density * float(self.area_m2) * float(self.cd0)  # type: ignore[arg-type]
+
+
+class TankSpec(StrictModel):
+    """Spray tank (thesis 'sloshing-effects' plugin); the empty tank's mass is in the frame."""
+
+    capacity_l: float = Field(gt=0, description="capacity, litres")
+    liquid_density_kgm3: float = Field(1000.0, gt=0, description="liquid density, kg/m³")
+    mount_m: Vec3L = Field((0.0, 0.0, -0.05), description="tank centre, m, body FLU")
+    nozzle_max_flow_lps: float = Field(gt=0, description="maximum nozzle flow, litres/s")
+    slosh: bool = Field(False, description="add the pendulum sloshing model (beyond the thesis)")
+    slosh_damping_ratio: float = Field(0.05, ge=0, description="pendulum damping ratio")
+    tank_height_m: float = Field(0.12, gt=0, description="inner height (pendulum length scale), m")
+
+
+class PayloadSpec(StrictModel):
+    """Fixed extra mass (e.g. a camera or an overload)."""
+
+    mass_kg: float = Field(0.0, ge=0, description="kg")
+    position_m: Vec3L = Field((0.0, 0.0, -0.05), description="m, body FLU")
+
+
+class MountSpec(StrictModel):
+    """Sensor mounting pose relative to the body frame."""
+
+    position_m: Vec3L = Field((0.0, 0.0, 0.0), description="m, body FLU")
+    rpy_deg: Vec3L = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw of the sensor frame, deg")
+
+
+class ImuSpec(StrictModel):
+    rate_hz: float = Field(250.0, gt=0)
+    accel_noise_density: float = Field(0.002, ge=0, description="m/s²/√Hz")
+    gyro_noise_density: float = Field(0.0002, ge=0, description="rad/s/√Hz")
+    accel_bias_random_walk: float = Field(3e-4, ge=0, description="m/s³/√Hz")
+    gyro_bias_random_walk: float = Field(4e-6, ge=0, description="rad/s²/√Hz")
+    accel_quantization: float = Field(0.0, ge=0, description="m/s² per LSB (0 = none)")
+    gyro_quantization: float = Field(0.0, ge=0, description="rad/s per LSB (0 = none)")
+    mount: MountSpec = MountSpec()
+
+
+class BaroSpec(StrictModel):
+    rate_hz: float = Field(50.0, gt=0)
+    noise_pa: float = Field(1.0, ge=0, description="white noise σ, Pa")
+    drift_pa_per_sqrt_s: float = Field(0.0, ge=0, description="random-walk drift, Pa/√s")
+    quantization_pa: float = Field(0.0, ge=0)
+
+
+class MagSpec(StrictModel):
+    rate_hz: float = Field(100.0, gt=0)
+    noise_gauss: float = Field(0.0005, ge=0, description="white noise σ, gauss")
+    mount: MountSpec = MountSpec()
+
+
+class GnssSpec(StrictModel):
+    rate_hz: float = Field(10.0, gt=0)
+    horizontal_noise_m: float = Field(0.3, ge=0, description="σ per horizontal axis, m")
+    vertical_noise_m: float = Field(0.5, ge=0, description="σ, m")
+    velocity_noise_mps: float = Field(0.05, ge=0, description="σ per axis, m/s")
+    satellites: int = Field(12, ge=0)
+    mount: MountSpec = MountSpec()
+
+
+class DepthCameraSpec(StrictModel):
+    enabled: bool = False
+    rate_hz: float = Field(5.0, gt=0)
+    width_px: int = Field(64, gt=0)
+    height_px: int = Field(48, gt=0)
+    fov_deg: float = Field(70.0, gt=0, lt=180, description="vertical field of view")
+    near_m: float = Field(0.1, gt=0)
+    far_m: float = Field(30.0, gt=0)
+    depth_noise_m: float = Field(0.0, ge=0)
+    mount: MountSpec = MountSpec(position_m=(0.15, 0.0, -0.05), rpy_deg=(0.0, 60.0, 0.0))
+
+
+class SensorsSpec(StrictModel):
+    imu: ImuSpec = ImuSpec()
+    baro: BaroSpec = BaroSpec()
+    mag: MagSpec = MagSpec()
+    gnss: GnssSpec = GnssSpec()
+    depth_camera: DepthCameraSpec = DepthCameraSpec()
+
+
+class ControlSpec(StrictModel):
+    """Built-in autopilot gains (PX4 multicopter controller structure and defaults)."""
+
+    pos_p_xy: float = Field(0.95, ge=0, description="MPC_XY_P, 1/s")
+    pos_p_z: float = Field(1.0, ge=0, description="MPC_Z_P, 1/s")
+    vel_p_xy: float = Field(1.8, ge=0, description="MPC_XY_VEL_P_ACC, m/s² per m/s")
+    vel_i_xy: float = Field(0.4, ge=0, description="MPC_XY_VEL_I_ACC")
+    vel_d_xy: float = Field(0.2, ge=0, description="MPC_XY_VEL_D_ACC")
+    vel_p_z: float = Field(4.0, ge=0, description="MPC_Z_VEL_P_ACC")
+    vel_i_z: float = Field(2.0, ge=0, description="MPC_Z_VEL_I_ACC")
+    vel_d_z: float = Field(0.0, ge=0, description="MPC_Z_VEL_D_ACC")
+    att_p: Vec3L = Field((6.5, 6.5, 2.8), description="MC_ROLL_P, MC_PITCH_P, MC_YAW_P, 1/s")
+    rate_p: Vec3L = Field((0.15, 0.15, 0.2), description="MC_*RATE_P (normalised torque per rad/s)")
+    rate_i: Vec3L = Field((0.2, 0.2, 0.1), description="MC_*RATE_I")
+    rate_d: Vec3L = Field((0.003, 0.003, 0.0), description="MC_*RATE_D")
+    max_tilt_deg: float = Field(35.0, gt=0, lt=90, description="MPC_TILTMAX_AIR")
+    max_vel_xy: float = Field(5.0, gt=0, description="MPC_XY_VEL_MAX, m/s")
+    max_vel_up: float = Field(3.0, gt=0, description="MPC_Z_VEL_MAX_UP, m/s")
+    max_vel_down: float = Field(1.5, gt=0, description="MPC_Z_VEL_MAX_DN, m/s")
+    max_acc_xy: float = Field(5.0, gt=0, description="m/s²")
+    lost_control_tilt_deg: float = Field(70.0, gt=0, le=180, description="tilt beyond which the run ends 'lost control'")
+
+
+class Px4MappingSpec(StrictModel):
+    """How PX4 actuator outputs u in [0, 1] map to rotor speed: w = w_min + u (w_max - w_min)."""
+
+    motor_channels: list[int] | None = Field(None, description="output channel (0-based) driving each rotor, in rotor order")
+    w_min_rad_s: float = Field(100.0, ge=0, description="rotor speed at u = 0 while armed (Gazebo: 100), rad/s")
+    sprayer_channel: int = Field(8, ge=0, le=15, description="output channel of the sprayer pump (DO_SET_ACTUATOR set 1)")
+    airframe: str = Field("none_iris", description="PX4_SIM_MODEL to start PX4 with")
+
+
+class VehicleSpec(StrictModel):
+    """A multicopter: frame, rotors, drag, tank, payload, sensors and controller gains."""
+
+    name: str
+    description: str = ""
+    frame: FrameSpec
+    motor: MotorSpec
+    rotors: list[RotorSpec] = Field(min_length=3)
+    drag: dict[str, DragLinkSpec] = Field(default_factory=dict, description="per-link wind drag; 'base' is the frame")
+    tank: TankSpec | None = None
+    payload: PayloadSpec = PayloadSpec()
+    sensors: SensorsSpec = SensorsSpec()
+    control: ControlSpec = ControlSpec()
+    px4: Px4MappingSpec = Px4MappingSpec()
+
+    @property
+    def n_rotors(self) -> int:
+        return len(self.rotors)
+
+    def dry_mass(self) -> float:
+        """Frame + rotors + payload, kg (no liquid)."""
+        return self.frame.mass_kg + self.n_rotors * self.motor.rotor_mass_kg + self.payload.mass_kg
+
+    def liquid_mass(self, fill_l: float) -> float:
+        """Liquid mass for a fill in litres, kg."""
+        return 0.0 if self.tank is None else fill_l * 1e-3 * self.tank.liquid_density_kgm3
+
+    def max_thrust(self) -> float:
+        """Total thrust at w_max along the rotor axes, N."""
+        return self.n_rotors * self.motor.k_f * self.motor.w_max**2
+
+    def hover_speed(self, total_mass: float, g: float = 9.80665) -> float:
+        """Steady hover rotor speed sqrt(m g / (n k_f)), rad/s."""
+        return math.sqrt(total_mass * g / (self.n_rotors * self.motor.k_f))
