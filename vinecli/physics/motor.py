@@ -1,0 +1,167 @@
+"""Multicopter motor/propeller model (design.md §3, Gazebo ``gazebo_motor_model.cpp``).
+
+Per rotor i, body frame FLU, SI units:
+
+* speed: first-order lag to the command, time constant ``tau_up_s`` when the command is above
+  the current speed and ``tau_down_s`` otherwise, exact discretisation
+  ``w += (1 - exp(-dt/tau)) (w_cmd - w)``, clamped to ``[0, w_max]``;
+* thrust ``T_i = k_f w_i²`` along the rotor axis ``a_i``;
+* rotor drag (H-force) ``D_i = -k_d w_i V⊥`` and rolling moment ``M_i = -k_roll w_i V⊥``,
+  where ``V⊥`` is the in-plane part of the rotor's velocity relative to the air
+  (``v_rotor - wind`` = ``-v_app``), exactly as Gazebo-classic and gz-sim compute
+  ``velocity_perpendicular_to_rotor_axis`` from ``body_velocity - wind``. So the H-force
+  opposes the rotor's motion through the air, and the rolling moment is a torque vector along
+  ``-V⊥`` (Gazebo's convention: no spin-direction factor, vector along the in-plane
+  airspeed, not about the axis perpendicular to it);
+* reaction torque ``Q_i = -s_i k_m T_i a_i`` with ``s = +1`` for CCW rotors: a CCW rotor yaws
+  the body clockwise seen from above (negative z torque in FLU).
+
+The total wrench about the centre of mass adds ``r_i × (T_i a_i + D_i)``. Gazebo-classic's
+extra thrust reduction ``(1 - v_axial/25)`` is not modelled (valid near hover, |V| < tip
+speed / 7, rigid blades). Everything is plain floats (design.md §8): this runs every step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from vinecli.frames import QuatXYZW, Vec3, quat_rotate_inv
+from vinecli.specs.vehicle import MotorSpec, RotorSpec
+
+__all__ = ["MotorBank"]
+
+
+class MotorBank:
+    """All rotors of one vehicle: speeds, lag and the summed body wrench (FLU, about the CoM)."""
+
+    def __init__(self, motor: MotorSpec, rotors: list[RotorSpec]) -> None:
+        self.motor = motor
+        self.n = len(rotors)
+        self.k_f = float(motor.k_f)
+        self.k_m = float(motor.k_m)
+        self.k_d = float(motor.k_d)
+        self.k_roll = float(motor.k_roll)
+        self.w_max = float(motor.w_max)
+        self.tau_up = float(motor.tau_up_s)
+        self.tau_down = float(motor.tau_down_s)
+        geo: list[tuple[float, float, float, float, float, float, float]] = []
+        for r in rotors:
+            ax, ay, az = (float(c) for c in r.axis)
+            n = math.sqrt(ax * ax + ay * ay + az * az)
+            if n <= 0.0:
+                raise ValueError("rotor axis must be non-zero")
+            px, py, pz = (float(c) for c in r.position_m)
+            geo.append((px, py, pz, ax / n, ay / n, az / n, r.s))
+        #: per rotor (px, py, pz, ax, ay, az, s): position m FLU, unit axis FLU, spin sign
+        self.geometry = tuple(geo)
+        self.positions: tuple[Vec3, ...] = tuple((g[0], g[1], g[2]) for g in geo)
+        self._dt = -1.0
+        self._a_up = 0.0
+        self._a_down = 0.0
+        self.w: list[float] = [0.0] * self.n
+        self.thrust: list[float] = [0.0] * self.n
+        self.thrust_total = 0.0
+        self.rotor_drag_body: Vec3 = (0.0, 0.0, 0.0)
+        self.reaction_torque_body: Vec3 = (0.0, 0.0, 0.0)
+        self.rolling_moment_body: Vec3 = (0.0, 0.0, 0.0)
+
+    # ------------------------------------------------------------------ speed dynamics
+    def reset(self, w0: float = 0.0) -> None:
+        """Set every rotor speed to ``w0`` rad/s (clamped to [0, w_max])."""
+        w0 = min(max(float(w0), 0.0), self.w_max)
+        self.w = [w0] * self.n
+
+    def update(self, w_cmd: Sequence[float], dt: float) -> list[float]:
+        """Advance the rotor speeds by ``dt`` s towards ``w_cmd`` (rad/s per rotor); returns ``.w``."""
+        if dt != self._dt:
+            self._dt = dt
+            self._a_up = 1.0 - math.exp(-dt / self.tau_up)
+            self._a_down = 1.0 - math.exp(-dt / self.tau_down)
+        a_up, a_down, w_max = self._a_up, self._a_down, self.w_max
+        w = self.w
+        for i in range(self.n):
+            c = w_cmd[i]
+            if c > w_max:
+                c = w_max
+            elif c < 0.0:
+                c = 0.0
+            wi = w[i]
+            wi += (a_up if c > wi else a_down) * (c - wi)
+            w[i] = w_max if wi > w_max else (0.0 if wi < 0.0 else wi)
+        return w
+
+    # ------------------------------------------------------------------ forces
+    def apparent_air_body(self, quat: QuatXYZW, vel_enu: Vec3, omega_body: Vec3, wind_enu: Vec3) -> list[Vec3]:
+        """Apparent air velocity at each rotor, ``wind - v_rotor``, in body FLU (m/s).
+
+        ``v_rotor = R^T v_com + ω × r_i``; ``quat`` body FLU -> world ENU, ``omega_body`` rad/s FLU.
+        """
+        bx, by, bz = quat_rotate_inv(quat, (wind_enu[0] - vel_enu[0], wind_enu[1] - vel_enu[1], wind_enu[2] - vel_enu[2]))
+        wx, wy, wz = omega_body
+        out = []
+        for px, py, pz, *_ in self.geometry:
+            # minus (omega x r)
+            out.append((bx - (wy * pz - wz * py), by - (wz * px - wx * pz), bz - (wx * py - wy * px)))
+        return out
+
+    def wrench(self, v_app_body: Sequence[Vec3] | None = None) -> tuple[Vec3, Vec3]:
+        """Total (force N, torque N m) in body FLU about the CoM.
+
+        ``v_app_body[i]`` is the apparent air velocity at rotor i (``wind - v_rotor``, body FLU,
+        m/s); ``None`` means still air and a vehicle at rest (thrust and reaction torque only).
+        Also stores ``.thrust``, ``.thrust_total``, ``.rotor_drag_body``,
+        ``.reaction_torque_body`` and ``.rolling_moment_body`` for recording.
+        """
+        k_f, k_m, k_d, k_roll = self.k_f, self.k_m, self.k_d, self.k_roll
+        w = self.w
+        thrust = self.thrust
+        fx = fy = fz = 0.0
+        tx = ty = tz = 0.0
+        dx = dy = dz = 0.0
+        qx = qy = qz = 0.0
+        mx = my = mz = 0.0
+        tsum = 0.0
+        for i, (px, py, pz, ax, ay, az, s) in enumerate(self.geometry):
+            wi = w[i]
+            t = k_f * wi * wi
+            thrust[i] = t
+            tsum += t
+            f0, f1, f2 = t * ax, t * ay, t * az
+            if v_app_body is not None:
+                vx, vy, vz = v_app_body[i]
+                va = vx * ax + vy * ay + vz * az
+                # in-plane apparent air velocity; V⊥ of (v_rotor - wind) is its negative
+                ux, uy, uz = vx - va * ax, vy - va * ay, vz - va * az
+                kd = k_d * wi
+                hx, hy, hz = kd * ux, kd * uy, kd * uz  # = -k_d w V⊥
+                dx += hx
+                dy += hy
+                dz += hz
+                f0 += hx
+                f1 += hy
+                f2 += hz
+                kr = k_roll * wi
+                mx += kr * ux
+                my += kr * uy
+                mz += kr * uz
+            q = -s * k_m * t
+            qx += q * ax
+            qy += q * ay
+            qz += q * az
+            fx += f0
+            fy += f1
+            fz += f2
+            tx += py * f2 - pz * f1
+            ty += pz * f0 - px * f2
+            tz += px * f1 - py * f0
+        self.thrust_total = tsum
+        self.rotor_drag_body = (dx, dy, dz)
+        self.reaction_torque_body = (qx, qy, qz)
+        self.rolling_moment_body = (mx, my, mz)
+        return (fx, fy, fz), (tx + qx + mx, ty + qy + my, tz + qz + mz)
+
+    # ------------------------------------------------------------------ helpers
+    def hover_speed(self, total_mass: float, g: float = 9.80665) -> float:
+        """Steady hover speed ``sqrt(m g / (n k_f))`` in rad/s (all axes vertical)."""
+        return math.sqrt(total_mass * g / (self.n * self.k_f))

@@ -1,0 +1,147 @@
+"""Spray tank: variable liquid mass and its force on the frame (thesis "sloshing-effects").
+
+Mass from the nozzle flow command q (L/s, clamped to [0, nozzle_max_flow]) by backward
+rectangular integration ``m_k = max(0, m_{k-1} - ρ q_k dt)``. The liquid pushes on the frame
+at the tank mount with ``F = m (g - a_mount)`` (world ENU, g the gravity vector pointing
+down): at rest the liquid weight, a jump at lift-off, the weight again in a steady climb.
+
+Sloshing (``TankSpec.slosh``, beyond the thesis): the equivalent mechanical model of the
+first lateral mode of an upright cylindrical tank (Abramson, NASA SP-106; Dodge, "The New
+Dynamic Behavior of Liquids in Moving Containers", 2000). The tank is a cylinder of inner
+height H = ``tank_height_m`` and radius R from the capacity (``π R² H``); the fill depth is
+h = V/(π R²). With ξ = 1.841 (first root of J1'):
+
+* pendulum mass ``m1 = m 2 tanh(ξ h/R) / (ξ (ξ² - 1) h/R)`` (the rest moves rigidly),
+* pendulum length ``L1 = R / (ξ tanh(ξ h/R))``, natural frequency ``ω1² = g_eff / L1``,
+* damping ratio ``ζ = slosh_damping_ratio``.
+
+The bob's horizontal displacement x (world ENU, small angles) obeys
+``ẍ + 2ζω1 ẋ + ω1² x = -a_h`` (a_h: horizontal mount acceleration, g_eff the vertical
+component of g - a), integrated semi-implicitly at the step of the last :meth:`Tank.update`.
+The bob adds ``-m1 ẍ`` to the force; its moment about the hinge is neglected (the force acts
+at the mount). At rest and in steady flight the model reduces to the thesis' ``m (g - a)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from vinecli.errors import SpecError
+from vinecli.frames import Vec3
+from vinecli.specs.vehicle import TankSpec
+
+__all__ = ["Tank", "slosh_parameters"]
+
+XI1 = 1.841
+
+
+def slosh_parameters(level_l: float, capacity_l: float, height_m: float, g: float = 9.80665) -> tuple[float, float, float]:
+    """(pendulum mass fraction m1/m, length L1 m, ω1 rad/s) of the first slosh mode.
+
+    Upright cylinder of height ``height_m`` and capacity ``capacity_l`` filled with ``level_l``.
+    """
+    area = capacity_l * 1e-3 / height_m
+    r = math.sqrt(area / math.pi)
+    h = max(level_l * 1e-3 / area, 1e-6)
+    th = math.tanh(XI1 * h / r)
+    frac = min(1.0, 2.0 * th / (XI1 * (XI1 * XI1 - 1.0) * h / r))
+    length = r / (XI1 * th)
+    return frac, length, math.sqrt(g / length)
+
+
+class Tank:
+    """Liquid in the spray tank. ``fill_l`` litres at start (0 ≤ fill ≤ capacity)."""
+
+    def __init__(self, spec: TankSpec, fill_l: float) -> None:
+        if not 0.0 <= fill_l <= spec.capacity_l * (1 + 1e-9):
+            raise SpecError(f"tank fill {fill_l} L outside [0, {spec.capacity_l}] L")
+        self.spec = spec
+        self.rho = float(spec.liquid_density_kgm3)
+        self._kg_per_l = self.rho * 1e-3
+        self.capacity_l = float(spec.capacity_l)
+        self.max_flow_lps = float(spec.nozzle_max_flow_lps)
+        self.mount_m: Vec3 = tuple(float(c) for c in spec.mount_m)  # type: ignore[assignment]
+        self.mass_kg = min(fill_l, self.capacity_l) * self._kg_per_l
+        self.flow_lps = 0.0
+        self.flow_cmd_lps = 0.0
+        self._dt = 0.0
+        self.slosh = bool(spec.slosh)
+        self.zeta = float(spec.slosh_damping_ratio)
+        self._x = [0.0, 0.0]  # bob displacement, m, world ENU horizontal
+        self._v = [0.0, 0.0]
+        self.slosh_force: Vec3 = (0.0, 0.0, 0.0)
+        self.gravity_force: Vec3 = (0.0, 0.0, 0.0)
+        self.inertial_force: Vec3 = (0.0, 0.0, 0.0)
+        self.force: Vec3 = (0.0, 0.0, 0.0)
+
+    @property
+    def level_l(self) -> float:
+        """Liquid volume, litres."""
+        return self.mass_kg / self._kg_per_l
+
+    @property
+    def empty(self) -> bool:
+        """True when no liquid is left."""
+        return self.mass_kg <= 0.0
+
+    @property
+    def slosh_displacement(self) -> tuple[float, float]:
+        """Horizontal displacement of the slosh pendulum bob (m, ENU x, y)."""
+        return (self._x[0], self._x[1])
+
+    def update(self, flow_cmd_lps: float, dt: float) -> float:
+        """Drain for ``dt`` s at the commanded flow (L/s); returns the new mass (kg)."""
+        self.flow_cmd_lps = flow_cmd_lps
+        q = min(max(flow_cmd_lps, 0.0), self.max_flow_lps)
+        m0 = self.mass_kg
+        m1 = m0 - self._kg_per_l * q * dt
+        if m1 < 0.0:
+            m1 = 0.0
+        self.mass_kg = m1
+        self.flow_lps = (m0 - m1) / (self._kg_per_l * dt) if dt > 0 else 0.0
+        self._dt = dt
+        return m1
+
+    def force_world(self, g_enu: Vec3, a_mount_enu: Vec3) -> Vec3:
+        """Force of the liquid on the frame (N, world ENU) at the mount: ``m (g - a)`` (+ slosh).
+
+        ``g_enu`` gravity vector (e.g. (0, 0, -9.80665)), ``a_mount_enu`` the mount's acceleration.
+        """
+        m = self.mass_kg
+        gx, gy, gz = g_enu
+        ax, ay, az = a_mount_enu
+        self.gravity_force = (m * gx, m * gy, m * gz)
+        ix, iy, iz = -m * ax, -m * ay, -m * az
+        if self.slosh and m > 0.0 and self._dt > 0.0:
+            sx, sy = self._slosh_step(m, gx, gy, gz, ax, ay, az)
+            self.slosh_force = (sx, sy, 0.0)
+            ix += sx
+            iy += sy
+        else:
+            self.slosh_force = (0.0, 0.0, 0.0)
+        self.inertial_force = (ix, iy, iz)
+        f = (m * gx + ix, m * gy + iy, m * gz + iz)
+        self.force = f
+        return f
+
+    def _slosh_step(self, m: float, gx: float, gy: float, gz: float, ax: float, ay: float, az: float) -> tuple[float, float]:
+        g_eff = max(0.0, -(gz - az))
+        g_nom = math.sqrt(gx * gx + gy * gy + gz * gz)
+        frac, length, w0 = slosh_parameters(self.level_l, self.capacity_l, self.spec.tank_height_m, g_nom)
+        m1 = frac * m
+        w2 = g_eff / length
+        c = 2.0 * self.zeta * w0
+        # horizontal excitation: mount acceleration minus any horizontal gravity component
+        ex, ey = ax - gx, ay - gy
+        dt = self._dt
+        n = max(1, math.ceil(math.sqrt(w2) * dt / 0.2))
+        h = dt / n
+        x, v = self._x, self._v
+        acc = [0.0, 0.0]
+        for _ in range(n):
+            for k, e in ((0, ex), (1, ey)):
+                a = -w2 * x[k] - c * v[k] - e
+                v[k] += h * a
+                x[k] += h * v[k]
+                acc[k] = a
+        return (-m1 * acc[0], -m1 * acc[1])
