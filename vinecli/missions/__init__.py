@@ -1,0 +1,1 @@
+"""Missions: loading mission files, checks and derived metrics, QGroundControl plans, spray patterns."""

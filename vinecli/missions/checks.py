@@ -1,0 +1,303 @@
+"""Evaluating a mission's checks on a finished run.
+
+A check is ``reduce(quantity over window) op bound`` (see :class:`~vinecli.specs.mission.CheckSpec`):
+
+* ``quantity``: a time-series column (SI, frame in the name, e.g. ``tank_force_enu_z_n``),
+  ``status`` (the run's final status name, ops ``==``/``!=``), or ``metric:<name>``: a derived
+  metric of :mod:`vinecli.missions.metrics` computed over the check's window (or a scalar the
+  simulator reported, e.g. ``metric:liftoff_s``). ``reduce`` is ignored for status and metrics.
+* ``reduce``: ``max``, ``min``, ``mean``, ``final`` (last sample), ``at`` (linear interpolation
+  at the ``at`` time), ``std`` (population), ``absmax`` (max |x|), ``range`` (max - min).
+  NaN samples are ignored.
+* ``window``: ``[t0, t1]``, each a number (s from the run start) or a time reference (below);
+  default: the whole run. Samples with ``t0 <= t <= t1`` are used.
+* ``op``: ``<``, ``<=``, ``>``, ``>=``, ``==``, ``!=``, ``between`` (``bound: [lo, hi]``,
+  inclusive), ``within_pct`` (``|value - reference| <= bound/100 * |reference|``).
+  ``bound`` and ``reference`` may be numbers or ``metric:<name>`` / a bare metric name.
+
+Time references: ``start``, ``end``, an event kind (``liftoff``, ``touchdown``, ``tank_empty``
+or any kind in the run's events; first occurrence), ``phase:N`` (first sample of phase N,
+0-based as the ``phase_index`` column) and ``phase_end:N`` (last sample of phase N), each
+optionally followed by ``+s`` or ``-s`` (seconds), e.g. ``"liftoff-1.0"``, ``"end-5"``.
+A reference to an event that did not happen makes the check fail (with that message).
+
+If a mission has no check on ``status``, an implicit ``status == completed`` check is added.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vinecli.specs.mission import CheckSpec
+
+_REF_RE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)(?::(\d+))?\s*(?:([+-])\s*(\d+(?:\.\d*)?|\.\d+))?\s*$")
+_EVENT_METRIC = {"liftoff": "liftoff_s", "touchdown": "touchdown_s", "tank_empty": "tank_empty_s"}
+
+
+class EventMissing(LookupError):
+    """A time reference names an event that did not happen in this run."""
+
+
+def parse_time_ref(ref: str) -> tuple[str, int | None, float]:
+    """``"liftoff-1.5"`` -> ("liftoff", None, -1.5); ``"phase:2"`` -> ("phase", 2, 0.0).
+
+    Raises ValueError with a readable message for malformed references.
+    """
+    m = _REF_RE.match(ref)
+    if not m:
+        raise ValueError(f"bad time reference {ref!r} (expected e.g. 'liftoff-1.0', 'end-5', 'phase:2')")
+    name, idx, sign, off = m.groups()
+    if name in ("phase", "phase_end") and idx is None:
+        raise ValueError(f"bad time reference {ref!r}: {name} needs an index, e.g. '{name}:1'")
+    if idx is not None and name not in ("phase", "phase_end"):
+        raise ValueError(f"bad time reference {ref!r}: only phase/phase_end take ':N'")
+    offset = float(off) if off else 0.0
+    if sign == "-":
+        offset = -offset
+    return name, (int(idx) if idx is not None else None), offset
+
+
+@dataclass
+class RunData:
+    """What checks and metrics see of a run.
+
+    ``timeseries``: columns (CONTRACTS.md), each a 1-D array sampled at ``t_s``;
+    ``events``: (t_s, kind) pairs; ``status``: final status name; ``metrics``: scalars the
+    simulator reported; ``context``: world/vehicle facts metrics need (see
+    :class:`vinecli.missions.metrics.MetricContext`).
+    """
+
+    timeseries: Mapping[str, np.ndarray]
+    events: Sequence[tuple[float, str]] = ()
+    status: str = "completed"
+    metrics: Mapping[str, float] = field(default_factory=dict)
+    context: Any = None
+
+    @property
+    def t(self) -> np.ndarray:
+        return np.asarray(self.timeseries["t_s"], dtype=float)
+
+    def column(self, name: str) -> np.ndarray:
+        """A column as float array; KeyError if absent."""
+        return np.asarray(self.timeseries[name], dtype=float)
+
+    def has(self, name: str) -> bool:
+        return name in self.timeseries
+
+    def resolve_time(self, ref: float | int | str) -> float:
+        """Seconds from the run start for a number or a time reference; EventMissing if it did not happen."""
+        if isinstance(ref, (int, float)):
+            return float(ref)
+        name, idx, offset = parse_time_ref(ref)
+        t = self.t
+        if name == "start":
+            base = float(t[0]) if len(t) else 0.0
+        elif name == "end":
+            base = float(t[-1]) if len(t) else 0.0
+        elif name in ("phase", "phase_end"):
+            if not self.has("phase_index"):
+                raise EventMissing(f"{ref}: the run has no phase_index column")
+            ph = self.column("phase_index")
+            sel = np.flatnonzero(ph == idx)
+            if sel.size == 0:
+                raise EventMissing(f"{ref}: phase {idx} was never reached")
+            base = float(t[sel[0]] if name == "phase" else t[sel[-1]])
+        else:
+            base = self.event_time(name)
+        return base + offset
+
+    def event_time(self, kind: str) -> float:
+        """Time of the first event of ``kind`` (events first, then the simulator's ``<kind>_s`` metric)."""
+        times = [float(te) for te, k in self.events if k == kind]
+        if times:
+            return min(times)
+        key = _EVENT_METRIC.get(kind, f"{kind}_s")
+        v = self.metrics.get(key)
+        if v is not None and np.isfinite(v):
+            return float(v)
+        raise EventMissing(f"event '{kind}' did not happen in this run")
+
+    def window_mask(self, window: tuple[float, float] | None) -> np.ndarray:
+        t = self.t
+        if window is None:
+            return np.ones(t.shape, dtype=bool)
+        return (t >= window[0] - 1e-9) & (t <= window[1] + 1e-9)
+
+
+@dataclass
+class CheckResult:
+    """Outcome of one check (the summary.json ``checks`` entries)."""
+
+    name: str
+    description: str
+    quantity: str
+    reduce: str
+    window: list[float] | None
+    op: str
+    bound: Any
+    value: Any
+    passed: bool
+    message: str
+    implicit: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        if not d["implicit"]:
+            d.pop("implicit")
+        return d
+
+
+def implicit_checks(checks: Sequence[CheckSpec]) -> list[CheckSpec]:
+    """The checks actually evaluated: the mission's plus ``status == completed`` if none tests the status."""
+    out = list(checks)
+    if not any(c.quantity == "status" for c in checks):
+        out.append(
+            CheckSpec(name="status", quantity="status", op="==", bound="completed",
+                      description="the mission ran to completion (implicit)")
+        )
+    return out
+
+
+def evaluate_checks(checks: Sequence[CheckSpec], data: RunData) -> list[CheckResult]:
+    """Evaluate every check (plus the implicit status check); never raises for run-dependent problems."""
+    explicit = len(checks)
+    results = []
+    for i, c in enumerate(implicit_checks(checks)):
+        r = evaluate_check(c, data)
+        r.implicit = i >= explicit
+        results.append(r)
+    return results
+
+
+def evaluate_check(check: CheckSpec, data: RunData) -> CheckResult:
+    """Evaluate one check on ``data``."""
+    window: tuple[float, float] | None = None
+    res = CheckResult(check.name, check.description, check.quantity, check.reduce, None, check.op,
+                      _jsonable_bound(check.bound), None, False, "")
+    try:
+        if check.window is not None:
+            window = (data.resolve_time(check.window[0]), data.resolve_time(check.window[1]))
+            res.window = [round(window[0], 6), round(window[1], 6)]
+        if check.quantity == "status":
+            res.value = data.status
+            res.passed = (data.status == str(check.bound)) if check.op == "==" else (data.status != str(check.bound))
+            res.message = f"status {data.status!r} {check.op} {check.bound!r}"
+            return res
+        value = _quantity_value(check, data, window)
+        res.value = value
+        if value is None or not math.isfinite(value):
+            res.message = f"{_describe(check)} has no finite value"
+            return res
+        res.passed, res.message = _compare(check, value, data, window)
+    except EventMissing as exc:
+        res.message = str(exc)
+    except KeyError as exc:
+        res.message = f"unknown quantity {exc.args[0]!r}"
+    except ValueError as exc:
+        res.message = str(exc)
+    return res
+
+
+def _quantity_value(check: CheckSpec, data: RunData, window: tuple[float, float] | None) -> float | None:
+    q = check.quantity
+    if q.startswith("metric:"):
+        return metric_value(q[len("metric:"):], data, window)
+    if not data.has(q):
+        raise KeyError(q)
+    y = data.column(q)
+    t = data.t
+    if check.reduce == "at":
+        if check.at is None:
+            raise ValueError("reduce 'at' needs an 'at' time")
+        ta = data.resolve_time(check.at)
+        ok = np.isfinite(y)
+        if not ok.any():
+            return None
+        if ta < t[0] - 1e-9 or ta > t[-1] + 1e-9:
+            raise ValueError(f"'at' time {ta:.3f} s is outside the run [{t[0]:.3f}, {t[-1]:.3f}] s")
+        return float(np.interp(ta, t[ok], y[ok]))
+    sel = y[data.window_mask(window)]
+    sel = sel[np.isfinite(sel)]
+    if sel.size == 0:
+        w = f" [{window[0]:.3f}, {window[1]:.3f}] s" if window else ""
+        raise ValueError(f"window{w} has no finite samples of {q}")
+    return reduce_values(sel, check.reduce)
+
+
+def reduce_values(x: np.ndarray, how: str) -> float:
+    """Reduce a non-empty array of finite samples."""
+    if how == "max":
+        return float(np.max(x))
+    if how == "min":
+        return float(np.min(x))
+    if how == "mean":
+        return float(np.mean(x))
+    if how == "final":
+        return float(x[-1])
+    if how == "std":
+        return float(np.std(x))
+    if how == "absmax":
+        return float(np.max(np.abs(x)))
+    if how == "range":
+        return float(np.max(x) - np.min(x))
+    raise ValueError(f"unknown reduce {how!r}")
+
+
+def metric_value(name: str, data: RunData, window: tuple[float, float] | None = None) -> float:
+    """A derived metric (registry in :mod:`vinecli.missions.metrics`) or a scalar the simulator reported."""
+    from vinecli.missions.metrics import METRICS
+
+    if name in METRICS:
+        return float(METRICS[name].fn(data, window))
+    if name in data.metrics:
+        return float(data.metrics[name])
+    raise KeyError(f"metric:{name}")
+
+
+def _number(ref: Any, data: RunData, window: tuple[float, float] | None, what: str) -> float:
+    if isinstance(ref, (int, float)):
+        return float(ref)
+    if isinstance(ref, str):
+        name = ref[len("metric:"):] if ref.startswith("metric:") else ref
+        try:
+            return metric_value(name, data, window)
+        except KeyError:
+            raise ValueError(f"{what} {ref!r} is neither a number nor a known metric") from None
+    raise ValueError(f"{what} {ref!r} is not a number")
+
+
+def _compare(check: CheckSpec, v: float, data: RunData, window: tuple[float, float] | None) -> tuple[bool, str]:
+    op = check.op
+    d = _describe(check)
+    if op == "between":
+        b = check.bound
+        if not isinstance(b, (list, tuple)) or len(b) != 2:
+            raise ValueError("op 'between' needs bound [lo, hi]")
+        lo, hi = _number(b[0], data, window, "bound"), _number(b[1], data, window, "bound")
+        return lo <= v <= hi, f"{d} = {v:.6g}, expected in [{lo:.6g}, {hi:.6g}]"
+    if op == "within_pct":
+        pct = _number(check.bound, data, window, "bound")
+        ref = _number(check.reference, data, window, "reference")
+        dev = abs(v - ref) / abs(ref) * 100.0 if ref != 0 else (0.0 if v == 0 else math.inf)
+        return dev <= pct, f"{d} = {v:.6g}, {dev:.3g} % from {ref:.6g} (allowed {pct:.6g} %)"
+    b = _number(check.bound, data, window, "bound")
+    ok = {
+        "<": v < b, "<=": v <= b, ">": v > b, ">=": v >= b, "==": v == b, "!=": v != b,
+    }[op]
+    return ok, f"{d} = {v:.6g}, expected {op} {b:.6g}"
+
+
+def _describe(check: CheckSpec) -> str:
+    if check.quantity.startswith("metric:"):
+        return check.quantity
+    return f"{check.reduce}({check.quantity})"
+
+
+def _jsonable_bound(b: Any) -> Any:
+    return list(b) if isinstance(b, tuple) else b

@@ -1,0 +1,498 @@
+"""Derived metrics for the thesis' chapter 5 experiments, computed from a run's time series.
+
+Each metric is ``fn(data: RunData, window: (t0, t1) | None) -> float`` and is used in checks
+as ``quantity: metric:<name>`` (the check's window is passed in; ``None`` = the metric's
+default window, documented per metric). A metric that cannot be computed (no lift-off, no
+samples in the window) returns NaN, which fails the check with a message.
+
+Sign conventions: world ENU, z up. The tank force on the frame is ``m (g_vec - a)`` with
+``g_vec = (0, 0, -g)``, so at rest ``tank_force_enu_z_n = -m g`` (downwards).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vinecli.frames import quat_rotate
+from vinecli.missions.checks import EventMissing, RunData
+
+Window = tuple[float, float] | None
+Polyline = Sequence[tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class MetricContext:
+    """World facts metrics need: gravity (m/s², positive) and the rows (ENU polylines, m)."""
+
+    gravity: float = 9.80665
+    rows_enu: Sequence[Polyline] = field(default_factory=tuple)
+    wind_period_s: float | None = None
+
+
+@dataclass(frozen=True)
+class Metric:
+    fn: Callable[[RunData, Window], float]
+    unit: str
+    doc: str
+
+
+METRICS: dict[str, Metric] = {}
+
+
+def metric(name: str, unit: str) -> Callable[[Callable[[RunData, Window], float]], Callable[[RunData, Window], float]]:
+    """Register a metric under ``name`` (first docstring line becomes its description)."""
+
+    def deco(fn: Callable[[RunData, Window], float]) -> Callable[[RunData, Window], float]:
+        METRICS[name] = Metric(fn, unit, (fn.__doc__ or "").strip().splitlines()[0])
+        return fn
+
+    return deco
+
+
+# ---------------------------------------------------------------- helpers
+def _g(data: RunData) -> float:
+    ctx = data.context
+    return float(getattr(ctx, "gravity", 9.80665) or 9.80665)
+
+
+def _try_event(data: RunData, kind: str) -> float | None:
+    try:
+        return data.event_time(kind)
+    except EventMissing:
+        return None
+
+
+def _mask(data: RunData, window: Window, default: Window) -> np.ndarray:
+    w = window if window is not None else default
+    return data.window_mask(w)
+
+
+def _airborne(data: RunData) -> np.ndarray:
+    if data.has("on_ground"):
+        return data.column("on_ground") < 0.5
+    return np.ones(data.t.shape, dtype=bool)
+
+
+def _mean_rotor_speed(data: RunData) -> np.ndarray:
+    cols = sorted((c for c in data.timeseries if re.fullmatch(r"rotor\d+_w_radps", c)), key=lambda c: int(c[5:-8]))
+    if not cols:
+        raise KeyError("rotor1_w_radps")
+    return np.mean(np.vstack([data.column(c) for c in cols]), axis=0)
+
+
+def _smooth(y: np.ndarray, t: np.ndarray, span_s: float) -> np.ndarray:
+    """Centred moving average over ``span_s`` seconds (edges use the available samples)."""
+    if y.size < 3:
+        return y
+    dt = float(np.median(np.diff(t)))
+    n = max(1, int(round(span_s / dt)))
+    if n <= 1:
+        return y
+    k = np.ones(n)
+    num = np.convolve(y, k, mode="same")
+    den = np.convolve(np.ones_like(y), k, mode="same")
+    return num / den
+
+
+def _nan() -> float:
+    return float("nan")
+
+
+# ---------------------------------------------------------------- takeoff (thesis §5.1)
+@metric("liquid_weight_n", "N")
+def liquid_weight_n(data: RunData, window: Window) -> float:
+    """Weight of the liquid at the start of the window (default: the run start), N: tank_mass_kg * g."""
+    m = data.column("tank_mass_kg")[_mask(data, window, None)]
+    return float(m[0] * _g(data)) if m.size else _nan()
+
+
+@metric("tank_force_rest_ratio", "1")
+def tank_force_rest_ratio(data: RunData, window: Window) -> float:
+    """Tank force at rest / liquid weight (1 = equal). Default window: on the ground, 0.2 s after start to 0.3 s before lift-off."""
+    t = data.t
+    if window is None:
+        tl = _try_event(data, "liftoff")
+        t_end = (tl - 0.3) if tl is not None else float(t[-1])
+        window = (float(t[0]) + 0.2, t_end)
+    sel = data.window_mask(window)
+    if data.has("on_ground"):
+        sel &= data.column("on_ground") > 0.5
+    if not sel.any():
+        return _nan()
+    force_down = -data.column("tank_force_enu_z_n")[sel]
+    weight = data.column("tank_mass_kg")[sel] * _g(data)
+    return float(np.mean(force_down) / np.mean(weight)) if np.mean(weight) > 0 else _nan()
+
+
+@metric("liftoff_force_jump_ratio", "1")
+def liftoff_force_jump_ratio(data: RunData, window: Window) -> float:
+    """Peak tank force around lift-off over the liquid weight, minus 1 (0.2 = 20 % jump). Default window: lift-off -1 s .. +2 s."""
+    tl = _try_event(data, "liftoff")
+    if window is None:
+        if tl is None:
+            return _nan()
+        window = (tl - 1.0, tl + 2.0)
+    sel = data.window_mask(window)
+    if not sel.any():
+        return _nan()
+    force_down = -data.column("tank_force_enu_z_n")[sel]
+    weight = data.column("tank_mass_kg")[sel] * _g(data)
+    i = int(np.argmax(force_down))
+    return float(force_down[i] / weight[i] - 1.0) if weight[i] > 0 else _nan()
+
+
+@metric("liftoff_force_jump_n", "N")
+def liftoff_force_jump_n(data: RunData, window: Window) -> float:
+    """Largest |inertial part| of the tank force (z) around lift-off, N. Default window: lift-off -1 s .. +2 s."""
+    tl = _try_event(data, "liftoff")
+    if window is None:
+        if tl is None:
+            return _nan()
+        window = (tl - 1.0, tl + 2.0)
+    sel = data.window_mask(window)
+    if not sel.any():
+        return _nan()
+    if data.has("tank_force_inertial_enu_z_n"):
+        f = data.column("tank_force_inertial_enu_z_n")[sel]
+    else:
+        f = data.column("tank_force_enu_z_n")[sel] + data.column("tank_mass_kg")[sel] * _g(data)
+    return float(np.max(np.abs(f)))
+
+
+def _steady_climb(data: RunData, window: Window, min_vz: float = 0.3, max_az: float = 0.3) -> np.ndarray:
+    tl = _try_event(data, "liftoff")
+    t = data.t
+    default = (tl + 0.5, float(t[-1])) if tl is not None else None
+    sel = _mask(data, window, default) & _airborne(data)
+    vz = data.column("vel_enu_z_mps")
+    az = data.column("acc_enu_z_mps2")
+    az_s = _smooth(az, t, 0.2)
+    return sel & (vz > min_vz) & (np.abs(az_s) < max_az)
+
+
+@metric("climb_tank_force_ratio", "1")
+def climb_tank_force_ratio(data: RunData, window: Window) -> float:
+    """Tank force in steady climb (v_z > 0.3 m/s, |a_z| < 0.3 m/s² smoothed over 0.2 s) / liquid weight. Default window: lift-off +0.5 s .. end."""
+    sel = _steady_climb(data, window)
+    if not sel.any():
+        return _nan()
+    force_down = -data.column("tank_force_enu_z_n")[sel]
+    weight = data.column("tank_mass_kg")[sel] * _g(data)
+    return float(np.mean(force_down) / np.mean(weight)) if np.mean(weight) > 0 else _nan()
+
+
+@metric("climb_duration_s", "s")
+def climb_duration_s(data: RunData, window: Window) -> float:
+    """Time spent in steady climb (same selection as climb_tank_force_ratio), s."""
+    sel = _steady_climb(data, window)
+    t = data.t
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return float(np.count_nonzero(sel) * dt)
+
+
+@metric("drag_opposes_vertical_motion", "1")
+def drag_opposes_vertical_motion(data: RunData, window: Window, min_speed: float = 0.3) -> float:
+    """Fraction of airborne samples with |v_z| > 0.3 m/s where the vertical wind drag opposes v_z (1 = always). Default: whole run."""
+    sel = _mask(data, window, None) & _airborne(data)
+    vz = data.column("vel_enu_z_mps")
+    dz = data.column("drag_enu_z_n")
+    sel &= np.abs(vz) > min_speed
+    if not sel.any():
+        return _nan()
+    return float(np.mean(dz[sel] * vz[sel] < 0))
+
+
+# ---------------------------------------------------------------- spraying (thesis §5.2)
+def _drain(data: RunData, window: Window) -> tuple[float, float]:
+    """(measured flow-on time until empty, predicted volume / commanded flow), s."""
+    t = data.t
+    sel = _mask(data, window, None)
+    cmd = data.column("tank_flow_cmd_lps")
+    level = data.column("tank_level_l")
+    on = sel & (cmd > 0)
+    if not on.any():
+        return _nan(), _nan()
+    i0 = int(np.flatnonzero(on)[0])
+    t_empty = _try_event(data, "tank_empty")
+    if t_empty is None:
+        empty_idx = np.flatnonzero(sel & (level <= 1e-9) & (np.arange(t.size) >= i0))
+        if empty_idx.size == 0:
+            return _nan(), _nan()
+        t_empty = float(t[empty_idx[0]])
+    dt = np.diff(t, append=t[-1])
+    before = on & (t < t_empty - 1e-9)
+    measured = float(np.sum(dt[before]))
+    q = float(np.mean(cmd[before])) if before.any() else _nan()
+    v0 = float(level[i0 - 1] if i0 > 0 else level[i0])
+    return measured, (v0 / q if q > 0 else _nan())
+
+
+@metric("drain_time_s", "s")
+def drain_time_s(data: RunData, window: Window) -> float:
+    """Time with the nozzle flow commanded on, from its first opening until the tank is empty, s."""
+    return _drain(data, window)[0]
+
+
+@metric("drain_time_pred_s", "s")
+def drain_time_pred_s(data: RunData, window: Window) -> float:
+    """Predicted drain time: level when the flow first opens / mean commanded flow while on, s."""
+    return _drain(data, window)[1]
+
+
+@metric("drain_time_ratio", "1")
+def drain_time_ratio(data: RunData, window: Window) -> float:
+    """Measured / predicted drain time (1 = the tank drains exactly at the commanded rate)."""
+    m, p = _drain(data, window)
+    return m / p if p and math.isfinite(p) else _nan()
+
+
+def _flight_window(data: RunData, window: Window, after_liftoff_s: float = 3.0) -> np.ndarray:
+    t = data.t
+    tl = _try_event(data, "liftoff")
+    td = _try_event(data, "touchdown")
+    t0 = (tl + after_liftoff_s) if tl is not None else float(t[0])
+    t1 = td if (td is not None and td > t0) else float(t[-1])
+    return _mask(data, window, (t0, t1)) & _airborne(data)
+
+
+@metric("rotor_mass_correlation", "1")
+def rotor_mass_correlation(data: RunData, window: Window) -> float:
+    """Pearson correlation of the mean rotor speed (2 s moving average) with total mass, airborne. Default: lift-off +3 s .. touchdown."""
+    sel = _flight_window(data, window)
+    if np.count_nonzero(sel) < 10:
+        return _nan()
+    w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 2.0)
+    m = data.column("total_mass_kg")[sel]
+    if np.std(w) == 0 or np.std(m) == 0:
+        return _nan()
+    return float(np.corrcoef(w, m)[0, 1])
+
+
+@metric("hover_w_mass_exponent", "1")
+def hover_w_mass_exponent(data: RunData, window: Window) -> float:
+    """Slope of log(mean rotor speed, 2 s average) vs log(total mass), airborne (hover law: 0.5)."""
+    sel = _flight_window(data, window)
+    if np.count_nonzero(sel) < 10:
+        return _nan()
+    w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 2.0)
+    m = data.column("total_mass_kg")[sel]
+    ok = (w > 0) & (m > 0)
+    if np.ptp(np.log(m[ok])) < 1e-3:
+        return _nan()
+    return float(np.polyfit(np.log(m[ok]), np.log(w[ok]), 1)[0])
+
+
+def point_polyline_distance(px: np.ndarray, py: np.ndarray, lines: Sequence[Polyline]) -> np.ndarray:
+    """Distance (m) from each point to the nearest segment of any polyline (ENU x, y)."""
+    best = np.full(px.shape, np.inf)
+    for line in lines:
+        pts = np.asarray(line, dtype=float)
+        for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
+            dx, dy = bx - ax, by - ay
+            L2 = dx * dx + dy * dy
+            u = np.clip(((px - ax) * dx + (py - ay) * dy) / L2, 0.0, 1.0) if L2 > 0 else np.zeros_like(px)
+            d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
+            np.minimum(best, d, out=best)
+    return best
+
+
+def _cross_track(data: RunData, window: Window) -> np.ndarray:
+    rows = list(getattr(data.context, "rows_enu", ()) or ())
+    if not rows:
+        return np.array([])
+    sel = _mask(data, window, None) & _airborne(data) & (data.column("tank_flow_cmd_lps") > 0)
+    if not sel.any():
+        return np.array([])
+    return point_polyline_distance(data.column("pos_enu_x_m")[sel], data.column("pos_enu_y_m")[sel], rows)
+
+
+@metric("cross_track_rms_m", "m")
+def cross_track_rms_m(data: RunData, window: Window) -> float:
+    """RMS horizontal distance to the nearest row while spraying (flow commanded, airborne), m."""
+    d = _cross_track(data, window)
+    return float(np.sqrt(np.mean(d * d))) if d.size else _nan()
+
+
+@metric("cross_track_max_m", "m")
+def cross_track_max_m(data: RunData, window: Window) -> float:
+    """Largest horizontal distance to the nearest row while spraying, m."""
+    d = _cross_track(data, window)
+    return float(np.max(d)) if d.size else _nan()
+
+
+@metric("cross_track_p95_m", "m")
+def cross_track_p95_m(data: RunData, window: Window) -> float:
+    """95th percentile of the distance to the nearest row while spraying, m."""
+    d = _cross_track(data, window)
+    return float(np.percentile(d, 95)) if d.size else _nan()
+
+
+# ---------------------------------------------------------------- wind (thesis §5.3)
+def _hpos_error(data: RunData, window: Window) -> np.ndarray:
+    sel = _flight_window(data, window, after_liftoff_s=5.0)
+    if not sel.any():
+        return np.array([])
+    x, y = data.column("pos_enu_x_m")[sel], data.column("pos_enu_y_m")[sel]
+    if data.has("sp_pos_enu_x_m"):
+        sx, sy = data.column("sp_pos_enu_x_m")[sel], data.column("sp_pos_enu_y_m")[sel]
+    else:
+        sx, sy = np.full(x.shape, np.nan), np.full(y.shape, np.nan)
+    bad = ~(np.isfinite(sx) & np.isfinite(sy))
+    sx = np.where(bad, np.mean(x), sx)
+    sy = np.where(bad, np.mean(y), sy)
+    return np.hypot(x - sx, y - sy)
+
+
+@metric("hpos_error_max_m", "m")
+def hpos_error_max_m(data: RunData, window: Window) -> float:
+    """Largest horizontal distance from the position setpoint (mean position where none), m. Default: lift-off +5 s .. touchdown."""
+    e = _hpos_error(data, window)
+    return float(np.max(e)) if e.size else _nan()
+
+
+@metric("hpos_error_rms_m", "m")
+def hpos_error_rms_m(data: RunData, window: Window) -> float:
+    """RMS horizontal distance from the position setpoint, m. Default: lift-off +5 s .. touchdown."""
+    e = _hpos_error(data, window)
+    return float(np.sqrt(np.mean(e * e))) if e.size else _nan()
+
+
+def dominant_period(y: np.ndarray, t: np.ndarray, min_period: float = 0.2) -> float:
+    """Period (s) of the strongest spectral peak of ``y`` (detrended, Hann, 16× zero-padded FFT,
+    parabolic peak interpolation); NaN if there is no variation."""
+    ok = np.isfinite(y)
+    y, t = y[ok], t[ok]
+    if y.size < 8:
+        return _nan()
+    dt = float(np.median(np.diff(t)))
+    yy = y - np.polyval(np.polyfit(t - t[0], y, 1), t - t[0])
+    if np.allclose(yy, 0):
+        return _nan()
+    yy = yy * np.hanning(yy.size)
+    nfft = 1 << int(math.ceil(math.log2(yy.size * 16)))
+    spec = np.abs(np.fft.rfft(yy, nfft))
+    freq = np.fft.rfftfreq(nfft, dt)
+    valid = (freq > 0) & (freq <= 1.0 / min_period)
+    # ignore the lowest bins dominated by the window's own trend (< 1.5 cycles in the window)
+    valid &= freq >= 1.5 / (t[-1] - t[0])
+    if not valid.any():
+        return _nan()
+    idx = np.flatnonzero(valid)
+    k = idx[int(np.argmax(spec[idx]))]
+    if 0 < k < spec.size - 1:
+        a, b, c = spec[k - 1], spec[k], spec[k + 1]
+        den = a - 2 * b + c
+        shift = 0.5 * (a - c) / den if den != 0 else 0.0
+    else:
+        shift = 0.0
+    f = (k + shift) * (freq[1] - freq[0])
+    return float(1.0 / f) if f > 0 else _nan()
+
+
+def _wind_along_mean(data: RunData, sel: np.ndarray) -> np.ndarray:
+    wx, wy = data.column("wind_enu_x_mps")[sel], data.column("wind_enu_y_mps")[sel]
+    mx, my = float(np.mean(wx)), float(np.mean(wy))
+    n = math.hypot(mx, my)
+    if n < 1e-9:  # zero-mean wind: project on the principal direction
+        cov = np.cov(np.vstack([wx, wy]))
+        vals, vecs = np.linalg.eigh(cov)
+        mx, my = vecs[:, -1]
+        n = 1.0
+    return (wx * mx + wy * my) / n
+
+
+@metric("wind_period_s", "s")
+def wind_period_s(data: RunData, window: Window) -> float:
+    """Dominant period of the horizontal wind along its mean direction, s. Default: lift-off +5 s .. touchdown."""
+    sel = _flight_window(data, window, after_liftoff_s=5.0)
+    if np.count_nonzero(sel) < 8:
+        return _nan()
+    return dominant_period(_wind_along_mean(data, sel), data.t[sel])
+
+
+@metric("rotor_period_s", "s")
+def rotor_period_s(data: RunData, window: Window) -> float:
+    """Dominant period of the mean rotor speed, s. Default: lift-off +5 s .. touchdown."""
+    sel = _flight_window(data, window, after_liftoff_s=5.0)
+    if np.count_nonzero(sel) < 8:
+        return _nan()
+    return dominant_period(_mean_rotor_speed(data)[sel], data.t[sel])
+
+
+@metric("rotor_wind_period_ratio", "1")
+def rotor_wind_period_ratio(data: RunData, window: Window) -> float:
+    """Dominant period of the mean rotor speed / that of the wind (1 = rotors oscillate with the wind)."""
+    pw = wind_period_s(data, window)
+    pr = rotor_period_s(data, window)
+    return pr / pw if math.isfinite(pw) and pw > 0 else _nan()
+
+
+def _tilt_terms(data: RunData, window: Window) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tilt towards the upwind side of the horizontal aerodynamic force, rad; predicted
+    atan(|F_h| / (m g)), rad; dot(body z horizontal, wind) sign) on the selected samples."""
+    sel = _flight_window(data, window, after_liftoff_s=5.0)
+    idx = np.flatnonzero(sel)
+    if idx.size == 0:
+        return np.array([]), np.array([]), np.array([])
+    qx, qy, qz, qw = (data.column(f"quat_{c}")[idx] for c in "xyzw")
+    fx, fy = data.column("drag_enu_x_n")[idx].copy(), data.column("drag_enu_y_n")[idx].copy()
+    has_rd = data.has("rotor_drag_flu_x_n")
+    rdx, rdy, rdz = ((data.column(f"rotor_drag_flu_{c}_n")[idx] if has_rd else np.zeros(idx.size)) for c in "xyz")
+    zb = np.empty((idx.size, 3))
+    for k in range(idx.size):
+        q = (float(qx[k]), float(qy[k]), float(qz[k]), float(qw[k]))
+        zb[k] = quat_rotate(q, (0.0, 0.0, 1.0))
+        if has_rd:
+            r = quat_rotate(q, (float(rdx[k]), float(rdy[k]), float(rdz[k])))
+            fx[k] += r[0]
+            fy[k] += r[1]
+    fmag = np.hypot(fx, fy)
+    m = data.column("total_mass_kg")[idx]
+    pred = np.arctan2(fmag, m * _g(data))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ux, uy = -fx / fmag, -fy / fmag  # upwind direction: against the aerodynamic force
+    along = np.arctan2(zb[:, 0] * ux + zb[:, 1] * uy, zb[:, 2])
+    wx, wy = data.column("wind_enu_x_mps")[idx], data.column("wind_enu_y_mps")[idx]
+    lean = zb[:, 0] * wx + zb[:, 1] * wy
+    strong = np.hypot(wx, wy) > 0.5
+    sign = np.where(strong, np.sign(-lean), np.nan)
+    ok = fmag > 1e-6
+    return along[ok], pred[ok], sign
+
+
+@metric("tilt_into_wind_ratio", "1")
+def tilt_into_wind_ratio(data: RunData, window: Window) -> float:
+    """Mean tilt towards the upwind side / mean atan(F_h / (m g)); F_h = horizontal wind drag of the
+    links plus the rotors' H-force (1 = the thesis' steady tilt; negative = leaning downwind)."""
+    along, pred, _ = _tilt_terms(data, window)
+    if along.size == 0 or np.mean(pred) <= 0:
+        return _nan()
+    return float(np.mean(along) / np.mean(pred))
+
+
+@metric("tilt_into_wind_fraction", "1")
+def tilt_into_wind_fraction(data: RunData, window: Window) -> float:
+    """Fraction of samples with horizontal wind > 0.5 m/s where the body z axis leans upwind (1 = always)."""
+    _, _, sign = _tilt_terms(data, window)
+    s = sign[np.isfinite(sign)]
+    return float(np.mean(s > 0)) if s.size else _nan()
+
+
+@metric("tilt_mean_deg", "deg")
+def tilt_mean_deg(data: RunData, window: Window) -> float:
+    """Mean measured tilt towards the upwind side, deg."""
+    along, _, _ = _tilt_terms(data, window)
+    return float(np.degrees(np.mean(along))) if along.size else _nan()
+
+
+@metric("tilt_pred_deg", "deg")
+def tilt_pred_deg(data: RunData, window: Window) -> float:
+    """Mean predicted steady tilt atan(F_h / (m g)), deg."""
+    _, pred, _ = _tilt_terms(data, window)
+    return float(np.degrees(np.mean(pred))) if pred.size else _nan()
+

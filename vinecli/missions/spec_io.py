@@ -1,0 +1,100 @@
+"""Loading mission files (``pipelines/missions/*.yaml`` or any path) into :class:`MissionSpec`.
+
+Errors are :class:`~vinecli.errors.SpecError` lines naming the file and the field. A
+``vehicle:`` given as a name or path is checked against :func:`vinecli.vehicle.load_vehicle`
+(when the vehicle module is available) so a typo fails before any simulation starts.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from vinecli.errors import SpecError
+from vinecli.specs import read_yaml, resolve_base, validate_spec
+from vinecli.specs.mission import MissionSpec
+from vinecli.specs.vehicle import VehicleSpec
+
+log = logging.getLogger(__name__)
+
+
+def mission_from_dict(data: dict[str, Any], path: Path | str) -> MissionSpec:
+    """Validate a mission mapping (``base:`` already resolved); SpecError names ``path`` and the field."""
+    mission = validate_spec(MissionSpec, data, path)
+    _check_windows_syntax(mission, path)
+    return mission
+
+
+def load_mission(path: Path | str, *, check_vehicle: bool = True) -> MissionSpec:
+    """Read, resolve ``base:`` and validate a mission YAML file.
+
+    ``vehicle`` names are resolved relative to the mission file first (a path), then through
+    :func:`vinecli.vehicle.load_vehicle` (``vehicles/<name>.yaml``).
+    """
+    path = Path(path)
+    data = resolve_base(path.resolve(), read_yaml(path))
+    mission = mission_from_dict(data, path)
+    if check_vehicle and mission.vehicle is not None:
+        resolve_vehicle(mission.vehicle, relative_to=path.parent, path=path)
+    return mission
+
+
+def resolve_vehicle(name_or_path: str, *, relative_to: Path | None = None, path: Path | str | None = None) -> VehicleSpec:
+    """Load the vehicle a mission names; SpecError ``path: vehicle: ...`` if it cannot be found."""
+    if relative_to is not None:
+        cand = relative_to / name_or_path
+        if cand.suffix in (".yaml", ".yml") and cand.is_file():
+            name_or_path = str(cand)
+    try:
+        from vinecli.vehicle import load_vehicle
+    except ImportError:  # the vehicle module is not there yet: fall back to the spec loader
+        load_vehicle = _load_vehicle_fallback
+    try:
+        return load_vehicle(name_or_path)
+    except SpecError as exc:
+        raise SpecError(f"vehicle: {exc}", path=path) from None
+
+
+def _load_vehicle_fallback(name_or_path: str) -> VehicleSpec:
+    from vinecli.specs import load_spec
+
+    p = Path(name_or_path)
+    if not p.is_file():
+        p = Path(__file__).resolve().parents[2] / "vehicles" / f"{name_or_path}.yaml"
+    if not p.is_file():
+        raise SpecError(f"unknown vehicle {name_or_path!r}")
+    return load_spec(p, VehicleSpec)
+
+
+def _check_windows_syntax(mission: MissionSpec, path: Path | str) -> None:
+    """Reject malformed window/time strings of checks at load time (exit 2, not a failed check)."""
+    from vinecli.missions.checks import parse_time_ref
+
+    for i, c in enumerate(mission.checks):
+        refs: list[tuple[str, object]] = []
+        if c.window is not None:
+            refs += [("window", c.window[0]), ("window", c.window[1])]
+        if c.at is not None:
+            refs.append(("at", c.at))
+        for field, ref in refs:
+            if isinstance(ref, str):
+                try:
+                    parse_time_ref(ref)
+                except ValueError as exc:
+                    raise SpecError(f"checks.{i}.{field}: {exc}", path=path) from None
+        if c.reduce == "at" and c.at is None and c.quantity != "status" and not c.quantity.startswith("metric:"):
+            raise SpecError(f"checks.{i}.at: reduce 'at' needs an 'at' time", path=path)
+        if c.op == "between" and not (isinstance(c.bound, (list, tuple)) and len(c.bound) == 2):
+            raise SpecError(f"checks.{i}.bound: op 'between' needs [lo, hi]", path=path)
+        if c.op == "within_pct" and c.reference is None:
+            raise SpecError(f"checks.{i}.reference: op 'within_pct' needs a reference value or metric", path=path)
+        if c.quantity == "status" and c.op not in ("==", "!="):
+            raise SpecError(f"checks.{i}.op: quantity 'status' supports only == and !=", path=path)
+
+
+def dump_mission(mission: MissionSpec) -> str:
+    """The mission as YAML text (resolved, every default written out)."""
+    return yaml.safe_dump(mission.model_dump(mode="json"), sort_keys=False)

@@ -1,0 +1,304 @@
+"""``run_mission``: one mission in one built world -> one run directory.
+
+Loads the world and the mission, makes the autopilot through the registry, runs THE loop
+(:func:`vinecli.sim.runner.run_simulation`), evaluates the checks and writes
+``RUNS/<run_id>/`` atomically. Ctrl-C (SIGINT) while running stops the loop at the next step
+and the partial run is written with status ``interrupted``; a second Ctrl-C aborts at once.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
+from vinecli.missions.checks import RunData, evaluate_checks
+from vinecli.missions.metrics import METRICS, MetricContext
+from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
+from vinecli.outputs import Manifest, atomic_output_dir
+from vinecli.runs import rundir
+from vinecli.specs.mission import MissionSpec, SprayPhase
+
+log = logging.getLogger(__name__)
+
+#: metrics always computed into summary.json (NaN -> null when not applicable)
+SUMMARY_METRICS = (
+    "tank_force_rest_ratio", "liftoff_force_jump_ratio", "climb_tank_force_ratio", "drag_opposes_vertical_motion",
+    "drain_time_ratio", "rotor_mass_correlation", "cross_track_rms_m", "hpos_error_max_m",
+    "rotor_wind_period_ratio", "tilt_into_wind_ratio",
+)
+
+
+@dataclass
+class RunSummary:
+    """Small, picklable result of one run (what batch workers send back)."""
+
+    run_id: str
+    run_dir: str
+    mission: str
+    status: str
+    passed: bool
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    real_time_factor: float = 0.0
+    checks: list[dict[str, Any]] = field(default_factory=list)
+    metrics: dict[str, float | None] = field(default_factory=dict)
+    status_message: str = ""
+    error: str | None = None
+
+    @property
+    def failed_checks(self) -> list[dict[str, Any]]:
+        return [c for c in self.checks if not c["passed"]]
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def raise_if_failed(self) -> None:
+        """ChecksFailed (exit 1) if a check failed."""
+        if not self.passed:
+            names = ", ".join(c["name"] for c in self.failed_checks) or self.status
+            raise ChecksFailed(f"{len(self.failed_checks)} check(s) failed: {names}", path=self.run_dir)
+
+
+class _StopFlag:
+    """SIGINT -> stop at the next step; wall-clock deadline; optional caller predicate."""
+
+    def __init__(self, deadline: float | None, extra: Callable[[], bool] | None) -> None:
+        self.interrupted = False
+        self.timed_out = False
+        self.deadline = deadline
+        self.extra = extra
+
+    def __call__(self) -> bool:
+        if self.deadline is not None and time.monotonic() > self.deadline:
+            self.timed_out = True
+        return self.interrupted or self.timed_out or bool(self.extra and self.extra())
+
+
+def default_run_id(mission: MissionSpec, seed: int) -> str:
+    """``<mission name>-s<seed>`` (deterministic: re-running the same case replaces its directory)."""
+    return f"{mission.name}-s{seed}"
+
+
+def run_mission(
+    mission: str | Path | MissionSpec,
+    world_dir: str | Path,
+    runs_dir: str | Path,
+    *,
+    seed: int = 0,
+    autopilot: str | None = None,
+    truth: bool | None = None,
+    record_rate: float | None = None,
+    mcap: bool = False,
+    progress: Callable[[float, float], None] | None = None,
+    run_id: str | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    wall_timeout_s: float | None = None,
+    case: str | None = None,
+) -> RunSummary:
+    """Run one mission and write ``runs_dir/<run_id>/``.
+
+    Parameters
+    ----------
+    mission : mission YAML path or a validated MissionSpec
+    world_dir : a built world directory (``vinecli world build``)
+    runs_dir : parent of the run directory
+    seed : run seed (sensor noise, turbulence)
+    autopilot, truth, record_rate : override the mission's ``autopilot``, ``truth``, ``record_rate_hz`` (Hz)
+    mcap : also write ``run.mcap`` (Foxglove)
+    progress : called as ``progress(sim_time_s, wall_time_s)`` by the loop
+    should_stop : extra stop predicate (polled every step); ``wall_timeout_s``: stop after this wall time
+
+    Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
+    Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
+    """
+    mission_path: Path | None = None
+    if isinstance(mission, MissionSpec):
+        spec = mission
+    else:
+        mission_path = Path(mission)
+        spec = load_mission(mission_path)
+    updates: dict[str, Any] = {}
+    if autopilot is not None:
+        updates["autopilot"] = autopilot
+    if truth is not None:
+        updates["truth"] = truth
+    if record_rate is not None:
+        if not record_rate > 0:
+            raise SpecError(f"record rate must be > 0 Hz, got {record_rate}", path=mission_path)
+        updates["record_rate_hz"] = float(record_rate)
+    if updates:
+        spec = MissionSpec.model_validate({**spec.model_dump(), **updates})
+
+    from vinecli.world import load_world
+
+    world = load_world(Path(world_dir))
+    vehicle = None
+    if spec.vehicle is not None:
+        vehicle = resolve_vehicle(spec.vehicle, relative_to=mission_path.parent if mission_path else None,
+                                  path=mission_path or spec.name)
+    from vinecli.autopilot.registry import make_autopilot
+
+    ap = make_autopilot(spec.autopilot, truth=spec.truth)
+    run_id = run_id or default_run_id(spec, seed)
+    stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
+
+    from vinecli.sim.runner import run_simulation
+
+    started = datetime.now(UTC).isoformat(timespec="seconds")
+    t0 = time.perf_counter()
+    with _sigint_to_flag(stop):
+        try:
+            result = run_simulation(world, spec, ap, seed=seed, vehicle=vehicle, on_progress=progress,
+                                    should_stop=stop)
+        except VinecliError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - any engine failure becomes one exit-3 line
+            raise RuntimeFailure(f"simulation failed: {type(exc).__name__}: {exc}", path=mission_path) from exc
+        finally:
+            close = getattr(ap, "close", None)
+            if close is not None:
+                close()
+    wall = time.perf_counter() - t0
+    status = _status_name(result.status)
+    status_message = result.detail or _status_message(result.status)
+    if stop.timed_out and status == "interrupted":
+        status_message = f"stopped: wall-clock limit of {wall_timeout_s:g} s reached"
+
+    rows = _rows_for_metrics(spec, world)
+    data = RunData(
+        timeseries=result.timeseries,
+        events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
+        status=status,
+        metrics=dict(result.metrics),
+        context=MetricContext(gravity=float(world.gravity), rows_enu=rows),
+    )
+    checks = evaluate_checks(spec.checks, data)
+    passed = all(c.passed for c in checks)
+    metrics: dict[str, float | None] = {k: _num(v) for k, v in result.metrics.items()}
+    for name in SUMMARY_METRICS:
+        if name not in metrics:
+            try:
+                metrics[name] = _num(METRICS[name].fn(data, None))
+            except (KeyError, ValueError, IndexError):
+                metrics[name] = None
+    sim_time = float(result.sim_time_s)
+    rtf = sim_time / wall if wall > 0 else 0.0
+    geofence = spec.geofence or getattr(world, "geofence", None)
+    summary = {
+        "run_id": run_id,
+        "case": case or run_id,
+        "mission": spec.name,
+        "description": spec.description,
+        "vehicle": (vehicle.name if vehicle is not None else world.vehicle.name),
+        "world": {
+            "name": world.name,
+            "dir": str(Path(world_dir).resolve()),
+            "origin": world.origin.to_dict(),
+            "rows_enu": [[list(p) for p in row] for row in world.vine_rows_enu],
+            "geofence": geofence.model_dump(mode="json") if geofence is not None else None,
+        },
+        "autopilot": spec.autopilot,
+        "truth": spec.truth,
+        "seed": seed,
+        "status": status,
+        "status_message": status_message,
+        "passed": passed,
+        "sim_time_s": sim_time,
+        "wall_time_s": round(wall, 4),
+        "real_time_factor": round(rtf, 3),
+        "record_rate_hz": spec.record_rate_hz,
+        "checks": [c.to_dict() for c in checks],
+        "metrics": metrics,
+        "started_utc": started,
+    }
+    manifest = Manifest(
+        command="run mission",
+        parameters={"seed": seed, "autopilot": spec.autopilot, "truth": spec.truth,
+                    "record_rate_hz": spec.record_rate_hz, "mcap": mcap, "run_id": run_id},
+        inputs=[p for p in (mission_path, Path(world_dir) / "world.json") if p is not None],
+        timings={"simulate": round(wall, 4)},
+        extra={"status": status},
+    )
+    out = Path(runs_dir) / run_id
+    t1 = time.perf_counter()
+    with atomic_output_dir(out, manifest, overwrite=True) as tmp:
+        rundir.write_timeseries(tmp / rundir.TIMESERIES, result.timeseries,
+                                {"run_id": run_id, "mission": spec.name, "seed": str(seed), "units": "SI; frame in names"})
+        rundir.write_events(tmp / rundir.EVENTS, result.events)
+        (tmp / rundir.MISSION).write_text(dump_mission(spec), encoding="utf-8")
+        rundir.write_preview(tmp / rundir.PREVIEW, getattr(result, "terrain_preview", None))
+        if mcap:
+            from vinecli.runs.mcap_out import write_mcap
+
+            write_mcap(tmp / rundir.MCAP, result.timeseries, result.events)
+        rundir.write_summary(tmp / rundir.SUMMARY, summary)
+        manifest.timings["write"] = round(time.perf_counter() - t1, 4)
+    log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
+    return RunSummary(
+        run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
+        wall_time_s=round(wall, 4), real_time_factor=round(rtf, 3), checks=summary["checks"], metrics=metrics,
+        status_message=status_message,
+    )
+
+
+def _rows_for_metrics(spec: MissionSpec, world: Any) -> list[list[tuple[float, float]]]:
+    """Row polylines the spray metrics compare against: a spray phase's explicit rows, else the world's."""
+    world_rows = [list(map(tuple, r)) for r in getattr(world, "vine_rows_enu", []) or []]
+    for ph in spec.phases:
+        if isinstance(ph, SprayPhase):
+            if ph.rows == "world":
+                return world_rows
+            if ph.rows and isinstance(ph.rows[0], int):
+                return [world_rows[i] for i in ph.rows if 0 <= i < len(world_rows)]  # type: ignore[index]
+            return [[tuple(p) for p in r] for r in ph.rows]  # type: ignore[union-attr]
+    return world_rows
+
+
+def _status_name(status: Any) -> str:
+    return str(getattr(status, "value", status))
+
+
+def _status_message(status: Any) -> str:
+    return str(getattr(status, "message", ""))
+
+
+def _num(v: Any) -> float | None:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+class _sigint_to_flag:
+    """Context manager: in the main thread, the first SIGINT sets ``flag.interrupted``; the second raises."""
+
+    def __init__(self, flag: _StopFlag) -> None:
+        self.flag = flag
+        self.old: Any = None
+
+    def __enter__(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+        self.old = signal.getsignal(signal.SIGINT)
+
+        def handler(signum: int, frame: Any) -> None:
+            if self.flag.interrupted:
+                raise KeyboardInterrupt
+            log.warning("interrupt: stopping the run at the next step (Ctrl-C again to abort)")
+            self.flag.interrupted = True
+
+        signal.signal(signal.SIGINT, handler)
+
+    def __exit__(self, *exc: object) -> None:
+        if self.old is not None:
+            signal.signal(signal.SIGINT, self.old)

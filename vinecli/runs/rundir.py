@@ -1,0 +1,103 @@
+"""Writing and reading run directories (CONTRACTS.md "Run directory").
+
+``RUNS/<run_id>/``: ``timeseries.parquet`` (SI columns, frame in the name), ``summary.json``,
+``events.jsonl``, ``manifest.json``, ``mission.yaml`` (resolved copy), ``terrain_preview.npz``
+and optionally ``run.mcap``. Everything is written into a temporary sibling directory and
+renamed into place (:func:`vinecli.outputs.atomic_output_dir`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vinecli.errors import InputError
+from vinecli.outputs import _jsonable, write_json
+
+SUMMARY = "summary.json"
+TIMESERIES = "timeseries.parquet"
+EVENTS = "events.jsonl"
+MISSION = "mission.yaml"
+PREVIEW = "terrain_preview.npz"
+MCAP = "run.mcap"
+
+#: keys a complete summary.json has (used by batch --resume)
+SUMMARY_KEYS = ("run_id", "status", "passed", "checks", "sim_time_s")
+
+
+def write_timeseries(path: Path, columns: Mapping[str, np.ndarray], metadata: Mapping[str, str] | None = None) -> None:
+    """Write the time series as one Parquet table (float64/int columns, zstd), ``t_s`` first."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    names = list(columns)
+    if "t_s" in names:
+        names.remove("t_s")
+        names.insert(0, "t_s")
+    arrays = [pa.array(np.asarray(columns[n])) for n in names]
+    table = pa.Table.from_arrays(arrays, names=names)
+    if metadata:
+        table = table.replace_schema_metadata({k: str(v) for k, v in metadata.items()})
+    pq.write_table(table, path, compression="zstd")
+
+
+def read_timeseries(path: Path) -> dict[str, np.ndarray]:
+    """Read a run's ``timeseries.parquet`` into numpy columns."""
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    return {name: table.column(name).to_numpy() for name in table.column_names}
+
+
+def write_events(path: Path, events: Sequence[Any]) -> None:
+    """One JSON object per line: ``{t_s, kind, message, data}``."""
+    with open(path, "w", encoding="utf-8") as f:
+        for ev in events:
+            rec = {"t_s": ev.t_us / 1e6, "kind": ev.kind, "message": ev.message, "data": _jsonable(dict(ev.data))}
+            f.write(json.dumps(rec, allow_nan=False) + "\n")
+
+
+def read_events(path: Path) -> list[dict[str, Any]]:
+    """Events of a run as dicts."""
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+def write_preview(path: Path, preview: Mapping[str, Any] | None) -> None:
+    """Terrain preview for plots: ``x``, ``y`` (1-D, m ENU) and ``z`` (2-D, m), empty arrays if absent."""
+    p = dict(preview or {})
+    np.savez_compressed(
+        path,
+        x=np.asarray(p.get("x", np.zeros(0)), dtype=float),
+        y=np.asarray(p.get("y", np.zeros(0)), dtype=float),
+        z=np.asarray(p.get("z", np.zeros((0, 0))), dtype=float),
+    )
+
+
+def write_summary(path: Path, summary: Mapping[str, Any]) -> None:
+    write_json(path, summary)
+
+
+def read_summary(run_dir: Path) -> dict[str, Any]:
+    """``summary.json`` of a run directory; InputError if missing or invalid."""
+    p = Path(run_dir) / SUMMARY
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError("not a run directory (no summary.json)", path=run_dir) from None
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputError(f"unreadable summary.json: {exc}", path=run_dir) from None
+
+
+def is_complete_run(run_dir: Path) -> bool:
+    """True if ``run_dir`` holds a finished run (summary.json with every key, not interrupted)."""
+    try:
+        s = json.loads((Path(run_dir) / SUMMARY).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return False
+    return all(k in s for k in SUMMARY_KEYS) and s.get("status") not in ("interrupted", "running")
