@@ -97,7 +97,9 @@ class MotorBank:
 
         ``v_rotor = R^T v_com + ω × r_i``; ``quat`` body FLU -> world ENU, ``omega_body`` rad/s FLU.
         """
-        bx, by, bz = quat_rotate_inv(quat, (wind_enu[0] - vel_enu[0], wind_enu[1] - vel_enu[1], wind_enu[2] - vel_enu[2]))
+        bx, by, bz = quat_rotate_inv(
+            quat, (wind_enu[0] - vel_enu[0], wind_enu[1] - vel_enu[1], wind_enu[2] - vel_enu[2])
+        )
         wx, wy, wz = omega_body
         out = []
         for px, py, pz, *_ in self.geometry:

@@ -179,7 +179,9 @@ class Baro:
 class Mag:
     """Magnetometer: WMM field at the origin in the sensor frame (FLU by default), gauss."""
 
-    def __init__(self, spec: MagSpec, origin: GeoOrigin, rng: np.random.Generator, *, year: float | None = None) -> None:
+    def __init__(
+        self, spec: MagSpec, origin: GeoOrigin, rng: np.random.Generator, *, year: float | None = None
+    ) -> None:
         self.spec = spec
         self.field_ned: Vec3 = earth_field_ned(origin, year)
         self.field_enu: Vec3 = ned_to_enu(self.field_ned)

@@ -35,7 +35,9 @@ __all__ = ["Tank", "slosh_parameters"]
 XI1 = 1.841
 
 
-def slosh_parameters(level_l: float, capacity_l: float, height_m: float, g: float = 9.80665) -> tuple[float, float, float]:
+def slosh_parameters(
+    level_l: float, capacity_l: float, height_m: float, g: float = 9.80665
+) -> tuple[float, float, float]:
     """(pendulum mass fraction m1/m, length L1 m, ω1 rad/s) of the first slosh mode.
 
     Upright cylinder of height ``height_m`` and capacity ``capacity_l`` filled with ``level_l``.
@@ -124,7 +126,9 @@ class Tank:
         self.force = f
         return f
 
-    def _slosh_step(self, m: float, gx: float, gy: float, gz: float, ax: float, ay: float, az: float) -> tuple[float, float]:
+    def _slosh_step(
+        self, m: float, gx: float, gy: float, gz: float, ax: float, ay: float, az: float
+    ) -> tuple[float, float]:
         g_eff = max(0.0, -(gz - az))
         g_nom = math.sqrt(gx * gx + gy * gy + gz * gz)
         frac, length, w0 = slosh_parameters(self.level_l, self.capacity_l, self.spec.tank_height_m, g_nom)
