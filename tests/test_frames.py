@@ -1,0 +1,136 @@
+"""Property tests (hypothesis) for vinecli/frames.py: round trips and the thesis' conventions."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vinecli import frames as fr
+
+finite = st.floats(min_value=-1e3, max_value=1e3, allow_nan=False, allow_infinity=False)
+vec3 = st.tuples(finite, finite, finite)
+angle = st.floats(min_value=-math.pi, max_value=math.pi, allow_nan=False)
+pitch = st.floats(min_value=-1.5, max_value=1.5, allow_nan=False)  # away from gimbal lock
+comp = st.floats(min_value=-1.0, max_value=1.0, allow_nan=False)
+
+
+@st.composite
+def unit_quat(draw: st.DrawFn) -> fr.QuatXYZW:
+    q = (draw(comp), draw(comp), draw(comp), draw(comp))
+    n = math.sqrt(sum(c * c for c in q))
+    if n < 1e-3:
+        return fr.IDENTITY
+    return fr.quat_normalize(q)
+
+
+def _close(a, b, tol=1e-9) -> bool:
+    return all(abs(x - y) <= tol * (1 + abs(y)) for x, y in zip(a, b, strict=True))
+
+
+def _same_rotation(a: fr.QuatXYZW, b: fr.QuatXYZW, tol: float = 1e-12) -> bool:
+    """q and -q are the same rotation: |<a, b>| = 1 for unit quaternions."""
+    d = abs(sum(x * y for x, y in zip(fr.quat_normalize(a), fr.quat_normalize(b), strict=True)))
+    return 1.0 - d <= tol
+
+
+@given(vec3)
+def test_enu_ned_round_trip(v: fr.Vec3) -> None:
+    assert fr.ned_to_enu(fr.enu_to_ned(v)) == v
+    assert fr.enu_to_ned(fr.ned_to_enu(v)) == v
+    n = fr.enu_to_ned(v)
+    assert n == (v[1], v[0], -v[2])
+
+
+@given(vec3)
+def test_flu_frd_round_trip(v: fr.Vec3) -> None:
+    assert fr.frd_to_flu(fr.flu_to_frd(v)) == v
+    assert fr.flu_to_frd(v) == (v[0], -v[1], -v[2])
+
+
+@given(vec3)
+def test_constant_quaternions_match_vector_maps(v: fr.Vec3) -> None:
+    assert _close(fr.quat_rotate(fr.Q_NED_FROM_ENU, v), fr.enu_to_ned(v))
+    assert _close(fr.quat_rotate(fr.Q_FRD_FROM_FLU, v), fr.flu_to_frd(v))
+
+
+@given(unit_quat())
+def test_xyzw_wxyz_round_trip(q: fr.QuatXYZW) -> None:
+    assert fr.wxyz_to_xyzw(fr.xyzw_to_wxyz(q)) == q
+    assert fr.xyzw_to_wxyz(q)[0] == q[3]
+
+
+@given(angle, pitch, angle)
+def test_quat_euler_round_trip(roll: float, p: float, yaw: float) -> None:
+    q = fr.quat_from_euler(roll, p, yaw)
+    assert math.isclose(sum(c * c for c in q), 1.0, rel_tol=1e-12)
+    r2, p2, y2 = fr.quat_to_euler(q)
+    assert _same_rotation(fr.quat_from_euler(r2, p2, y2), q)
+    assert abs(fr.wrap_pi(r2 - roll)) < 1e-7 and abs(p2 - p) < 1e-7 and abs(fr.wrap_pi(y2 - yaw)) < 1e-7
+
+
+@given(unit_quat())
+def test_euler_of_any_quaternion_rebuilds_it(q: fr.QuatXYZW) -> None:
+    r, p, y = fr.quat_to_euler(q)
+    if abs(abs(p) - math.pi / 2) > 1e-3:
+        assert _same_rotation(fr.quat_from_euler(r, p, y), q, 1e-10)
+
+
+@given(unit_quat())
+def test_attitude_enu_flu_ned_frd_round_trip(q: fr.QuatXYZW) -> None:
+    q_ned = fr.attitude_enu_flu_to_ned_frd(q)
+    assert _same_rotation(fr.attitude_ned_frd_to_enu_flu(q_ned), q)
+
+
+@given(unit_quat(), vec3)
+def test_attitude_conversion_is_consistent_with_vector_maps(q: fr.QuatXYZW, v_body: fr.Vec3) -> None:
+    """Rotating a body vector then converting equals converting both then rotating."""
+    q_ned = fr.attitude_enu_flu_to_ned_frd(q)
+    lhs = fr.enu_to_ned(fr.quat_rotate(q, v_body))
+    rhs = fr.quat_rotate(q_ned, fr.flu_to_frd(v_body))
+    assert all(abs(a - b) < 1e-9 * (1 + abs(a)) for a, b in zip(lhs, rhs, strict=True))
+
+
+@given(unit_quat(), vec3)
+def test_rotate_inverse(q: fr.QuatXYZW, v: fr.Vec3) -> None:
+    back = fr.quat_rotate_inv(q, fr.quat_rotate(q, v))
+    assert all(abs(a - b) < 1e-9 * (1 + abs(b)) for a, b in zip(back, v, strict=True))
+    m = fr.quat_to_matrix(q)
+    mv = tuple(fr.dot(row, v) for row in m)
+    assert all(abs(a - b) < 1e-9 * (1 + abs(b)) for a, b in zip(mv, fr.quat_rotate(q, v), strict=True))
+
+
+@given(angle)
+@settings(max_examples=200)
+def test_yaw_heading_round_trip_and_attitude(yaw: float) -> None:
+    h = fr.yaw_enu_to_heading_ned(yaw)
+    assert 0.0 <= h < 2 * math.pi
+    assert abs(fr.wrap_pi(fr.heading_ned_to_yaw_enu(h) - yaw)) < 1e-12
+    # a level vehicle with ENU yaw ψ has NED heading π/2 - ψ, zero roll and pitch
+    r, p, y = fr.quat_to_euler(fr.attitude_enu_flu_to_ned_frd(fr.quat_from_euler(0.0, 0.0, yaw)))
+    assert abs(r) < 1e-9 or abs(abs(r) - 2 * math.pi) < 1e-9
+    assert abs(p) < 1e-9
+    assert abs(fr.wrap_pi(y - h)) < 1e-9
+
+
+def test_identity_enu_flu_is_heading_east() -> None:
+    q_ned = fr.attitude_enu_flu_to_ned_frd(fr.IDENTITY)
+    roll, p, yaw = fr.quat_to_euler(q_ned)
+    assert math.degrees(yaw) == pytest.approx(90.0)
+    assert roll == pytest.approx(0.0, abs=1e-12) and p == pytest.approx(0.0, abs=1e-12)
+    # nose (body x FLU) points east in ENU and east in NED
+    assert fr.quat_rotate(q_ned, (1.0, 0.0, 0.0)) == pytest.approx((0.0, 1.0, 0.0), abs=1e-12)
+    # body z FRD (down) points down in NED
+    assert fr.quat_rotate(q_ned, (0.0, 0.0, 1.0)) == pytest.approx((0.0, 0.0, 1.0), abs=1e-12)
+    assert math.degrees(fr.yaw_enu_to_heading_ned(0.0)) == pytest.approx(90.0)
+
+
+def test_known_rotations() -> None:
+    q = fr.quat_from_euler(0.0, 0.0, math.pi / 2)  # ENU yaw 90°: nose north
+    assert fr.quat_rotate(q, (1.0, 0.0, 0.0)) == pytest.approx((0.0, 1.0, 0.0), abs=1e-12)
+    assert math.degrees(fr.yaw_enu_to_heading_ned(math.pi / 2)) == pytest.approx(0.0, abs=1e-12)
+    assert fr.tilt_angle(fr.quat_from_euler(0.3, 0.0, 1.0)) == pytest.approx(0.3)
+    assert fr.cross((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)) == (0.0, 0.0, 1.0)
+    assert fr.norm((3.0, 4.0, 12.0)) == 13.0
