@@ -176,6 +176,18 @@ class ControlSpec(StrictModel):
     max_vel_down: float = Field(1.5, gt=0, description="MPC_Z_VEL_MAX_DN, m/s")
     max_acc_xy: float = Field(5.0, gt=0, description="m/s²")
     lost_control_tilt_deg: float = Field(70.0, gt=0, le=180, description="tilt beyond which the run ends 'lost control'")
+    # --- added for the built-in autopilot (vinecli/control/cascade.py); normalised torque 1.0 =
+    # sum|r_y| T_max / 2 about x (sum|r_x| T_max / 2 about y, n k_m T_max / 2 about z), see allocation.py
+    yaw_weight: float = Field(0.4, ge=0, le=1, description="MC_YAW_WEIGHT: yaw share of the full attitude error")
+    max_rate_deg_s: Vec3L = Field((220.0, 220.0, 200.0), description="MC_ROLLRATE_MAX, MC_PITCHRATE_MAX, MC_YAWRATE_MAX")
+    rate_i_limit: float = Field(0.3, ge=0, description="MC_RR_INT_LIM: rate integrator limit, normalised torque")
+    rate_d_cutoff_hz: float = Field(30.0, gt=0, description="IMU_DGYRO_CUTOFF: derivative low-pass, Hz")
+    vel_d_cutoff_hz: float = Field(5.0, gt=0, description="velocity-derivative low-pass, Hz")
+    vel_i_limit: float = Field(4.0, ge=0, description="velocity integrator limit, m/s²")
+    thrust_min_frac: float = Field(0.12, ge=0, lt=1, description="MPC_THR_MIN: minimum collective thrust / max thrust")
+    thrust_max_frac: float = Field(1.0, gt=0, le=1, description="MPC_THR_MAX: maximum collective thrust / max thrust")
+    pos_loop_rate_hz: float = Field(50.0, gt=0, description="rate of the position/velocity loop, Hz (attitude/rate: every step)")
+    cannot_takeoff_s: float = Field(2.0, gt=0, description="time at full thrust without climbing before 'cannot take off', s")
 
 
 class Px4MappingSpec(StrictModel):

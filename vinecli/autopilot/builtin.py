@@ -1,0 +1,741 @@
+"""The built-in autopilot: estimator + PX4-style cascade + mission sequencer + safety checks.
+
+It never touches PyBullet: each physics step it gets an
+:class:`~vinecli.sim.types.Observation` and returns rotor speed commands (rad/s) and the
+sprayer flow (L/s). World ENU, body FLU, SI units. Altitudes ``*_agl_m`` of takeoff, goto,
+waypoints and RTL are above home (PX4 relative altitude); the spray height is above the
+terrain under the vehicle.
+
+Modes (PX4 names, in :attr:`AutopilotStatus.mode`): ``DISARMED``, ``AUTO.TAKEOFF``,
+``AUTO.LOITER`` (hold, geofence hold), ``AUTO.MISSION`` (goto, waypoints, spray),
+``AUTO.LAND``, ``AUTO.RTL``, ``OPEN_LOOP``.
+
+Events (``drain_events``): ``mode`` {mode, previous}, ``phase`` {index, type, event:
+start|end}, ``arming`` {armed}, ``sprayer`` {flow_lps}, ``land_detected``, ``geofence``
+{action, gf_action, violation, x, y, z}, ``status`` {status, detail}.
+
+Safety: "cannot take off" when the collective thrust is saturated (or the rotor commands are
+at >= 95 % of w_max) for ``control.cannot_takeoff_s`` while the vehicle has not climbed
+0.5 m above where it armed; "lost control" when the tilt exceeds
+``control.lost_control_tilt_deg``. Both end the run with that status and disarm.
+Geofence breach actions follow PX4 ``GF_ACTION``: none/warn (event only), hold (loiter
+where the breach happened until the run's time limit), rtl / land (then the run ends
+"completed" with the breach in the detail), terminate (motors off, status
+``geofence_terminated``). A phase that exceeds its ``timeout_s`` ends the run with status
+``timeout``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from typing import Any
+
+from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.estimator import Estimator
+from vinecli.autopilot.geofence import GF_ACTION, Geofence
+from vinecli.control.cascade import Cascade, G
+from vinecli.control.path import PathFollower
+from vinecli.errors import AutopilotError, InputError
+from vinecli.frames import Vec3, quat_to_euler
+from vinecli.sim.types import ActuatorCommand, Event, Observation
+from vinecli.specs.mission import (
+    GotoPhase,
+    HoldPhase,
+    LandPhase,
+    OpenLoopPhase,
+    RtlPhase,
+    SprayerPhase,
+    SprayPhase,
+    TakeoffPhase,
+    WaypointsPhase,
+)
+
+log = logging.getLogger(__name__)
+_NAN = float("nan")
+
+
+# ---------------------------------------------------------------------------------- phases
+class _Phase:
+    """One step of the mission; ``update`` runs at the position-loop rate, returns True when done."""
+
+    mode = "AUTO.LOITER"
+    type = ""
+    timeout_s = math.inf
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        """Called once when the phase becomes active."""
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        raise NotImplementedError  # pragma: no cover - every concrete phase overrides it
+
+
+class _Takeoff(_Phase):
+    mode = "AUTO.TAKEOFF"
+    type = "takeoff"
+
+    def __init__(self, spec: TakeoffPhase, ap: BuiltinAutopilot) -> None:
+        self.spec = spec
+        self.timeout_s = spec.timeout_s
+        self.climb = spec.climb_speed_mps or ap.vehicle.control.max_vel_up
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.target_z = ap.home[2] + self.spec.altitude_agl_m
+        self.spool = 0.0
+        if ap.armed:
+            x, y, _ = ap.hold_sp()
+        else:
+            x, y = ap.pos[0], ap.pos[1]
+        self.xy = (x, y)
+        self.path: PathFollower | None = None
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        if not ap.armed:
+            if not ap.est_ready:
+                return False
+            ap.arm()
+        if self.path is None:
+            self.spool += dt
+            ap.set_position((self.xy[0], self.xy[1], ap.pos[2] - 0.3), (0.0, 0.0, 0.0))
+            if self.spool < ap.spool_s and not ap.airborne:
+                ap.cascade.reset()
+                ap.idle = True
+                return False
+            ap.idle = False
+            z0 = min(ap.pos[2], self.target_z)
+            self.path = PathFollower([(self.xy[0], self.xy[1], z0), (self.xy[0], self.xy[1], self.target_z)],
+                                     self.climb, accel=2.0, acceptance_m=self.spec.tolerance_m, max_lead_m=1.0)
+        sp, vff, _ = self.path.update(dt, ap.pos)
+        if not ap.airborne:
+            ap.cascade.reset_rate_integrators()
+        ap.set_position(sp, vff, aff=self.path.aff)
+        return self.path.s >= self.path.total and abs(ap.pos[2] - self.target_z) <= self.spec.tolerance_m
+
+
+class _Hold(_Phase):
+    mode = "AUTO.LOITER"
+    type = "hold"
+
+    def __init__(self, duration_s: float) -> None:
+        self.duration = duration_s
+        self.timeout_s = duration_s + 1.0
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.t = 0.0
+        self.sp = ap.hold_sp()
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        self.t += dt
+        ap.set_position(self.sp, (0.0, 0.0, 0.0))
+        return self.t >= self.duration - 1e-9
+
+
+class _Loiter(_Phase):
+    """Hold forever (geofence 'hold' action)."""
+
+    mode = "AUTO.LOITER"
+    type = "loiter"
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        # brake: hold the current position estimate
+        self.sp = (ap.pos[0], ap.pos[1], ap.pos[2])
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        ap.set_position(self.sp, (0.0, 0.0, 0.0))
+        return False
+
+
+class _Path(_Phase):
+    """Goto / waypoints: follow a polyline of absolute ENU points."""
+
+    mode = "AUTO.MISSION"
+
+    def __init__(self, type_: str, make: Callable[[BuiltinAutopilot], PathFollower], timeout_s: float,
+                 flow: float | None = None, yaw_deg: float | None = None) -> None:
+        self.type = type_
+        self.make = make
+        self.timeout_s = timeout_s
+        self.flow = flow
+        self.yaw_deg = yaw_deg
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.path = self.make(ap)
+        if self.flow is not None:
+            ap.set_flow(self.flow)
+        if self.yaw_deg is not None:
+            ap.cascade.yaw_sp = math.radians(self.yaw_deg)
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        sp, vff, done = self.path.update(dt, ap.pos)
+        ap.set_position(sp, vff, aff=self.path.aff)
+        return done
+
+
+class _Spray(_Phase):
+    mode = "AUTO.MISSION"
+    type = "spray"
+
+    def __init__(self, spec: SprayPhase, rows: list[list[tuple[float, float]]]) -> None:
+        self.spec = spec
+        self.rows = rows
+        self.timeout_s = spec.timeout_s
+
+    def _passes(self, start_xy: tuple[float, float], reverse: bool) -> tuple[list[Vec3], list[float]]:
+        """Boustrophedon: rows sorted across their direction, alternate directions, flow on rows only."""
+        r0 = self.rows[0]
+        dx, dy = r0[-1][0] - r0[0][0], r0[-1][1] - r0[0][1]
+        n = math.hypot(dx, dy) or 1.0
+        ux, uy = dx / n, dy / n
+        order = sorted(self.rows, key=lambda r: -uy * (r[0][0] + r[-1][0]) + ux * (r[0][1] + r[-1][1]))
+        if reverse:
+            order = order[::-1]
+        # start at the end of the first row closest to the vehicle
+        first = order[0]
+        d0 = math.hypot(first[0][0] - start_xy[0], first[0][1] - start_xy[1])
+        d1 = math.hypot(first[-1][0] - start_xy[0], first[-1][1] - start_xy[1])
+        forward = d0 <= d1
+        h = self.spec.height_agl_m
+        pts: list[Vec3] = [(start_xy[0], start_xy[1], h)]
+        flows: list[float] = []
+        for row in order:
+            seq = row if forward else row[::-1]
+            pts.append((seq[0][0], seq[0][1], h))
+            flows.append(0.0)  # transit / turn
+            for p in seq[1:]:
+                pts.append((p[0], p[1], h))
+                flows.append(self.spec.flow_lps)
+            forward = not forward
+        return pts, flows
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.reverse = False
+        self._new_path(ap)
+
+    def _new_path(self, ap: BuiltinAutopilot) -> None:
+        pts, flows = self._passes((ap.hold_sp()[0], ap.hold_sp()[1]), self.reverse)
+        self.reverse = not self.reverse
+        self.path = PathFollower(pts, self.spec.speed_mps, flows=flows, terrain=ap.terrain, acceptance_m=0.7,
+                                 max_lead_m=2.0)
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        if ap.tank_empty:
+            ap.set_flow(0.0)
+            ap.set_position(ap.hold_sp(), (0.0, 0.0, 0.0))
+            return True
+        sp, vff, done = self.path.update(dt, ap.pos)
+        ap.set_position(sp, vff, aff=self.path.aff)
+        ap.set_flow(self.path.flow)
+        if done:
+            if self.spec.until == "empty":
+                self._new_path(ap)
+                return False
+            ap.set_flow(0.0)
+            return True
+        return False
+
+
+class _Sprayer(_Phase):
+    type = "sprayer"
+
+    def __init__(self, flow: float) -> None:
+        self.flow = flow
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.mode = ap.mode  # instantaneous, no mode change
+        ap.set_flow(self.flow)
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        if ap.armed:
+            ap.set_position(ap.hold_sp(), (0.0, 0.0, 0.0))
+        return True
+
+
+class _Land(_Phase):
+    mode = "AUTO.LAND"
+    type = "land"
+
+    def __init__(self, descent: float, timeout_s: float) -> None:
+        self.descent = descent
+        self.timeout_s = timeout_s
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        sp = ap.hold_sp()
+        self.xy = (sp[0], sp[1])
+        self.z = sp[2]
+        self.t_landed = 0.0
+        self.t = 0.0
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        if not ap.armed:
+            return True
+        # velocity-controlled descent, position hold horizontally
+        self.z -= self.descent * dt
+        ap.set_position((self.xy[0], self.xy[1], self.z), (0.0, 0.0, -self.descent), z_velocity_only=True)
+        hover = ap.mass * G
+        low_thrust = ap.cascade.thrust_sp < 0.6 * hover
+        slow = abs(ap.vel[2]) < 0.25
+        self.t += dt
+        if self.t > 1.0 and slow and (low_thrust or ap.ground_contact):
+            self.t_landed += dt
+        else:
+            self.t_landed = 0.0
+        if self.t_landed >= 0.4:
+            ap.emit("land_detected", "touchdown detected", {"x": ap.pos[0], "y": ap.pos[1], "z": ap.pos[2]})
+            ap.disarm()
+            return True
+        return False
+
+
+class _Rtl(_Phase):
+    mode = "AUTO.RTL"
+    type = "rtl"
+
+    def __init__(self, return_alt: float, timeout_s: float, descent: float = 0.7) -> None:
+        self.return_alt = return_alt
+        self.timeout_s = timeout_s
+        self.descent = descent
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        x, y, z = ap.hold_sp() if ap.armed else ap.pos
+        h = ap.home
+        zr = max(z, h[2] + self.return_alt)
+        speed = min(5.0, ap.vehicle.control.max_vel_xy)
+        pts = [(x, y, z), (x, y, zr), (h[0], h[1], zr)]
+        self.path = PathFollower(pts, speed, accel=2.0, acceptance_m=0.5)
+        self.land: _Land | None = None
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        if not ap.armed:
+            return True
+        if self.land is None:
+            sp, vff, done = self.path.update(dt, ap.pos)
+            ap.set_position(sp, vff, aff=self.path.aff)
+            if done:
+                self.land = _Land(self.descent, math.inf)
+                self.land.start(ap)
+            return False
+        return self.land.update(ap, dt)
+
+
+class _OpenLoop(_Phase):
+    mode = "OPEN_LOOP"
+    type = "open_loop"
+
+    def __init__(self, spec: OpenLoopPhase, n: int) -> None:
+        self.spec = spec
+        self.n = n
+        self.timeout_s = spec.duration_s + 1.0
+        if spec.rotor_speeds_rad_s is not None:
+            self.schedule = [(0.0, self._speeds(spec.rotor_speeds_rad_s))]
+        else:
+            self.schedule = [(float(t), self._speeds(s)) for t, s in sorted(spec.schedule or [], key=lambda e: e[0])]
+        self.times = [t for t, _ in self.schedule]
+
+    def _speeds(self, s: float | list[float]) -> tuple[float, ...]:
+        if isinstance(s, int | float):
+            return (float(s),) * self.n
+        if len(s) != self.n:
+            raise InputError(f"open_loop: {len(s)} rotor speeds given for a vehicle with {self.n} rotors")
+        return tuple(float(v) for v in s)
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.t0_us = ap.t_us
+        self.i = 0
+        ap.set_flow(self.spec.flow_lps)
+        if not ap.armed:
+            ap.arm()
+
+    def command(self, t_us: int) -> tuple[tuple[float, ...], bool]:
+        """(rotor speeds, done) at time t_us."""
+        t = (t_us - self.t0_us) * 1e-6
+        times = self.times
+        while self.i + 1 < len(times) and t >= times[self.i + 1]:
+            self.i += 1
+        speeds = self.schedule[self.i][1] if t >= times[0] else (0.0,) * self.n
+        return speeds, t >= self.spec.duration_s - 1e-9
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        return False
+
+
+# ---------------------------------------------------------------------------------- autopilot
+class BuiltinAutopilot:
+    """The built-in backend of the :class:`~vinecli.autopilot.base.Autopilot` protocol.
+
+    Options: ``truth`` (bool, default: the mission's ``truth``) uses ground truth instead
+    of the estimator.
+    """
+
+    name = "builtin"
+
+    def __init__(self, *, truth: bool | None = None, **opts: Any) -> None:
+        if opts:
+            raise InputError(f"builtin autopilot: unknown option(s) {', '.join(sorted(opts))}")
+        self._truth_opt = truth
+        self._status = AutopilotStatus(mode="DISARMED", phase_index=0)
+        self._events: list[Event] = []
+        self._ctx: AutopilotContext | None = None
+
+    # ------------------------------------------------------------------ protocol
+    def reset(self, ctx: AutopilotContext) -> None:
+        """Build estimator, controller and the phase list for ``ctx.mission``."""
+        self._ctx = ctx
+        self.vehicle = v = ctx.vehicle
+        self.mission = ctx.mission
+        if ctx.physics_dt_us <= 0:
+            raise AutopilotError(f"invalid physics step {ctx.physics_dt_us} µs")
+        self.dt = ctx.physics_dt_us * 1e-6
+        self.truth = bool(ctx.mission.truth if self._truth_opt is None else self._truth_opt)
+        self.cascade = Cascade(v, self.dt)
+        self.n_pos = max(1, round(1.0 / (self.dt * v.control.pos_loop_rate_hz)))
+        self.dt_pos = self.n_pos * self.dt
+        self.estimator = None if self.truth else Estimator(v, ctx.origin)
+        self.home: Vec3 = tuple(float(c) for c in ctx.home_enu)  # type: ignore[assignment]
+        th = ctx.terrain_height
+        if th is None:
+            hz = self.home[2] - v.frame.landing_gear_height_m
+
+            def _flat(x: float, y: float) -> float:
+                return hz
+
+            self.terrain: Callable[[float, float], float] = _flat
+        else:
+            self.terrain = th  # type: ignore[assignment]
+        self.geofence = Geofence(ctx.geofence, self.home) if ctx.geofence is not None else None
+        self.cos_lost = math.cos(math.radians(v.control.lost_control_tilt_deg))
+        self.spool_s = 0.5
+        self.phases = [self._make_phase(p, ctx) for p in ctx.mission.phases]
+        # state
+        self.t_us = 0
+        self.pos: Vec3 = self.home
+        self.vel: Vec3 = (0.0, 0.0, 0.0)
+        self.quat = (0.0, 0.0, 0.0, 1.0)
+        self.omega: Vec3 = (0.0, 0.0, 0.0)
+        self.est_ready = self.truth
+        self.armed = False
+        self.idle = False
+        self.airborne = False
+        self.ground_contact = True
+        self.height_terrain = 0.0
+        self.flow = 0.0
+        self.mass = ctx.total_mass_kg
+        self._dry_mass: float | None = None
+        self.tank_empty = False
+        self.mode = "DISARMED"
+        self._phase_i = -1
+        self._phase: _Phase | None = None
+        self._phase_t = 0.0
+        self._failsafe = False
+        self._failsafe_detail = ""
+        self._countdown = 0
+        self._z_armed = self.home[2]
+        self._sat_t = 0.0
+        self._sp: Vec3 | None = None
+        self._w_cmd: tuple[float, ...] = (0.0,) * v.n_rotors
+        self._off = ActuatorCommand((0.0,) * v.n_rotors, 0.0, False)
+        self._status = AutopilotStatus(mode="DISARMED", phase_index=0,
+                                       extra={"sp_x": _NAN, "sp_y": _NAN, "sp_z": _NAN, "mass_est_kg": self.mass})
+        self._events = []
+        self._next_phase()
+
+    def _make_phase(self, p: object, ctx: AutopilotContext) -> _Phase:
+        v = ctx.vehicle
+        if isinstance(p, TakeoffPhase):
+            return _Takeoff(p, self)
+        if isinstance(p, HoldPhase):
+            return _Hold(p.duration_s)
+        if isinstance(p, GotoPhase):
+            g = p
+
+            def make_goto(ap: BuiltinAutopilot) -> PathFollower:
+                x, y, z = ap.hold_sp()
+                zt = ap.home[2] + g.altitude_agl_m if g.altitude_agl_m is not None else z
+                speed = g.speed_mps or min(5.0, v.control.max_vel_xy)
+                return PathFollower([(x, y, z), (g.position_enu[0], g.position_enu[1], zt)], speed,
+                                    acceptance_m=g.acceptance_radius_m)
+
+            return _Path("goto", make_goto, p.timeout_s, yaw_deg=p.yaw_deg)
+        if isinstance(p, WaypointsPhase):
+            w = p
+
+            def make_wp(ap: BuiltinAutopilot) -> PathFollower:
+                pts = [ap.hold_sp()] + [(x, y, ap.home[2] + a) for x, y, a in w.waypoints]
+                fl = [w.flow_lps if w.flow_lps is not None else ap.flow] * (len(pts) - 1)
+                return PathFollower(pts, w.speed_mps, acceptance_m=w.acceptance_radius_m, flows=fl)
+
+            return _Path("waypoints", make_wp, p.timeout_s, flow=p.flow_lps)
+        if isinstance(p, SprayPhase):
+            return _Spray(p, self._spray_rows(p, ctx))
+        if isinstance(p, SprayerPhase):
+            return _Sprayer(p.flow_lps)
+        if isinstance(p, LandPhase):
+            return _Land(p.descent_speed_mps, p.timeout_s)
+        if isinstance(p, RtlPhase):
+            return _Rtl(p.return_altitude_agl_m, p.timeout_s)
+        if isinstance(p, OpenLoopPhase):
+            return _OpenLoop(p, v.n_rotors)
+        raise InputError(f"builtin autopilot: unsupported phase {type(p).__name__}")
+
+    @staticmethod
+    def _spray_rows(p: SprayPhase, ctx: AutopilotContext) -> list[list[tuple[float, float]]]:
+        world_rows = [[(float(x), float(y)) for x, y in r] for r in ctx.vine_rows_enu]
+        if p.rows == "world":
+            rows = world_rows
+        elif p.rows and all(isinstance(r, int) for r in p.rows):
+            bad = [i for i in p.rows if not 0 <= int(i) < len(world_rows)]  # type: ignore[arg-type]
+            if bad:
+                raise InputError(f"spray phase: row index {bad[0]} out of range (the world has {len(world_rows)} rows)")
+            rows = [world_rows[int(i)] for i in p.rows]  # type: ignore[arg-type]
+        else:
+            rows = [[(float(x), float(y)) for x, y in r] for r in p.rows]  # type: ignore[union-attr, misc]
+        rows = [r for r in rows if len(r) >= 2]
+        if not rows:
+            raise InputError("spray phase: no vine rows to spray (the world has none and the phase gives none)")
+        return rows
+
+    def step(self, obs: Observation) -> ActuatorCommand:
+        """Commands for the next physics step."""
+        st = self._status
+        if st.status is not RunStatus.RUNNING:
+            return self._off
+        self.t_us = obs.t_us
+        if self.truth:
+            tr = obs.truth
+            self.pos, self.vel, self.quat, self.omega = tr.pos, tr.vel, tr.quat, tr.omega_body
+        else:
+            est = self.estimator
+            est.update(obs)  # type: ignore[union-attr]
+            self.pos, self.vel, self.quat, self.omega = est.pos, est.vel, est.quat, est.omega  # type: ignore[union-attr]
+            self.est_ready = est.ready  # type: ignore[union-attr]
+        self.ground_contact = obs.truth.on_ground
+        self.height_terrain = self.pos[2] - obs.terrain_height_m - self.vehicle.frame.landing_gear_height_m
+        return self._command(obs)
+
+    def _command(self, obs: Observation) -> ActuatorCommand:
+        ph = self._phase
+        if isinstance(ph, _OpenLoop):
+            w, done = ph.command(obs.t_us)
+            if not done:
+                self._w_cmd = w
+                return ActuatorCommand(w, self.flow, True)
+            self._end_phase()
+            if self._status.status is not RunStatus.RUNNING:
+                return self._off
+            self._countdown = 0
+            if isinstance(self._phase, _OpenLoop):
+                return self._command(obs)
+            # the controller takes over from the current state
+            self.cascade.reset()
+            self.cascade.yaw_sp = quat_to_euler(self.quat)[2]
+            self._sp = None
+            if self._phase is not None:
+                self._phase.start(self)
+        return self._controller(obs)
+
+    def _controller(self, obs: Observation) -> ActuatorCommand:
+        """Sequencer (position-loop rate) + attitude/rate loops (every step)."""
+        self._countdown -= 1
+        if self._countdown <= 0:
+            self._countdown = self.n_pos
+            self._outer(obs)
+            if self._status.status is not RunStatus.RUNNING:
+                return self._off
+            if isinstance(self._phase, _OpenLoop):
+                return self._command(obs)
+        if not self.armed:
+            return self._off
+        q = self.quat
+        if 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1]) < self.cos_lost:
+            tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1])))))
+            self._finish(RunStatus.LOST_CONTROL, f"tilt {tilt:.0f} deg beyond {self.vehicle.control.lost_control_tilt_deg:g} deg")
+            return self._off
+        if self.idle:
+            wi = self.vehicle.motor.w_min_armed
+            self._w_cmd = (wi,) * self.vehicle.n_rotors
+            return ActuatorCommand(self._w_cmd, self.flow, True)
+        w = self.cascade.update_attitude(q, self.omega, self.dt)
+        self._w_cmd = w
+        return ActuatorCommand(w, self.flow, True)
+
+    def status(self) -> AutopilotStatus:
+        """Current mode/phase; ``extra`` has the position setpoint sp_x, sp_y, sp_z (ENU m)."""
+        return self._status
+
+    def drain_events(self) -> list[Event]:
+        """Events since the last call."""
+        ev, self._events = self._events, []
+        return ev
+
+    def close(self) -> None:
+        """Nothing to release (idempotent)."""
+
+    # ------------------------------------------------------------------ helpers used by phases
+    def emit(self, kind: str, message: str, data: dict[str, object] | None = None) -> None:
+        """Queue an event at the current time."""
+        self._events.append(Event(self.t_us, kind, message, data or {}))
+
+    def arm(self) -> None:
+        if not self.armed:
+            self.armed = True
+            self._z_armed = self.pos[2]
+            self.cascade.reset()
+            self.cascade.yaw_sp = quat_to_euler(self.quat)[2]
+            self._sat_t = 0.0
+            self.emit("arming", "armed", {"armed": True})
+
+    def disarm(self) -> None:
+        if self.armed:
+            self.armed = False
+            self.airborne = False
+            self.set_flow(0.0)
+            self._sp = None
+            self.emit("arming", "disarmed", {"armed": False})
+            self._set_mode("DISARMED")
+
+    def set_flow(self, flow: float) -> None:
+        if flow != self.flow:
+            self.flow = flow
+            self.emit("sprayer", f"sprayer flow {flow:g} L/s", {"flow_lps": flow})
+
+    def hold_sp(self) -> Vec3:
+        """Where to hold: the last position setpoint, else the current estimate."""
+        return self._sp if self._sp is not None else self.pos
+
+    def set_position(self, sp: Vec3, vff: Vec3, *, z_velocity_only: bool = False, aff: Vec3 = (0.0, 0.0, 0.0)) -> None:
+        """Position setpoint (ENU m) with velocity (m/s) and acceleration (m/s²) feed-forward."""
+        c = self.cascade
+        c.pos_sp = sp
+        c.vel_ff = vff
+        c.acc_ff = aff
+        c.xy_pos_ctrl = True
+        c.z_pos_ctrl = not z_velocity_only
+        self._sp = sp
+
+    def _set_mode(self, mode: str) -> None:
+        if mode != self.mode:
+            self.emit("mode", mode, {"mode": mode, "previous": self.mode})
+            self.mode = mode
+            self._status.mode = mode
+
+    def _finish(self, status: RunStatus, detail: str) -> None:
+        st = self._status
+        if st.status is not RunStatus.RUNNING:
+            return
+        if self.armed:
+            self.disarm()
+        st.status = status
+        st.detail = detail
+        self.emit("status", f"{status.value}: {detail}", {"status": status.value, "detail": detail})
+        log.info("run ends: %s (%s)", status.value, detail)
+
+    def _next_phase(self) -> None:
+        self._phase_i += 1
+        if self._phase_i >= len(self.phases):
+            self._phase = None
+            self._finish(RunStatus.COMPLETED, "all phases completed")
+            return
+        ph = self.phases[self._phase_i]
+        self._phase = ph
+        self._phase_t = 0.0
+        self._status.phase_index = self._phase_i
+        self.emit("phase", f"phase {self._phase_i} ({ph.type}) start",
+                  {"index": self._phase_i, "type": ph.type, "event": "start"})
+        ph.start(self)
+        self._set_mode(ph.mode if (self.armed or isinstance(ph, _OpenLoop)) else self.mode)
+
+    def _end_phase(self) -> None:
+        ph = self._phase
+        if ph is None:
+            return
+        if self._failsafe:
+            self._phase = None
+            self._finish(RunStatus.COMPLETED, self._failsafe_detail)
+            return
+        self.emit("phase", f"phase {self._phase_i} ({ph.type}) end", {"index": self._phase_i, "type": ph.type, "event": "end"})
+        self._next_phase()
+
+    def _failsafe_to(self, ph: _Phase, detail: str) -> None:
+        self._failsafe = True
+        self._failsafe_detail = detail
+        self._phase = ph
+        self._phase_t = 0.0
+        ph.start(self)
+        self._set_mode(ph.mode)
+
+    # ------------------------------------------------------------------ outer loop (position-loop rate)
+    def _outer(self, obs: Observation) -> None:
+        dt = self.dt_pos
+        v = self.vehicle
+        # mass estimate: dry mass + liquid in the tank
+        level = obs.tank_level_l
+        if self._dry_mass is None:
+            self._dry_mass = self._ctx.total_mass_kg - v.liquid_mass(level)  # type: ignore[union-attr]
+        self.mass = self._dry_mass + v.liquid_mass(level)
+        self.tank_empty = v.tank is not None and level <= 1e-6
+        h_agl = self.pos[2] - self._z_armed
+        if self.armed and not self.airborne and self.height_terrain > 0.2 and not self.ground_contact:
+            self.airborne = True
+        # safety checks
+        if self.armed and not isinstance(self._phase, _OpenLoop) and not self.idle:
+            c = self.cascade
+            w_max = v.motor.w_max
+            near_max = sum(self._w_cmd) >= 0.95 * w_max * len(self._w_cmd)
+            if (c.thrust_saturated > 0 or near_max) and h_agl < 0.5 and self.vel[2] < 0.3:
+                self._sat_t += dt
+                if self._sat_t >= v.control.cannot_takeoff_s:
+                    self._finish(RunStatus.CANNOT_TAKE_OFF,
+                                 f"thrust-limited for {self._sat_t:.1f} s at {h_agl:.2f} m above the start "
+                                 f"(weight {self.mass * G:.1f} N, max thrust {v.max_thrust():.1f} N)")
+                    return
+            else:
+                self._sat_t = 0.0
+        if self.geofence is not None and self.armed:
+            viol = self.geofence.check(self.pos)
+            if viol:
+                self._on_geofence(viol)
+                if self._status.status is not RunStatus.RUNNING:
+                    return
+        # sequencer
+        ph = self._phase
+        if ph is not None:
+            self._phase_t += dt
+            if self._phase_t > ph.timeout_s:
+                self._finish(RunStatus.TIMEOUT, f"phase {self._phase_i} ({ph.type}) timed out after {ph.timeout_s:g} s")
+                return
+            if ph.update(self, dt):
+                self._end_phase()
+                if self._status.status is not RunStatus.RUNNING:
+                    return
+                if self._phase is not None and not isinstance(self._phase, _OpenLoop):
+                    self._phase.update(self, 0.0)
+            if self.armed and self._phase is not None and self.mode != self._phase.mode:
+                self._set_mode(self._phase.mode)
+        if self.armed and not self.idle:
+            self.cascade.update_position(self.pos, self.vel, self.mass, dt)
+        ex = self._status.extra
+        sp = self._sp
+        if sp is None or not self.armed:
+            ex["sp_x"] = ex["sp_y"] = ex["sp_z"] = _NAN
+        else:
+            ex["sp_x"], ex["sp_y"], ex["sp_z"] = sp
+        ex["mass_est_kg"] = self.mass
+
+    def _on_geofence(self, violation: str) -> None:
+        action = self.geofence.action  # type: ignore[union-attr]
+        p = self.pos
+        self.emit("geofence", f"geofence breach ({violation}): action {action}",
+                  {"action": action, "gf_action": GF_ACTION[action], "violation": violation,
+                   "x": p[0], "y": p[1], "z": p[2]})
+        log.warning("geofence breach (%s) at %.1f %.1f %.1f: %s", violation, p[0], p[1], p[2], action)
+        if action in ("none", "warn"):
+            return
+        if action == "terminate":
+            self._finish(RunStatus.GEOFENCE_TERMINATED, f"geofence breach ({violation}): motors terminated")
+            return
+        if action == "hold":
+            self._failsafe_to(_Loiter(), f"geofence breach ({violation}): holding")
+        elif action == "rtl":
+            self._failsafe_to(_Rtl(5.0, math.inf), f"geofence breach ({violation}): returned to launch and landed")
+        elif action == "land":
+            self._failsafe_to(_Land(0.7, math.inf), f"geofence breach ({violation}): landed")

@@ -1,0 +1,276 @@
+"""State estimator of the built-in autopilot, from the simulated sensors only.
+
+* Attitude: Mahony complementary filter (gyro integration, accelerometer tilt correction,
+  magnetometer heading correction, integral gyro-bias estimate). Quaternion (x, y, z, w)
+  body FLU -> world ENU.
+* Position/velocity: per axis a linear Kalman filter on (position, velocity, accelerometer
+  bias), propagated every step with the IMU specific force rotated to ENU minus gravity,
+  corrected by GNSS position + velocity (east, north), barometric altitude and GNSS vertical
+  velocity (up). The gains are the periodic steady-state Kalman gains for each sensor's rate
+  and noise (computed once at construction), so a step costs a few float operations.
+
+GNSS latitude/longitude become ENU with the origin's local-tangent scale; barometric
+altitude AMSL becomes ENU up as ``alt - origin.alt``. SI units throughout.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler
+from vinecli.geo import GeoOrigin
+from vinecli.sim.types import Observation
+from vinecli.specs.vehicle import VehicleSpec
+
+log = logging.getLogger(__name__)
+G = 9.80665
+
+
+def earth_field_enu(origin: GeoOrigin) -> Vec3:
+    """Earth magnetic field at the origin, ENU, gauss (the WMM the simulated magnetometer uses)."""
+    from vinecli.physics.magnetic import earth_field_ned
+
+    return ned_to_enu(earth_field_ned(origin))
+
+
+def periodic_gains(dt: float, acc_psd: float, bias_psd: float,
+                   sensors: list[tuple[float, tuple[tuple[float, float, float], ...], tuple[float, ...]]],
+                   horizon_s: float = 30.0) -> list[tuple[tuple[float, ...], ...]]:
+    """Kalman gains (3 x m each) of state (p, v, b) with ``a = a_meas - b``, predicted every ``dt``
+    s and corrected by each of ``sensors`` = [(rate_hz, H rows, measurement variances)], once the
+    covariance has reached its periodic steady state (run offline over ``horizon_s``).
+
+    ``acc_psd`` (m²/s³) and ``bias_psd`` (m²/s⁵) are the continuous process-noise densities.
+    """
+    import numpy as np
+    from scipy.linalg import expm
+
+    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])
+    gq = np.diag([0.0, acc_psd, bias_psd])
+    vl = np.zeros((6, 6))  # Van Loan discretisation of the process noise
+    vl[:3, :3] = -a
+    vl[:3, 3:] = gq
+    vl[3:, 3:] = a.T
+    e = expm(vl * dt)
+    f = e[3:, 3:].T
+    q = f @ e[:3, 3:]
+    q = 0.5 * (q + q.T)
+    p = np.diag([100.0, 10.0, 1.0])
+    every = [max(1, round(1.0 / (rate * dt))) for rate, _, _ in sensors]
+    hs = [np.array(h, dtype=float) for _, h, _ in sensors]
+    rs = [np.diag(r) for _, _, r in sensors]
+    gains: list[np.ndarray] = [np.zeros((3, len(r))) for _, _, r in sensors]
+    for k in range(1, int(horizon_s / dt) + 1):
+        p = f @ p @ f.T + q
+        for j, n in enumerate(every):
+            if k % n == 0:
+                h, r = hs[j], rs[j]
+                kg = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
+                p = (np.eye(3) - kg @ h) @ p
+                p = 0.5 * (p + p.T)
+                gains[j] = kg
+    return [tuple(tuple(float(x) for x in row) for row in g) for g in gains]
+
+
+class Estimator:
+    """Attitude, position and velocity from IMU, baro, mag and GNSS; see the module docstring.
+
+    After :meth:`update`: ``pos`` (m, ENU), ``vel`` (m/s, ENU), ``quat`` (x, y, z, w),
+    ``omega`` (bias-corrected gyro, rad/s, FLU), ``acc`` (m/s², ENU, gravity removed),
+    ``ready`` (GNSS and baro fused for ``settle_s``).
+    """
+
+    def __init__(self, vehicle: VehicleSpec, origin: GeoOrigin, *, kp_acc: float = 0.4, ki_acc: float = 0.02,
+                 kp_mag: float = 0.3, acc_sigma: float = 0.2, bias_sigma: float = 0.02,
+                 mag_field_enu: Vec3 | None = None, settle_s: float = 1.5) -> None:
+        s = vehicle.sensors
+        self.origin = origin
+        self.m_lat, self.m_lon = origin.metres_per_degree
+        self.kp_acc = kp_acc
+        self.ki_acc = ki_acc
+        self.kp_mag = kp_mag
+        self.settle_us = int(settle_s * 1e6)
+        field = mag_field_enu if mag_field_enu is not None else earth_field_enu(origin)
+        h = math.hypot(field[0], field[1])
+        self.mag_ref_h = (field[0] / h, field[1] / h) if h > 0 else (0.0, 1.0)
+        acc_psd = acc_sigma * acc_sigma
+        bias_psd = bias_sigma * bias_sigma
+        dt = 1.0 / s.imu.rate_hz
+        g = s.gnss
+        hp, hv = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+        var_p = max(g.horizontal_noise_m, 0.05) ** 2
+        var_v = max(g.velocity_noise_mps, 0.02) ** 2
+        (self.k_gnss,) = periodic_gains(dt, acc_psd, bias_psd, [(g.rate_hz, (hp, hv), (var_p, var_v))])
+        baro_sigma_m = max(s.baro.noise_pa, 0.5) / 12.0  # ~12 Pa per metre near sea level
+        self.k_baro, self.k_gnss_vz = periodic_gains(
+            dt, acc_psd, bias_psd, [(s.baro.rate_hz, (hp,), (baro_sigma_m**2,)), (g.rate_hz, (hv,), (var_v,))])
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything (the next samples re-initialise the filter)."""
+        self.quat: QuatXYZW = (0.0, 0.0, 0.0, 1.0)
+        self.omega: Vec3 = (0.0, 0.0, 0.0)
+        self.pos: Vec3 = (0.0, 0.0, 0.0)
+        self.vel: Vec3 = (0.0, 0.0, 0.0)
+        self.acc: Vec3 = (0.0, 0.0, 0.0)
+        self.ready = False
+        self._att_init = False
+        self._gnss_init = False
+        self._baro_init = False
+        self._gyro_bias = [0.0, 0.0, 0.0]  # integral correction (= -bias)
+        self._p = [0.0, 0.0, 0.0]
+        self._v = [0.0, 0.0, 0.0]
+        self._b = [0.0, 0.0, 0.0]
+        self._t_us: int | None = None
+        self._t_ready_us: int | None = None
+
+    # ------------------------------------------------------------------ attitude initialisation
+    def _init_attitude(self, acc: Vec3, mag: Vec3 | None) -> None:
+        ax, ay, az = acc
+        roll = math.atan2(ay, az)
+        pitch = math.atan2(-ax, math.hypot(ay, az))
+        yaw = 0.0
+        if mag is not None:
+            # level the measured field with roll/pitch, compare its heading with the reference
+            q_rp = quat_from_euler(roll, pitch, 0.0)
+            x, y, z, w = q_rp
+            mx, my, mz = mag
+            # rotate body -> level frame
+            tx = 2.0 * (y * mz - z * my)
+            ty = 2.0 * (z * mx - x * mz)
+            tz = 2.0 * (x * my - y * mx)
+            lx = mx + w * tx + (y * tz - z * ty)
+            ly = my + w * ty + (z * tx - x * tz)
+            yaw = math.atan2(self.mag_ref_h[1], self.mag_ref_h[0]) - math.atan2(ly, lx)
+        self.quat = quat_from_euler(roll, pitch, yaw)
+        self._att_init = True
+
+    # ------------------------------------------------------------------ per step
+    def update(self, obs: Observation) -> None:
+        """Fuse this step's samples (``obs.imu`` every step, others when not None)."""
+        imu = obs.imu
+        t = obs.t_us
+        dt = 0.0 if self._t_us is None else (t - self._t_us) * 1e-6
+        self._t_us = t
+        fx, fy, fz = imu.accel_flu
+        mag = obs.mag
+        if not self._att_init:
+            self._init_attitude(imu.accel_flu, mag.field_flu_gauss if mag is not None else None)
+        x, y, z, w = self.quat
+        # rotation matrix rows
+        r00 = 1.0 - 2.0 * (y * y + z * z)
+        r01 = 2.0 * (x * y - w * z)
+        r02 = 2.0 * (x * z + w * y)
+        r10 = 2.0 * (x * y + w * z)
+        r11 = 1.0 - 2.0 * (x * x + z * z)
+        r12 = 2.0 * (y * z - w * x)
+        r20 = 2.0 * (x * z - w * y)
+        r21 = 2.0 * (y * z + w * x)
+        r22 = 1.0 - 2.0 * (x * x + y * y)
+        gx, gy, gz = imu.gyro_flu
+        gb = self._gyro_bias
+        gx += gb[0]
+        gy += gb[1]
+        gz += gb[2]
+        self.omega = (gx, gy, gz)
+        ex = ey = ez = 0.0
+        an = math.sqrt(fx * fx + fy * fy + fz * fz)
+        if an > 0.8 * G and an < 1.2 * G:
+            inv = 1.0 / an
+            ax_, ay_, az_ = fx * inv, fy * inv, fz * inv
+            # estimated "up" in body = third row of R; error = measured x estimated
+            ex = ay_ * r22 - az_ * r21
+            ey = az_ * r20 - ax_ * r22
+            ez = ax_ * r21 - ay_ * r20
+            if dt > 0.0 and self.ki_acc > 0.0:
+                k = self.ki_acc * dt
+                gb[0] += k * ex
+                gb[1] += k * ey
+                gb[2] += k * ez
+            ex *= self.kp_acc
+            ey *= self.kp_acc
+            ez *= self.kp_acc
+        if mag is not None:
+            mx, my, mz = mag.field_flu_gauss
+            wx = r00 * mx + r01 * my + r02 * mz
+            wy = r10 * mx + r11 * my + r12 * mz
+            nh = math.sqrt(wx * wx + wy * wy)
+            if nh > 1e-9:
+                rx, ry = self.mag_ref_h
+                # heading error about world z: measured -> reference
+                e_up = (wx * ry - wy * rx) / nh * self.kp_mag
+                # world z in body = third row of R
+                ex += e_up * r20
+                ey += e_up * r21
+                ez += e_up * r22
+        if dt > 0.0:
+            ox, oy, oz = gx + ex, gy + ey, gz + ez
+            h = 0.5 * dt
+            nx = x + h * (w * ox + y * oz - z * oy)
+            ny = y + h * (w * oy - x * oz + z * ox)
+            nz = z + h * (w * oz + x * oy - y * ox)
+            nw = w - h * (x * ox + y * oy + z * oz)
+            n = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
+            self.quat = (nx * n, ny * n, nz * n, nw * n)
+        # ---------------------------------------------------------- translation
+        awx = r00 * fx + r01 * fy + r02 * fz
+        awy = r10 * fx + r11 * fy + r12 * fz
+        awz = r20 * fx + r21 * fy + r22 * fz - G
+        p, v, b = self._p, self._v, self._b
+        awx -= b[0]
+        awy -= b[1]
+        awz -= b[2]
+        self.acc = (awx, awy, awz)
+        if dt > 0.0:
+            hd2 = 0.5 * dt * dt
+            p[0] += v[0] * dt + awx * hd2
+            p[1] += v[1] * dt + awy * hd2
+            p[2] += v[2] * dt + awz * hd2
+            v[0] += awx * dt
+            v[1] += awy * dt
+            v[2] += awz * dt
+        gn = obs.gnss
+        if gn is not None:
+            e_m = (gn.lon_deg - self.origin.lon) * self.m_lon
+            n_m = (gn.lat_deg - self.origin.lat) * self.m_lat
+            gv = gn.vel_enu
+            if not self._gnss_init:
+                p[0], p[1] = e_m, n_m
+                v[0], v[1] = gv[0], gv[1]
+                self._gnss_init = True
+                if not self._baro_init:
+                    p[2] = gn.alt_m - self.origin.alt
+                    v[2] = gv[2]
+            else:
+                k = self.k_gnss
+                for i, pm, vm in ((0, e_m, gv[0]), (1, n_m, gv[1])):
+                    rp = pm - p[i]
+                    rv = vm - v[i]
+                    p[i] += k[0][0] * rp + k[0][1] * rv
+                    v[i] += k[1][0] * rp + k[1][1] * rv
+                    b[i] += k[2][0] * rp + k[2][1] * rv
+                k = self.k_gnss_vz
+                rv = gv[2] - v[2]
+                p[2] += k[0][0] * rv
+                v[2] += k[1][0] * rv
+                b[2] += k[2][0] * rv
+        ba = obs.baro
+        if ba is not None:
+            zm = ba.altitude_m - self.origin.alt
+            if not self._baro_init:
+                p[2] = zm
+                self._baro_init = True
+            else:
+                k = self.k_baro
+                r = zm - p[2]
+                p[2] += k[0][0] * r
+                v[2] += k[1][0] * r
+                b[2] += k[2][0] * r
+        self.pos = (p[0], p[1], p[2])
+        self.vel = (v[0], v[1], v[2])
+        if not self.ready and self._gnss_init and self._baro_init:
+            if self._t_ready_us is None:
+                self._t_ready_us = t
+            elif t - self._t_ready_us >= self.settle_us:
+                self.ready = True

@@ -1,0 +1,79 @@
+"""Geofence of the built-in autopilot (PX4 geofence semantics, GF_ACTION actions).
+
+Three independent limits, all optional (:class:`~vinecli.specs.mission.GeofenceSpec`):
+an inclusion polygon (ENU x, y in m), a maximum altitude above home (m) and a maximum
+horizontal distance from home (``GF_MAX_HOR_DIST``, a cylinder). The fence is breached
+when any limit is violated for ``count`` consecutive checks (PX4 ``GF_COUNT``); the action
+fires once on the transition inside -> outside.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from vinecli.frames import Vec3
+from vinecli.specs.mission import GeofenceSpec
+
+#: PX4 GF_ACTION numbers of the action names.
+GF_ACTION = {"none": 0, "warn": 1, "hold": 2, "rtl": 3, "terminate": 4, "land": 5}
+
+
+def point_in_polygon(x: float, y: float, poly: Sequence[tuple[float, float]]) -> bool:
+    """Even-odd ray casting; points exactly on an edge count as inside."""
+    inside = False
+    n = len(poly)
+    j = n - 1
+    for i in range(n):
+        xi, yi = poly[i]
+        xj, yj = poly[j]
+        # on-edge test (collinear and within the segment bounds)
+        cr = (xj - xi) * (y - yi) - (yj - yi) * (x - xi)
+        if abs(cr) <= 1e-9 * (1.0 + abs(xj - xi) + abs(yj - yi)) and min(xi, xj) - 1e-9 <= x <= max(xi, xj) + 1e-9 \
+                and min(yi, yj) - 1e-9 <= y <= max(yi, yj) + 1e-9:
+            return True
+        if (yi > y) != (yj > y):
+            xc = xi + (y - yi) * (xj - xi) / (yj - yi)
+            if x < xc:
+                inside = not inside
+        j = i
+    return inside
+
+
+class Geofence:
+    """Checks positions against a :class:`GeofenceSpec` relative to ``home`` (ENU, m)."""
+
+    def __init__(self, spec: GeofenceSpec, home_enu: Vec3, *, count: int = 3) -> None:
+        self.spec = spec
+        self.home = home_enu
+        self.action = spec.action
+        self.polygon = [tuple(p) for p in spec.polygon_enu] if spec.polygon_enu else None
+        self.count = max(1, count)
+        self._outside = 0
+        self.breached = False
+
+    def violation(self, pos: Vec3) -> str:
+        """'' when inside, else which limit is violated ('polygon', 'max_altitude', 'max_distance')."""
+        s = self.spec
+        if s.max_altitude_agl_m is not None and pos[2] - self.home[2] > s.max_altitude_agl_m:
+            return "max_altitude"
+        if s.max_horizontal_distance_m is not None and \
+                math.hypot(pos[0] - self.home[0], pos[1] - self.home[1]) > s.max_horizontal_distance_m:
+            return "max_distance"
+        if self.polygon is not None and not point_in_polygon(pos[0], pos[1], self.polygon):  # type: ignore[arg-type]
+            return "polygon"
+        return ""
+
+    def check(self, pos: Vec3) -> str:
+        """Update with a position; returns the violated limit on the check that triggers the
+        breach (once per excursion), else ''."""
+        v = self.violation(pos)
+        if not v:
+            self._outside = 0
+            self.breached = False
+            return ""
+        self._outside += 1
+        if self._outside >= self.count and not self.breached:
+            self.breached = True
+            return v
+        return ""

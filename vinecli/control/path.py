@@ -1,0 +1,136 @@
+"""Setpoint generation along polylines for the built-in autopilot (plain floats).
+
+A :class:`PathFollower` moves a "carrot" along a polyline at a cruise speed with limited
+acceleration, slowing down for corners and the end point, and never running more than
+``max_lead_m`` ahead of the vehicle. Each segment carries a sprayer flow (L/s), so a
+boustrophedon pattern is one path with flow on along rows and off in the turns. Heights
+are absolute ENU z, or height above the terrain under the carrot when ``terrain`` is given.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+from vinecli.frames import Vec3
+
+
+class PathFollower:
+    """Carrot along ``points`` (x, y, z): ``z`` is ENU m, or height above ``terrain(x, y)``.
+
+    ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]).
+    """
+
+    def __init__(self, points: Sequence[Vec3], speed: float, *, accel: float = 1.5, flows: Sequence[float] | None = None,
+                 terrain: Callable[[float, float], float] | None = None, acceptance_m: float = 0.5,
+                 max_lead_m: float = 2.5, corner_speed: float = 0.3) -> None:
+        pts = [tuple(float(c) for c in p) for p in points]
+        # drop zero-length segments
+        clean = [pts[0]]
+        clean_flows: list[float] = []
+        for i, p in enumerate(pts[1:]):
+            q = clean[-1]
+            if math.hypot(p[0] - q[0], p[1] - q[1]) + abs(p[2] - q[2]) > 1e-6:
+                clean.append(p)
+                clean_flows.append(float(flows[i]) if flows is not None else 0.0)
+        self.points = clean
+        self.flows = clean_flows if clean_flows else [0.0]
+        self.speed = speed
+        self.accel = accel
+        self.terrain = terrain
+        self.acceptance = acceptance_m
+        self.max_lead = max_lead_m
+        n = len(clean)
+        self.cum = [0.0]
+        for i in range(1, n):
+            a, b = clean[i - 1], clean[i]
+            self.cum.append(self.cum[-1] + math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2))
+        self.total = self.cum[-1]
+        # allowed speed at each vertex (end: 0)
+        self.v_vertex = [speed] * n
+        if n > 1:
+            self.v_vertex[-1] = 0.0
+        for i in range(1, n - 1):
+            a, b, c = clean[i - 1], clean[i], clean[i + 1]
+            d1 = (b[0] - a[0], b[1] - a[1])
+            d2 = (c[0] - b[0], c[1] - b[1])
+            n1, n2 = math.hypot(*d1), math.hypot(*d2)
+            if n1 < 1e-9 or n2 < 1e-9:
+                continue
+            cosang = (d1[0] * d2[0] + d1[1] * d2[1]) / (n1 * n2)
+            self.v_vertex[i] = speed if cosang > 0.985 else max(corner_speed, speed * max(0.0, cosang))
+        self.s = 0.0
+        self.v = 0.0
+        self.seg = 0
+        self._last_z: float | None = None
+        self.sp: Vec3 = self._at(0.0)
+        self.vff: Vec3 = (0.0, 0.0, 0.0)
+        #: acceleration feed-forward of the last update, m/s² ENU
+        self.aff: Vec3 = (0.0, 0.0, 0.0)
+        self.flow = self.flows[0]
+
+    def _at(self, s: float) -> Vec3:
+        cum = self.cum
+        i = self.seg
+        while i < len(cum) - 2 and s > cum[i + 1]:
+            i += 1
+        self.seg = i
+        if len(cum) == 1:
+            x, y, z = self.points[0]
+        else:
+            a, b = self.points[i], self.points[i + 1]
+            L = cum[i + 1] - cum[i]
+            f = 0.0 if L <= 0 else min(1.0, max(0.0, (s - cum[i]) / L))
+            x = a[0] + f * (b[0] - a[0])
+            y = a[1] + f * (b[1] - a[1])
+            z = a[2] + f * (b[2] - a[2])
+        if self.terrain is not None:
+            z += self.terrain(x, y)
+        return (x, y, z)
+
+    @property
+    def end(self) -> Vec3:
+        """Final point (ENU, with the terrain height added if terrain-relative)."""
+        x, y, z = self.points[-1]
+        return (x, y, z + (self.terrain(x, y) if self.terrain is not None else 0.0))
+
+    def update(self, dt: float, pos: Vec3) -> tuple[Vec3, Vec3, bool]:
+        """Advance by ``dt`` s given the vehicle position; returns (setpoint, velocity feed-forward, done)."""
+        sp = self.sp
+        lead = math.sqrt((sp[0] - pos[0]) ** 2 + (sp[1] - pos[1]) ** 2 + (sp[2] - pos[2]) ** 2)
+        # allowed speed: cruise, the next vertices' limits, acceleration ramp
+        v_allow = self.speed
+        cum = self.cum
+        for j in range(self.seg + 1, len(cum)):
+            d = cum[j] - self.s
+            if d < 0.0:
+                continue
+            vj = self.v_vertex[j]
+            v_lim = math.sqrt(vj * vj + 2.0 * self.accel * d)
+            if v_lim < v_allow:
+                v_allow = v_lim
+            if vj <= 0.0 or d > 3.0 * self.speed * self.speed / self.accel + 1.0:
+                break
+        if lead > self.max_lead:
+            v_allow = 0.0
+        v = self.v
+        dv = self.accel * dt
+        v = min(v_allow, v + dv) if v < v_allow else max(v_allow, v - 2.0 * dv)
+        self.v = v
+        self.s = min(self.total, self.s + v * dt)
+        new = self._at(self.s)
+        if dt > 0.0:
+            vff = ((new[0] - sp[0]) / dt, (new[1] - sp[1]) / dt, (new[2] - sp[2]) / dt)
+            o = self.vff
+            self.aff = ((vff[0] - o[0]) / dt, (vff[1] - o[1]) / dt, (vff[2] - o[2]) / dt)
+        else:
+            vff = self.vff
+        self.vff = vff
+        self.sp = new
+        self.flow = self.flows[min(self.seg, len(self.flows) - 1)]
+        done = False
+        if self.s >= self.total - 1e-9:
+            e = self.end
+            done = math.sqrt((e[0] - pos[0]) ** 2 + (e[1] - pos[1]) ** 2 + (e[2] - pos[2]) ** 2) <= self.acceptance
+            self.flow = 0.0 if self.total > 0 else self.flow
+        return new, vff, done
