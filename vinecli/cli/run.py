@@ -2,6 +2,150 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated, Any
+
 import typer
 
+from vinecli.cli.console import err_console, handles_errors, out_console
+
 app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is_help=True)
+
+
+@app.command("mission")
+@handles_errors
+def mission_cmd(
+    mission: Annotated[Path, typer.Argument(help="Mission YAML (pipelines/missions/*.yaml or any path).")],
+    world: Annotated[Path, typer.Option("--world", "-w", help="Built world directory (vinecli world build).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Runs directory; the run goes to OUT/<run-id>/.")],
+    seed: Annotated[int, typer.Option("--seed", help="Run seed (sensor noise, turbulence).")] = 0,
+    autopilot: Annotated[str | None, typer.Option("--autopilot", help="builtin or px4 (default: the mission's).")] = None,
+    truth: Annotated[bool, typer.Option("--truth", help="Controllers use ground truth, not the estimator.")] = False,
+    rate: Annotated[float | None, typer.Option("--rate", help="Recording rate, Hz (default: the mission's).")] = None,
+    mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap for Foxglove.")] = False,
+    run_id: Annotated[str | None, typer.Option("--run-id", help="Run directory name (default <mission>-s<seed>).")] = None,
+) -> None:
+    """Run one mission and write OUT/<run-id>/ (time series, summary, events, manifest).
+
+    Exit 1 if a check failed. Ctrl-C stops the run and keeps a partial run marked "interrupted".
+
+    Example: vinecli run mission pipelines/missions/takeoff.yaml --world build/vineyard --out runs
+    """
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from vinecli.errors import ChecksFailed, RuntimeFailure
+    from vinecli.missions.spec_io import load_mission
+    from vinecli.runs import run_mission
+
+    spec = load_mission(mission)
+    bar = Progress(
+        TextColumn("[progress.description]{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(), console=err_console, transient=True, disable=not err_console.is_terminal,
+    )
+    with bar:
+        task = bar.add_task(spec.name, total=spec.max_duration_s, info="")
+
+        def on_progress(sim_t: float, wall_t: float) -> None:
+            rtf = sim_t / wall_t if wall_t > 0 else 0.0
+            bar.update(task, completed=min(sim_t, spec.max_duration_s), info=f"sim {sim_t:6.1f} s  {rtf:5.1f}x real time")
+
+        summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
+                              record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id)
+    _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")
+    out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
+                      f"{summary.real_time_factor:.1f}x real time")
+    if summary.status == "interrupted":
+        raise typer.Exit(130)
+    if summary.status == "error":
+        raise RuntimeFailure(summary.status_message or "the run failed", path=summary.run_dir)
+    if not summary.passed:
+        raise ChecksFailed(f"{len(summary.failed_checks)} check(s) failed: "
+                           + ", ".join(c["name"] for c in summary.failed_checks), path=summary.run_dir)
+
+
+@app.command("batch")
+@handles_errors
+def batch_cmd(
+    pipeline: Annotated[Path, typer.Argument(help="Pipeline YAML (pipelines/*.yaml).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Runs directory (one run dir per case + batch.json).")],
+    jobs: Annotated[int, typer.Option("--jobs", "-j", help="Parallel cases.")] = 1,
+    executor: Annotated[str, typer.Option("--executor", help="local (process pool) or dask.")] = "local",
+    scheduler: Annotated[str | None, typer.Option("--scheduler", help="Dask scheduler address (default: local cluster).")] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Skip cases whose run is already complete.")] = False,
+    timeout: Annotated[float | None, typer.Option("--timeout", help="Wall-clock limit per case, s.")] = None,
+    mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap per case.")] = False,
+) -> None:
+    """Run every case of a pipeline (missions and sweeps) and write OUT/batch.json.
+
+    Exit 1 if a check failed, 3 if a case could not run.
+
+    Example: vinecli run batch pipelines/ci.yaml --out runs --jobs 2
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from vinecli.batch import run_batch
+    from vinecli.batch.spec import expand_cases, load_pipeline
+    from vinecli.errors import ChecksFailed, RuntimeFailure
+
+    n = len(expand_cases(load_pipeline(pipeline), pipeline))
+    bar = Progress(
+        TextColumn("[progress.description]{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TimeElapsedColumn(), TextColumn("{task.fields[info]}"), console=err_console, transient=True,
+        disable=not err_console.is_terminal,
+    )
+    with bar:
+        task = bar.add_task("cases", total=n, info="")
+
+        def on_case(r: Any, done: int, total: int) -> None:
+            mark = "skipped" if r.skipped else ("ok" if r.passed else (r.error and "error") or "FAILED")
+            bar.update(task, completed=done, info=f"{r.case}: {mark}")
+
+        result = run_batch(pipeline, out, jobs=jobs, executor=executor, scheduler=scheduler, resume=resume,
+                           timeout_s=timeout, progress=on_case, mcap=mcap)
+    _batch_table(result)
+    out_console.print(f"{result.runs_dir}/batch.json  {result.n_passed} passed, {result.n_failed} failed, "
+                      f"{result.n_errors} errors in {result.wall_time_s:.1f} s")
+    if result.n_errors:
+        raise RuntimeFailure(f"{result.n_errors} case(s) could not run: "
+                             + ", ".join(c.case for c in result.cases if c.error), path=result.runs_dir)
+    if result.n_failed:
+        raise ChecksFailed(f"{result.n_failed} case(s) failed checks: "
+                           + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return "-" if v is None else str(v)
+
+
+def _checks_table(checks: list[dict[str, Any]], title: str) -> None:
+    from rich.table import Table
+
+    t = Table(title=title, title_justify="left")
+    for col in ("check", "value", "op", "bound", "result"):
+        t.add_column(col)
+    for c in checks:
+        ok = "[green]pass[/]" if c["passed"] else "[red]FAIL[/]"
+        t.add_row(c["name"], _fmt(c["value"]), c["op"], _fmt(c["bound"]), ok)
+    out_console.print(t)
+    for c in checks:
+        if not c["passed"]:
+            out_console.print(f"  [red]{c['name']}[/]: {c['message']}", markup=True)
+
+
+def _batch_table(result: Any) -> None:
+    from rich.table import Table
+
+    t = Table(title=f"batch {result.pipeline}", title_justify="left")
+    for col in ("case", "status", "result", "sim s", "RTF", "failed checks / error"):
+        t.add_column(col)
+    for c in result.cases:
+        res = "[yellow]error[/]" if c.error else ("[green]pass[/]" if c.passed else "[red]FAIL[/]")
+        if c.skipped:
+            res += " (resumed)"
+        t.add_row(c.case, c.status, res, f"{c.sim_time_s:.1f}", f"{c.real_time_factor:.1f}",
+                  c.error or ", ".join(c.failed_checks))
+    out_console.print(t)

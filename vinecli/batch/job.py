@@ -1,0 +1,81 @@
+"""The unit of work of a batch: ``run_one(RunSpec) -> CaseResult``.
+
+``run_one`` is a top-level, picklable function executed in worker processes (local process
+pool or Dask workers). It opens its own PyBullet client (through the simulation loop), never
+raises, and returns a small :class:`CaseResult`.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Everything a worker needs to run one case (plain data, picklable)."""
+
+    case: str
+    run_id: str
+    mission: dict[str, Any]  # validated MissionSpec as JSON-able dict
+    mission_path: str
+    world_dir: str  # a built world directory
+    runs_dir: str
+    seed: int
+    timeout_s: float | None = None
+    mcap: bool = False
+
+
+@dataclass
+class CaseResult:
+    """One batch case as recorded in ``batch.json``."""
+
+    case: str
+    run_id: str
+    status: str
+    passed: bool
+    error: str | None = None
+    seed: int = 0
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    real_time_factor: float = 0.0
+    failed_checks: list[str] = field(default_factory=list)
+    skipped: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def run_one(spec: RunSpec) -> CaseResult:
+    """Run one case into ``runs_dir/run_id``; any failure becomes ``status='error'`` with a message."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    t0 = time.perf_counter()
+    try:
+        from vinecli.runs.mission import run_mission
+        from vinecli.specs.mission import MissionSpec
+
+        mission = MissionSpec.model_validate(spec.mission)
+        s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
+                        mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case)
+    except BaseException as exc:  # noqa: BLE001 - a worker reports, it never dies with the case
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        log.debug("case %s failed:\n%s", spec.case, traceback.format_exc())
+        return CaseResult(spec.case, spec.run_id, "error", False, f"{type(exc).__name__}: {exc}", seed=spec.seed,
+                          wall_time_s=round(time.perf_counter() - t0, 3))
+    error = None
+    status = s.status
+    if status == "interrupted" and s.status_message.startswith("stopped: wall-clock"):
+        status, error = "error", f"timeout: {s.status_message}"
+    return CaseResult(
+        spec.case, spec.run_id, status, s.passed and error is None, error, seed=spec.seed, sim_time_s=s.sim_time_s,
+        wall_time_s=s.wall_time_s, real_time_factor=s.real_time_factor,
+        failed_checks=[c["name"] for c in s.failed_checks],
+    )

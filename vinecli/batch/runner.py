@@ -1,0 +1,294 @@
+"""``run_batch``: every case of a pipeline, in parallel, into one runs directory.
+
+Cases are submitted to a ``concurrent.futures.Executor`` (local process pool or Dask), at most
+``jobs`` at a time so a case's wall-clock limit counts from its start. A case that raises,
+crashes its worker process or runs past its limit is recorded as an error and the batch goes
+on: the limit is enforced cooperatively inside the worker (the loop stops at ``timeout_s``)
+and, as a last resort, by the parent, which kills a local pool that stops answering
+(``timeout_s`` + grace) and requeues the innocent cases. A case whose worker dies is retried
+alone once, so only the culprit is recorded as ``worker crashed``.
+
+Writes ``RUNS/batch.json`` (``{pipeline, cases: [{case, run_id, status, passed, error}]}``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from vinecli.batch.executors import EXECUTORS, dask_executor, make_local_executor
+from vinecli.batch.job import CaseResult, RunSpec, run_one
+from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline
+from vinecli.errors import InputError, OutputError, SpecError
+from vinecli.outputs import write_json
+from vinecli.runs import rundir
+
+log = logging.getLogger(__name__)
+
+BATCH_JSON = "batch.json"
+WORLDS_DIR = "_worlds"
+
+
+@dataclass
+class BatchResult:
+    """Outcome of a batch: one CaseResult per case (in pipeline order)."""
+
+    pipeline: str
+    runs_dir: str
+    cases: list[CaseResult] = field(default_factory=list)
+    wall_time_s: float = 0.0
+
+    @property
+    def n_passed(self) -> int:
+        return sum(c.passed for c in self.cases)
+
+    @property
+    def n_failed(self) -> int:
+        return sum((not c.passed) and c.error is None for c in self.cases)
+
+    @property
+    def n_errors(self) -> int:
+        return sum(c.error is not None for c in self.cases)
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.cases)
+
+
+ProgressFn = Callable[[CaseResult, int, int], None]
+
+
+def run_batch(
+    pipeline: str | Path | PipelineSpec,
+    runs_dir: str | Path,
+    jobs: int = 1,
+    executor: str = "local",
+    scheduler: str | None = None,
+    resume: bool = False,
+    timeout_s: float | None = None,
+    *,
+    progress: ProgressFn | None = None,
+    job: Callable[[RunSpec], CaseResult] = run_one,
+    dask_processes: bool = True,
+    max_tasks_per_child: int = 4,
+    grace_s: float | None = None,
+    mcap: bool = False,
+) -> BatchResult:
+    """Run a pipeline's cases; returns the :class:`BatchResult` (also written to ``RUNS/batch.json``).
+
+    ``timeout_s`` (wall seconds per case) overrides the pipeline's. ``job`` is the top-level,
+    picklable function executed per case (default :func:`~vinecli.batch.job.run_one`).
+    """
+    if jobs < 1:
+        raise InputError(f"--jobs must be >= 1, got {jobs}")
+    if executor not in EXECUTORS:
+        raise InputError(f"unknown executor {executor!r} (choose from {', '.join(EXECUTORS)})")
+    if scheduler and executor != "dask":
+        raise InputError("--scheduler needs --executor dask")
+    if isinstance(pipeline, PipelineSpec):
+        spec, ppath = pipeline, Path.cwd() / "pipeline.yaml"
+    else:
+        ppath = Path(pipeline)
+        spec = load_pipeline(ppath)
+    cases = expand_cases(spec, ppath)
+    runs_dir = Path(runs_dir)
+    try:
+        runs_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the runs directory ({exc.strerror})", path=runs_dir) from None
+    limit = timeout_s if timeout_s is not None else spec.timeout_s
+    worlds = prepare_worlds(cases, runs_dir)
+    run_specs = [
+        RunSpec(c.name, c.name, c.mission, c.mission_path, worlds[c.world], str(runs_dir), c.seed, limit, mcap)
+        for c in cases
+    ]
+    t0 = time.perf_counter()
+    results: dict[str, CaseResult] = {}
+    todo: list[RunSpec] = []
+    for rs in run_specs:
+        if resume and rundir.is_complete_run(runs_dir / rs.run_id):
+            results[rs.case] = _result_from_summary(rs, runs_dir / rs.run_id)
+        else:
+            todo.append(rs)
+    total = len(run_specs)
+    done_count = len(results)
+    if results:
+        log.info("resume: %d of %d cases already finished", len(results), total)
+
+    def record(r: CaseResult) -> None:
+        nonlocal done_count
+        results[r.case] = r
+        done_count += 1
+        if progress is not None:
+            progress(r, done_count, total)
+        _write_batch_json(runs_dir, spec, ppath, executor, jobs, run_specs, results, t0)
+
+    for r in list(results.values()):
+        if progress is not None:
+            progress(r, list(results).index(r.case) + 1, total)
+    if todo:
+        hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
+        _execute(todo, job, jobs, executor, scheduler, dask_processes, max_tasks_per_child, hard, record)
+    _write_batch_json(runs_dir, spec, ppath, executor, jobs, run_specs, results, t0)
+    return BatchResult(spec.name, str(runs_dir), [results[rs.case] for rs in run_specs],
+                       round(time.perf_counter() - t0, 3))
+
+
+def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs: int, executor: str,
+             scheduler: str | None, dask_processes: bool, max_tasks_per_child: int, hard_limit: float | None,
+             record: Callable[[CaseResult], None]) -> None:
+    pending: deque[RunSpec] = deque(todo)
+    suspects: deque[RunSpec] = deque()  # cases in flight when a worker died: rerun one at a time
+    inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]] = {}
+    local = executor == "local"
+    with ExitStack() as stack:
+        if local:
+            ex: Executor = make_local_executor(jobs, max_tasks_per_child)
+        else:
+            ex = stack.enter_context(dask_executor(jobs, scheduler, processes=dask_processes))
+        try:
+            while pending or suspects or inflight:
+                while suspects and not inflight:
+                    s = suspects.popleft()
+                    inflight[ex.submit(job, s)] = (s, time.monotonic(), True)
+                while pending and not suspects and len(inflight) < jobs:
+                    s = pending.popleft()
+                    inflight[ex.submit(job, s)] = (s, time.monotonic(), False)
+                done, _ = wait(list(inflight), timeout=0.5, return_when=FIRST_COMPLETED)
+                broken = False
+                for f in done:
+                    s, _t, alone = inflight.pop(f)
+                    try:
+                        record(f.result())
+                    except BrokenProcessPool:
+                        broken = True
+                        if alone or len(done) + len(inflight) == 0:
+                            record(_error(s, "worker crashed (process died)"))
+                        else:
+                            suspects.append(s)
+                    except Exception as exc:  # noqa: BLE001 - dask KilledWorker, pickling errors...
+                        record(_error(s, f"{type(exc).__name__}: {exc}"))
+                if broken and local:
+                    for f, (s, _t, _a) in list(inflight.items()):  # the rest of the broken pool
+                        suspects.append(s)
+                        inflight.pop(f)
+                    ex.shutdown(wait=False, cancel_futures=True)
+                    ex = make_local_executor(jobs, max_tasks_per_child)
+                if hard_limit is not None:
+                    now = time.monotonic()
+                    expired = [f for f, (_s, t, _a) in inflight.items() if now - t > hard_limit]
+                    for f in expired:
+                        s, _t, _a = inflight.pop(f)
+                        f.cancel()
+                        record(_error(s, f"timeout: no result after {hard_limit:g} s (worker stopped)"))
+                    if expired and local:
+                        for f, (s, _t, _a) in list(inflight.items()):
+                            pending.appendleft(s)
+                            inflight.pop(f)
+                        _kill_pool(ex)
+                        ex = make_local_executor(jobs, max_tasks_per_child)
+        finally:
+            if local:
+                if inflight:
+                    _kill_pool(ex)
+                else:
+                    ex.shutdown(wait=True)
+
+
+def _kill_pool(ex: Executor) -> None:
+    """Stop a local process pool now (its workers may be stuck in C code)."""
+    procs = list(getattr(ex, "_processes", {}).values())  # ProcessPoolExecutor has no public kill
+    for p in procs:
+        p.kill()
+    ex.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        p.join(timeout=5)
+
+
+def _error(s: RunSpec, message: str) -> CaseResult:
+    return CaseResult(s.case, s.run_id, "error", False, message, seed=s.seed)
+
+
+def _result_from_summary(s: RunSpec, run_dir: Path) -> CaseResult:
+    d = rundir.read_summary(run_dir)
+    return CaseResult(
+        s.case, s.run_id, str(d.get("status")), bool(d.get("passed")), None, seed=int(d.get("seed", s.seed)),
+        sim_time_s=float(d.get("sim_time_s") or 0.0), wall_time_s=float(d.get("wall_time_s") or 0.0),
+        real_time_factor=float(d.get("real_time_factor") or 0.0),
+        failed_checks=[c["name"] for c in d.get("checks", []) if not c.get("passed")], skipped=True,
+    )
+
+
+def _write_batch_json(runs_dir: Path, spec: PipelineSpec, ppath: Path, executor: str, jobs: int,
+                      run_specs: Sequence[RunSpec], results: dict[str, CaseResult], t0: float) -> None:
+    cases: list[dict[str, Any]] = []
+    for rs in run_specs:
+        r = results.get(rs.case)
+        cases.append(r.to_dict() if r else {"case": rs.case, "run_id": rs.run_id, "status": "pending",
+                                             "passed": False, "error": None, "seed": rs.seed})
+    data = {
+        "pipeline": spec.name,
+        "pipeline_file": str(ppath),
+        "executor": executor,
+        "jobs": jobs,
+        "updated_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        "wall_time_s": round(time.perf_counter() - t0, 3),
+        "passed": all(c.get("passed") for c in cases),
+        "cases": cases,
+    }
+    tmp = runs_dir / f".{BATCH_JSON}.tmp-{os.getpid()}"
+    write_json(tmp, data)
+    os.replace(tmp, runs_dir / BATCH_JSON)
+
+
+# ---------------------------------------------------------------- worlds
+def prepare_worlds(cases: Sequence[Case], runs_dir: Path) -> dict[str, str]:
+    """Map each case's world reference to a built world dir, building world specs once into ``RUNS/_worlds/<name>/``."""
+    out: dict[str, str] = {}
+    for ref in dict.fromkeys(c.world for c in cases):
+        p = Path(ref)
+        if p.is_dir():
+            if not (p / "world.json").is_file():
+                raise SpecError("not a built world directory (no world.json)", path=p)
+            out[ref] = str(p)
+        elif p.suffix in (".yaml", ".yml"):
+            out[ref] = str(build_world_once(p, runs_dir / WORLDS_DIR))
+        else:
+            raise SpecError("a world must be a world spec (.yaml) or a built world directory", path=p)
+    return out
+
+
+def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
+    """Build a world spec into ``worlds_root/<stem>/`` unless a build of the same spec is there."""
+    digest = hashlib.sha256(spec_path.read_bytes()).hexdigest()
+    out = worlds_root / spec_path.stem
+    stamp = out / ".spec-sha256"
+    if (out / "world.json").is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
+        return out
+    from vinecli.world import build_world
+
+    log.info("building world %s into %s", spec_path, out)
+    build_world(spec_path, out)
+    stamp.write_text(digest + "\n")
+    return out
+
+
+def read_batch(runs_dir: Path) -> dict[str, Any]:
+    """``RUNS/batch.json`` as a dict."""
+    p = Path(runs_dir) / BATCH_JSON
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputError(f"cannot read batch.json: {exc}", path=p) from None

@@ -1,0 +1,245 @@
+"""Pipeline files (``pipelines/*.yaml``): missions and sweeps -> a list of cases.
+
+Example::
+
+    name: ci
+    world: ../worlds/vineyard-sample.yaml    # world spec (built once into RUNS/_worlds/<name>/) or a built world dir
+    seed: 0                                  # root seed; per-case seeds come from numpy SeedSequence
+    timeout_s: 900                           # wall-clock limit per case
+    missions:
+      - missions/takeoff.yaml                # case "takeoff"
+      - {mission: missions/gust.yaml, name: gust-strong, set: {wind.law.amplitude_mps: 4.0}}
+    sweep:
+      mission: missions/gust.yaml
+      matrix:                                # cartesian product over dotted paths of the mission
+        wind.law.amplitude_mps: [1.0, 2.0]
+        tank_fill_l: [0.5, 1.0]
+        vehicle: [x500-sprayer, hex-sprayer]
+      seeds: 2                               # replicates (or a 'seed' axis with explicit seeds)
+
+Paths are relative to the pipeline file. Case names are stable: a plain mission entry is
+named after the mission (or ``name``); a sweep case is ``<mission>-<8-hex hash of its
+parameters>-s<seed>``. Seeds not given explicitly are
+``SeedSequence(root, spawn_key=(crc32(case key), replicate)).generate_state(1)[0]``, so they do
+not change when cases are added, removed or reordered.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from vinecli.errors import SpecError
+from vinecli.missions.spec_io import mission_from_dict
+from vinecli.specs import StrictModel, load_spec, read_yaml, resolve_base
+
+
+class MissionEntry(StrictModel):
+    """One mission of a pipeline, optionally with overrides and replicates."""
+
+    mission: str = Field(description="mission YAML, relative to the pipeline file")
+    name: str | None = Field(None, description="case name (default: the mission's name)")
+    world: str | None = Field(None, description="world spec or built world dir for this case (default: the pipeline's)")
+    seed: int | None = Field(None, ge=0, description="explicit seed (default: derived from the root seed)")
+    seeds: int = Field(1, ge=1, description="number of replicates with derived seeds")
+    set: dict[str, Any] = Field(default_factory=dict, description="dotted-path overrides of the mission")
+
+
+class SweepSpec(StrictModel):
+    """Cartesian product over dotted paths of one mission (``world`` and ``seed`` are special axes)."""
+
+    mission: str
+    name: str | None = Field(None, description="case name prefix (default: the mission's name)")
+    world: str | None = None
+    matrix: dict[str, list[Any]] = Field(min_length=1)
+    seeds: int = Field(1, ge=1, description="replicates per grid point when 'seed' is not an axis")
+    set: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _non_empty_axes(self) -> SweepSpec:
+        for k, v in self.matrix.items():
+            if not v:
+                raise ValueError(f"matrix axis {k!r} has no values")
+        return self
+
+
+class PipelineSpec(StrictModel):
+    """A batch of cases: missions and/or sweeps, on a shared world or one per case."""
+
+    name: str
+    description: str = ""
+    world: str | None = Field(None, description="default world: a world spec (worlds/*.yaml) or a built world dir")
+    seed: int = Field(0, ge=0, description="root seed")
+    autopilot: str | None = Field(None, description="override every mission's autopilot")
+    truth: bool | None = None
+    record_rate_hz: float | None = Field(None, gt=0)
+    timeout_s: float | None = Field(900.0, gt=0, description="wall-clock limit per case, s")
+    missions: list[MissionEntry] = Field(default_factory=list, description="mission paths or MissionEntry mappings")
+    sweep: SweepSpec | list[SweepSpec] | None = None
+
+    @field_validator("missions", mode="before")
+    @classmethod
+    def _paths_to_entries(cls, v: Any) -> Any:
+        if isinstance(v, list):
+            return [{"mission": x} if isinstance(x, str) else x for x in v]
+        return v
+
+    @model_validator(mode="after")
+    def _something(self) -> PipelineSpec:
+        if not self.missions and not self.sweep:
+            raise ValueError("a pipeline needs 'missions' and/or 'sweep'")
+        return self
+
+    def sweeps(self) -> list[SweepSpec]:
+        if self.sweep is None:
+            return []
+        return self.sweep if isinstance(self.sweep, list) else [self.sweep]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One expanded case: a validated mission mapping, its world reference and its seed."""
+
+    name: str
+    mission: dict[str, Any]  # validated MissionSpec as JSON-able dict (overrides applied)
+    mission_path: str
+    world: str  # absolute path: world spec file or built world dir
+    seed: int
+    params: dict[str, Any]
+
+
+def load_pipeline(path: Path | str) -> PipelineSpec:
+    """Read and validate a pipeline YAML file (SpecError names the file and field)."""
+    return load_spec(path, PipelineSpec)
+
+
+def derive_seed(root: int, key: str, replicate: int = 0) -> int:
+    """Stable 31-bit seed for a case key (numpy SeedSequence)."""
+    ss = np.random.SeedSequence(root, spawn_key=(zlib.crc32(key.encode()), replicate))
+    return int(ss.generate_state(1, dtype=np.uint32)[0] & 0x7FFFFFFF)
+
+
+def params_hash(params: dict[str, Any]) -> str:
+    """8-hex hash of a parameter mapping (sorted JSON)."""
+    return hashlib.sha1(json.dumps(params, sort_keys=True, default=str).encode()).hexdigest()[:8]
+
+
+def set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
+    """Set ``a.b.c`` in nested mappings (creating mappings; list indices as integers)."""
+    parts = dotted.split(".")
+    cur: Any = data
+    for i, p in enumerate(parts[:-1]):
+        nxt_is_index = parts[i + 1].isdigit()
+        if isinstance(cur, list):
+            cur = cur[int(p)]
+            continue
+        if cur.get(p) is None:
+            cur[p] = [] if nxt_is_index else {}
+        cur = cur[p]
+    last = parts[-1]
+    if isinstance(cur, list):
+        cur[int(last)] = value
+    else:
+        cur[last] = value
+
+
+def _read_mission(path: Path, pipeline_path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise SpecError(f"mission file not found: {path}", path=pipeline_path)
+    return resolve_base(path.resolve(), read_yaml(path))
+
+
+def _abs_vehicle(data: dict[str, Any], mission_path: Path) -> None:
+    v = data.get("vehicle")
+    if isinstance(v, str) and v.endswith((".yaml", ".yml")) and not Path(v).is_absolute():
+        cand = mission_path.parent / v
+        if cand.is_file():
+            data["vehicle"] = str(cand.resolve())
+
+
+def _resolve_world(ref: str | None, base: Path, pipeline_path: Path, where: str) -> str:
+    if ref is None:
+        raise SpecError(f"{where}: no world (set 'world' in the pipeline or the entry)", path=pipeline_path)
+    p = Path(ref)
+    if not p.is_absolute():
+        p = base / p
+    if not p.exists():
+        raise SpecError(f"{where}: world not found: {ref}", path=pipeline_path)
+    return str(p.resolve())
+
+
+def expand_cases(pipeline: PipelineSpec, pipeline_path: Path | str) -> list[Case]:
+    """All cases of a pipeline, validated (SpecError names the pipeline file and the case)."""
+    pipeline_path = Path(pipeline_path)
+    base = pipeline_path.resolve().parent
+    cases: list[Case] = []
+
+    def make(name: str, mpath: Path, raw: dict[str, Any], overrides: dict[str, Any], world: str, seed: int,
+             params: dict[str, Any]) -> Case:
+        data = copy.deepcopy(raw)
+        for k, v in overrides.items():
+            try:
+                set_dotted(data, k, v)
+            except (KeyError, IndexError, TypeError, ValueError) as exc:
+                raise SpecError(f"case {name}: cannot set {k!r}: {exc}", path=pipeline_path) from None
+        if pipeline.autopilot is not None:
+            data["autopilot"] = pipeline.autopilot
+        if pipeline.truth is not None:
+            data["truth"] = pipeline.truth
+        if pipeline.record_rate_hz is not None:
+            data["record_rate_hz"] = pipeline.record_rate_hz
+        _abs_vehicle(data, mpath)
+        try:
+            spec = mission_from_dict(data, mpath)
+        except SpecError as exc:
+            raise SpecError(f"case {name}: {exc}", path=pipeline_path) from None
+        return Case(name, spec.model_dump(mode="json"), str(mpath.resolve()), world, seed, params)
+
+    for i, entry in enumerate(pipeline.missions):
+        e = entry
+        mpath = base / e.mission
+        raw = _read_mission(mpath, pipeline_path)
+        name = e.name or str(raw.get("name") or mpath.stem)
+        world = _resolve_world(e.world or pipeline.world, base, pipeline_path, f"missions.{i}")
+        for r in range(e.seeds):
+            if e.seed is not None and e.seeds == 1:
+                seed = e.seed
+            else:
+                seed = derive_seed(pipeline.seed, name, r) if e.seed is None else e.seed + r
+            cname = name if e.seeds == 1 else f"{name}-s{seed}"
+            cases.append(make(cname, mpath, raw, e.set, world, seed, {"set": e.set}))
+
+    for j, sw in enumerate(pipeline.sweeps()):
+        mpath = base / sw.mission
+        raw = _read_mission(mpath, pipeline_path)
+        prefix = sw.name or str(raw.get("name") or mpath.stem)
+        axes = list(sw.matrix)
+        for combo in itertools.product(*(sw.matrix[a] for a in axes)):
+            point = dict(zip(axes, combo, strict=True))
+            world_ref = point.pop("world", None) or sw.world or pipeline.world
+            world = _resolve_world(world_ref, base, pipeline_path, f"sweep.{j}")
+            explicit_seed = point.pop("seed", None)
+            key_params = {**point, "world": str(world_ref)} if "world" in sw.matrix else dict(point)
+            h = params_hash(key_params)
+            reps = [int(explicit_seed)] if explicit_seed is not None else [
+                derive_seed(pipeline.seed, f"{prefix}-{h}", r) for r in range(sw.seeds)
+            ]
+            for seed in reps:
+                cname = f"{prefix}-{h}-s{seed}"
+                cases.append(make(cname, mpath, raw, {**sw.set, **point}, world, seed, key_params))
+
+    seen: set[str] = set()
+    for c in cases:
+        if c.name in seen:
+            raise SpecError(f"duplicate case name {c.name!r} (give entries distinct 'name's)", path=pipeline_path)
+        seen.add(c.name)
+    return cases
