@@ -1,0 +1,172 @@
+"""PyBullet adapter: one ``BulletClient(p.DIRECT)`` per run, terrain, vehicle, fixed step.
+
+Terrain (world ENU, m):
+
+* ``flat``: a static plane at ``flat_z``;
+* ``heightmap``: ``GEOM_HEIGHTFIELD`` from the world's height grid (refused above 2^21 samples,
+  where PyBullet breaks silently; the AABB is checked after loading, terrain-notes.md §4);
+* ``tiles``: one static body per OBJ/STL tile with ``GEOM_FORCE_CONCAVE_TRIMESH`` and mass 0.
+
+Contact parameters (chosen so that a vehicle rests without jitter and a 2 m drop does not
+tunnel, tests/sim/test_contact.py): restitution 0, lateral friction 1, rolling/spinning
+friction 0.001, PyBullet's default ERP/contact solver with 50 iterations, linear/angular
+damping 0 (PyBullet's defaults of 0.04 would add fake drag), and a swept-sphere CCD radius on
+the vehicle base so fast impacts on thin triangle meshes cannot pass through.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from vinecli.errors import RuntimeFailure, TerrainError
+from vinecli.frames import QuatXYZW, Vec3
+from vinecli.world.model import TerrainInfo
+
+__all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine"]
+
+log = logging.getLogger(__name__)
+
+#: PyBullet's heightfield silently breaks above this many samples (terrain-notes.md §4)
+HEIGHTFIELD_MAX_SAMPLES = 2**21
+
+
+class Engine:
+    """A PyBullet DIRECT client stepping at a fixed rate with gravity along -z (ENU)."""
+
+    def __init__(self, *, rate_hz: float = 250.0, gravity: float = 9.80665, solver_iterations: int = 50) -> None:
+        import pybullet as p
+        from pybullet_utils.bullet_client import BulletClient
+
+        self.p = p
+        self.client = BulletClient(connection_mode=p.DIRECT)
+        self.dt = 1.0 / rate_hz
+        c = self.client
+        c.setGravity(0.0, 0.0, -gravity)
+        c.setPhysicsEngineParameter(
+            fixedTimeStep=self.dt,
+            numSubSteps=0,
+            numSolverIterations=solver_iterations,
+            deterministicOverlappingPairs=1,
+        )
+        self.terrain_bodies: list[int] = []
+        self.vehicle: int = -1
+        self.n_links = 0
+        # bound methods: avoid attribute look-ups in the loop
+        self.step = c.stepSimulation
+        self._closed = False
+
+    # ------------------------------------------------------------------ terrain
+    def load_terrain(self, terrain: TerrainInfo) -> list[int]:
+        """Create the static terrain bodies; returns their ids."""
+        if terrain.kind == "flat":
+            bodies = [self._plane(terrain.flat_z)]
+        elif terrain.kind == "heightmap":
+            bodies = [self._heightfield(terrain)]
+        elif terrain.kind == "tiles":
+            bodies = [self._mesh_tile(f) for f in terrain.files if f.suffix.lower() in (".obj", ".stl")]
+            if not bodies:
+                raise TerrainError("tiles terrain has no OBJ/STL files")
+        else:
+            raise TerrainError(f"unknown terrain kind {terrain.kind!r}")
+        for b in bodies:
+            self.client.changeDynamics(b, -1, lateralFriction=1.0, restitution=0.0, rollingFriction=0.001,
+                                       spinningFriction=0.001)
+        self.terrain_bodies = bodies
+        return bodies
+
+    def _plane(self, z: float) -> int:
+        c, p = self.client, self.p
+        shape = c.createCollisionShape(p.GEOM_PLANE, planeNormal=[0, 0, 1])
+        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[0.0, 0.0, z])
+
+    def _heightfield(self, terrain: TerrainInfo) -> int:
+        c, p = self.client, self.p
+        g = terrain.grid
+        if g is None:
+            raise TerrainError("heightmap terrain without a height grid")
+        n = g.nx * g.ny
+        if n > HEIGHTFIELD_MAX_SAMPLES:
+            raise TerrainError(
+                f"heightfield of {g.nx}×{g.ny} = {n} samples exceeds PyBullet's limit of 2^21 "
+                "(it fails silently above it); use a smaller heightmap or mesh tiles"
+            )
+        zmin, zmax = g.z_range
+        # PyBullet: data[i + j * rows] with i along x (rows = nx), j along y; the shape is centred
+        # on its bounding box, i.e. at the middle of the height range.
+        data = g.z.ravel().tolist()
+        shape = c.createCollisionShape(
+            p.GEOM_HEIGHTFIELD,
+            meshScale=[g.dx, g.dy, 1.0],
+            heightfieldData=data,
+            numHeightfieldRows=g.nx,
+            numHeightfieldColumns=g.ny,
+        )
+        xmin, ymin, xmax, ymax = g.bounds
+        centre = [(xmin + xmax) / 2.0, (ymin + ymax) / 2.0, (zmin + zmax) / 2.0]
+        body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=centre)
+        lo, hi = c.getAABB(body)
+        tol = 0.1 + 2 * max(g.dx, g.dy)
+        if (abs(lo[0] - xmin) > tol or abs(hi[0] - xmax) > tol or abs(lo[1] - ymin) > tol or abs(hi[1] - ymax) > tol
+                or lo[2] > zmin + tol or hi[2] < zmax - tol):
+            raise TerrainError(
+                f"PyBullet heightfield has a wrong bounding box {lo}..{hi} for bounds {g.bounds}, z {zmin}..{zmax}"
+            )
+        return body
+
+    def _mesh_tile(self, path: Path) -> int:
+        c, p = self.client, self.p
+        shape = c.createCollisionShape(p.GEOM_MESH, fileName=str(path), flags=p.GEOM_FORCE_CONCAVE_TRIMESH,
+                                       meshScale=[1.0, 1.0, 1.0])
+        if shape < 0:
+            raise TerrainError("PyBullet could not load the mesh tile", path=path)
+        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[0.0, 0.0, 0.0])
+
+    # ------------------------------------------------------------------ vehicle
+    def load_vehicle(self, urdf: Path, pos: Vec3, quat: QuatXYZW, *, ccd_radius: float = 0.02) -> int:
+        """Load the vehicle URDF at ``pos`` (CoM, m ENU) with attitude ``quat`` (FLU -> ENU)."""
+        c, p = self.client, self.p
+        try:
+            body = c.loadURDF(str(urdf), basePosition=list(pos), baseOrientation=list(quat),
+                              flags=p.URDF_USE_INERTIA_FROM_FILE)
+        except p.error as exc:
+            raise RuntimeFailure(f"PyBullet could not load the vehicle URDF: {exc}") from None
+        self.vehicle = body
+        self.n_links = c.getNumJoints(body)
+        for link in range(-1, self.n_links):
+            c.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, lateralFriction=1.0,
+                             restitution=0.0, rollingFriction=0.001, spinningFriction=0.001)
+        c.changeDynamics(body, -1, ccdSweptSphereRadius=ccd_radius)
+        return body
+
+    def reset_vehicle(self, pos: Vec3, quat: QuatXYZW, vel: Vec3, omega_world: Vec3) -> None:
+        """Teleport the vehicle (m ENU, FLU -> ENU) and set its velocities (m/s, rad/s world)."""
+        c = self.client
+        c.resetBasePositionAndOrientation(self.vehicle, list(pos), list(quat))
+        c.resetBaseVelocity(self.vehicle, list(vel), list(omega_world))
+
+    def in_contact(self) -> bool:
+        """True if the vehicle touches any terrain body."""
+        return bool(self.client.getContactPoints(bodyA=self.vehicle))
+
+    def ray_height(self, x: float, y: float, z_top: float = 1e4, z_bottom: float = -1e4) -> float | None:
+        """Terrain height (m) straight below (x, y) from a ray cast, None if it misses."""
+        hit = self.client.rayTest([x, y, z_top], [x, y, z_bottom])[0]
+        if hit[0] < 0:
+            return None
+        return float(hit[3][2])
+
+    def close(self) -> None:
+        """Disconnect the client (idempotent)."""
+        if not self._closed:
+            self._closed = True
+            try:
+                self.client.disconnect()
+            except Exception:  # noqa: BLE001 - already gone
+                log.debug("PyBullet client already disconnected")
+
+    def __enter__(self) -> Engine:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

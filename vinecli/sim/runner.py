@@ -1,0 +1,532 @@
+"""THE simulation loop: one vehicle, one PyBullet client, fixed rate, integer-µs clock.
+
+Per physics step k (t_us = k · dt_us, dt_us = round(1e6 / rate)):
+
+1. read the base state once (position, attitude FLU -> ENU, linear and angular velocity);
+   ground-truth acceleration ``a_k = (v_k - v_{k-1}) / dt`` (finite difference over the last
+   step, includes contact forces), body rates ``ω_FLU = Rᵀ ω_world``;
+2. sensors sample the truth (IMU/baro/mag/GNSS at their own rates, depth camera if enabled);
+3. ``autopilot.step(obs)`` -> rotor speed commands, spray flow, armed;
+4. motors follow the command over dt (first-order lag), wind ``W(t_k, p_k)``; forces:
+
+   * rotors: thrust, rotor drag, reaction torque, rolling moment from the apparent air
+     velocity at each rotor (``wind - (v + ω × r_i)``, body FLU) -> body wrench about the CoM;
+   * wind drag per link j in ``vehicle.drag`` (``c_j = ½ ρ S C_D0``) at its centre of pressure
+     r_j: ``F_j = c_j |V_app| V_app``, ``V_app = wind - (v + ω × r_j)``, torque ``r_j × F_j``;
+   * tank: liquid mass drained by the flow command, force ``m (g - a_mount)`` at the mount r_t
+     with ``a_mount = a_k + α × r_t + ω × (ω × r_t)``, α the finite difference of ω. The
+     acceleration is the last step's (explicit coupling; stable while the liquid is lighter
+     than the rigid vehicle, which every sprayer satisfies);
+
+   all summed into ONE world-frame force at the CoM and ONE world-frame torque (two PyBullet
+   calls; equivalent to per-link forces because the links are rigidly fixed);
+5. record a row every ``1/mission.record_rate_hz`` (preallocated arrays);
+6. ``stepSimulation``; termination: autopilot finished, hard impact (crash), max duration
+   (TIMEOUT), ``should_stop()`` (INTERRUPTED).
+
+Events detected from the truth: ``liftoff`` (no contact for 0.05 s), ``touchdown`` (contact
+again for 0.05 s after a lift-off), ``tank_empty``, ``crash`` (contact with a vertical speed
+above ``crash_speed_mps``). Plain floats throughout the loop (design.md §8).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vinecli.autopilot.base import Autopilot, AutopilotContext, RunStatus
+from vinecli.errors import SpecError
+from vinecli.frames import Vec3, quat_from_euler, quat_to_euler, tilt_angle
+from vinecli.sim.recorder import Recorder, timeseries_columns
+from vinecli.sim.types import Event, Observation, RigidState
+from vinecli.specs.mission import MissionSpec, OpenLoopPhase
+from vinecli.specs.vehicle import VehicleSpec
+from vinecli.world.model import World, rest_position
+
+__all__ = ["SimResult", "resolve_vehicle", "run_simulation"]
+
+log = logging.getLogger(__name__)
+
+_DEBOUNCE_S = 0.05  # s of (no) contact before lift-off / touchdown is declared
+_CONTACT_MARGIN_M = 0.6  # contacts are queried only when the skids are this close to the grid height
+
+
+@dataclass
+class SimResult:
+    """Outcome of :func:`run_simulation` (CONTRACTS.md)."""
+
+    status: RunStatus
+    detail: str
+    sim_time_s: float
+    wall_time_s: float
+    timeseries: dict[str, np.ndarray]
+    events: list[Event]
+    metrics: dict[str, float]
+    terrain_preview: dict[str, np.ndarray]
+    #: depth-camera point clouds (t_s, (N, 3) float32 world ENU m), empty when the camera is off
+    point_clouds: list[tuple[float, np.ndarray]] = field(default_factory=list)
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+
+def resolve_vehicle(world: World, mission: MissionSpec, vehicle: VehicleSpec | None = None) -> VehicleSpec:
+    """The vehicle a run flies: ``vehicle`` arg > ``mission.vehicle`` > the world's; payload override applied."""
+    if vehicle is None:
+        if mission.vehicle:
+            from vinecli.vehicle import load_vehicle
+
+            vehicle = load_vehicle(mission.vehicle)
+        else:
+            vehicle = world.vehicle
+    if mission.payload_kg is not None:
+        vehicle = vehicle.model_copy(update={"payload": vehicle.payload.model_copy(update={"mass_kg": mission.payload_kg})})
+    return vehicle
+
+
+def _first_commands(phase: OpenLoopPhase, n: int) -> list[float]:
+    src = phase.rotor_speeds_rad_s if phase.rotor_speeds_rad_s is not None else phase.schedule[0][1]  # type: ignore[index]
+    if isinstance(src, (int, float)):
+        return [float(src)] * n
+    return [float(w) for w in src]
+
+
+def run_simulation(
+    world: World,
+    mission: MissionSpec,
+    autopilot: Autopilot,
+    *,
+    seed: int,
+    vehicle: VehicleSpec | None = None,
+    on_progress: Callable[[float, float], None] | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    end_on_crash: bool = True,
+    crash_speed_mps: float = 3.0,
+) -> SimResult:
+    """Fly ``mission`` with ``autopilot`` in ``world`` and return the recorded run.
+
+    Parameters
+    ----------
+    world : the built world (:func:`vinecli.world.load_world`).
+    mission : mission spec; its overrides (vehicle, payload_kg, tank_fill_l, wind, geofence) and
+        the ``initial_state`` of a first ``open_loop`` phase are applied here.
+    autopilot : any :class:`~vinecli.autopilot.base.Autopilot`; reset here, closed by the caller.
+    seed : seeds wind turbulence and sensor noise (same seed -> identical time series).
+    vehicle : overrides the mission's/world's vehicle.
+    on_progress : called about once per simulated second with (sim_time_s, max_duration_s).
+    should_stop : polled every 0.1 s simulated; True ends the run as INTERRUPTED.
+    end_on_crash : end the run with CRASHED on a hard impact (else only the event is logged).
+    crash_speed_mps : vertical speed at first contact above which an impact is a crash, m/s.
+    """
+    from vinecli.physics.motor import MotorBank
+    from vinecli.physics.sensors import make_sensors
+    from vinecli.physics.tank import Tank
+    from vinecli.physics.wind import make_wind
+    from vinecli.sim.engine import Engine
+    from vinecli.vehicle.urdf import write_urdf
+
+    wall0 = time.perf_counter()
+    veh = resolve_vehicle(world, mission, vehicle)
+    rate = float(world.physics_rate_hz)
+    dt_us = int(round(1e6 / rate))
+    dt = dt_us * 1e-6
+    inv_dt = 1.0 / dt
+    g = float(world.gravity)
+    g_vec: Vec3 = (0.0, 0.0, -g)
+
+    # ---- tank, masses
+    tank_spec = veh.tank
+    if tank_spec is None:
+        if mission.tank_fill_l:
+            raise SpecError(f"mission fills a tank but vehicle {veh.name!r} has none")
+        fill = 0.0
+    else:
+        fill = tank_spec.capacity_l if mission.tank_fill_l is None else float(mission.tank_fill_l)
+        if fill > tank_spec.capacity_l + 1e-9:
+            raise SpecError(f"tank_fill_l {fill} exceeds the tank capacity {tank_spec.capacity_l} L of {veh.name!r}")
+    tank = Tank(tank_spec, fill) if tank_spec is not None else None
+    rigid_mass = veh.dry_mass()
+    mass0 = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
+
+    wind_spec = mission.wind if mission.wind is not None else world.wind
+    geofence = mission.geofence if mission.geofence is not None else world.geofence
+    wind = make_wind(wind_spec, seed, dt)
+
+    # ---- initial state
+    first = mission.phases[0]
+    init = first.initial_state if isinstance(first, OpenLoopPhase) else None
+    lgh = veh.frame.landing_gear_height_m
+    if veh == world.vehicle:
+        home = world.spawn_enu
+    else:
+        home = rest_position(world.terrain, veh, world.spawn_enu[0], world.spawn_enu[1])
+    yaw0 = world.spawn_yaw_rad
+    quat0 = quat_from_euler(0.0, 0.0, yaw0)
+    pos0, vel0, omega0_body = home, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    airborne_start = False
+    if init is not None:
+        if init.position_enu is not None:
+            x, y, hz = init.position_enu
+            rest = rest_position(world.terrain, veh, x, y)
+            pos0 = (x, y, rest[2] + hz)
+            airborne_start = hz > 0.0
+        r, p_, yw = (math.radians(a) for a in init.rpy_deg)
+        quat0 = quat_from_euler(r, p_, yw)
+        vel0 = tuple(float(v) for v in init.velocity_enu)  # type: ignore[assignment]
+        omega0_body = tuple(float(w) for w in init.angular_velocity_flu)  # type: ignore[assignment]
+
+    # ---- engine
+    engine = Engine(rate_hz=rate, gravity=g)
+    tmpdir: tempfile.TemporaryDirectory[str] | None = None
+    try:
+        engine.load_terrain(world.terrain)
+        urdf = world.urdf
+        if veh != world.vehicle:
+            tmpdir = tempfile.TemporaryDirectory(prefix="vinecli-urdf-")
+            urdf = write_urdf(veh, Path(tmpdir.name) / f"{veh.name}.urdf")
+        from vinecli.frames import quat_rotate
+
+        body = engine.load_vehicle(urdf, pos0, quat0)
+        engine.reset_vehicle(pos0, quat0, vel0, quat_rotate(quat0, omega0_body))
+        return _loop(
+            world=world, mission=mission, autopilot=autopilot, seed=seed, veh=veh, engine=engine, body=body,
+            tank=tank, wind=wind, geofence=geofence, home=home, mass0=mass0, rigid_mass=rigid_mass, g=g, g_vec=g_vec,
+            dt_us=dt_us, dt=dt, inv_dt=inv_dt, lgh=lgh, airborne_start=airborne_start, init_phase=first if init else None,
+            on_progress=on_progress, should_stop=should_stop, end_on_crash=end_on_crash,
+            crash_speed=crash_speed_mps, wall0=wall0, MotorBank=MotorBank, make_sensors=make_sensors,
+        )
+    finally:
+        engine.close()
+        if tmpdir is not None:
+            tmpdir.cleanup()
+
+
+def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one flat function
+    world: World = kw["world"]
+    mission: MissionSpec = kw["mission"]
+    autopilot: Autopilot = kw["autopilot"]
+    veh: VehicleSpec = kw["veh"]
+    engine = kw["engine"]
+    body: int = kw["body"]
+    tank = kw["tank"]
+    wind = kw["wind"]
+    seed: int = kw["seed"]
+    home: Vec3 = kw["home"]
+    g: float = kw["g"]
+    g_vec: Vec3 = kw["g_vec"]
+    dt_us: int = kw["dt_us"]
+    dt: float = kw["dt"]
+    inv_dt: float = kw["inv_dt"]
+    lgh: float = kw["lgh"]
+    rigid_mass: float = kw["rigid_mass"]
+    mass0: float = kw["mass0"]
+    n_rot = veh.n_rotors
+
+    motors = kw["MotorBank"](veh.motor, list(veh.rotors))
+    init_phase = kw["init_phase"]
+    if kw["airborne_start"] and init_phase is not None:
+        cmds = _first_commands(init_phase, n_rot)
+        motors.w = [min(max(c, 0.0), motors.w_max) for c in cmds]
+    sensors = kw["make_sensors"](veh.sensors, world.origin, seed, g=g)
+    sample_all = sensors.sample_all
+
+    camera = None
+    cam_spec = veh.sensors.depth_camera
+    if cam_spec.enabled:
+        from vinecli.sim.camera import DepthCamera
+
+        camera = DepthCamera(engine.client, cam_spec, rng=np.random.default_rng(np.random.SeedSequence(seed).spawn(8)[7]))
+    point_clouds: list[tuple[float, np.ndarray]] = []
+    cam_period_us = int(round(1e6 / cam_spec.rate_hz))
+    next_cam_us = 0
+
+    ctx = AutopilotContext(
+        mission=mission,
+        vehicle=veh,
+        origin=world.origin,
+        home_enu=home,
+        physics_dt_us=dt_us,
+        total_mass_kg=mass0,
+        vine_rows_enu=tuple(tuple((float(p[0]), float(p[1])) for p in row) for row in world.vine_rows_enu),
+        geofence=kw["geofence"],
+        terrain_height=world.terrain_height,
+        seed=seed,
+    )
+    autopilot.reset(ctx)
+    ap_step = autopilot.step
+    ap_status = autopilot.status
+    ap_drain = autopilot.drain_events
+
+    # drag links: (c kg/m, r FLU)
+    rho = world.air_density
+    drag_links = tuple(
+        (d.coefficient(rho), float(d.position_m[0]), float(d.position_m[1]), float(d.position_m[2]))
+        for d in veh.drag.values()
+    )
+    if tank is not None:
+        tmx, tmy, tmz = tank.mount_m
+    else:
+        tmx = tmy = tmz = 0.0
+    gx, gy, gz = g_vec
+
+    columns = timeseries_columns(n_rot)
+    rec_period_us = max(dt_us, int(round(1e6 / mission.record_rate_hz)))
+    max_us = int(round(mission.max_duration_s * 1e6))
+    rec = Recorder(columns, max_us // rec_period_us + 4)
+    next_rec_us = 0
+
+    c = engine.client
+    get_po = c.getBasePositionAndOrientation
+    get_v = c.getBaseVelocity
+    apply_f = c.applyExternalForce
+    apply_t = c.applyExternalTorque
+    contacts = c.getContactPoints
+    step_sim = c.stepSimulation
+    world_frame = engine.p.WORLD_FRAME
+    th = world.terrain_height
+    wind_at = wind.velocity
+    m_update = motors.update
+    m_app = motors.apparent_air_body
+    m_wrench = motors.wrench
+
+    events: list[Event] = []
+    metrics: dict[str, float] = {
+        "liftoff_s": math.nan,
+        "touchdown_s": math.nan,
+        "tank_empty_s": math.nan,
+        "total_mass_start_kg": mass0,
+        "rigid_mass_kg": rigid_mass,
+        "liquid_start_kg": mass0 - rigid_mass,
+        "hover_w_pred": veh.hover_speed(mass0, g),
+        "physics_rate_hz": 1e6 / dt_us,
+        "max_impact_speed_mps": 0.0,
+    }
+    debounce = max(1, int(round(_DEBOUNCE_S / dt)))
+    airborne = bool(kw["airborne_start"])
+    flip_count = 0
+    flip_t_us = 0
+    tank_was_empty = tank.empty if tank is not None else True
+    impact_pending = True  # the next first contact is an impact to measure
+    end_on_crash: bool = kw["end_on_crash"]
+    crash_speed: float = kw["crash_speed"]
+    on_progress = kw["on_progress"]
+    should_stop = kw["should_stop"]
+    progress_every = max(1, int(round(1.0 / dt)))
+    stop_every = max(1, int(round(0.1 / dt)))
+
+    status = RunStatus.RUNNING
+    detail = ""
+    gnss_lat = gnss_lon = gnss_alt = math.nan
+    baro_alt = math.nan
+    vpx, vpy, vpz = get_v(body)[0]
+    opx, opy, opz = get_v(body)[1]
+    first_step = True
+    flow_cmd = 0.0
+    k = 0
+    wall_loop0 = time.perf_counter()
+    t_us = 0
+    while True:
+        t_us = k * dt_us
+        t = t_us * 1e-6
+        (px, py, pz), quat = get_po(body)
+        (vx, vy, vz), (ox, oy, oz) = get_v(body)
+        qx, qy, qz, qw = quat
+        # rotation matrix body FLU -> world ENU (rows)
+        xx, yy, zz = qx * qx, qy * qy, qz * qz
+        xy, xz, yz = qx * qy, qx * qz, qy * qz
+        wx_, wy_, wz_ = qw * qx, qw * qy, qw * qz
+        r00, r01, r02 = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz_), 2.0 * (xz + wy_)
+        r10, r11, r12 = 2.0 * (xy + wz_), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx_)
+        r20, r21, r22 = 2.0 * (xz - wy_), 2.0 * (yz + wx_), 1.0 - 2.0 * (xx + yy)
+        if first_step:
+            ax = ay = az = 0.0
+            alx = aly = alz = 0.0
+        else:
+            ax, ay, az = (vx - vpx) * inv_dt, (vy - vpy) * inv_dt, (vz - vpz) * inv_dt
+            alx, aly, alz = (ox - opx) * inv_dt, (oy - opy) * inv_dt, (oz - opz) * inv_dt
+        omega_body = (r00 * ox + r10 * oy + r20 * oz, r01 * ox + r11 * oy + r21 * oz, r02 * ox + r12 * oy + r22 * oz)
+        tz_ = th(px, py)
+        agl = pz - tz_ - lgh
+        on_ground = bool(contacts(bodyA=body)) if agl < _CONTACT_MARGIN_M else False
+
+        # ---- events from the truth
+        if on_ground != (not airborne):
+            if flip_count == 0:
+                flip_t_us = t_us
+            flip_count += 1
+            if on_ground and impact_pending:
+                impact_pending = False
+                vimp = -vpz
+                if vimp > metrics["max_impact_speed_mps"]:
+                    metrics["max_impact_speed_mps"] = vimp
+                if vimp > crash_speed:
+                    events.append(Event(t_us, "crash", f"hard impact at {vimp:.2f} m/s vertical",
+                                        {"impact_speed_mps": vimp}))
+                    if end_on_crash and status is RunStatus.RUNNING:
+                        status = RunStatus.CRASHED
+                        detail = f"{RunStatus.CRASHED.message} (impact {vimp:.2f} m/s > {crash_speed:.1f} m/s)"
+            if flip_count >= debounce:
+                airborne = not on_ground
+                flip_count = 0
+                ts = flip_t_us * 1e-6
+                if airborne:
+                    impact_pending = True
+                    events.append(Event(flip_t_us, "liftoff", f"lift-off at {ts:.3f} s", {"z_m": pz}))
+                    if math.isnan(metrics["liftoff_s"]):
+                        metrics["liftoff_s"] = ts
+                else:
+                    events.append(Event(flip_t_us, "touchdown", f"touchdown at {ts:.3f} s", {"z_m": pz}))
+                    metrics["touchdown_s"] = ts
+        else:
+            flip_count = 0
+            if not on_ground:
+                impact_pending = True
+
+        truth = RigidState(t_us, (px, py, pz), quat, (vx, vy, vz), omega_body, (ax, ay, az), on_ground)
+        imu, baro, mag, gnss = sample_all(truth)
+        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0)
+        cmd = ap_step(obs)
+        st = ap_status()
+        new_events = ap_drain()
+        if new_events:
+            events.extend(new_events)
+        if camera is not None and t_us >= next_cam_us:
+            next_cam_us += cam_period_us
+            point_clouds.append((t, camera.capture((px, py, pz), quat)))
+
+        # ---- forces for the step t_k -> t_k+1
+        w = m_update(cmd.rotor_speed_cmd, dt)
+        wind_v = wind_at(t, (px, py, pz))
+        wdx, wdy, wdz = wind_v
+        (fbx, fby, fbz), (tbx, tby, tbz) = m_wrench(m_app(quat, (vx, vy, vz), omega_body, wind_v))
+        fx = r00 * fbx + r01 * fby + r02 * fbz
+        fy = r10 * fbx + r11 * fby + r12 * fbz
+        fz = r20 * fbx + r21 * fby + r22 * fbz
+        tx = r00 * tbx + r01 * tby + r02 * tbz
+        ty = r10 * tbx + r11 * tby + r12 * tbz
+        tz = r20 * tbx + r21 * tby + r22 * tbz
+        dgx = dgy = dgz = 0.0
+        for cd, rbx, rby, rbz in drag_links:
+            rx = r00 * rbx + r01 * rby + r02 * rbz
+            ry = r10 * rbx + r11 * rby + r12 * rbz
+            rz = r20 * rbx + r21 * rby + r22 * rbz
+            # V_app = wind - (v + ω × r)
+            ux = wdx - vx - (oy * rz - oz * ry)
+            uy = wdy - vy - (oz * rx - ox * rz)
+            uz = wdz - vz - (ox * ry - oy * rx)
+            kd = cd * math.sqrt(ux * ux + uy * uy + uz * uz)
+            f0, f1, f2 = kd * ux, kd * uy, kd * uz
+            dgx += f0
+            dgy += f1
+            dgz += f2
+            tx += ry * f2 - rz * f1
+            ty += rz * f0 - rx * f2
+            tz += rx * f1 - ry * f0
+        fx += dgx
+        fy += dgy
+        fz += dgz
+        if tank is not None:
+            flow_cmd = cmd.spray_flow_lps
+            tank.update(flow_cmd, dt)
+            rx = r00 * tmx + r01 * tmy + r02 * tmz
+            ry = r10 * tmx + r11 * tmy + r12 * tmz
+            rz = r20 * tmx + r21 * tmy + r22 * tmz
+            # a_mount = a + α × r + ω × (ω × r)
+            cx, cy, cz = oy * rz - oz * ry, oz * rx - ox * rz, ox * ry - oy * rx
+            amx = ax + (aly * rz - alz * ry) + (oy * cz - oz * cy)
+            amy = ay + (alz * rx - alx * rz) + (oz * cx - ox * cz)
+            amz = az + (alx * ry - aly * rx) + (ox * cy - oy * cx)
+            f0, f1, f2 = tank.force_world(g_vec, (amx, amy, amz))
+            fx += f0
+            fy += f1
+            fz += f2
+            tx += ry * f2 - rz * f1
+            ty += rz * f0 - rx * f2
+            tz += rx * f1 - ry * f0
+            if not tank_was_empty and tank.empty:
+                tank_was_empty = True
+                te = t + dt
+                events.append(Event(t_us + dt_us, "tank_empty", f"tank empty at {te:.3f} s", {}))
+                metrics["tank_empty_s"] = te
+
+        # ---- record
+        if t_us >= next_rec_us:
+            next_rec_us += rec_period_us
+            if baro is not None:
+                baro_alt = baro.altitude_m
+            if gnss is not None:
+                gnss_lat, gnss_lon, gnss_alt = gnss.lat_deg, gnss.lon_deg, gnss.alt_m
+            roll, pitch, yaw = quat_to_euler(quat)
+            row = [t, px, py, pz, vx, vy, vz, ax, ay, az, qx, qy, qz, qw, roll, pitch, yaw, tilt_angle(quat),
+                   omega_body[0], omega_body[1], omega_body[2]]
+            wc = cmd.rotor_speed_cmd
+            thr = motors.thrust
+            for i in range(n_rot):
+                row += (w[i], wc[i], thr[i])
+            rd = motors.rotor_drag_body
+            row += (motors.thrust_total, wdx, wdy, wdz, wdx - vx, wdy - vy, wdz - vz, dgx, dgy, dgz, rd[0], rd[1], rd[2])
+            if tank is not None:
+                tf, tgf, tif = tank.force, tank.gravity_force, tank.inertial_force
+                row += (tank.level_l, tank.mass_kg, tank.flow_lps, flow_cmd, tf[0], tf[1], tf[2], tgf[2],
+                        tif[0], tif[1], tif[2], rigid_mass + tank.mass_kg)
+            else:
+                row += (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, rigid_mass)
+            ia, ig = imu.accel_flu, imu.gyro_flu
+            ex = st.extra
+            row += (ia[0], ia[1], ia[2], ig[0], ig[1], ig[2], baro_alt, gnss_lat, gnss_lon, gnss_alt,
+                    tz_, agl, 1.0 if on_ground else 0.0,
+                    ex.get("sp_x", math.nan), ex.get("sp_y", math.nan), ex.get("sp_z", math.nan),
+                    float(st.phase_index), 1.0 if cmd.armed else 0.0)
+            rec.append(row)
+
+        # ---- termination (state at t_k recorded above)
+        if status is RunStatus.RUNNING:
+            if st.status is not RunStatus.RUNNING:
+                status, detail = st.status, st.detail or st.status.message
+            elif t_us >= max_us:
+                status, detail = RunStatus.TIMEOUT, f"{RunStatus.TIMEOUT.message} ({mission.max_duration_s:g} s)"
+            elif should_stop is not None and k % stop_every == 0 and should_stop():
+                status, detail = RunStatus.INTERRUPTED, RunStatus.INTERRUPTED.message
+        if status is not RunStatus.RUNNING:
+            break
+
+        apply_f(body, -1, (fx, fy, fz), (px, py, pz), world_frame)
+        apply_t(body, -1, (tx, ty, tz), world_frame)
+        step_sim()
+        vpx, vpy, vpz, opx, opy, opz = vx, vy, vz, ox, oy, oz
+        first_step = False
+        k += 1
+        if on_progress is not None and k % progress_every == 0:
+            on_progress(k * dt_us * 1e-6, mission.max_duration_s)
+
+    wall_end = time.perf_counter()
+    sim_time = t_us * 1e-6
+    metrics["steps"] = float(k)
+    metrics["loop_wall_s"] = wall_end - wall_loop0
+    metrics["wall_per_step_us"] = (wall_end - wall_loop0) / max(k, 1) * 1e6
+    metrics["real_time_factor"] = sim_time / (wall_end - wall_loop0) if wall_end > wall_loop0 else math.inf
+    metrics["final_mass_kg"] = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
+    events.append(Event(t_us, "status", detail, {"status": status.value}))
+    events.sort(key=lambda e: e.t_us)
+    log.info("run ended at %.3f s: %s (%s); %.1f µs/step", sim_time, status.value, detail, metrics["wall_per_step_us"])
+    return SimResult(
+        status=status,
+        detail=detail,
+        sim_time_s=sim_time,
+        wall_time_s=wall_end - kw["wall0"],
+        timeseries=rec.columns_dict(),
+        events=events,
+        metrics=metrics,
+        terrain_preview=world.terrain_preview(129),
+        point_clouds=point_clouds,
+    )

@@ -1,0 +1,178 @@
+"""The built world as the simulation sees it (:func:`load_world`), read from ``DIR/world.json``.
+
+``world.json`` (schema ``vinecli.world/1``), every path relative to DIR::
+
+    {"schema": "vinecli.world/1", "name", "description",
+     "origin": {"lat", "lon", "alt"},                    # deg WGS84, m
+     "physics_rate_hz", "gravity_mps2", "air_density_kgm3",
+     "terrain": {"kind": "flat"|"heightmap"|"tiles",
+                 "files": [...],                         # heightmap: heightmap png/tif/json; tiles: OBJ files
+                 "grid": "terrain/grid.npz" | null,      # height grid (ENU) for lookups and the heightfield
+                 "bounds_enu": [xmin, ymin, xmax, ymax], "z_range_enu": [zmin, zmax],
+                 "flat_z": float,                        # flat only
+                 "heightfield": {"size": N, "spacing_m": d}  # heightmap only: the grid is N×N
+                 "source": {...}},                       # how the terrain was made
+     "vehicle": {"name", "urdf": "vehicles/<name>.urdf", "spec": {VehicleSpec as JSON}},
+     "spawn": {"enu": [x, y, z], "yaw_rad"},            # vehicle CoM at rest on the terrain
+     "wind": {WindSpec as JSON},
+     "vine_rows_enu": [[[x, y], ...], ...], "rows_auto": bool,
+     "geofence": {GeofenceSpec as JSON} | null,
+     "sdf": "world.sdf"}
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import ValidationError
+
+from vinecli.errors import SpecError
+from vinecli.frames import Vec3
+from vinecli.geo import GeoOrigin
+from vinecli.specs import format_validation_error
+from vinecli.specs.mission import GeofenceSpec
+from vinecli.specs.vehicle import VehicleSpec
+from vinecli.specs.wind import WindSpec
+from vinecli.world.grid import TerrainGrid
+
+__all__ = ["SCHEMA", "TerrainInfo", "World", "load_world", "rest_position"]
+
+SCHEMA = "vinecli.world/1"
+
+
+@dataclass
+class TerrainInfo:
+    """Terrain of a built world. ``files`` are absolute paths; heights ENU (m)."""
+
+    kind: Literal["heightmap", "tiles", "flat"]
+    files: list[Path] = field(default_factory=list)
+    bounds: tuple[float, float, float, float] = (-100.0, -100.0, 100.0, 100.0)  # xmin, ymin, xmax, ymax
+    z_range: tuple[float, float] = (0.0, 0.0)
+    grid: TerrainGrid | None = None
+    flat_z: float = 0.0
+
+    def height(self, x: float, y: float) -> float:
+        """Terrain z (m, ENU) at (x, y)."""
+        g = self.grid
+        return self.flat_z if g is None else g.height(x, y)
+
+
+@dataclass
+class World:
+    """Everything a run needs (CONTRACTS.md "World"). Positions ENU m, angles rad."""
+
+    name: str
+    dir: Path
+    origin: GeoOrigin
+    terrain: TerrainInfo
+    vehicle: VehicleSpec
+    urdf: Path
+    spawn_enu: Vec3  # vehicle CoM at rest on the terrain
+    spawn_yaw_rad: float = 0.0
+    wind: WindSpec = field(default_factory=WindSpec)
+    physics_rate_hz: float = 250.0
+    gravity: float = 9.80665  # m/s², positive
+    air_density: float = 1.225  # kg/m³
+    vine_rows_enu: list[list[tuple[float, float]]] = field(default_factory=list)
+    geofence: GeofenceSpec | None = None
+    rows_auto: bool = False
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        # bind the fast lookup directly (no extra call layer in the 250 Hz loop)
+        g = self.terrain.grid
+        if g is not None:
+            self.terrain_height = g.height  # type: ignore[method-assign]
+
+    def terrain_height(self, x: float, y: float) -> float:
+        """Terrain z (m, ENU) at (x, y): bilinear on the height grid (flat: the plane's z)."""
+        return self.terrain.flat_z
+
+    def terrain_preview(self, max_side: int = 129) -> dict[str, Any]:
+        """``x`` (nx,), ``y`` (ny,), ``z`` (ny, nx) for plots (≤ max_side per side)."""
+        import numpy as np
+
+        g = self.terrain.grid
+        if g is not None:
+            return g.preview(max_side)
+        xmin, ymin, xmax, ymax = self.terrain.bounds
+        x = np.linspace(xmin, xmax, 33)
+        y = np.linspace(ymin, ymax, 33)
+        return {"x": x, "y": y, "z": np.full((33, 33), self.terrain.flat_z, np.float32)}
+
+
+def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
+    """Read ``DIR/world.json`` (written by :func:`vinecli.world.build_world`)."""
+    root = Path(dir)
+    wj = root / "world.json"
+    if not wj.is_file():
+        raise SpecError("not a built world (no world.json; run `vinecli world build`)", path=root)
+    try:
+        d = json.loads(wj.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise SpecError(f"cannot read world.json: {exc}", path=wj) from None
+    if d.get("schema") != SCHEMA:
+        raise SpecError(f"unsupported world schema {d.get('schema')!r} (expected {SCHEMA})", path=wj)
+    try:
+        vehicle = VehicleSpec.model_validate(d["vehicle"]["spec"])
+        wind = WindSpec.model_validate(d.get("wind") or {})
+        geofence = GeofenceSpec.model_validate(d["geofence"]) if d.get("geofence") else None
+    except ValidationError as exc:
+        raise SpecError(format_validation_error(exc), path=wj) from None
+    except KeyError as exc:
+        raise SpecError(f"missing key {exc}", path=wj) from None
+    t = d["terrain"]
+    files = [root / f for f in t.get("files", [])]
+    for f in files:
+        if not f.is_file():
+            raise SpecError(f"terrain file missing: {f.relative_to(root)}", path=wj)
+    grid = TerrainGrid.load(root / t["grid"]) if t.get("grid") else None
+    terrain = TerrainInfo(
+        kind=t["kind"],
+        files=files,
+        bounds=tuple(t["bounds_enu"]),  # type: ignore[arg-type]
+        z_range=tuple(t["z_range_enu"]),  # type: ignore[arg-type]
+        grid=grid,
+        flat_z=float(t.get("flat_z", 0.0)),
+    )
+    urdf = root / d["vehicle"]["urdf"]
+    if not urdf.is_file():
+        raise SpecError(f"vehicle URDF missing: {d['vehicle']['urdf']}", path=wj)
+    return World(
+        name=d["name"],
+        dir=root.resolve(),
+        origin=GeoOrigin.from_dict(d["origin"]),
+        terrain=terrain,
+        vehicle=vehicle,
+        urdf=urdf.resolve(),
+        spawn_enu=tuple(float(c) for c in d["spawn"]["enu"]),  # type: ignore[arg-type]
+        spawn_yaw_rad=float(d["spawn"].get("yaw_rad", 0.0)),
+        wind=wind,
+        physics_rate_hz=float(d.get("physics_rate_hz", 250.0)),
+        gravity=float(d.get("gravity_mps2", 9.80665)),
+        air_density=float(d.get("air_density_kgm3", 1.225)),
+        vine_rows_enu=[[(float(p[0]), float(p[1])) for p in row] for row in d.get("vine_rows_enu", [])],
+        geofence=geofence,
+        rows_auto=bool(d.get("rows_auto", False)),
+        description=d.get("description", ""),
+    )
+
+
+#: clearance added when placing a vehicle on the terrain, m (it settles within a few steps)
+SPAWN_CLEARANCE_M = 0.002
+
+
+def rest_position(terrain: TerrainInfo, vehicle: VehicleSpec, x: float, y: float) -> Vec3:
+    """CoM position (m ENU) of ``vehicle`` resting on the terrain at (x, y).
+
+    z = highest terrain under the collision box footprint (any yaw) + landing-gear height +
+    a 2 mm clearance.
+    """
+    bx, by, _bz = vehicle.frame.collision_box_m
+    r = 0.5 * (bx * bx + by * by) ** 0.5
+    g = terrain.grid
+    ground = terrain.flat_z if g is None else g.max_in_box(x - r, y - r, x + r, y + r)
+    return (float(x), float(y), ground + vehicle.frame.landing_gear_height_m + SPAWN_CLEARANCE_M)
