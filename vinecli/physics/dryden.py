@@ -96,8 +96,19 @@ class DrydenTurbulence:
         n0 = self._normals(5)
         lv, lw = self._v[3], self._w[3]
         self._xu = n0[0]
-        self._xv = [lv[0][0] * n0[1], lv[1][0] * n0[1] + lv[1][1] * n0[2]]
-        self._xw = [lw[0][0] * n0[3], lw[1][0] * n0[3] + lw[1][1] * n0[4]]
+        self._xv0, self._xv1 = lv[0][0] * n0[1], lv[1][0] * n0[1] + lv[1][1] * n0[2]
+        self._xw0, self._xw1 = lw[0][0] * n0[3], lw[1][0] * n0[3] + lw[1][1] * n0[4]
+        su, sv, sw = self.sigma
+
+        def flat(m: tuple, s_out: float) -> tuple[float, ...]:
+            (p00, p01), (p10, p11) = m[0]
+            (l00, _), (l10, l11) = m[1]
+            c0, c1 = m[2]
+            return (p00, p01, p10, p11, l00, l10, l11, s_out * c0, s_out * c1)
+
+        self._kv = flat(self._v, sv)
+        self._kw = flat(self._w, sw)
+        self._su = su
         self.k = 0  # current step index: state is the value at t = k dt
         self._out = self._output()
 
@@ -110,13 +121,11 @@ class DrydenTurbulence:
         return self._buf[i : i + n]
 
     def _output(self) -> Vec3:
-        cv, cw = self._v[2], self._w[2]
-        su, sv, sw = self.sigma
-        xv, xw = self._xv, self._xw
+        kv, kw = self._kv, self._kw
         return (
-            su * self._xu,
-            sv * (cv[0] * xv[0] + cv[1] * xv[1]),
-            sw * (cw[0] * xw[0] + cw[1] * xw[1]),
+            self._su * self._xu,
+            kv[7] * self._xv0 + kv[8] * self._xv1,
+            kw[7] * self._xw0 + kw[8] * self._xw1,
         )
 
     def step(self) -> Vec3:
@@ -126,20 +135,20 @@ class DrydenTurbulence:
             self._i = 0
         b, i = self._buf, self._i
         self._i = i + 5
-        self._xu = self._a_u * self._xu + self._q_u * b[i]
-        (p00, p01), (p10, p11) = self._v[0]
-        (l00, _), (l10, l11) = self._v[1]
-        x0, x1 = self._xv
-        n1, n2 = b[i + 1], b[i + 2]
-        self._xv = [p00 * x0 + p01 * x1 + l00 * n1, p10 * x0 + p11 * x1 + l10 * n1 + l11 * n2]
-        (p00, p01), (p10, p11) = self._w[0]
-        (l00, _), (l10, l11) = self._w[1]
-        x0, x1 = self._xw
-        n1, n2 = b[i + 3], b[i + 4]
-        self._xw = [p00 * x0 + p01 * x1 + l00 * n1, p10 * x0 + p11 * x1 + l10 * n1 + l11 * n2]
+        xu = self._a_u * self._xu + self._q_u * b[i]
+        p00, p01, p10, p11, l00, l10, l11, cv0, cv1 = self._kv
+        x0, x1, n1 = self._xv0, self._xv1, b[i + 1]
+        v0 = p00 * x0 + p01 * x1 + l00 * n1
+        v1 = p10 * x0 + p11 * x1 + l10 * n1 + l11 * b[i + 2]
+        p00, p01, p10, p11, l00, l10, l11, cw0, cw1 = self._kw
+        x0, x1, n1 = self._xw0, self._xw1, b[i + 3]
+        w0 = p00 * x0 + p01 * x1 + l00 * n1
+        w1 = p10 * x0 + p11 * x1 + l10 * n1 + l11 * b[i + 4]
+        self._xu, self._xv0, self._xv1, self._xw0, self._xw1 = xu, v0, v1, w0, w1
         self.k += 1
-        self._out = self._output()
-        return self._out
+        out = (self._su * xu, cv0 * v0 + cv1 * v1, cw0 * w0 + cw1 * w1)
+        self._out = out
+        return out
 
     def advance_to(self, t: float) -> Vec3:
         """Value at time t (s): the state after floor(t/dt) steps (zero-order hold; never goes back)."""

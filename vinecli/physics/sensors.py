@@ -100,6 +100,7 @@ class Imu:
         self.accel_bias: list[float] = [0.0, 0.0, 0.0]
         self.gyro_bias: list[float] = [0.0, 0.0, 0.0]
         self._w_prev: Vec3 | None = None
+        self._walk = spec.accel_bias_random_walk > 0.0 or spec.gyro_bias_random_walk > 0.0
         self.last: ImuSample | None = None
 
     def sample(self, truth: RigidState) -> ImuSample | None:
@@ -128,26 +129,31 @@ class Imu:
         if self._qm is not None:
             fx, fy, fz = quat_rotate_inv(self._qm, (fx, fy, fz))
             wx, wy, wz = quat_rotate_inv(self._qm, (wx, wy, wz))
-        n = self._n.take(12)
+        nz = self._n
+        if nz.i + 12 > len(nz.buf):
+            nz.buf = nz.rng.standard_normal(nz.block).tolist()
+            nz.i = 0
+        n, j = nz.buf, nz.i
+        nz.i = j + 12
         sq = math.sqrt(dt)
         ab, gb = self.accel_bias, self.gyro_bias
-        kab, kgb = s.accel_bias_random_walk * sq, s.gyro_bias_random_walk * sq
-        for i in range(3):
-            ab[i] += kab * n[6 + i]
-            gb[i] += kgb * n[9 + i]
+        if self._walk:
+            kab, kgb = s.accel_bias_random_walk * sq, s.gyro_bias_random_walk * sq
+            ab[0] += kab * n[j + 6]
+            ab[1] += kab * n[j + 7]
+            ab[2] += kab * n[j + 8]
+            gb[0] += kgb * n[j + 9]
+            gb[1] += kgb * n[j + 10]
+            gb[2] += kgb * n[j + 11]
         sa = s.accel_noise_density / sq
         sg = s.gyro_noise_density / sq
+        acc = (fx + ab[0] + sa * n[j], fy + ab[1] + sa * n[j + 1], fz + ab[2] + sa * n[j + 2])
+        gyr = (wx + gb[0] + sg * n[j + 3], wy + gb[1] + sg * n[j + 4], wz + gb[2] + sg * n[j + 5])
         qa, qg = s.accel_quantization, s.gyro_quantization
-        acc = (
-            _quantize(fx + ab[0] + sa * n[0], qa),
-            _quantize(fy + ab[1] + sa * n[1], qa),
-            _quantize(fz + ab[2] + sa * n[2], qa),
-        )
-        gyr = (
-            _quantize(wx + gb[0] + sg * n[3], qg),
-            _quantize(wy + gb[1] + sg * n[4], qg),
-            _quantize(wz + gb[2] + sg * n[5], qg),
-        )
+        if qa > 0.0:
+            acc = (_quantize(acc[0], qa), _quantize(acc[1], qa), _quantize(acc[2], qa))
+        if qg > 0.0:
+            gyr = (_quantize(gyr[0], qg), _quantize(gyr[1], qg), _quantize(gyr[2], qg))
         out = ImuSample(truth.t_us, acc, gyr)
         self.last = out
         return out

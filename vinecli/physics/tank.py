@@ -72,6 +72,8 @@ class Tank:
         self._x = [0.0, 0.0]  # bob displacement, m, world ENU horizontal
         self._v = [0.0, 0.0]
         self.slosh_force: Vec3 = (0.0, 0.0, 0.0)
+        self._slosh_key: tuple[float, float] | None = None
+        self._slosh_mode = (0.0, 1.0, 0.0)
         self.gravity_force: Vec3 = (0.0, 0.0, 0.0)
         self.inertial_force: Vec3 = (0.0, 0.0, 0.0)
         self.force: Vec3 = (0.0, 0.0, 0.0)
@@ -131,7 +133,11 @@ class Tank:
     ) -> tuple[float, float]:
         g_eff = max(0.0, -(gz - az))
         g_nom = math.sqrt(gx * gx + gy * gy + gz * gz)
-        frac, length, w0 = slosh_parameters(self.level_l, self.capacity_l, self.spec.tank_height_m, g_nom)
+        key = (m, g_nom)
+        if key != self._slosh_key:  # the mode only changes with the fill (and gravity)
+            self._slosh_key = key
+            self._slosh_mode = slosh_parameters(self.level_l, self.capacity_l, self.spec.tank_height_m, g_nom)
+        frac, length, w0 = self._slosh_mode
         m1 = frac * m
         w2 = g_eff / length
         c = 2.0 * self.zeta * w0
@@ -140,12 +146,16 @@ class Tank:
         dt = self._dt
         n = max(1, math.ceil(math.sqrt(w2) * dt / 0.2))
         h = dt / n
-        x, v = self._x, self._v
-        acc = [0.0, 0.0]
+        x0, x1 = self._x
+        v0, v1 = self._v
+        a0 = a1 = 0.0
         for _ in range(n):
-            for k, e in ((0, ex), (1, ey)):
-                a = -w2 * x[k] - c * v[k] - e
-                v[k] += h * a
-                x[k] += h * v[k]
-                acc[k] = a
-        return (-m1 * acc[0], -m1 * acc[1])
+            a0 = -w2 * x0 - c * v0 - ex
+            a1 = -w2 * x1 - c * v1 - ey
+            v0 += h * a0
+            v1 += h * a1
+            x0 += h * v0
+            x1 += h * v1
+        self._x = [x0, x1]
+        self._v = [v0, v1]
+        return (-m1 * a0, -m1 * a1)
