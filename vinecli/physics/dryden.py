@@ -84,6 +84,7 @@ class DrydenTurbulence:
         self.length = tuple(float(v) for v in length)
         self.airspeed = float(airspeed)
         self.dt = float(dt)
+        self.inv_dt = 1.0 / self.dt
         self._rng = rng
         t_u, t_v, t_w = (L / self.airspeed for L in self.length)
         self.time_constants: Vec3 = (t_u, t_v, t_w)
@@ -152,7 +153,12 @@ class DrydenTurbulence:
 
     def advance_to(self, t: float) -> Vec3:
         """Value at time t (s): the state after floor(t/dt) steps (zero-order hold; never goes back)."""
-        n = int(t / self.dt + 1e-9)
+        n = int(t * self.inv_dt + 1e-9)
         while self.k < n:
             self.step()
+        return self._out
+
+    @property
+    def value(self) -> Vec3:
+        """Current (u, v, w), m/s."""
         return self._out

@@ -101,7 +101,11 @@ class _Dryden:
         self.mean = law.mean_mps
 
     def at(self, t: float) -> Vec3:
-        u, v, w = self.turb.advance_to(t)
+        turb = self.turb
+        n = int(t * turb.inv_dt + 1e-9)
+        if turb.k < n:
+            turb.advance_to(t)
+        u, v, w = turb.value
         u += self.mean
         dx, dy = self.dx, self.dy
         # u along the heading, v to its left (heading rotated +90° in ENU), w up
