@@ -170,3 +170,17 @@ def test_dryden_wind_axes_follow_heading() -> None:
     assert x[:, 0].std() > 0.5 and x[:, 1].std() > 0.5 and x[:, 2].std() > 0.1
     (_, _, lw), (su, _, sw) = low_altitude_parameters(10.0, 1.0)
     assert x[:, 2].std() == pytest.approx(sw / su, rel=0.25)
+
+
+def test_dryden_terms_in_a_sum_are_independent_and_sigma_override() -> None:
+    law = SumWind(terms=[DrydenWind(sigma_mps=1.0), DrydenWind(sigma_mps=1.0)])
+    w = make_wind(WindSpec(law=law), seed=9, dt=0.01)
+    a, b = (t.turb for t in w.terms)
+    xa = np.array([a.step() for _ in range(3000)])
+    xb = np.array([b.step() for _ in range(3000)])
+    assert not np.allclose(xa, xb)
+    assert w.terms[0].params["sigma_mps"][0] == 1.0
+    (_, _, _), (su, _, sw) = low_altitude_parameters(5.0, 1.0)
+    assert w.terms[0].params["sigma_mps"][2] == pytest.approx(sw / su)
+    calm = make_wind(WindSpec(law=DrydenWind()), seed=1)  # no intensity, no mean: no turbulence
+    assert calm.velocity(3.0) == (0.0, 0.0, 0.0)

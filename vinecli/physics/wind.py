@@ -90,7 +90,8 @@ class _Dryden:
         w20 = W20_MPS[law.intensity] if law.intensity is not None else law.mean_mps
         lengths, sigmas = low_altitude_parameters(law.altitude_m, w20)
         if law.sigma_mps is not None:
-            ratio = sigmas[2] / sigmas[0] if sigmas[0] > 0 else 1.0
+            _, (s_uv, _, s_w) = low_altitude_parameters(law.altitude_m, 1.0)  # σ_w/σ_u depends on height only
+            ratio = s_w / s_uv
             sigmas = (law.sigma_mps, law.sigma_mps, law.sigma_mps * ratio)
         self.params = {"length_m": lengths, "sigma_mps": sigmas, "airspeed_mps": law.airspeed_mps}
         entropy = (seed + law.seed_offset) % (1 << 64)
