@@ -1,0 +1,61 @@
+"""Fixtures for the PX4 SITL / MAVLink tests: free loopback ports, a flat world, the real-PX4 gate.
+
+Tests marked ``@pytest.mark.px4`` need a real PX4 SITL binary: they are *deselected* at
+collection time unless ``PX4_SITL_BIN`` points to one (no skip markers).
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+from pathlib import Path
+
+import pytest
+
+from vinecli.geo import GeoOrigin
+from vinecli.vehicle import load_vehicle
+from vinecli.vehicle.urdf import write_urdf
+from vinecli.world import TerrainInfo, World, rest_position
+
+ORIGIN = GeoOrigin(46.0705, 11.1204, 210.0)  # Trentino vineyard latitude/longitude, m AMSL
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if os.environ.get("PX4_SITL_BIN"):
+        return
+    keep, drop = [], []
+    for it in items:
+        (drop if it.get_closest_marker("px4") else keep).append(it)
+    if drop:
+        config.hook.pytest_deselected(items=drop)
+        items[:] = keep
+
+
+def free_port(kind: int = socket.SOCK_STREAM) -> int:
+    """A port that is free on 127.0.0.1 for ``kind`` (TCP or UDP) right now."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture
+def ports() -> dict[str, int]:
+    """Distinct free ports: sim (TCP), api (UDP, vinecli side), px4 (UDP, PX4 side)."""
+    out: dict[str, int] = {}
+    while len(set(out.values())) < 3:
+        out = {"sim": free_port(), "api": free_port(socket.SOCK_DGRAM), "px4": free_port(socket.SOCK_DGRAM)}
+    return out
+
+
+def flat_world(tmp: Path, vehicle: str = "x500-sprayer", rows: list[list[tuple[float, float]]] | None = None) -> World:
+    """A flat built world at :data:`ORIGIN` (terrain z = 0) without going through `world build`."""
+    veh = load_vehicle(vehicle)
+    terrain = TerrainInfo(kind="flat", bounds=(-60.0, -60.0, 60.0, 60.0), z_range=(0.0, 0.0), flat_z=0.0)
+    urdf = write_urdf(veh, tmp / f"{veh.name}.urdf")
+    return World(name="flat-px4", dir=tmp, origin=ORIGIN, terrain=terrain, vehicle=veh, urdf=urdf,
+                 spawn_enu=rest_position(terrain, veh, 0.0, 0.0), vine_rows_enu=rows or [])
+
+
+@pytest.fixture
+def world(tmp_path: Path) -> World:
+    return flat_world(tmp_path)

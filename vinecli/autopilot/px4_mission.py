@@ -1,0 +1,321 @@
+"""Mission control of PX4 over its API/offboard MAVLink link (PX4 sends to UDP 14540+i).
+
+:class:`Px4MissionClient` runs in a **background thread** so the lockstep loop never blocks:
+``step()`` of :class:`~vinecli.autopilot.px4_sitl.Px4SitlAutopilot` only reads the client's
+state (mode, current item, events, error, finished). Sequence, each with a wall-clock timeout
+(the simulation keeps stepping meanwhile):
+
+1. bind UDP ``host:api_port`` (before PX4 boots) and wait for PX4's HEARTBEAT (autopilot 12);
+2. PARAM_SET the mission's parameters (MIS_TAKEOFF_ALT, RTL_RETURN_ALT, GF_*, the sprayer
+   output function ``PWM_MAIN_FUNCn`` = 301 "Peripheral via Actuator Set 1"), each confirmed by
+   PARAM_VALUE;
+3. upload the mission (mission_type 0) and the geofence (mission_type 1) with MISSION_COUNT /
+   MISSION_REQUEST_INT / MISSION_ITEM_INT / MISSION_ACK;
+4. wait for health: SYS_STATUS with the PREARM_CHECK bit and the GPS bit healthy;
+5. arm (COMMAND_LONG 400; a non-ACCEPTED COMMAND_ACK -> AutopilotError with PX4's result and
+   its recent STATUSTEXT), then DO_SET_MODE AUTO.MISSION (176: 1, 4, 4);
+6. follow HEARTBEAT (mode, armed), MISSION_CURRENT, MISSION_ITEM_REACHED and
+   EXTENDED_SYS_STATE (landed state): the run is complete when the last item was reached (or
+   the mission state is COMPLETE) and, if the mission lands, PX4 reports on-ground and disarmed.
+
+The client sends a GCS HEARTBEAT every second of wall time *or* of sim time, whichever comes
+first, so PX4's data-link-loss check (sim time) is satisfied at any speed-up.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from typing import Any
+
+from vinecli.autopilot.base import AutopilotContext, RunStatus
+from vinecli.errors import AutopilotError, AutopilotTimeout, VinecliError
+from vinecli.mavlink import px4modes as M
+from vinecli.mavlink.link import UdpLink
+from vinecli.mavlink.mission_items import MissionItem, PlanContext, Px4Plan, phases_to_items
+
+log = logging.getLogger(__name__)
+
+INT_PARAMS = frozenset({"GF_ACTION", "NAV_DLL_ACT", "COM_RC_IN_MODE"})
+
+
+def plan_for(ctx: AutopilotContext) -> Px4Plan:
+    """The PX4 plan (items, fence, parameters) for ``ctx.mission`` (SpecError if PX4 cannot fly it)."""
+    v = ctx.vehicle
+    pc = PlanContext(
+        origin=ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
+        terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
+        nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
+    )
+    mission = ctx.mission
+    if ctx.geofence is not None and mission.geofence is None:
+        mission = mission.model_copy(update={"geofence": ctx.geofence})
+    plan = phases_to_items(mission, pc)
+    if any(it.command == M.CMD_DO_SET_ACTUATOR for it in plan.items):
+        plan.params[f"PWM_MAIN_FUNC{v.px4.sprayer_channel + 1}"] = 301
+    return plan
+
+
+class Px4MissionClient:
+    """GCS-side mission control of PX4 in a background thread (see the module docstring)."""
+
+    def __init__(self, plan: Px4Plan | None, ctx: AutopilotContext, *, host: str = "127.0.0.1", api_port: int = 14540,
+                 px4_port: int = 14580, target_system: int = 1, heartbeat_timeout_s: float = 60.0,
+                 health_timeout_s: float = 120.0, command_timeout_s: float = 1.0) -> None:
+        self.plan = plan
+        self.ctx = ctx
+        self.link = UdpLink((host, api_port), (host, px4_port), reply_to_sender=True, src_system=255, src_component=190)
+        self.target = target_system
+        self.heartbeat_timeout_s = heartbeat_timeout_s
+        self.health_timeout_s = health_timeout_s
+        self.command_timeout_s = command_timeout_s
+        self.sim_time_us = 0
+        self.error: VinecliError | None = None
+        self.finished: tuple[RunStatus, str] | None = None
+        self.mode_name = "BOOT"
+        self.armed = False
+        self.current_seq = 0
+        self.phase_index = 0
+        self.landed_state = M.LANDED_UNDEFINED
+        self.mission_state = 0
+        self.reached: set[int] = set()
+        self.statustext: list[str] = []
+        self.sys_status: Any = None
+        self._events: list[tuple[str, str, dict[str, object]]] = []
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._hb_wall = 0.0
+        self._hb_sim = -10**12
+        self.was_airborne = False
+        self.started = False
+
+    # ------------------------------------------------------------------ thread control
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="px4-mission", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        self.link.close()
+
+    def drain_events(self) -> list[tuple[str, str, dict[str, object]]]:
+        with self._lock:
+            ev, self._events = self._events, []
+        return ev
+
+    def _event(self, kind: str, msg: str, data: dict[str, object] | None = None) -> None:
+        log.info("%s: %s", kind, msg)
+        with self._lock:
+            self._events.append((kind, msg, data or {}))
+
+    def _run(self) -> None:
+        try:
+            self._sequence()
+        except VinecliError as exc:
+            self.error = exc
+        except Exception as exc:  # noqa: BLE001 - surfaced as an AutopilotError in step()
+            self.error = AutopilotError(f"PX4 mission control failed: {type(exc).__name__}: {exc}")
+
+    # ------------------------------------------------------------------ receive helpers
+    def _tick(self) -> None:
+        now = time.monotonic()
+        if now - self._hb_wall >= 1.0 or self.sim_time_us - self._hb_sim >= 1_000_000:
+            self._hb_wall, self._hb_sim = now, self.sim_time_us
+            self.link.send(self.link.mav.heartbeat_encode(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, M.MAV_STATE_ACTIVE))
+
+    def _handle(self, m: Any) -> None:
+        typ = m.get_type()
+        if m.get_srcSystem() != self.target and typ != "BAD_DATA":
+            return
+        if typ == "HEARTBEAT" and m.get_srcComponent() == 1:
+            armed = bool(m.base_mode & M.MODE_FLAG_SAFETY_ARMED)
+            main, sub = M.decode_custom_mode(m.custom_mode)
+            name = M.mode_name(main, sub)
+            if name != self.mode_name:
+                self._event("mode", name, {"mode": name, "previous": self.mode_name})
+                self.mode_name = name
+            if armed != self.armed:
+                self.armed = armed
+                self._event("arming", "armed" if armed else "disarmed", {"armed": armed})
+        elif typ == "STATUSTEXT":
+            text = m.text.rstrip("\x00") if isinstance(m.text, str) else str(m.text)
+            self.statustext.append(text)
+            del self.statustext[:-10]
+            self._event("px4_statustext", text, {"severity": int(m.severity)})
+        elif typ == "SYS_STATUS":
+            self.sys_status = m
+        elif typ == "MISSION_CURRENT":
+            if m.seq != self.current_seq:
+                self.current_seq = m.seq
+                self._set_phase(m.seq)
+            self.mission_state = getattr(m, "mission_state", 0)
+        elif typ == "MISSION_ITEM_REACHED":
+            if m.seq not in self.reached:
+                self.reached.add(m.seq)
+                self._event("mission_item_reached", f"item {m.seq} reached", {"seq": int(m.seq)})
+        elif typ == "EXTENDED_SYS_STATE":
+            if m.landed_state != self.landed_state:
+                self.landed_state = m.landed_state
+                names = {1: "on_ground", 2: "in_air", 3: "takeoff", 4: "landing"}
+                self._event("landed_state", names.get(m.landed_state, "undefined"), {"landed_state": int(m.landed_state)})
+                if m.landed_state == M.LANDED_IN_AIR:
+                    self.was_airborne = True
+
+    def _set_phase(self, seq: int) -> None:
+        if self.plan is not None and 0 <= seq < len(self.plan.phase_of_item):
+            pi = self.plan.phase_of_item[seq]
+            if pi >= 0 and pi != self.phase_index:
+                self.phase_index = pi
+                self._event("phase", f"phase {pi} (item {seq})", {"index": pi, "seq": seq})
+
+    def _wait(self, types: set[str], timeout: float, cond: Any = None) -> Any:
+        deadline = time.monotonic() + timeout
+        while not self._stop.is_set():
+            self._tick()
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            m = self.link.recv(min(left, 0.1))
+            if m is None:
+                continue
+            self._handle(m)
+            if m.get_type() in types and m.get_srcSystem() == self.target and (cond is None or cond(m)):
+                return m
+        return None
+
+    # ------------------------------------------------------------------ protocol pieces
+    def command(self, cmd: int, *params: float, retries: int = 3) -> Any:
+        """COMMAND_LONG and its COMMAND_ACK (None if never acknowledged)."""
+        p = list(params) + [0.0] * (7 - len(params))
+        for attempt in range(retries):
+            self.link.send(self.link.mav.command_long_encode(self.target, 1, cmd, attempt, *p))
+            ack = self._wait({"COMMAND_ACK"}, self.command_timeout_s, lambda a: a.command == cmd)
+            if ack is not None:
+                return ack
+        return None
+
+    def set_param(self, name: str, value: float | int) -> None:
+        is_int = isinstance(value, int) or name in INT_PARAMS or name.startswith("PWM_")
+        if is_int:
+            import struct
+
+            wire = struct.unpack("<f", struct.pack("<i", int(value)))[0]
+            ptype = 6
+        else:
+            wire, ptype = float(value), 9
+        for _ in range(3):
+            self.link.send(self.link.mav.param_set_encode(self.target, 1, name.encode(), wire, ptype))
+            pv = self._wait({"PARAM_VALUE"}, self.command_timeout_s, lambda m: _pname(m) == name)
+            if pv is not None:
+                return
+        raise AutopilotError(f"PX4 did not confirm parameter {name} = {value}")
+
+    def upload(self, items: list[MissionItem], mission_type: int) -> None:
+        """MISSION_COUNT -> answer each MISSION_REQUEST(_INT) -> MISSION_ACK (AutopilotError if rejected)."""
+        what = {0: "mission", 1: "geofence", 2: "rally points"}[mission_type]
+        mav = self.link.mav
+        n = len(items)
+        self.link.send(mav.mission_count_encode(self.target, 1, n, mission_type))
+        deadline = time.monotonic() + 5.0 + 0.5 * n
+        while time.monotonic() < deadline:
+            m = self._wait({"MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"}, 2.0,
+                           lambda x: getattr(x, "mission_type", 0) == mission_type)
+            if m is None:
+                self.link.send(mav.mission_count_encode(self.target, 1, n, mission_type))
+                continue
+            if m.get_type() == "MISSION_ACK":
+                if m.type != 0:
+                    raise AutopilotError(f"PX4 rejected the {what} upload: MISSION_ACK {_mission_result(m.type)}"
+                                         + self._px4_says())
+                self._event("mission_uploaded", f"{what} uploaded ({n} items)", {"mission_type": mission_type, "count": n})
+                return
+            if not 0 <= m.seq < n:
+                raise AutopilotError(f"PX4 requested {what} item {m.seq} of {n}")
+            self.link.send(items[m.seq].encode(mav, m.seq, self.target, 1, current=1 if m.seq == 0 else 0))
+        raise AutopilotTimeout(f"PX4 {what} upload timed out" + self._px4_says())
+
+    def _px4_says(self) -> str:
+        return f" (PX4: {self.statustext[-1]!r})" if self.statustext else ""
+
+    # ------------------------------------------------------------------ the sequence
+    def _sequence(self) -> None:
+        hb = self._wait({"HEARTBEAT"}, self.heartbeat_timeout_s, lambda m: m.get_srcComponent() == 1)
+        if self._stop.is_set():
+            return
+        if hb is None:
+            raise AutopilotTimeout(
+                f"no HEARTBEAT from PX4 (system {self.target}) on UDP {self.link.local[0]}:{self.link.local[1]} within "
+                f"{self.heartbeat_timeout_s:g} s (PX4's API link sends to 14540+instance)")
+        if hb.autopilot != M.MAV_AUTOPILOT_PX4:
+            log.warning("the API peer reports autopilot type %d, not PX4 (12)", hb.autopilot)
+        self._event("px4_link", "PX4 API link up", {"port": self.link.local[1]})
+        plan = self.plan
+        if plan is None:
+            return
+        for name, value in plan.params.items():
+            self.set_param(name, value)
+        self.upload(plan.items, M.MAV_MISSION_TYPE_MISSION)
+        if plan.fence:
+            self.upload(plan.fence, M.MAV_MISSION_TYPE_FENCE)
+        self._wait_health()
+        ack = self.command(M.CMD_COMPONENT_ARM_DISARM, 1.0)
+        if ack is None:
+            raise AutopilotTimeout("PX4 did not acknowledge the arm command" + self._px4_says())
+        if ack.result != M.MAV_RESULT_ACCEPTED:
+            self._wait({"STATUSTEXT"}, 0.3)
+            raise AutopilotError(f"PX4 rejected arming: {M.MAV_RESULT_NAMES.get(ack.result, ack.result)}" + self._px4_says())
+        ack = self.command(M.CMD_DO_SET_MODE, 1.0, M.MAIN_AUTO, M.SUB_MISSION)
+        if ack is None or ack.result != M.MAV_RESULT_ACCEPTED:
+            res = "no answer" if ack is None else M.MAV_RESULT_NAMES.get(ack.result, str(ack.result))
+            raise AutopilotError(f"PX4 did not start the mission (DO_SET_MODE AUTO.MISSION: {res})" + self._px4_says())
+        self.started = True
+        self._event("mission_start", "mission started", {})
+        self._monitor()
+
+    def _wait_health(self) -> None:
+        deadline = time.monotonic() + self.health_timeout_s
+        need = M.SENSOR_PREARM_CHECK | 32
+        while time.monotonic() < deadline and not self._stop.is_set():
+            m = self._wait({"SYS_STATUS"}, 1.0)
+            if m is not None and (m.onboard_control_sensors_health & need) == need:
+                self._event("px4_health", "PX4 pre-arm checks pass", {})
+                return
+        if not self._stop.is_set():
+            raise AutopilotTimeout(f"PX4 did not become ready to arm within {self.health_timeout_s:g} s" + self._px4_says())
+
+    def _monitor(self) -> None:
+        plan = self.plan
+        assert plan is not None
+        n = len(plan.items)
+        lands = bool(plan.items) and plan.items[-1].command in (M.CMD_NAV_LAND, M.CMD_NAV_RETURN_TO_LAUNCH)
+        while not self._stop.is_set():
+            self._wait(set(), 0.2)
+            done_items = (n - 1) in self.reached or self.mission_state == M.MISSION_STATE_COMPLETE
+            if lands:
+                if (done_items or self.was_airborne) and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND \
+                        and not self.armed:
+                    self.finished = (RunStatus.COMPLETED, "PX4 mission completed, landed and disarmed")
+                    return
+            elif done_items:
+                self.finished = (RunStatus.COMPLETED, "PX4 mission completed")
+                return
+
+
+def _pname(m: Any) -> str:
+    pid = m.param_id
+    if isinstance(pid, bytes):
+        pid = pid.decode(errors="replace")
+    return pid.rstrip("\x00")
+
+
+def _mission_result(code: int) -> str:
+    names = {0: "ACCEPTED", 1: "ERROR", 2: "UNSUPPORTED_FRAME", 3: "UNSUPPORTED", 4: "NO_SPACE", 5: "INVALID",
+             13: "INVALID_SEQUENCE", 14: "DENIED", 15: "OPERATION_CANCELLED"}
+    return names.get(code, str(code))
+
+
+__all__ = ["Px4MissionClient", "plan_for"]

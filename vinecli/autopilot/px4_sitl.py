@@ -1,0 +1,355 @@
+"""PX4 SITL backend: vinecli is the simulator side of PX4's ``simulator_mavlink`` (TCP 4560+i).
+
+Protocol (px4-sitl-and-mavlink.md §1): vinecli listens on TCP ``host:4560+instance``; PX4
+connects, sends one HEARTBEAT and SET_MESSAGE_INTERVAL(115). Each physics step vinecli sends
+
+* HIL_STATE_QUATERNION (optional ground truth, sent *first* so a peer answering on
+  HIL_SENSOR sees the state of the same step; PX4 only logs it),
+* HIL_SENSOR: specific force and rates in body FRD, magnetic field in gauss (FRD), pressure in
+  hPa, temperature °C, pressure altitude m, ``fields_updated`` 7167, ``id`` 0 -- mag and baro
+  are sample-and-hold from the sensor models,
+* HIL_GPS whenever the GNSS model has a new sample (10 Hz by default; noise is the vehicle's
+  ``sensors.gnss`` spec), with ``time_usec`` in UNIX-epoch µs, eph/epv in cm.
+
+HIL time = sim time + one step (never 0), strictly increasing by exactly the physics step.
+**Boot phase** (until the first HIL_ACTUATOR_CONTROLS): motors off, steps paced at wall-clock
+rate, so PX4 boots in real time. **Lockstep phase**: after sending HIL_SENSOR(t) the step
+waits up to ``step_timeout_s`` for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``; on timeout it
+reuses the last controls and counts a stall; ``max_stalls`` consecutive stalls raise
+AutopilotError (PX4 stopped answering). Outputs map to rotor speeds with the vehicle's
+``px4.motor_channels``: w = w_min + u (w_max - w_min) while armed (mode bit 128), 0 disarmed;
+the sprayer channel gives flow = clamp(u, 0, 1) * nozzle_max_flow.
+
+Mission control runs on PX4's API link (UDP 14540+i) in a background thread
+(:class:`vinecli.autopilot.px4_mission.Px4MissionClient`); ``step`` only polls its state, so
+the lockstep never blocks on mission traffic.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import shlex
+import time
+from typing import Any
+
+from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.errors import AutopilotError, InputError
+from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
+from vinecli.mavlink import px4modes as M
+from vinecli.mavlink.link import TcpServerLink
+from vinecli.sim.types import ActuatorCommand, Event, Observation
+
+log = logging.getLogger(__name__)
+
+SIM_PORT_BASE = 4560
+API_PORT_BASE = 14540  # vinecli binds (PX4 sends here)
+PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
+G0 = 9.80665
+
+
+def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
+                      workdir: str | None = None) -> str:
+    """The shell command that starts PX4 SITL against vinecli (daemon mode, no data-link failsafe)."""
+    bin_path = px4_bin
+    etc = "build/px4_sitl_default/etc"
+    if os.sep in px4_bin:
+        build = os.path.dirname(os.path.dirname(os.path.abspath(px4_bin)))
+        etc = os.path.join(build, "etc")
+    env = [f"PX4_SIM_MODEL={airframe}", "PX4_PARAM_NAV_DLL_ACT=0", "PX4_PARAM_COM_RC_IN_MODE=1"]
+    if host not in ("127.0.0.1", "localhost"):
+        env.append(f"PX4_SIM_HOST_ADDR={host}")
+    wd = workdir or f"/tmp/px4-sitl-{instance}"
+    return " ".join([*env, shlex.quote(bin_path), "-d", "-i", str(instance), "-w", shlex.quote(wd), shlex.quote(etc)])
+
+
+class Px4SitlAutopilot:
+    """Autopilot backend driving a real (or fake) PX4 over the SITL protocol.
+
+    Options: ``host`` (bind address, default 127.0.0.1; a non-loopback address needs
+    ``allow_remote=True``), ``instance`` (PX4 ``-i``), ``port`` (default 4560+instance),
+    ``connect_timeout_s`` (wait for PX4 to connect, default 30), ``step_timeout_s`` (lockstep wait
+    per step, default 0.1), ``max_stalls`` (consecutive stalls -> error, default 50),
+    ``boot_timeout_s`` (connected but no actuator controls, default 60), ``hil_state`` (send
+    HIL_STATE_QUATERNION, default True), ``api_port`` (UDP port vinecli binds for PX4's API link,
+    default 14540+instance), ``px4_api_port`` (PX4's API port, default 14580+instance),
+    ``mission`` (False: no mission control, just the sensor/actuator link), ``health_timeout_s``,
+    ``px4_bin`` (only used in error hints).
+    """
+
+    name = "px4"
+
+    def __init__(self, *, host: str = "127.0.0.1", instance: int = 0, port: int | None = None,
+                 connect_timeout_s: float = 30.0, step_timeout_s: float = 0.1, max_stalls: int = 50,
+                 boot_timeout_s: float = 60.0, hil_state: bool = True, api_port: int | None = None,
+                 px4_api_port: int | None = None, mission: bool = True, health_timeout_s: float = 120.0,
+                 allow_remote: bool = False, px4_bin: str = "px4", **opts: Any) -> None:
+        if opts:
+            raise InputError(f"px4 autopilot: unknown option(s) {', '.join(sorted(opts))}")
+        if not (0 <= instance <= 99):
+            raise InputError(f"px4 autopilot: instance {instance} out of range 0..99")
+        from vinecli.mavlink.link import is_loopback
+
+        if not is_loopback(host) and not allow_remote:
+            raise InputError(f"px4 autopilot: refusing to listen on non-loopback address {host} without allow_remote")
+        self.host, self.instance = host, instance
+        self.port = SIM_PORT_BASE + instance if port is None else port
+        self.connect_timeout_s, self.step_timeout_s = connect_timeout_s, step_timeout_s
+        self.max_stalls, self.boot_timeout_s = max_stalls, boot_timeout_s
+        self.hil_state = hil_state
+        self.api_port = (API_PORT_BASE + instance if instance <= 9 else 14549) if api_port is None else api_port
+        self.px4_api_port = PX4_API_LOCAL_BASE + instance if px4_api_port is None else px4_api_port
+        self.use_mission, self.health_timeout_s = mission, health_timeout_s
+        self.px4_bin = px4_bin
+        self.link: TcpServerLink | None = None
+        self.mission_client: Any = None
+        self._events: list[Event] = []
+        self._status = AutopilotStatus(mode="BOOT", phase_index=0)
+        self._closed = False
+
+    # ------------------------------------------------------------------ protocol
+    def start_command(self) -> str:
+        """How to start PX4 against this backend."""
+        return px4_start_command(self.instance, self.host, self.px4_bin)
+
+    def reset(self, ctx: AutopilotContext) -> None:
+        """Convert the mission, listen on TCP, wait for PX4 to connect (AutopilotTimeout otherwise)."""
+        from vinecli.autopilot.px4_mission import Px4MissionClient, plan_for
+
+        self.ctx = ctx
+        v = ctx.vehicle
+        self.dt_us = ctx.physics_dt_us
+        self.plan = plan_for(ctx) if self.use_mission else None  # SpecError before any socket is opened
+        ch = v.px4.motor_channels if v.px4.motor_channels is not None else list(range(v.n_rotors))
+        if len(ch) != v.n_rotors or any(not 0 <= c < 16 for c in ch):
+            raise InputError(f"vehicle {v.name!r}: px4.motor_channels must give one channel 0..15 per rotor ({v.n_rotors})")
+        self.channels = list(ch)
+        self.w_min, self.w_max = v.px4.w_min_rad_s, v.motor.w_max
+        self.spray_ch = v.px4.sprayer_channel
+        self.nozzle = v.tank.nozzle_max_flow_lps if v.tank is not None else 0.0
+        from vinecli.physics.magnetic import earth_field_ned
+
+        self.mag_ned = earth_field_ned(ctx.origin)
+        self._mag_frd: tuple[float, float, float] | None = None
+        self._baro: tuple[float, float, float] | None = None  # hPa, °C, m
+        self.epoch_us = int(time.time() * 1e6)
+        self._t_last: int | None = None
+        self.lockstep = False
+        self.armed = False
+        self.controls: tuple[float, ...] = (0.0,) * 16
+        self.stalls = 0
+        self.consecutive_stalls = 0
+        self.steps = 0
+        self.lockstep_steps = 0
+        self.hil_gps_sent = 0
+        self.px4_heartbeat: Any = None
+        self.requested_state_interval_us: float | None = None
+        self._events = []
+        self._status = AutopilotStatus(mode="BOOT", phase_index=0, extra={})
+        self.link = TcpServerLink(self.host, self.port)
+        if self.use_mission:
+            self.mission_client = Px4MissionClient(
+                self.plan, ctx, host=self.host, api_port=self.api_port, px4_port=self.px4_api_port,
+                target_system=self.instance + 1, health_timeout_s=self.health_timeout_s)
+        self.link.accept(self.connect_timeout_s, hint=self.start_command())
+        self._emit(0, "px4", f"PX4 connected on TCP {self.host}:{self.port}", {"peer": str(self.link.peer)})
+        hb = self.link.recv_match("HEARTBEAT", timeout=min(5.0, self.connect_timeout_s))
+        if hb is None:
+            raise AutopilotError(f"TCP {self.host}:{self.port}: the peer connected but sent no HEARTBEAT (is it PX4?)")
+        self._on_msg(hb)
+        self._boot_wall0: float | None = None
+        if self.mission_client is not None:
+            self.mission_client.start()
+
+    def _emit(self, t_us: int, kind: str, message: str, data: dict[str, object] | None = None) -> None:
+        self._events.append(Event(t_us, kind, message, data or {}))
+
+    def _on_msg(self, m: Any) -> None:
+        typ = m.get_type()
+        if typ == "HEARTBEAT":
+            self.px4_heartbeat = m
+        elif typ == "COMMAND_LONG" and m.command == M.CMD_SET_MESSAGE_INTERVAL:
+            self.requested_state_interval_us = m.param2 if int(m.param1) == 115 else self.requested_state_interval_us
+        elif typ == "HIL_ACTUATOR_CONTROLS":
+            self.controls = tuple(m.controls)
+            self.armed = bool(m.mode & M.MODE_FLAG_SAFETY_ARMED)
+
+    # ------------------------------------------------------------------ per step
+    def step(self, obs: Observation) -> ActuatorCommand:
+        """Send this step's sensors, wait (bounded) for PX4's actuator controls, map to rotor speeds."""
+        link = self.link
+        if link is None:
+            raise AutopilotError("px4 autopilot: step() before reset()")
+        if link.closed_by_peer.is_set():
+            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})")
+        t = obs.t_us + self.dt_us
+        if self._t_last is not None and t <= self._t_last:
+            raise AutopilotError(f"px4 autopilot: sim time went backwards ({t} <= {self._t_last} µs)")
+        self._t_last = t
+        self.steps += 1
+        self._send_sensors(t, obs)
+        if not self.lockstep:
+            self._boot_step(t, obs)
+        else:
+            self._lockstep_wait(t)
+        mc = self.mission_client
+        if mc is not None:
+            mc.sim_time_us = obs.t_us
+            self._poll_mission(obs.t_us)
+        return self._command()
+
+    def _boot_step(self, t: int, obs: Observation) -> None:
+        now = time.monotonic()
+        if self._boot_wall0 is None:
+            self._boot_wall0 = now - (self.steps - 1) * self.dt_us * 1e-6
+        for m in self.link.drain():  # type: ignore[union-attr]
+            self._on_msg(m)
+            if m.get_type() == "HIL_ACTUATOR_CONTROLS":
+                self.lockstep = True
+        if self.lockstep:
+            self._emit(obs.t_us, "px4", "lockstep started (first HIL_ACTUATOR_CONTROLS)",
+                       {"boot_wall_s": round(now - self._boot_wall0, 3)})
+            log.info("PX4 lockstep after %.2f s", now - self._boot_wall0)
+            return
+        if now - self._boot_wall0 > self.boot_timeout_s:
+            raise AutopilotError(f"PX4 connected on TCP {self.host}:{self.port} but sent no HIL_ACTUATOR_CONTROLS within "
+                                 f"{self.boot_timeout_s:g} s (check the airframe: PX4_SIM_MODEL=none_iris)")
+        # pace at wall-clock rate while PX4 boots
+        due = self._boot_wall0 + self.steps * self.dt_us * 1e-6
+        if due > now:
+            time.sleep(due - now)
+
+    def _lockstep_wait(self, t: int) -> None:
+        link = self.link
+        assert link is not None
+        deadline = time.monotonic() + self.step_timeout_s
+        while True:
+            left = deadline - time.monotonic()
+            m = link.recv(max(0.0, left)) if left > 0 else link.recv(0.0) if not link.inbox.empty() else None
+            if m is None:
+                break
+            self._on_msg(m)
+            if m.get_type() == "HIL_ACTUATOR_CONTROLS" and m.time_usec >= t:
+                self.consecutive_stalls = 0
+                self.lockstep_steps += 1
+                return
+        self.stalls += 1
+        self.consecutive_stalls += 1
+        if self.consecutive_stalls == 1 or self.stalls % 100 == 0:
+            log.debug("lockstep stall at t=%d µs (%d total)", t, self.stalls)
+        if link.closed_by_peer.is_set():
+            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})")
+        if self.consecutive_stalls >= self.max_stalls:
+            raise AutopilotError(
+                f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
+                f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * self.step_timeout_s:.1f} s)")
+
+    def _command(self) -> ActuatorCommand:
+        c = self.controls
+        if not self.armed:
+            return ActuatorCommand((0.0,) * len(self.channels), 0.0, False)
+        span = self.w_max - self.w_min
+        w = []
+        for ch in self.channels:
+            u = c[ch]
+            u = 0.0 if not u > 0.0 else (1.0 if u > 1.0 else u)  # NaN -> 0
+            w.append(self.w_min + u * span)
+        us = c[self.spray_ch]
+        us = 0.0 if not us > 0.0 else (1.0 if us > 1.0 else us)
+        return ActuatorCommand(tuple(w), us * self.nozzle, True)
+
+    def _send_sensors(self, t: int, obs: Observation) -> None:
+        link = self.link
+        assert link is not None
+        mav = link.mav
+        tr = obs.truth
+        if self.hil_state:
+            q = xyzw_to_wxyz(attitude_enu_flu_to_ned_frd(tr.quat))
+            p, qv, r = flu_to_frd(tr.omega_body)
+            lat, lon, alt = self.ctx.origin.enu_to_geodetic_fast(*tr.pos)
+            vn, ve, vd = enu_to_ned(tr.vel)
+            sf = flu_to_frd(quat_rotate_inv(tr.quat, (tr.acc[0], tr.acc[1], tr.acc[2] + G0)))
+            spd = min(65535, round(math.sqrt(vn * vn + ve * ve + vd * vd) * 100))
+            link.send(mav.hil_state_quaternion_encode(
+                t, q, p, qv, r, round(lat * 1e7), round(lon * 1e7), round(alt * 1000),
+                _i16(vn * 100), _i16(ve * 100), _i16(vd * 100), spd, spd,
+                _i16(sf[0] * 1000), _i16(sf[1] * 1000), _i16(sf[2] * 1000)))
+        imu = obs.imu
+        ax, ay, az = flu_to_frd(imu.accel_flu)
+        gx, gy, gz = flu_to_frd(imu.gyro_flu)
+        if obs.mag is not None:
+            self._mag_frd = flu_to_frd(obs.mag.field_flu_gauss)
+        elif self._mag_frd is None:  # before the first magnetometer sample: the WMM field rotated into the body
+            from vinecli.frames import ned_to_enu
+
+            self._mag_frd = flu_to_frd(quat_rotate_inv(tr.quat, ned_to_enu(self.mag_ned)))
+        if obs.baro is not None:
+            b = obs.baro
+            self._baro = (b.pressure_pa / 100.0, b.temperature_c, b.altitude_m)
+        elif self._baro is None:
+            from vinecli.physics.atmosphere import pressure_at, temperature_at
+
+            alt = self.ctx.origin.alt + tr.pos[2]
+            self._baro = (pressure_at(alt) / 100.0, temperature_at(alt) - 273.15, alt)
+        mx, my, mz = self._mag_frd
+        p_hpa, temp_c, p_alt = self._baro
+        link.send(mav.hil_sensor_encode(t, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, 0.0, p_alt, temp_c, M.FIELDS_ALL, 0))
+        g = obs.gnss
+        if g is not None:
+            vn, ve, vd = enu_to_ned(g.vel_enu)
+            gs = math.hypot(vn, ve)
+            cog = 65535 if gs < 0.2 else round(math.degrees(math.atan2(ve, vn)) % 360.0 * 100) % 36000
+            link.send(mav.hil_gps_encode(
+                self.epoch_us + g.t_us, g.fix_type, round(g.lat_deg * 1e7), round(g.lon_deg * 1e7), round(g.alt_m * 1000),
+                min(65535, round(g.eph_m * 100)), min(65535, round(g.epv_m * 100)), min(65535, round(gs * 100)),
+                _i16(vn * 100), _i16(ve * 100), _i16(vd * 100), cog, min(255, g.satellites), 0, 0))
+            self.hil_gps_sent += 1
+
+    def _poll_mission(self, t_us: int) -> None:
+        mc = self.mission_client
+        for kind, msg, data in mc.drain_events():
+            self._emit(t_us, kind, msg, data)
+        if mc.error is not None:
+            raise mc.error
+        st = self._status
+        st.mode = mc.mode_name
+        st.phase_index = mc.phase_index
+        if mc.finished is not None and st.status is RunStatus.RUNNING:
+            st.status, st.detail = mc.finished
+            self._emit(t_us, "status", f"{st.status.value}: {st.detail}", {"status": st.status.value, "detail": st.detail})
+
+    def status(self) -> AutopilotStatus:
+        """Mode (PX4 mode name), mission phase, and lockstep counters in ``extra``."""
+        st = self._status
+        ex = st.extra
+        ex["px4_stalls"] = float(getattr(self, "stalls", 0))
+        ex["px4_lockstep_steps"] = float(getattr(self, "lockstep_steps", 0))
+        ex["px4_armed"] = 1.0 if getattr(self, "armed", False) else 0.0
+        if self.mission_client is not None:
+            ex["px4_mission_seq"] = float(self.mission_client.current_seq)
+        return st
+
+    def drain_events(self) -> list[Event]:
+        """Events since the last call (connection, lockstep, mission progress, PX4 STATUSTEXT...)."""
+        ev, self._events = self._events, []
+        return ev
+
+    def close(self) -> None:
+        """Stop the mission thread and close the sockets. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        if self.mission_client is not None:
+            self.mission_client.close()
+        if self.link is not None:
+            self.link.close()
+
+
+def _i16(x: float) -> int:
+    if not math.isfinite(x):
+        return 0
+    return max(-32767, min(32767, round(x)))
+
+
+__all__ = ["Px4SitlAutopilot", "px4_start_command"]

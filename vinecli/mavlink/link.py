@@ -1,0 +1,322 @@
+"""MAVLink 2 links over TCP and UDP with a background reader thread.
+
+A reader thread receives bytes and feeds them to a *stateful* pymavlink parser (a TCP
+``recv`` may carry half a message or several), then puts every decoded message on a queue.
+Sending is thread-safe (one lock around encoding and ``send``). Links never print; they log.
+
+* :class:`TcpServerLink` - listen, accept one peer (the simulator side of PX4 SITL).
+* :class:`TcpClientLink` - connect with retries (what PX4 does; used by the fake PX4 peer).
+* :class:`UdpLink` - bind a local port, send to a remote address and, optionally, reply to
+  whoever sent last (PX4's MAVLink instances and vinecli's vehicle endpoint).
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import socket
+import threading
+import time
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from vinecli.errors import AutopilotError, AutopilotTimeout
+
+log = logging.getLogger(__name__)
+
+MAV = mavlink2
+Message = mavlink2.MAVLink_message
+
+
+def is_loopback(host: str) -> bool:
+    """True for 127.0.0.0/8, ::1 and 'localhost'."""
+    return host in ("localhost", "::1") or host.startswith("127.")
+
+
+class Link:
+    """Common part: a parser, a queue of received messages, thread-safe send."""
+
+    def __init__(self, src_system: int = 1, src_component: int = 1, name: str = "link") -> None:
+        self.name = name
+        self._tx = mavlink2.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
+        self._tx.robust_parsing = True
+        self._rx = mavlink2.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
+        self._rx.robust_parsing = True
+        self.inbox: queue.Queue[Message] = queue.Queue()
+        self._tx_lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.closed_by_peer = threading.Event()
+        self.rx_count = 0
+        self.tx_count = 0
+
+    @property
+    def mav(self) -> mavlink2.MAVLink:
+        """The encoder (``link.mav.heartbeat_encode(...)`` builds a message to :meth:`send`)."""
+        return self._tx
+
+    # ---------------------------------------------------------------- receiving
+    def _feed(self, data: bytes) -> None:
+        msgs = self._rx.parse_buffer(data)
+        if not msgs:
+            return
+        for m in msgs:
+            if m.get_type() == "BAD_DATA":
+                continue
+            self.rx_count += 1
+            self.inbox.put(m)
+
+    def _start_reader(self) -> None:
+        self._thread = threading.Thread(target=self._reader, name=f"mavlink-{self.name}", daemon=True)
+        self._thread.start()
+
+    def _reader(self) -> None:  # pragma: no cover - overridden
+        raise AutopilotError("reader not implemented")
+
+    def recv(self, timeout: float | None = None) -> Message | None:
+        """Next received message, or None after ``timeout`` seconds."""
+        try:
+            return self.inbox.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def recv_match(self, types: set[str] | str, timeout: float, cond: Any = None) -> Message | None:
+        """First message of one of ``types`` (and ``cond(msg)`` true) within ``timeout`` s; others are dropped."""
+        if isinstance(types, str):
+            types = {types}
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            m = self.recv(left)
+            if m is not None and m.get_type() in types and (cond is None or cond(m)):
+                return m
+
+    def drain(self) -> list[Message]:
+        """All messages received so far (non-blocking)."""
+        out = []
+        while True:
+            try:
+                out.append(self.inbox.get_nowait())
+            except queue.Empty:
+                return out
+
+    # ---------------------------------------------------------------- sending
+    def send(self, msg: Message) -> None:
+        """Encode (MAVLink 2) and send one message."""
+        with self._tx_lock:
+            buf = msg.pack(self._tx)
+            self._tx.seq = (self._tx.seq + 1) % 256
+            self._send_bytes(buf)
+            self.tx_count += 1
+
+    def _send_bytes(self, buf: bytes) -> None:  # pragma: no cover - overridden
+        raise AutopilotError("send not implemented")
+
+    def close(self) -> None:
+        """Stop the reader and close sockets. Idempotent."""
+        self._stop.set()
+        self._close_sockets()
+        t = self._thread
+        if t is not None and t is not threading.current_thread():
+            t.join(timeout=1.0)
+
+    def _close_sockets(self) -> None:  # pragma: no cover - overridden
+        pass
+
+
+class TcpServerLink(Link):
+    """Listen on ``host:port`` and accept exactly one peer (Gazebo-classic / jMAVSim role)."""
+
+    def __init__(self, host: str, port: int, *, src_system: int = 1, src_component: int = 200) -> None:
+        super().__init__(src_system, src_component, name=f"tcp-server-{port}")
+        self.host, self.port = host, port
+        self._srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            self._srv.bind((host, port))
+        except OSError as exc:
+            self._srv.close()
+            raise AutopilotError(f"cannot listen on TCP {host}:{port}: {exc.strerror or exc} (another simulator running?)") from None
+        self._srv.listen(1)
+        self.port = self._srv.getsockname()[1]
+        self._conn: socket.socket | None = None
+        self.peer: tuple[str, int] | None = None
+
+    def accept(self, timeout: float, hint: str = "") -> None:
+        """Wait up to ``timeout`` s for the peer; AutopilotTimeout naming host:port (and ``hint``) otherwise."""
+        self._srv.settimeout(timeout)
+        try:
+            conn, addr = self._srv.accept()
+        except TimeoutError:
+            raise AutopilotTimeout(
+                f"PX4 did not connect to TCP {self.host}:{self.port} within {timeout:g} s" + (f"; start it with: {hint}" if hint else "")
+            ) from None
+        except OSError as exc:
+            raise AutopilotError(f"TCP {self.host}:{self.port}: accept failed: {exc}") from None
+        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        conn.settimeout(0.2)
+        self._conn, self.peer = conn, (addr[0], addr[1])
+        log.info("PX4 connected from %s:%d on TCP %d", addr[0], addr[1], self.port)
+        self._start_reader()
+
+    def _reader(self) -> None:
+        conn = self._conn
+        assert conn is not None
+        while not self._stop.is_set():
+            try:
+                data = conn.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                break
+            if not data:
+                break
+            self._feed(data)
+        self.closed_by_peer.set()
+
+    def _send_bytes(self, buf: bytes) -> None:
+        if self._conn is None:
+            raise AutopilotError(f"TCP {self.host}:{self.port}: no peer connected")
+        try:
+            self._conn.sendall(buf)
+        except OSError as exc:
+            self.closed_by_peer.set()
+            raise AutopilotError(f"TCP {self.host}:{self.port}: connection to PX4 lost ({exc.strerror or exc})") from None
+
+    def _close_sockets(self) -> None:
+        for s in (self._conn, self._srv):
+            if s is not None:
+                try:
+                    s.close()
+                except OSError:
+                    pass
+
+
+class TcpClientLink(Link):
+    """Connect to ``host:port``, retrying until ``timeout`` (PX4's simulator_mavlink role)."""
+
+    def __init__(self, host: str, port: int, *, src_system: int = 1, src_component: int = 1) -> None:
+        super().__init__(src_system, src_component, name=f"tcp-client-{port}")
+        self.host, self.port = host, port
+        self._sock: socket.socket | None = None
+
+    def connect(self, timeout: float, retry_s: float = 0.02, stop: threading.Event | None = None) -> bool:
+        """Retry ``connect()`` until accepted (True) or ``timeout``/``stop`` (False)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not (stop is not None and stop.is_set()):
+            s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            try:
+                s.connect((self.host, self.port))
+            except OSError:
+                s.close()
+                time.sleep(retry_s)
+                continue
+            s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            s.settimeout(0.2)
+            self._sock = s
+            self._start_reader()
+            return True
+        return False
+
+    def _reader(self) -> None:
+        s = self._sock
+        assert s is not None
+        while not self._stop.is_set():
+            try:
+                data = s.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                break
+            if not data:
+                break
+            self._feed(data)
+        self.closed_by_peer.set()
+
+    def _send_bytes(self, buf: bytes) -> None:
+        if self._sock is None:
+            raise AutopilotError(f"TCP {self.host}:{self.port}: not connected")
+        self._sock.sendall(buf)
+
+    def _close_sockets(self) -> None:
+        if self._sock is not None:
+            try:
+                self._sock.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+            self._sock.close()
+
+
+class UdpLink(Link):
+    """A UDP MAVLink endpoint bound to ``bind`` that sends to ``remote``.
+
+    With ``reply_to_sender`` the remote becomes the address of the last datagram received
+    (PX4's MAVLink instances and QGC-style endpoints behave this way).
+    """
+
+    def __init__(
+        self,
+        bind: tuple[str, int],
+        remote: tuple[str, int] | None = None,
+        *,
+        reply_to_sender: bool = True,
+        src_system: int = 1,
+        src_component: int = 1,
+    ) -> None:
+        super().__init__(src_system, src_component, name=f"udp-{bind[1]}")
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            self._sock.bind(bind)
+        except OSError as exc:
+            self._sock.close()
+            raise AutopilotError(f"cannot bind UDP {bind[0]}:{bind[1]}: {exc.strerror or exc}") from None
+        self._sock.settimeout(0.2)
+        self.local = self._sock.getsockname()
+        self.remote = remote
+        self.reply_to_sender = reply_to_sender
+        self.last_sender: tuple[str, int] | None = None
+        self._start_reader()
+
+    def _reader(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data, addr = self._sock.recvfrom(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                break
+            self.last_sender = (addr[0], addr[1])
+            if self.reply_to_sender:
+                self.remote = self.last_sender
+            self._feed(data)
+
+    def _send_bytes(self, buf: bytes) -> None:
+        if self.remote is None:
+            return  # nobody to talk to yet (udpin without a peer)
+        try:
+            self._sock.sendto(buf, self.remote)
+        except OSError as exc:  # e.g. ECONNREFUSED from a previous ICMP: UDP is best effort
+            log.debug("UDP send to %s failed: %s", self.remote, exc)
+
+    def _close_sockets(self) -> None:
+        self._sock.close()
+
+
+def parse_endpoint(url: str) -> tuple[str, str, int]:
+    """'udp:HOST:PORT' / 'udpin:...' / 'udpout:...' / 'tcp:...' -> (scheme, host, port); InputError if malformed."""
+    from vinecli.errors import InputError
+
+    parts = url.replace("://", ":").split(":")
+    if len(parts) != 3 or parts[0] not in ("udp", "udpin", "udpout", "tcp", "tcpin"):
+        raise InputError(f"bad MAVLink endpoint {url!r}: expected udp:HOST:PORT (e.g. udp:127.0.0.1:14540)")
+    try:
+        port = int(parts[2])
+    except ValueError:
+        raise InputError(f"bad MAVLink endpoint {url!r}: port {parts[2]!r} is not a number") from None
+    if not 0 < port < 65536:
+        raise InputError(f"bad MAVLink endpoint {url!r}: port out of range")
+    return parts[0], parts[1], port
