@@ -50,6 +50,80 @@ def test_takeoff_hover_land_through_px4_protocol(world, ports):
         assert k in kinds, k
     st = fake.stats
     assert st.hil_sensor == st.hil_state > 1000
-    assert 0.08 < st.hil_gps / st.hil_sensor < 0.12  # 10 Hz GPS at 250 Hz sensors
+    assert 0.035 < st.hil_gps / st.hil_sensor < 0.045  # 10 Hz GPS, 250 Hz sensors
     assert st.armed_answers > 500 and st.mode_words == {1, 129}
     assert ap.stalls == 0
+
+
+def test_gust_hover_through_px4_protocol(world, ports):
+    # a 6 m/s 1-cosine gust towards east while hovering (boot and arming take ~1 s of sim time)
+    gust = {"law": {"type": "gust", "peak_mps": 6.0, "start_s": 5.0, "duration_s": 4.0, "heading_deg": 90.0}}
+    mission = MissionSpec.model_validate({
+        "name": "px4-gust-hover", "autopilot": "px4", "max_duration_s": 60.0, "wind": gust,
+        "phases": [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 8.0}, {"type": "land"}]})
+    res, ap, fake = fly(world, mission, ports)
+    assert fake.error is None and fake.violations == []
+    assert res.status is RunStatus.COMPLETED, (res.status, res.detail)
+    ts = res.timeseries
+    t = ts["t_s"]
+    wind_x = ts["wind_enu_x_mps"]
+    assert wind_x.max() > 5.5  # the gust was applied (east, 90° heading)
+    gust_win = (t > 5.0) & (t < 9.5)
+    dx = abs(ts["pos_enu_x_m"][gust_win]).max()
+    assert 0.05 < dx < 2.5  # pushed, and held within a couple of metres by PX4-side control
+    assert abs(ts["pos_enu_z_m"][-1] - world.spawn_enu[2]) < 0.1
+
+
+def test_spray_rows_drive_the_tank_through_do_set_actuator(tmp_path, ports):
+    from tests.px4.conftest import flat_world
+
+    w = flat_world(tmp_path, rows=[[(2.0, -3.0), (2.0, 3.0)], [(4.0, -3.0), (4.0, 3.0)]])
+    mission = MissionSpec.model_validate({
+        "name": "px4-spray", "autopilot": "px4", "max_duration_s": 90.0,
+        "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
+                   {"type": "spray", "height_agl_m": 2.0, "speed_mps": 1.5, "flow_lps": 0.05},
+                   {"type": "land"}]})
+    res, ap, fake = fly(w, mission, ports)
+    assert fake.error is None and fake.violations == []
+    assert res.status is RunStatus.COMPLETED, (res.status, res.detail)
+    ts = res.timeseries
+    flow = ts["tank_flow_lps"]
+    assert abs(flow.max() - 0.05) < 1e-6  # u = 0.05 / 0.1 on the sprayer channel -> 0.05 L/s
+    assert fake.stats.spray_u_max == pytest.approx(0.5)
+    spraying = flow > 0
+    assert abs(ts["pos_enu_x_m"][spraying] - 2.0).min() < 0.5  # sprays over the rows...
+    assert (abs(ts["pos_enu_y_m"][spraying]) < 3.6).all()  # ...and not in the turns beyond the row ends
+    assert ts["tank_level_l"][-1] < ts["tank_level_l"][0] - 0.1
+
+
+def test_px4_never_connects_times_out_quickly(world, ports):
+    import time
+
+    from vinecli.errors import AutopilotTimeout
+
+    ap = Px4SitlAutopilot(port=ports["sim"], api_port=ports["api"], px4_api_port=ports["px4"], connect_timeout_s=0.5)
+    t0 = time.monotonic()
+    with pytest.raises(AutopilotTimeout) as ei:
+        try:
+            run_simulation(world, takeoff_hover_land(), ap, seed=1)
+        finally:
+            ap.close()
+    assert time.monotonic() - t0 < 10
+    msg = str(ei.value)
+    assert f"127.0.0.1:{ports['sim']}" in msg
+    assert "PX4_SIM_MODEL=none_iris" in msg and "px4 -d -i 0" in msg
+    assert ei.value.exit_code == 3
+
+
+def test_px4_going_silent_mid_run_is_an_error(world, ports):
+    from vinecli.errors import AutopilotError
+
+    with pytest.raises(AutopilotError, match="stopped answering.*10 consecutive steps"):
+        fly(world, takeoff_hover_land(), ports, silent_after_s=3.0)
+
+
+def test_arming_rejected_reports_px4_reason(world, ports):
+    from vinecli.errors import AutopilotError
+
+    with pytest.raises(AutopilotError, match="PX4 rejected arming: DENIED.*Preflight Fail: Compass Sensor 0 missing"):
+        fly(world, takeoff_hover_land(), ports, reject_arm="Preflight Fail: Compass Sensor 0 missing")
