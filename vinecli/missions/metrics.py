@@ -207,6 +207,15 @@ def drag_opposes_vertical_motion(data: RunData, window: Window, min_speed: float
     return float(np.mean(dz[sel] * vz[sel] < 0))
 
 
+@metric("altitude_above_home_m", "m")
+def altitude_above_home_m(data: RunData, window: Window) -> float:
+    """Mean height of the vehicle above its start position (z - z at the first sample) over the window, m. Default: last 1 s."""
+    t = data.t
+    z = data.column("pos_enu_z_m")
+    sel = _mask(data, window, (float(t[-1]) - 1.0, float(t[-1])))
+    return float(np.mean(z[sel]) - z[0]) if sel.any() else _nan()
+
+
 # ---------------------------------------------------------------- spraying (thesis §5.2)
 def _drain(data: RunData, window: Window) -> tuple[float, float]:
     """(measured flow-on time until empty, predicted volume / commanded flow), s."""

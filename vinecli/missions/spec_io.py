@@ -98,3 +98,19 @@ def _check_windows_syntax(mission: MissionSpec, path: Path | str) -> None:
 def dump_mission(mission: MissionSpec) -> str:
     """The mission as YAML text (resolved, every default written out)."""
     return yaml.safe_dump(mission.model_dump(mode="json"), sort_keys=False)
+
+
+def write_mission(path: Path | str, mission: MissionSpec) -> None:
+    """Write a mission YAML atomically (temporary file, then rename)."""
+    import os
+
+    from vinecli.errors import OutputError
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(dump_mission(mission), encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None

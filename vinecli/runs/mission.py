@@ -147,7 +147,7 @@ def run_mission(
                                   path=mission_path or spec.name)
     from vinecli.autopilot.registry import make_autopilot
 
-    ap = make_autopilot(spec.autopilot, truth=spec.truth)
+    ap = make_autopilot(spec.autopilot, **({"truth": spec.truth} if spec.autopilot == "builtin" else {}))
     run_id = run_id or default_run_id(spec, seed)
     stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
 
@@ -155,9 +155,13 @@ def run_mission(
 
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
+    on_progress = None
+    if progress is not None:
+        def on_progress(sim_t: float, _max_t: float) -> None:
+            progress(sim_t, time.perf_counter() - t0)
     with _sigint_to_flag(stop):
         try:
-            result = run_simulation(world, spec, ap, seed=seed, vehicle=vehicle, on_progress=progress,
+            result = run_simulation(world, spec, ap, seed=seed, vehicle=vehicle, on_progress=on_progress,
                                     should_stop=stop)
         except VinecliError:
             raise
