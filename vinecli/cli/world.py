@@ -2,6 +2,35 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
 import typer
 
+from vinecli.cli.console import handles_errors, out_console
+
 app = typer.Typer(help="Build simulator worlds from terrain, vehicles and wind.", no_args_is_help=True)
+
+
+@app.command("build")
+@handles_errors
+def build(
+    spec: Annotated[Path, typer.Argument(help="World file (worlds/*.yaml).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output world directory.")],
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing output directory.")] = False,
+) -> None:
+    """Build a world directory: world.json, terrain, vehicle URDF and a Gazebo world.sdf.
+
+    Example: vinecli world build worlds/vineyard-sample.yaml --out build/vineyard
+    """
+    from vinecli.world import build_world, load_world
+
+    path = build_world(spec, out, overwrite=overwrite)
+    w = load_world(path)
+    xmin, ymin, xmax, ymax = w.terrain.bounds
+    out_console.print(
+        f"world [bold]{w.name}[/] -> {path}: terrain {w.terrain.kind} "
+        f"({xmax - xmin:.1f} m × {ymax - ymin:.1f} m, {len(w.terrain.files)} files), vehicle {w.vehicle.name}, "
+        f"origin {w.origin.lat:.6f}, {w.origin.lon:.6f}, {w.origin.alt:.1f} m, {len(w.vine_rows_enu)} rows",
+        markup=True,
+    )
