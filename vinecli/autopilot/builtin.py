@@ -164,7 +164,7 @@ class _Path(_Phase):
         if self.flow is not None:
             ap.set_flow(self.flow)
         if self.yaw_deg is not None:
-            ap.cascade.yaw_sp = math.radians(self.yaw_deg)
+            ap.cascade.set_yaw(math.radians(self.yaw_deg))
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
         sp, vff, done = self.path.update(dt, ap.pos)
@@ -527,7 +527,7 @@ class BuiltinAutopilot:
                 return self._command(obs)
             # the controller takes over from the current state
             self.cascade.reset()
-            self.cascade.yaw_sp = quat_to_euler(self.quat)[2]
+            self.cascade.set_yaw(quat_to_euler(self.quat)[2], immediate=True)
             self._sp = None
             if self._phase is not None:
                 self._phase.start(self)
@@ -580,7 +580,7 @@ class BuiltinAutopilot:
             self.armed = True
             self._z_armed = self.pos[2]
             self.cascade.reset()
-            self.cascade.yaw_sp = quat_to_euler(self.quat)[2]
+            self.cascade.set_yaw(quat_to_euler(self.quat)[2], immediate=True)
             self._sat_t = 0.0
             self.emit("arming", "armed", {"armed": True})
 

@@ -1,7 +1,8 @@
 """State estimator of the built-in autopilot, from the simulated sensors only.
 
-* Attitude: Mahony complementary filter (gyro integration, accelerometer tilt correction,
-  magnetometer heading correction, integral gyro-bias estimate). Quaternion (x, y, z, w)
+* Attitude: Mahony complementary filter (gyro integration, accelerometer tilt correction
+  against gravity plus the GNSS-derived acceleration, magnetometer heading correction,
+  integral gyro-bias estimate from both). Quaternion (x, y, z, w)
   body FLU -> world ENU.
 * Position/velocity: per axis a linear Kalman filter on (position, velocity, accelerometer
   bias), propagated every step with the IMU specific force rotated to ENU minus gravity,
@@ -82,7 +83,7 @@ class Estimator:
     """
 
     def __init__(self, vehicle: VehicleSpec, origin: GeoOrigin, *, kp_acc: float = 0.4, ki_acc: float = 0.02,
-                 kp_mag: float = 0.3, acc_sigma: float = 0.2, bias_sigma: float = 0.02,
+                 kp_mag: float = 0.5, ki_mag: float = 0.01, acc_ref_tau_s: float = 0.5, acc_sigma: float = 0.2, bias_sigma: float = 0.02,
                  mag_field_enu: Vec3 | None = None, settle_s: float = 1.5) -> None:
         s = vehicle.sensors
         self.origin = origin
@@ -90,6 +91,8 @@ class Estimator:
         self.kp_acc = kp_acc
         self.ki_acc = ki_acc
         self.kp_mag = kp_mag
+        self.ki_mag = ki_mag
+        self.acc_ref_tau = acc_ref_tau_s
         self.settle_us = int(settle_s * 1e6)
         field = mag_field_enu if mag_field_enu is not None else earth_field_enu(origin)
         h = math.hypot(field[0], field[1])
@@ -124,6 +127,14 @@ class Estimator:
         self._b = [0.0, 0.0, 0.0]
         self._t_us: int | None = None
         self._t_ready_us: int | None = None
+        self._a_ref = [0.0, 0.0, 0.0]  # low-passed GNSS acceleration, ENU
+        self._gnss_prev: tuple[int, Vec3] | None = None
+
+    @property
+    def gyro_bias(self) -> Vec3:
+        """Estimated gyro bias, rad/s, body FLU (subtracted from the gyro)."""
+        gb = self._gyro_bias
+        return (-gb[0], -gb[1], -gb[2])
 
     # ------------------------------------------------------------------ attitude initialisation
     def _init_attitude(self, acc: Vec3, mag: Vec3 | None) -> None:
@@ -176,21 +187,26 @@ class Estimator:
         self.omega = (gx, gy, gz)
         ex = ey = ez = 0.0
         an = math.sqrt(fx * fx + fy * fy + fz * fz)
-        if an > 0.8 * G and an < 1.2 * G:
+        ix = iy = iz = 0.0  # raw error for the bias integral
+        if 0.5 * G < an < 1.5 * G:
             inv = 1.0 / an
             ax_, ay_, az_ = fx * inv, fy * inv, fz * inv
-            # estimated "up" in body = third row of R; error = measured x estimated
-            ex = ay_ * r22 - az_ * r21
-            ey = az_ * r20 - ax_ * r22
-            ez = ax_ * r21 - ay_ * r20
-            if dt > 0.0 and self.ki_acc > 0.0:
-                k = self.ki_acc * dt
-                gb[0] += k * ex
-                gb[1] += k * ey
-                gb[2] += k * ez
-            ex *= self.kp_acc
-            ey *= self.kp_acc
-            ez *= self.kp_acc
+            # expected specific force: gravity + the GNSS-derived acceleration (world), in body
+            ar = self._a_ref
+            rfx, rfy, rfz = ar[0], ar[1], ar[2] + G
+            rn = 1.0 / math.sqrt(rfx * rfx + rfy * rfy + rfz * rfz)
+            rfx, rfy, rfz = rfx * rn, rfy * rn, rfz * rn
+            vbx = r00 * rfx + r10 * rfy + r20 * rfz
+            vby = r01 * rfx + r11 * rfy + r21 * rfz
+            vbz = r02 * rfx + r12 * rfy + r22 * rfz
+            # error = measured x estimated
+            ix = ay_ * vbz - az_ * vby
+            iy = az_ * vbx - ax_ * vbz
+            iz = ax_ * vby - ay_ * vbx
+            k = self.kp_acc
+            ex, ey, ez = ix * k, iy * k, iz * k
+            k = self.ki_acc
+            ix, iy, iz = ix * k, iy * k, iz * k
         if mag is not None:
             mx, my, mz = mag.field_flu_gauss
             wx = r00 * mx + r01 * my + r02 * mz
@@ -198,12 +214,20 @@ class Estimator:
             nh = math.sqrt(wx * wx + wy * wy)
             if nh > 1e-9:
                 rx, ry = self.mag_ref_h
-                # heading error about world z: measured -> reference
-                e_up = (wx * ry - wy * rx) / nh * self.kp_mag
-                # world z in body = third row of R
-                ex += e_up * r20
-                ey += e_up * r21
-                ez += e_up * r22
+                # heading error about world z (measured -> reference), applied about world z in body
+                e_up = (wx * ry - wy * rx) / nh
+                k = e_up * self.kp_mag
+                ex += k * r20
+                ey += k * r21
+                ez += k * r22
+                k = e_up * self.ki_mag
+                ix += k * r20
+                iy += k * r21
+                iz += k * r22
+        if dt > 0.0:
+            gb[0] += ix * dt
+            gb[1] += iy * dt
+            gb[2] += iz * dt
         if dt > 0.0:
             ox, oy, oz = gx + ex, gy + ey, gz + ez
             h = 0.5 * dt
@@ -232,6 +256,14 @@ class Estimator:
             v[2] += awz * dt
         gn = obs.gnss
         if gn is not None:
+            gp = self._gnss_prev
+            if gp is not None and gn.t_us > gp[0]:
+                tg = (gn.t_us - gp[0]) * 1e-6
+                al = tg / (self.acc_ref_tau + tg)
+                ar = self._a_ref
+                for i in (0, 1, 2):
+                    ar[i] += al * ((gn.vel_enu[i] - gp[1][i]) / tg - ar[i])
+            self._gnss_prev = (gn.t_us, gn.vel_enu)
             e_m = (gn.lon_deg - self.origin.lon) * self.m_lon
             n_m = (gn.lat_deg - self.origin.lat) * self.m_lat
             gv = gn.vel_enu

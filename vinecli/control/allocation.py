@@ -11,7 +11,10 @@ with ``r_i`` the rotor position, ``a_i`` its thrust axis. The mixer is the pseud
 floats. Rotor thrusts are limited to ``[k_f w_min_armed², k_f w_max²]``; when the unconstrained
 solution does not fit, the PX4 "airmode off" sequential desaturation
 (``ControlAllocationSequentialDesaturation::mixAirmodeDisabled``) is applied: thrust may only
-be reduced, then roll and pitch are reduced, and yaw is mixed last with the lowest priority.
+be reduced, then roll and pitch are reduced, and yaw is mixed last with the lowest priority:
+the largest share of the yaw request that fits is used (PX4's 15 % headroom + thrust
+reduction when that gives more yaw without clipping), so roll and pitch are never distorted
+by yaw.
 Rotor speed commands are ``sqrt(T_i / k_f)`` clamped to ``[w_min_armed, w_max]`` (rad/s).
 
 Normalised torques (the rate controller's output, PX4 style) are converted with
@@ -122,6 +125,21 @@ class Mixer:
         for i in range(n):
             sp[i] += k * vec[i]
 
+    def _yaw_share(self, sp: Sequence[float], yaw: Sequence[float], t_max: float) -> float:
+        """Largest k in [0, 1] with t_min <= sp + k yaw <= t_max for every rotor."""
+        k = 1.0
+        t_min = self.t_min
+        for s, y in zip(sp, yaw, strict=True):
+            if y > _EPS:
+                lim = (t_max - s) / y
+            elif y < -_EPS:
+                lim = (t_min - s) / y
+            else:
+                continue
+            if lim < k:
+                k = lim
+        return k if k > 0.0 else 0.0
+
     # ------------------------------------------------------------------ main entry
     def allocate_thrusts(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
         """Rotor thrusts (N) for collective ``thrust`` (N) and torques (N m, body FLU)."""
@@ -141,10 +159,23 @@ class Mixer:
         self._desaturate(sp, ct, t_max, reduce_only=True)
         self._desaturate(sp, cr, t_max)
         self._desaturate(sp, cp, t_max)
-        for i in range(n):
-            sp[i] += cy[i] * tz
-        self._desaturate(sp, cy, t_max + 0.15 * (t_max - t_min))
-        self._desaturate(sp, ct, t_max, reduce_only=True)
+        yaw = [cy[i] * tz for i in range(n)]
+        # (a) the largest share of the yaw request that fits without touching anything else
+        k_a = self._yaw_share(sp, yaw, t_max)
+        if k_a < 1.0:
+            # (b) PX4 mixYaw: 15 % headroom above the top for yaw, then thrust reduced; used
+            # only when it gives more yaw and needs no clipping at the bottom
+            hi = t_max + 0.15 * (t_max - t_min)
+            k_b = self._yaw_share(sp, yaw, hi)
+            if k_b > k_a:
+                cand = [sp[i] + k_b * yaw[i] for i in range(n)]
+                self._desaturate(cand, ct, t_max, reduce_only=True)
+                if min(cand) >= t_min - 1e-9 and max(cand) <= t_max + 1e-9:
+                    sp = cand
+                    k_a = -1.0
+        if k_a >= 0.0:
+            for i in range(n):
+                sp[i] += k_a * yaw[i]
         for i in range(n):
             s = sp[i]
             sp[i] = t_min if s < t_min else (t_max if s > t_max else s)

@@ -171,6 +171,8 @@ class Cascade:
         self.xy_pos_ctrl = True  # False: horizontal velocity = vel_ff
         self.z_pos_ctrl = True  # False: vertical velocity = vel_ff[2]
         self.yaw_sp = 0.0
+        self.yaw_cur = 0.0  # slewed yaw setpoint, rad
+        self.yaw_rate_max = math.radians(c.max_yaw_rate_auto_deg_s)
         self.reset()
 
     def reset(self) -> None:
@@ -268,7 +270,18 @@ class Cascade:
                 vi[i] = -lim
         self.thrust_saturated = sat_z
         self.thrust_sp = math.sqrt(fx * fx + fy * fy + fz * fz)
-        self.q_sp = thrust_to_attitude(fx, fy, fz, self.yaw_sp)
+        # yaw setpoint slewed towards yaw_sp (MPC_YAWRAUTO_MAX)
+        dy = self.yaw_sp - self.yaw_cur
+        dy = (dy + math.pi) % (2.0 * math.pi) - math.pi
+        step = self.yaw_rate_max * dt
+        self.yaw_cur += step if dy > step else (-step if dy < -step else dy)
+        self.q_sp = thrust_to_attitude(fx, fy, fz, self.yaw_cur)
+
+    def set_yaw(self, yaw: float, *, immediate: bool = False) -> None:
+        """Yaw setpoint (rad, ENU from east CCW); slewed at MPC_YAWRAUTO_MAX unless ``immediate``."""
+        self.yaw_sp = yaw
+        if immediate:
+            self.yaw_cur = yaw
 
     def set_attitude(self, q_sp: QuatXYZW, thrust_n: float) -> None:
         """Direct attitude + collective thrust setpoint (bypasses the position loop)."""

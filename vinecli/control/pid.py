@@ -85,11 +85,11 @@ class Pid:
             sat_dir = 1 if u > hi else (-1 if u < lo else external_sat)
             if not ((sat_dir > 0 and di > 0.0) or (sat_dir < 0 and di < 0.0)):
                 self.integral += di
-            if self.k_aw != 0.0:
-                self.integral += self.k_aw * (u_sat - u) * dt
-            il = self.i_limit
-            if self.integral > il:
-                self.integral = il
-            elif self.integral < -il:
-                self.integral = -il
+        if self.k_aw != 0.0:
+            self.integral += self.k_aw * (u_sat - u) * dt
+        il = self.i_limit
+        if self.integral > il:
+            self.integral = il
+        elif self.integral < -il:
+            self.integral = -il
         return u_sat

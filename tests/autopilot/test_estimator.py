@@ -1,0 +1,123 @@
+"""Estimator convergence on synthetic sensor data (the real simulated sensors sampling a known
+trajectory): attitude incl. heading, gyro bias, position and velocity."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from vinecli.autopilot.estimator import Estimator, periodic_gains
+from vinecli.frames import quat_from_euler, quat_mul, quat_to_euler
+from vinecli.physics.sensors import make_sensors
+from vinecli.sim.types import ImuSample, Observation, RigidState
+from vinecli.specs import load_spec
+from vinecli.specs.vehicle import VehicleSpec
+
+from .conftest_paths import VEHICLES
+from .rigid_body import ORIGIN
+
+DT_US = 4000
+
+
+def vehicle() -> VehicleSpec:
+    return load_spec(VEHICLES / "x500.yaml", VehicleSpec)
+
+
+def angle_between(q1: tuple[float, ...], q2: tuple[float, ...]) -> float:
+    d = quat_mul((-q1[0], -q1[1], -q1[2], q1[3]), q2)
+    return 2.0 * math.acos(min(1.0, abs(d[3])))
+
+
+def run(est: Estimator, truth_at, seconds: float, *, seed: int = 3, gyro_bias: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        after_first=None, after_each=None, start_s: float = 0.0) -> RigidState:
+    """Feed the estimator with the simulated sensors sampling ``truth_at(t)`` from start_s to seconds."""
+    sensors = getattr(est, "_test_sensors", None) or make_sensors(vehicle().sensors, ORIGIN, seed)
+    est._test_sensors = sensors  # type: ignore[attr-defined]
+    st = truth_at(0.0)
+    for k in range(int(start_s * 1e6 / DT_US), int(seconds * 1e6 / DT_US)):
+        st = truth_at(k * DT_US * 1e-6)
+        st.t_us = k * DT_US
+        imu, baro, mag, gnss = sensors.sample_all(st)
+        g = imu.gyro_flu
+        imu = ImuSample(imu.t_us, imu.accel_flu, (g[0] + gyro_bias[0], g[1] + gyro_bias[1], g[2] + gyro_bias[2]))
+        est.update(Observation(st.t_us, st, imu, baro, mag, gnss))
+        if k == 0 and after_first is not None:
+            after_first(est)
+        if after_each is not None:
+            after_each(est)
+    return st
+
+
+def test_static_attitude_heading_and_position() -> None:
+    q_true = quat_from_euler(0.08, -0.05, 2.2)
+    pos = (3.0, -4.0, 1.5)
+
+    def truth(t: float) -> RigidState:
+        return RigidState(0, pos, q_true, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), False)
+
+    est = Estimator(vehicle(), ORIGIN)
+    run(est, truth, 6.0)
+    assert est.ready
+    assert math.degrees(angle_between(est.quat, q_true)) < 1.0
+    assert abs(quat_to_euler(est.quat)[2] - 2.2) < math.radians(2.0)
+    assert math.dist(est.pos[:2], pos[:2]) < 0.4  # GNSS sigma 0.3 m per axis, filtered
+    assert est.pos[2] == pytest.approx(pos[2], abs=0.3)
+    assert max(abs(v) for v in est.vel) < 0.15
+
+
+def test_recovers_from_a_wrong_initial_attitude_and_learns_gyro_bias() -> None:
+    q_true = quat_from_euler(0.0, 0.0, 0.5)
+
+    def truth(t: float) -> RigidState:
+        return RigidState(0, (0.0, 0.0, 0.2), q_true, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), True)
+
+    def perturb(e: Estimator) -> None:
+        e.quat = quat_from_euler(0.25, -0.2, 1.2)  # 15 deg tilt and 40 deg heading off
+
+    est = Estimator(vehicle(), ORIGIN)
+    bias = (0.01, -0.015, 0.008)
+    run(est, truth, 40.0, gyro_bias=bias, after_first=perturb)
+    assert math.degrees(angle_between(est.quat, q_true)) < 1.5
+    # the integral terms learn the bias (tilt axes from the accelerometer, heading from the magnetometer)
+    assert est.gyro_bias[:2] == pytest.approx(bias[:2], abs=0.003)
+    assert est.gyro_bias[2] == pytest.approx(bias[2], abs=0.006)  # slower: heading loop gain is low
+
+
+def test_tracks_an_accelerating_trajectory() -> None:
+    # at rest for 2 s, then 1 m/s² east for 4 s, then 4 m/s; level, heading north
+    q = quat_from_euler(0.0, 0.0, math.pi / 2)
+
+    def truth(t: float) -> RigidState:
+        if t < 2.0:
+            x, vx, ax = 0.0, 0.0, 0.0
+        elif t < 6.0:
+            x, vx, ax = 0.5 * (t - 2.0) ** 2, t - 2.0, 1.0
+        else:
+            x, vx, ax = 8.0 + 4.0 * (t - 6.0), 4.0, 0.0
+        return RigidState(0, (x, 0.0, 10.0), q, (vx, 0.0, 0.0), (0.0, 0.0, 0.0), (ax, 0.0, 0.0), False)
+
+    est = Estimator(vehicle(), ORIGIN)
+    worst_tilt = 0.0
+
+    def check(e: Estimator) -> None:
+        nonlocal worst_tilt
+        r, p, _ = quat_to_euler(e.quat)
+        worst_tilt = max(worst_tilt, abs(r), abs(p))
+
+    st = run(est, truth, 4.5, after_each=check)
+    assert est.vel[0] == pytest.approx(st.vel[0], abs=0.15)  # mid-acceleration
+    assert est.acc[0] == pytest.approx(1.0, abs=0.25)
+    st = run(est, truth, 10.0, after_each=check, start_s=4.5)
+    assert est.vel[0] == pytest.approx(st.vel[0], abs=0.1)
+    assert est.pos[0] == pytest.approx(st.pos[0], abs=0.4)
+    # the GNSS-acceleration reference keeps the accelerometer from pulling the attitude
+    assert math.degrees(worst_tilt) < 2.0
+
+
+def test_periodic_gains_are_sane() -> None:
+    # position-only measurements: a larger measurement noise gives smaller gains
+    (k_lo,) = periodic_gains(0.004, 0.04, 4e-4, [(50.0, ((1.0, 0.0, 0.0),), (0.01,))], horizon_s=10.0)
+    (k_hi,) = periodic_gains(0.004, 0.04, 4e-4, [(50.0, ((1.0, 0.0, 0.0),), (1.0,))], horizon_s=10.0)
+    assert 0.0 < k_hi[0][0] < k_lo[0][0] < 1.0
+    assert k_lo[1][0] > 0.0  # a position residual also corrects velocity
