@@ -245,7 +245,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     if cam_spec.enabled:
         from vinecli.sim.camera import DepthCamera
 
-        camera = DepthCamera(engine.client, cam_spec, rng=np.random.default_rng(np.random.SeedSequence(seed).spawn(8)[7]))
+        camera = DepthCamera(engine.client, cam_spec, rng=np.random.default_rng(np.random.SeedSequence(seed).spawn(8)[7]),
+                             hide_body=body)
     point_clouds: list[tuple[float, np.ndarray]] = []
     cam_period_us = int(round(1e6 / cam_spec.rate_hz))
     next_cam_us = 0
