@@ -166,30 +166,23 @@ def detect_rows_grid(
     strength = float(masked[j, i] / max(np.median(spec[band]), 1e-30))
     knorm = float(np.hypot(*k))
     nvec = k / knorm  # unit normal to the rows (ENU)
-    # refine on a 1-D profile across the rows
+    # refine direction and spacing on 1-D profiles across the rows
     X, Y = np.meshgrid(x, y)
-    s = (X * nvec[0] + Y * nvec[1])[valid]
-    h = zz[valid]
-    step = min(abs(dx), abs(dy)) / 2
-    bins = np.floor((s - s.min()) / step).astype(int)
-    cnt = np.bincount(bins)
-    prof = np.bincount(bins, weights=h) / np.maximum(cnt, 1)
-    have = cnt > 0
-    sp_axis = s.min() + (np.arange(prof.size) + 0.5) * step
-    prof = np.interp(sp_axis, sp_axis[have], prof[have])
-    pw = prof * np.hanning(prof.size)
-    nfft = 1 << int(math.ceil(math.log2(prof.size * 16)))
-    ps = np.abs(np.fft.rfft(pw - pw.mean(), nfft))
-    fr = np.fft.rfftfreq(nfft, step)
-    sel = (fr >= 0.8 * knorm) & (fr <= 1.25 * knorm)
-    idx = np.flatnonzero(sel)
-    kk = idx[int(np.argmax(ps[idx]))]
-    if 0 < kk < ps.size - 1:
-        a, b, c = ps[kk - 1], ps[kk], ps[kk + 1]
-        den = a - 2 * b + c
-        kk = kk + (0.5 * (a - c) / den if den != 0 else 0.0)
-    f = kk * (fr[1] - fr[0])
+    Xv, Yv, h = X[valid], Y[valid], zz[valid]
+    step = min(abs(dx), abs(dy))
+    theta0 = math.atan2(nvec[1], nvec[0])
+    best: tuple[float, float, float] | None = None
+    for dth in np.radians(np.arange(-1.5, 1.55, 0.1)):
+        nv = np.array([math.cos(theta0 + dth), math.sin(theta0 + dth)])
+        f_, amp = _profile_peak(Xv * nv[0] + Yv * nv[1], h, step, knorm)
+        if best is None or amp > best[2]:
+            best = (float(dth), f_, amp)
+    assert best is not None
+    nvec = np.array([math.cos(theta0 + best[0]), math.sin(theta0 + best[0])])
+    f = best[1]
     spacing = 1.0 / f
+    s = Xv * nvec[0] + Yv * nvec[1]
+    sp_axis, prof = _profile(s, h, step)
     # phase of the fundamental: row centres where cos(2π f s + φ) = 1 (ridges)
     ph = np.angle(np.sum(prof * np.exp(-2j * np.pi * f * sp_axis)))
     s0 = -ph / (2 * np.pi * f)
@@ -197,12 +190,56 @@ def detect_rows_grid(
     first = math.ceil((smin - s0) / spacing)
     offsets = [s0 + m * spacing for m in range(first, first + int((smax - smin) / spacing) + 2)]
     offsets = [o for o in offsets if smin + 0.25 * spacing <= o <= smax - 0.25 * spacing]
+    offsets = [_local_peak(prof, sp_axis, o, spacing / 3) for o in offsets]
     u = np.array([-nvec[1], nvec[0]])  # along the rows
     direction = math.degrees(math.atan2(u[1], u[0])) % 180.0
     if direction >= 180.0 - 1e-9:
         direction = 0.0
     rows = _clip_lines(offsets, nvec, u, x, y, valid, min_length_m if min_length_m is not None else 3 * spacing)
     return RowDetection(round(direction, 3), round(spacing, 4), rows, round(strength, 2))
+
+
+def _profile(s: np.ndarray, h: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mean height in bins of ``step`` along ``s``, interpolated onto a regular axis (bin mean positions)."""
+    bins = np.floor((s - s.min()) / step).astype(int)
+    cnt = np.bincount(bins)
+    have = cnt > 0
+    prof = np.bincount(bins, weights=h)[have] / cnt[have]
+    pos = np.bincount(bins, weights=s)[have] / cnt[have]
+    axis = s.min() + (np.arange(cnt.size) + 0.5) * step
+    return axis, np.interp(axis, pos, prof)
+
+
+def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float) -> tuple[float, float]:
+    """(frequency of the fundamental near ``k_guess``, its amplitude) of the profile along ``s``."""
+    axis, prof = _profile(s, h, step)
+    pw = prof * np.hanning(prof.size)
+    nfft = 1 << int(math.ceil(math.log2(prof.size * 16)))
+    ps = np.abs(np.fft.rfft(pw - pw.mean(), nfft))
+    fr = np.fft.rfftfreq(nfft, step)
+    idx = np.flatnonzero((fr >= 0.8 * k_guess) & (fr <= 1.25 * k_guess))
+    kk = float(idx[int(np.argmax(ps[idx]))])
+    amp = float(ps[int(kk)])
+    k = int(kk)
+    if 0 < k < ps.size - 1:
+        a, b, c = ps[k - 1], ps[k], ps[k + 1]
+        den = a - 2 * b + c
+        kk = k + (0.5 * (a - c) / den if den != 0 else 0.0)
+    return kk * float(fr[1] - fr[0]), amp
+
+
+def _local_peak(prof: np.ndarray, axis: np.ndarray, o: float, half: float) -> float:
+    """The profile maximum within ``o ± half`` (parabolic refinement), or ``o`` if none."""
+    idx = np.flatnonzero(np.abs(axis - o) <= half)
+    if idx.size < 3:
+        return o
+    k = int(idx[np.argmax(prof[idx])])
+    if k in (idx[0], idx[-1]):
+        return o
+    a, b, c = prof[k - 1], prof[k], prof[k + 1]
+    den = a - 2 * b + c
+    shift = 0.5 * (a - c) / den if den != 0 else 0.0
+    return float(axis[k] + shift * (axis[1] - axis[0]))
 
 
 def _clip_lines(offsets: Sequence[float], nvec: np.ndarray, u: np.ndarray, x: np.ndarray, y: np.ndarray,
@@ -274,7 +311,7 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 1 << 20, **kw: Any)
             out_shape = (max(8, ds.height // f), max(8, ds.width // f))
             z = ds.read(1, out_shape=out_shape, masked=True, resampling=rasterio.enums.Resampling.average)
             z = np.ma.filled(z.astype(float), np.nan)
-            tr = ds.transform * ds.transform.scale(ds.width / out_shape[1], ds.height / out_shape[0])
+            tr = ds.transform @ ds.transform.scale(ds.width / out_shape[1], ds.height / out_shape[0])
             crs = ds.crs
     except rasterio.errors.RasterioIOError as exc:
         raise TerrainError(f"cannot read raster: {exc}", path=path) from None
@@ -283,7 +320,7 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 1 << 20, **kw: Any)
     z[~np.isfinite(z) | (np.abs(z) > 1e6)] = np.nan
     ny, nx = z.shape
     to_ll = Transformer.from_crs(CRS.from_user_input(crs).to_2d(), "EPSG:4326", always_xy=True)
-    cx, cy = tr * (nx / 2, ny / 2)
+    cx, cy = tr @ (nx / 2, ny / 2)
     lon0, lat0 = to_ll.transform(cx, cy)
     origin = GeoOrigin(float(lat0), float(lon0), float(np.nanmedian(z)))
     # local affine CRS -> ENU by finite differences at the centre
@@ -313,6 +350,6 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 1 << 20, **kw: Any)
     Xg = cx + Jinv[0, 0] * xg[None, :] + Jinv[0, 1] * yg[:, None]
     Yg = cy + Jinv[1, 0] * xg[None, :] + Jinv[1, 1] * yg[:, None]
     inv = ~tr
-    col, row = inv * (Xg, Yg)
+    col, row = inv @ (Xg, Yg)
     zg = np.where((col >= 0) & (col < nx) & (row >= 0) & (row < ny), zg, np.nan)
     return detect_rows_grid(zg, xg, yg, **kw), origin

@@ -187,6 +187,7 @@ def import_plan(
     wp_speed = speed
     length = 0.0
     last_xy: tuple[float, float] = (0.0, 0.0)
+    last_h = 0.0
 
     def flush() -> None:
         nonlocal wps
@@ -221,7 +222,7 @@ def import_plan(
                 flush()
             wp_speed = speed
             length += math.hypot(p[0] - last_xy[0], p[1] - last_xy[1])
-            last_xy = (p[0], p[1])
+            last_xy, last_h = (p[0], p[1]), p[2]
             wps.append(p)
             if it.p(1) > 0:
                 flush()
@@ -234,6 +235,7 @@ def import_plan(
             if math.isnan(alt) or alt <= 0:
                 raise SpecError(f"{where}: takeoff altitude must be > 0 m above home", path=path)
             phases.append(TakeoffPhase(altitude_agl_m=alt))
+            last_h = alt
         elif c == DO_CHANGE_SPEED:
             if it.p(2) > 0:
                 speed = it.p(2)
@@ -251,10 +253,10 @@ def import_plan(
             phases.append(SprayerPhase(flow_lps=spray_on if it.p(1) >= 0.5 else 0.0))
         elif c == NAV_LOITER_TIME:
             p = pos(where, it)
-            if p is not None:
+            if p is not None and (math.hypot(p[0] - last_xy[0], p[1] - last_xy[1]) > 0.5 or abs(p[2] - last_h) > 0.1):
                 phases.append(GotoPhase(position_enu=(p[0], p[1]), altitude_agl_m=p[2], speed_mps=speed))
                 length += math.hypot(p[0] - last_xy[0], p[1] - last_xy[1])
-                last_xy = (p[0], p[1])
+                last_xy, last_h = (p[0], p[1]), p[2]
             phases.append(HoldPhase(duration_s=max(it.p(1), 0.1)))
         elif c == NAV_DELAY:
             if not it.p(1) > 0:
@@ -262,7 +264,7 @@ def import_plan(
             phases.append(HoldPhase(duration_s=it.p(1)))
         elif c == NAV_LAND:
             p = pos(where, it, need_alt=False)
-            if p is not None:
+            if p is not None and math.hypot(p[0] - last_xy[0], p[1] - last_xy[1]) > 0.5:
                 phases.append(GotoPhase(position_enu=(p[0], p[1]), speed_mps=speed))
                 length += math.hypot(p[0] - last_xy[0], p[1] - last_xy[1])
             phases.append(LandPhase())
