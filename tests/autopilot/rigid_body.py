@@ -49,7 +49,7 @@ class RigidBodyDouble:
         self.dt_us = int(round(1e6 / rate_hz))
         self.dt = self.dt_us * 1e-6
         self.liquid_l = (vehicle.tank.capacity_l if vehicle.tank else 0.0) if liquid_l is None else liquid_l
-        self.mass = vehicle.dry_mass() + vehicle.liquid_mass(self.liquid_l)
+        self.extra_mass = 0.0  # kg added by a test (unknown to the autopilot)
         self.inertia = vehicle.frame.inertia_kgm2
         self.motors = MotorBank(vehicle.motor, vehicle.rotors)
         self.sensors = make_sensors(vehicle.sensors, ORIGIN, seed)
@@ -65,6 +65,15 @@ class RigidBodyDouble:
         #: extra world force (N, ENU) and body torque (N m, FLU) as functions of time (s)
         self.ext_force: Callable[[float], Vec3] | None = None
         self.ext_torque: Callable[[float], Vec3] | None = None
+
+    @property
+    def mass(self) -> float:
+        """Total mass: dry + liquid + extra, kg."""
+        return self.vehicle.dry_mass() + self.vehicle.liquid_mass(self.liquid_l) + self.extra_mass
+
+    @mass.setter
+    def mass(self, value: float) -> None:
+        self.extra_mass += value - self.mass
 
     def context(self, mission: MissionSpec, **kw: object) -> AutopilotContext:
         """Autopilot context for this double (home = the resting base position)."""

@@ -590,6 +590,8 @@ class BuiltinAutopilot:
             self.airborne = False
             self.set_flow(0.0)
             self._sp = None
+            ex = self._status.extra
+            ex["sp_x"] = ex["sp_y"] = ex["sp_z"] = _NAN
             self.emit("arming", "disarmed", {"armed": False})
             self._set_mode("DISARMED")
 
@@ -622,8 +624,8 @@ class BuiltinAutopilot:
         st = self._status
         if st.status is not RunStatus.RUNNING:
             return
-        if self.armed:
-            self.disarm()
+        if self.armed and status in (RunStatus.CANNOT_TAKE_OFF, RunStatus.LOST_CONTROL, RunStatus.GEOFENCE_TERMINATED):
+            self.disarm()  # motors off; a completed or timed-out run just ends where it is
         st.status = status
         st.detail = detail
         self.emit("status", f"{status.value}: {detail}", {"status": status.value, "detail": detail})
@@ -738,4 +740,5 @@ class BuiltinAutopilot:
         elif action == "rtl":
             self._failsafe_to(_Rtl(5.0, math.inf), f"geofence breach ({violation}): returned to launch and landed")
         elif action == "land":
+            self._sp = None  # land where the vehicle is, not at the setpoint ahead of it
             self._failsafe_to(_Land(0.7, math.inf), f"geofence breach ({violation}): landed")

@@ -1,0 +1,231 @@
+"""Mission sequencer: phase/mode transitions and events, setpoints, sprayer, open loop,
+spray passes over rows, geofence actions, timeouts, registry."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from vinecli.autopilot.base import RunStatus
+from vinecli.autopilot.builtin import BuiltinAutopilot
+from vinecli.autopilot.registry import available_autopilots, make_autopilot
+from vinecli.errors import InputError
+from vinecli.specs import load_spec
+from vinecli.specs.mission import GeofenceSpec, MissionSpec
+from vinecli.specs.vehicle import VehicleSpec
+
+from .conftest_paths import VEHICLES
+from .rigid_body import RigidBodyDouble, Trace
+
+
+def vehicle(name: str = "x500") -> VehicleSpec:
+    return load_spec(VEHICLES / f"{name}.yaml", VehicleSpec)
+
+
+def run(phases: list[dict], seconds: float, *, name: str = "x500", truth: bool = True, **ctx: object
+        ) -> tuple[RigidBodyDouble, BuiltinAutopilot, Trace, list]:
+    d = RigidBodyDouble(vehicle(name))
+    ap = BuiltinAutopilot()
+    ap.reset(d.context(MissionSpec(name="t", truth=truth, phases=phases), **ctx))
+    tr = d.fly(ap, seconds)
+    return d, ap, tr, ap.drain_events()
+
+
+def test_phase_and_mode_transitions() -> None:
+    phases = [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 2.0},
+              {"type": "goto", "position_enu": [4.0, 0.0]}, {"type": "land"}]
+    d, ap, tr, ev = run(phases, 60)
+    st = ap.status()
+    assert st.status is RunStatus.COMPLETED and st.detail == "all phases completed"
+    assert [e.data["mode"] for e in ev if e.kind == "mode"] == ["AUTO.TAKEOFF", "AUTO.LOITER", "AUTO.MISSION", "AUTO.LAND",
+                                                                "DISARMED"]
+    ph = [(e.data["index"], e.data["event"]) for e in ev if e.kind == "phase"]
+    assert ph == [(0, "start"), (0, "end"), (1, "start"), (1, "end"), (2, "start"), (2, "end"), (3, "start"), (3, "end")]
+    assert [e.data["armed"] for e in ev if e.kind == "arming"] == [True, False]
+    assert ev[-1].kind == "status" and ev[-1].data["status"] == "completed"
+    times = [e.t_us for e in ev]
+    assert times == sorted(times)
+    # hold lasted its duration
+    t_hold = [e.t_us for e in ev if e.kind == "phase" and e.data["index"] == 1]
+    assert (t_hold[1] - t_hold[0]) * 1e-6 == pytest.approx(2.0, abs=0.03)
+    # setpoints are recorded while flying and NaN while disarmed
+    assert math.isnan(tr.sp[-1][0])
+    flying = [i for i, m in enumerate(tr.mode) if m == "AUTO.MISSION"]
+    assert all(math.isfinite(tr.sp[i][0]) for i in flying)
+    assert tr.sp[flying[-1]][0] == pytest.approx(4.0, abs=0.6)
+    assert st.phase_index == 3
+
+
+def test_estimator_waits_before_arming() -> None:
+    d, ap, tr, ev = run([{"type": "takeoff", "altitude_agl_m": 2.0}], 10, truth=False)
+    t_arm = next(e.t_us for e in ev if e.kind == "arming") * 1e-6
+    assert 1.4 < t_arm < 2.0  # the estimator settles 1.5 s after its first GNSS + baro fix
+    assert tr.mode[0] == "DISARMED"
+    assert all(w == 0.0 for w in tr.w_cmd[0])
+
+
+def test_sprayer_and_waypoints_flow() -> None:
+    phases = [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "sprayer", "flow_lps": 0.02},
+              {"type": "waypoints", "waypoints": [[3.0, 0.0, 2.0], [3.0, 3.0, 2.5]], "speed_mps": 2.0, "flow_lps": 0.04},
+              {"type": "sprayer", "flow_lps": 0.0}, {"type": "hold", "duration_s": 1.0}]
+    d, ap, tr, ev = run(phases, 40, name="x500-sprayer")
+    assert ap.status().status is RunStatus.COMPLETED
+    flows = [e.data["flow_lps"] for e in ev if e.kind == "sprayer"]
+    assert flows == [0.02, 0.04, 0.0]
+    assert tr.flow[-1] == 0.0
+    assert max(tr.flow) == 0.04
+    assert d.liquid_l < 1.0
+    # the sprayer phase does not change the mode
+    modes = [e.data["mode"] for e in ev if e.kind == "mode"]
+    assert modes == ["AUTO.TAKEOFF", "AUTO.MISSION", "AUTO.LOITER"]
+
+
+def test_open_loop_schedule_then_controller_takes_over() -> None:
+    v = vehicle()
+    w_hover = v.hover_speed(v.dry_mass())
+    phases = [{"type": "open_loop", "duration_s": 1.0, "schedule": [[0.0, 300.0], [0.4, [310.0, 320.0, 330.0, 340.0]]]},
+              {"type": "open_loop", "duration_s": 0.5, "rotor_speeds_rad_s": 200.0},
+              {"type": "takeoff", "altitude_agl_m": 2.0}]
+    d, ap, tr, ev = run(phases, 20)
+    assert ap.status().status is RunStatus.COMPLETED
+    assert tr.mode[0] == "OPEN_LOOP"
+    at = {round(t, 2): w for t, w in zip(tr.t, tr.w_cmd, strict=True)}
+    assert at[0.2] == (300.0,) * 4
+    assert at[0.6] == (310.0, 320.0, 330.0, 340.0)
+    assert at[1.2] == (200.0,) * 4
+    assert [e.data["mode"] for e in ev if e.kind == "mode"][:2] == ["OPEN_LOOP", "AUTO.TAKEOFF"]
+    assert max(p[2] for p in tr.pos) > 2.0
+    assert w_hover > 300.0
+
+
+def test_open_loop_rejects_a_wrong_rotor_count() -> None:
+    ap = BuiltinAutopilot()
+    d = RigidBodyDouble(vehicle())
+    with pytest.raises(InputError, match="4 rotors"):
+        ap.reset(d.context(MissionSpec(name="t", phases=[{"type": "open_loop", "duration_s": 1.0,
+                                                          "rotor_speeds_rad_s": [1.0, 2.0]}])))
+
+
+ROWS = (((2.0, 0.0), (2.0, 12.0)), ((4.0, 12.0), (4.0, 0.0)), ((6.0, 0.0), (6.0, 12.0)))
+
+
+def _dist_to_rows(x: float, y: float) -> float:
+    best = math.inf
+    for (x0, y0), (x1, y1) in ROWS:
+        t = max(0.0, min(1.0, ((x - x0) * (x1 - x0) + (y - y0) * (y1 - y0)) / ((x1 - x0) ** 2 + (y1 - y0) ** 2)))
+        best = min(best, math.hypot(x - x0 - t * (x1 - x0), y - y0 - t * (y1 - y0)))
+    return best
+
+
+def test_spray_passes_follow_rows_with_flow_on_rows_only() -> None:
+    phases = [{"type": "takeoff", "altitude_agl_m": 2.0},
+              {"type": "spray", "height_agl_m": 2.5, "speed_mps": 2.0, "flow_lps": 0.01}, {"type": "land"}]
+    d, ap, tr, ev = run(phases, 120, name="x500-sprayer", vine_rows_enu=ROWS)
+    assert ap.status().status is RunStatus.COMPLETED
+    spraying = [i for i, f in enumerate(tr.flow) if f > 0.0]
+    assert len(spraying) > 200
+    for i in spraying:  # flow only over the rows
+        assert _dist_to_rows(tr.pos[i][0], tr.pos[i][1]) < 0.5
+        assert tr.pos[i][2] == pytest.approx(2.5, abs=0.3)  # above the flat terrain at z = 0
+    # every row was covered end to end
+    for (x0, _y0), _end in ROWS:
+        ys = [tr.pos[i][1] for i in spraying if abs(tr.pos[i][0] - x0) < 0.5]
+        assert min(ys) < 1.0 and max(ys) > 11.0
+    # flow switched off in the turns: on/off edges = 3 rows
+    edges = sum(1 for a, b in zip(tr.flow, tr.flow[1:], strict=False) if (a > 0) != (b > 0))
+    assert edges == 6
+
+
+def test_spray_until_empty_repeats_passes() -> None:
+    phases = [{"type": "takeoff", "altitude_agl_m": 2.0},
+              {"type": "spray", "height_agl_m": 2.0, "speed_mps": 2.5, "flow_lps": 0.1, "until": "empty"}]
+    d, ap, tr, ev = run(phases, 60, name="x500-sprayer", vine_rows_enu=ROWS[:1])
+    assert ap.status().status is RunStatus.COMPLETED
+    assert d.liquid_l == pytest.approx(0.0, abs=1e-9)
+    # a single 12 m row at 2.5 m/s takes ~5 s and holds 0.5 L: several passes both ways were flown
+    on = [i for i, f in enumerate(tr.flow) if f > 0.0]
+    ys = [tr.pos[i][1] for i in on]
+    assert sum(1 for a, b in zip(ys, ys[1:], strict=False) if abs(b - a) > 0.0 and (b - a) * (ys[1] - ys[0]) < 0) > 0
+
+
+def test_spray_without_rows_is_an_input_error() -> None:
+    ap = BuiltinAutopilot()
+    d = RigidBodyDouble(vehicle("x500-sprayer"))
+    with pytest.raises(InputError, match="no vine rows"):
+        ap.reset(d.context(MissionSpec(name="t", phases=[{"type": "spray", "flow_lps": 0.01}])))
+    with pytest.raises(InputError, match="out of range"):
+        ap.reset(d.context(MissionSpec(name="t", phases=[{"type": "spray", "flow_lps": 0.01, "rows": [5]}]),
+                           vine_rows_enu=ROWS))
+
+
+def _fence(action: str) -> GeofenceSpec:
+    return GeofenceSpec(polygon_enu=[(-5.0, -5.0), (8.0, -5.0), (8.0, 5.0), (-5.0, 5.0)], action=action)
+
+
+FENCE_PHASES = [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "goto", "position_enu": [15.0, 0.0], "speed_mps": 3.0},
+                {"type": "hold", "duration_s": 1.0}]
+
+
+@pytest.mark.parametrize("action", ["none", "warn"])
+def test_geofence_report_only_actions(action: str) -> None:
+    d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence(action))
+    gf = [e for e in ev if e.kind == "geofence"]
+    assert len(gf) == 1 and gf[0].data["action"] == action and gf[0].data["violation"] == "polygon"
+    assert gf[0].data["x"] == pytest.approx(8.0, abs=0.5)
+    assert ap.status().status is RunStatus.COMPLETED
+    assert d.pos[0] == pytest.approx(15.0, abs=0.6)  # the mission went on
+
+
+def test_geofence_hold_stops_near_the_fence() -> None:
+    d, ap, tr, ev = run(FENCE_PHASES, 25, geofence=_fence("hold"))
+    gf = next(e for e in ev if e.kind == "geofence")
+    assert gf.data["gf_action"] == 2
+    st = ap.status()
+    assert st.status is RunStatus.RUNNING and st.mode == "AUTO.LOITER"  # holds until the run's time limit
+    assert 8.0 < d.pos[0] < 10.5 and abs(d.vel[0]) < 0.1
+
+
+def test_geofence_rtl_returns_home_and_lands() -> None:
+    d, ap, tr, ev = run(FENCE_PHASES, 60, geofence=_fence("rtl"))
+    st = ap.status()
+    assert st.status is RunStatus.COMPLETED and "returned to launch" in st.detail
+    assert "AUTO.RTL" in [e.data["mode"] for e in ev if e.kind == "mode"]
+    assert math.hypot(d.pos[0], d.pos[1]) < 0.3 and d.on_ground
+    assert max(p[2] for p in tr.pos) >= 5.0  # climbed to the 5 m return altitude
+
+
+def test_geofence_land_lands_in_place() -> None:
+    d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence("land"))
+    st = ap.status()
+    assert st.status is RunStatus.COMPLETED and "landed" in st.detail
+    gf = next(e for e in ev if e.kind == "geofence")
+    assert d.on_ground and abs(d.pos[0] - gf.data["x"]) < 1.5
+
+
+def test_geofence_terminate_and_max_altitude() -> None:
+    fence = GeofenceSpec(max_altitude_agl_m=4.0, action="terminate")
+    d, ap, tr, ev = run([{"type": "takeoff", "altitude_agl_m": 6.0}], 20, geofence=fence)
+    st = ap.status()
+    assert st.status is RunStatus.GEOFENCE_TERMINATED
+    gf = next(e for e in ev if e.kind == "geofence")
+    assert gf.data["violation"] == "max_altitude" and gf.data["gf_action"] == 4
+    assert tr.w_cmd[-1] == (0.0,) * 4 or all(w == 0.0 for w in ap.step(d.observe()).rotor_speed_cmd)
+
+
+def test_phase_timeout_ends_the_run() -> None:
+    d, ap, tr, ev = run([{"type": "takeoff", "altitude_agl_m": 3.0},
+                         {"type": "goto", "position_enu": [100.0, 0.0], "speed_mps": 1.0, "timeout_s": 3.0}], 30)
+    st = ap.status()
+    assert st.status is RunStatus.TIMEOUT and "phase 1 (goto)" in st.detail
+
+
+def test_registry() -> None:
+    assert {"builtin", "px4"} <= set(available_autopilots())
+    ap = make_autopilot("builtin")
+    assert isinstance(ap, BuiltinAutopilot) and ap.name == "builtin"
+    assert make_autopilot("builtin", truth=True)._truth_opt is True  # type: ignore[attr-defined]
+    with pytest.raises(InputError, match="unknown autopilot 'nope'"):
+        make_autopilot("nope")
+    with pytest.raises(InputError, match="unknown option"):
+        make_autopilot("builtin", colour="red")
