@@ -306,3 +306,18 @@ def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, offset: Sequ
 def _jsonable_options(options: ReconstructOptions) -> dict[str, Any]:
     d = asdict(options)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()}
+
+
+def parse_list(text: str | None, option: str, kind: type = float, count: int | None = None) -> tuple[Any, ...] | None:
+    """Parse a comma-separated option value (``"2,9"``, ``"0.5,1,2"``); InputError naming the option."""
+    if text is None or not str(text).strip():
+        return None
+    try:
+        values = tuple(kind(v) for v in str(text).replace(" ", "").split(",") if v != "")
+    except ValueError as exc:
+        raise InputError(f"{option} expects comma-separated {kind.__name__} values, got {text!r}") from exc
+    if count is not None and len(values) != count:
+        raise InputError(f"{option} expects {count} comma-separated values, got {text!r}")
+    if not values:
+        raise InputError(f"{option} is empty")
+    return values
