@@ -1,0 +1,87 @@
+"""The built-in autopilot through the real simulation loop (PyBullet, physics models, sensors)
+on worlds/flat.yaml: takeoff/hold/land, and a spray pass over two rows."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from vinecli.autopilot.base import RunStatus
+from vinecli.autopilot.registry import make_autopilot
+from vinecli.specs.mission import MissionSpec
+
+
+@pytest.fixture(scope="module")
+def flat(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Any:
+    from vinecli.world import build_world, load_world
+
+    return load_world(build_world(repo / "worlds" / "flat.yaml", tmp_path_factory.mktemp("w") / "flat"))
+
+
+def fly(world: Any, phases: list[dict[str, Any]], *, truth: bool = False, max_s: float = 40.0, **kw: Any) -> Any:
+    from vinecli.sim.runner import run_simulation
+
+    m = MissionSpec(name="t", truth=truth, max_duration_s=max_s, phases=phases, **kw)
+    ap = make_autopilot("builtin")
+    try:
+        return run_simulation(world, m, ap, seed=7)
+    finally:
+        ap.close()
+
+
+def test_takeoff_hold_land(flat: Any) -> None:
+    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 4.0}, {"type": "land"}])
+    assert res.status is RunStatus.COMPLETED, res.detail
+    ts = res.timeseries
+    t, z = ts["t_s"], ts["pos_enu_z_m"]
+    home_z = float(z[0])
+    kinds = [e.kind for e in res.events]
+    for k in ("liftoff", "touchdown", "land_detected", "mode", "phase"):
+        assert k in kinds
+    t_hold = [e.t_us * 1e-6 for e in res.events if e.kind == "phase" and e.data.get("index") == 1]
+    hold = (t > t_hold[0] + 1.0) & (t < t_hold[1])
+    assert float(np.mean(z[hold])) == pytest.approx(home_z + 3.0, abs=0.15)
+    assert float(np.max(np.abs(z[hold] - (home_z + 3.0)))) < 0.3
+    assert float(np.max(np.hypot(ts["pos_enu_x_m"][hold], ts["pos_enu_y_m"][hold]))) < 1.0
+    # the recorded setpoint is the autopilot's
+    assert np.all(np.isfinite(ts["sp_pos_enu_z_m"][hold]))
+    assert float(np.mean(ts["sp_pos_enu_z_m"][hold])) == pytest.approx(home_z + 3.0, abs=0.01)
+    # the autopilot detected the runner's (truth) touchdown within a second and disarmed
+    t_td = next(e.t_us for e in res.events if e.kind == "touchdown") * 1e-6
+    t_ld = next(e.t_us for e in res.events if e.kind == "land_detected") * 1e-6
+    assert 0.0 <= t_ld - t_td < 1.5
+    assert ts["armed"][-1] == 0.0
+    assert float(np.max(ts["tilt_rad"])) < math.radians(10.0)
+    assert res.metrics["max_impact_speed_mps"] < 1.2
+
+
+def test_spray_pass_over_rows(flat: Any) -> None:
+    rows = [[[2.0, -6.0], [2.0, 6.0]], [[5.0, 6.0], [5.0, -6.0]]]
+    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 2.0},
+                     {"type": "spray", "rows": rows, "height_agl_m": 2.0, "speed_mps": 2.0, "flow_lps": 0.02},
+                     {"type": "hold", "duration_s": 1.0}], max_s=60.0)
+    assert res.status is RunStatus.COMPLETED, res.detail
+    ts = res.timeseries
+    flow = ts["tank_flow_cmd_lps"]
+    on = flow > 0.0
+    assert on.sum() > 100
+    x, y, agl = ts["pos_enu_x_m"][on], ts["pos_enu_y_m"][on], ts["height_agl_m"][on]
+    dist = np.minimum(np.abs(x - 2.0), np.abs(x - 5.0))
+    assert float(np.max(dist)) < 0.5  # flow only over the rows
+    assert float(np.max(np.abs(y))) < 6.5
+    assert float(np.mean(agl)) == pytest.approx(2.0, abs=0.25)
+    # both rows covered end to end
+    for xr in (2.0, 5.0):
+        yr = y[np.abs(x - xr) < 0.5]
+        assert yr.min() < -5.0 and yr.max() > 5.0
+    # the tank drains at the commanded rate while spraying
+    t = ts["t_s"]
+    dt = float(np.median(np.diff(t)))
+    drained = float(ts["tank_level_l"][0] - ts["tank_level_l"][-1])
+    assert drained == pytest.approx(0.02 * on.sum() * dt, rel=0.05)
+    edges = int(np.sum(on[1:] != on[:-1]))
+    assert edges == 4  # on/off per row
