@@ -274,13 +274,13 @@ def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
     """Build a world spec into ``worlds_root/<stem>/`` unless a build of the same spec is there."""
     digest = hashlib.sha256(spec_path.read_bytes()).hexdigest()
     out = worlds_root / spec_path.stem
-    stamp = out / ".spec-sha256"
+    stamp = worlds_root / f".{spec_path.stem}.spec-sha256"
     if (out / "world.json").is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
     from vinecli.world import build_world
 
     log.info("building world %s into %s", spec_path, out)
-    build_world(spec_path, out)
+    build_world(spec_path, out, overwrite=True)
     stamp.write_text(digest + "\n")
     return out
 

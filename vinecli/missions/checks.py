@@ -113,14 +113,28 @@ class RunData:
         return base + offset
 
     def event_time(self, kind: str) -> float:
-        """Time of the first event of ``kind`` (events first, then the simulator's ``<kind>_s`` metric)."""
-        times = [float(te) for te, k in self.events if k == kind]
+        """Time of the first event of ``kind`` (events first, then the simulator's ``<kind>_s`` metric).
+
+        A ``liftoff`` followed by a ``touchdown`` within 0.5 s (the vehicle settling on the terrain at
+        the spawn, a bounce) does not count: lift-off is the first one that stays airborne.
+        """
+        times = sorted(float(te) for te, k in self.events if k == kind)
+        if kind == "liftoff" and times:
+            downs = sorted(float(te) for te, k in self.events if k == "touchdown")
+            times = [t for t in times if not any(t <= d <= t + 0.5 for d in downs)]
+            if not times:
+                raise EventMissing("event 'liftoff' did not happen in this run (only bounces)")
         if times:
-            return min(times)
+            return times[0]
         key = _EVENT_METRIC.get(kind, f"{kind}_s")
         v = self.metrics.get(key)
         if v is not None and np.isfinite(v):
             return float(v)
+        if kind == "tank_empty" and self.has("tank_level_l"):  # derived: first sample with (almost) no liquid
+            lvl = self.column("tank_level_l")
+            idx = np.flatnonzero(lvl <= 1e-6)
+            if idx.size and lvl[0] > 1e-6:
+                return float(self.t[idx[0]])
         raise EventMissing(f"event '{kind}' did not happen in this run")
 
     def window_mask(self, window: tuple[float, float] | None) -> np.ndarray:

@@ -113,20 +113,24 @@ def liquid_weight_n(data: RunData, window: Window) -> float:
 
 @metric("tank_force_rest_ratio", "1")
 def tank_force_rest_ratio(data: RunData, window: Window) -> float:
-    """Tank force at rest / liquid weight (1 = equal). Default window: on the ground, 0.2 s after start to 0.3 s before lift-off."""
+    """Tank force at rest / liquid weight (1 = equal), medians over samples on the ground with |v_z| < 5 mm/s.
+    Default window: the 1 s ending 0.3 s before lift-off (the whole run if it never lifts off)."""
     t = data.t
     if window is None:
         tl = _try_event(data, "liftoff")
         t_end = (tl - 0.3) if tl is not None else float(t[-1])
-        window = (float(t[0]) + 0.2, t_end)
+        window = (max(float(t[0]), t_end - 1.0), t_end)
     sel = data.window_mask(window)
     if data.has("on_ground"):
         sel &= data.column("on_ground") > 0.5
+    if data.has("vel_enu_z_mps"):
+        sel &= np.abs(data.column("vel_enu_z_mps")) < 0.005
     if not sel.any():
         return _nan()
     force_down = -data.column("tank_force_enu_z_n")[sel]
     weight = data.column("tank_mass_kg")[sel] * _g(data)
-    return float(np.mean(force_down) / np.mean(weight)) if np.mean(weight) > 0 else _nan()
+    w = float(np.median(weight))
+    return float(np.median(force_down) / w) if w > 0 else _nan()
 
 
 @metric("liftoff_force_jump_ratio", "1")
@@ -426,11 +430,17 @@ def wind_period_s(data: RunData, window: Window) -> float:
 
 @metric("rotor_period_s", "s")
 def rotor_period_s(data: RunData, window: Window) -> float:
-    """Dominant period of the mean rotor speed, s. Default: lift-off +5 s .. touchdown."""
+    """Median over the rotors of each rotor speed's dominant period (periods >= 2 s: the wind band,
+    not the controller's fast loops), s. Default: lift-off +5 s .. touchdown."""
     sel = _flight_window(data, window, after_liftoff_s=5.0)
     if np.count_nonzero(sel) < 8:
         return _nan()
-    return dominant_period(_mean_rotor_speed(data)[sel], data.t[sel])
+    cols = [c for c in data.timeseries if re.fullmatch(r"rotor\d+_w_radps", c)]
+    if not cols:
+        raise KeyError("rotor1_w_radps")
+    periods = [dominant_period(data.column(c)[sel], data.t[sel], min_period=2.0) for c in cols]
+    periods = [p for p in periods if math.isfinite(p)]
+    return float(np.median(periods)) if periods else _nan()
 
 
 @metric("rotor_wind_period_ratio", "1")
@@ -467,8 +477,9 @@ def _tilt_terms(data: RunData, window: Window) -> tuple[np.ndarray, np.ndarray, 
         ux, uy = -fx / fmag, -fy / fmag  # upwind direction: against the aerodynamic force
     along = np.arctan2(zb[:, 0] * ux + zb[:, 1] * uy, zb[:, 2])
     wx, wy = data.column("wind_enu_x_mps")[idx], data.column("wind_enu_y_mps")[idx]
-    lean = zb[:, 0] * wx + zb[:, 1] * wy
-    strong = np.hypot(wx, wy) > 0.5
+    tt = data.t[idx]
+    lean = _smooth(zb[:, 0], tt, 1.0) * wx + _smooth(zb[:, 1], tt, 1.0) * wy  # 1 s average: attitude jitter out
+    strong = (np.hypot(wx, wy) > 0.5) & (pred >= math.radians(1.5))
     sign = np.where(strong, np.sign(-lean), np.nan)
     ok = fmag > 1e-6
     return along[ok], pred[ok], sign
@@ -486,7 +497,8 @@ def tilt_into_wind_ratio(data: RunData, window: Window) -> float:
 
 @metric("tilt_into_wind_fraction", "1")
 def tilt_into_wind_fraction(data: RunData, window: Window) -> float:
-    """Fraction of samples with horizontal wind > 0.5 m/s where the body z axis leans upwind (1 = always)."""
+    """Fraction of the gusty samples (predicted steady tilt >= 1.5 deg) where the body z axis (1 s average)
+    leans upwind (1 = always); below that the tilt is dominated by the position loop, not the wind."""
     _, _, sign = _tilt_terms(data, window)
     s = sign[np.isfinite(sign)]
     return float(np.mean(s > 0)) if s.size else _nan()

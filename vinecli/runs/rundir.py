@@ -63,6 +63,7 @@ def write_events(path: Path, events: Sequence[Any]) -> None:
 
 def read_events(path: Path) -> list[dict[str, Any]]:
     """Events of a run as dicts."""
+    path = Path(path)
     if not path.is_file():
         return []
     return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
