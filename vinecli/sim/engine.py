@@ -17,6 +17,7 @@ the vehicle base so fast impacts on thin triangle meshes cannot pass through.
 from __future__ import annotations
 
 import logging
+import math
 from pathlib import Path
 
 from vinecli.errors import RuntimeFailure, TerrainError
@@ -148,6 +149,20 @@ class Engine:
     def in_contact(self) -> bool:
         """True if the vehicle touches any terrain body."""
         return bool(self.client.getContactPoints(bodyA=self.vehicle))
+
+    def footprint_height(self, x: float, y: float, half_x: float, half_y: float, yaw: float, n: int = 7) -> float | None:
+        """Highest terrain point (m) under a rectangle centred at (x, y) with yaw (rad), from n×n rays."""
+        c, s = math.cos(yaw), math.sin(yaw)
+        starts, ends = [], []
+        for i in range(n):
+            u = -half_x + 2.0 * half_x * i / (n - 1)
+            for j in range(n):
+                v = -half_y + 2.0 * half_y * j / (n - 1)
+                px, py = x + c * u - s * v, y + s * u + c * v
+                starts.append([px, py, 1e4])
+                ends.append([px, py, -1e4])
+        hits = [h[3][2] for h in self.client.rayTestBatch(starts, ends) if h[0] >= 0 and h[0] != self.vehicle]
+        return max(hits) if hits else None
 
     def ray_height(self, x: float, y: float, z_top: float = 1e4, z_bottom: float = -1e4) -> float | None:
         """Terrain height (m) straight below (x, y) from a ray cast, None if it misses."""

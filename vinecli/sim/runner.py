@@ -14,9 +14,14 @@ Per physics step k (t_us = k · dt_us, dt_us = round(1e6 / rate)):
    * wind drag per link j in ``vehicle.drag`` (``c_j = ½ ρ S C_D0``) at its centre of pressure
      r_j: ``F_j = c_j |V_app| V_app``, ``V_app = wind - (v + ω × r_j)``, torque ``r_j × F_j``;
    * tank: liquid mass drained by the flow command, force ``m (g - a_mount)`` at the mount r_t
-     with ``a_mount = a_k + α × r_t + ω × (ω × r_t)``, α the finite difference of ω. The
-     acceleration is the last step's (explicit coupling; stable while the liquid is lighter
-     than the rigid vehicle, which every sprayer satisfies);
+     with ``a_mount = a_cm + α × r_t + ω × (ω × r_t)``, α the finite difference of ω. The liquid
+     is not part of the PyBullet body, so ``a_cm`` is the acceleration of vehicle + liquid under
+     this step's forces: ``a_cm = g + (F_ext + F_c) / (M + m)`` with F_ext the rotor and drag
+     forces and F_c the ground-contact force of the last step, recovered from the finite
+     difference ``F_c = M (a_k - g) - F_ext,k-1 - F_tank,k-1`` (M the rigid mass). At rest this
+     gives the liquid weight, in free fall zero, in a steady climb the weight again, and at
+     lift-off the inertial jump -- without the one-step lag (and ringing with ratio -m/M) of
+     feeding the raw finite-difference acceleration back;
 
    all summed into ONE world-frame force at the CoM and ONE world-frame torque (two PyBullet
    calls; equivalent to per-link forces because the links are rigidly fixed);
@@ -56,7 +61,8 @@ __all__ = ["SimResult", "resolve_vehicle", "run_simulation"]
 log = logging.getLogger(__name__)
 
 _DEBOUNCE_S = 0.05  # s of (no) contact before lift-off / touchdown is declared
-_CONTACT_MARGIN_M = 0.6  # contacts are queried only when the skids are this close to the grid height
+_CONTACT_MARGIN_M = 0.6
+SPAWN_GAP_M = 0.0  # m between the skids and the terrain at spawn  # contacts are queried only when the skids are this close to the grid height
 
 
 @dataclass
@@ -177,8 +183,7 @@ def run_simulation(
     if init is not None:
         if init.position_enu is not None:
             x, y, hz = init.position_enu
-            rest = rest_position(world.terrain, veh, x, y)
-            pos0 = (x, y, rest[2] + hz)
+            pos0 = (x, y, rest_position(world.terrain, veh, x, y)[2] + hz)
             airborne_start = hz > 0.0
         r, p_, yw = (math.radians(a) for a in init.rpy_deg)
         quat0 = quat_from_euler(r, p_, yw)
@@ -196,8 +201,17 @@ def run_simulation(
             urdf = write_urdf(veh, Path(tmpdir.name) / f"{veh.name}.urdf")
         from vinecli.frames import quat_rotate
 
+        if not airborne_start:
+            # place the skids exactly on the loaded collision surface (the grid can differ from a
+            # mesh by its max error): highest ray hit under the collision box + SPAWN_GAP_M
+            bx, by, _bz = veh.frame.collision_box_m
+            ground = engine.footprint_height(pos0[0], pos0[1], bx / 2.0, by / 2.0, quat_to_euler(quat0)[2])
+            if ground is not None:
+                pos0 = (pos0[0], pos0[1], ground + lgh + SPAWN_GAP_M)
+        home = pos0 if not airborne_start else rest_position(world.terrain, veh, pos0[0], pos0[1])
         body = engine.load_vehicle(urdf, pos0, quat0)
         engine.reset_vehicle(pos0, quat0, vel0, quat_rotate(quat0, omega0_body))
+        engine.client.performCollisionDetection()  # contacts are known at t = 0
         return _loop(
             world=world, mission=mission, autopilot=autopilot, seed=seed, veh=veh, engine=engine, body=body,
             tank=tank, wind=wind, geofence=geofence, home=home, mass0=mass0, rigid_mass=rigid_mass, g=g, g_vec=g_vec,
@@ -332,6 +346,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     vpx, vpy, vpz = get_v(body)[0]
     opx, opy, opz = get_v(body)[1]
     first_step = True
+    airborne0 = bool(kw["airborne_start"])
+    pex = pey = pez = ptx = pty = ptz = 0.0
     flow_cmd = 0.0
     k = 0
     wall_loop0 = time.perf_counter()
@@ -439,15 +455,30 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         if tank is not None:
             flow_cmd = cmd.spray_flow_lps
             tank.update(flow_cmd, dt)
+            # contact force of the last step from the finite-difference acceleration:
+            # F_c = M (a - g) - F_ext,prev - F_tank,prev (M = rigid PyBullet mass)
+            if first_step:
+                if airborne0:
+                    ccx = ccy = ccz = 0.0
+                else:  # resting: the ground carries everything
+                    m_all = rigid_mass + tank.mass_kg
+                    ccx, ccy, ccz = -m_all * gx, -m_all * gy, -m_all * gz
+            else:
+                ccx = rigid_mass * (ax - gx) - pex - ptx
+                ccy = rigid_mass * (ay - gy) - pey - pty
+                ccz = rigid_mass * (az - gz) - pez - ptz
+            pex, pey, pez = fx, fy, fz  # external forces of this step without the tank
+            inv_m = 1.0 / (rigid_mass + tank.mass_kg)
             rx = r00 * tmx + r01 * tmy + r02 * tmz
             ry = r10 * tmx + r11 * tmy + r12 * tmz
             rz = r20 * tmx + r21 * tmy + r22 * tmz
-            # a_mount = a + α × r + ω × (ω × r)
+            # a_mount = a_cm + α × r + ω × (ω × r), a_cm of vehicle + liquid under this step's forces
             cx, cy, cz = oy * rz - oz * ry, oz * rx - ox * rz, ox * ry - oy * rx
-            amx = ax + (aly * rz - alz * ry) + (oy * cz - oz * cy)
-            amy = ay + (alz * rx - alx * rz) + (oz * cx - ox * cz)
-            amz = az + (alx * ry - aly * rx) + (ox * cy - oy * cx)
+            amx = (fx + ccx) * inv_m + gx + (aly * rz - alz * ry) + (oy * cz - oz * cy)
+            amy = (fy + ccy) * inv_m + gy + (alz * rx - alx * rz) + (oz * cx - ox * cz)
+            amz = (fz + ccz) * inv_m + gz + (alx * ry - aly * rx) + (ox * cy - oy * cx)
             f0, f1, f2 = tank.force_world(g_vec, (amx, amy, amz))
+            ptx, pty, ptz = f0, f1, f2
             fx += f0
             fy += f1
             fz += f2

@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -190,7 +191,7 @@ def square_heightmap(grid: TerrainGrid, size: int) -> TerrainGrid:
 def write_heightmap(grid: TerrainGrid, out_dir: Path, origin: GeoOrigin) -> list[Path]:
     """Write ``heightmap.png`` (16-bit, north up), ``heightmap.tif`` (float32 heights ENU) and ``heightmap.json``."""
     import rasterio
-    from rasterio.transform import from_origin
+    from affine import Affine
 
     out_dir.mkdir(parents=True, exist_ok=True)
     zmin, zmax = grid.z_range
@@ -198,15 +199,17 @@ def write_heightmap(grid: TerrainGrid, out_dir: Path, origin: GeoOrigin) -> list
     span = max(zmax - zmin, 1e-6)
     png16 = np.round((north_up - zmin) / span * 65535.0).astype(np.uint16)
     png = out_dir / "heightmap.png"
-    with rasterio.open(png, "w", driver="PNG", width=grid.nx, height=grid.ny, count=1, dtype="uint16") as ds:
-        ds.write(png16, 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        with rasterio.open(png, "w", driver="PNG", width=grid.nx, height=grid.ny, count=1, dtype="uint16") as ds:
+            ds.write(png16, 1)
     aux = png.with_suffix(".png.aux.xml")
     if aux.exists():
         aux.unlink()
     tif = out_dir / "heightmap.tif"
     xmin, _ymin, _xmax, ymax = grid.bounds
     with rasterio.open(tif, "w", driver="GTiff", width=grid.nx, height=grid.ny, count=1, dtype="float32",
-                       transform=from_origin(xmin - grid.dx / 2, ymax + grid.dy / 2, grid.dx, grid.dy)) as ds:
+                       transform=Affine(grid.dx, 0.0, xmin - grid.dx / 2, 0.0, -grid.dy, ymax + grid.dy / 2)) as ds:
         ds.write(north_up.astype(np.float32), 1)
     side = json.dumps({
         "size_px": grid.nx, "size_m": [(grid.nx - 1) * grid.dx, (grid.ny - 1) * grid.dy],
