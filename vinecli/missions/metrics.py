@@ -275,11 +275,11 @@ def _flight_window(data: RunData, window: Window, after_liftoff_s: float = 3.0) 
 
 @metric("rotor_mass_correlation", "1")
 def rotor_mass_correlation(data: RunData, window: Window) -> float:
-    """Pearson correlation of the mean rotor speed (2 s moving average) with total mass, airborne. Default: lift-off +3 s .. touchdown."""
+    """Pearson correlation of the mean rotor speed (5 s moving average: manoeuvres out) with total mass, airborne. Default: lift-off +3 s .. touchdown."""
     sel = _flight_window(data, window)
     if np.count_nonzero(sel) < 10:
         return _nan()
-    w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 2.0)
+    w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 5.0)
     m = data.column("total_mass_kg")[sel]
     if np.std(w) == 0 or np.std(m) == 0:
         return _nan()
@@ -288,11 +288,11 @@ def rotor_mass_correlation(data: RunData, window: Window) -> float:
 
 @metric("hover_w_mass_exponent", "1")
 def hover_w_mass_exponent(data: RunData, window: Window) -> float:
-    """Slope of log(mean rotor speed, 2 s average) vs log(total mass), airborne (hover law: 0.5)."""
+    """Slope of log(mean rotor speed, 5 s average) vs log(total mass), airborne (hover law: 0.5)."""
     sel = _flight_window(data, window)
     if np.count_nonzero(sel) < 10:
         return _nan()
-    w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 2.0)
+    w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 5.0)
     m = data.column("total_mass_kg")[sel]
     ok = (w > 0) & (m > 0)
     if np.ptp(np.log(m[ok])) < 1e-3:
