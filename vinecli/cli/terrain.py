@@ -79,3 +79,204 @@ def _render_reconstruct(stats: dict, out: Path) -> None:
                              f"{100 * d['filled_fraction']:.1f}% cells filled (nearest)")
     t.add_row("seconds", ", ".join(f"{k} {v:.2f}" for k, v in stats["seconds"].items()))
     out_console.print(t)
+
+
+@app.command("convert")
+@handles_errors
+def convert(
+    dsm: Annotated[Path, typer.Argument(help="DSM/DEM GeoTIFF (.tif/.tiff), single band.", show_default=False)],
+    to: Annotated[str, typer.Option("--to", help="heightmap (square 2^n+1 grid) or tiles (crack-free meshes).",
+                                    show_default=False)],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output directory (must be new or empty).",
+                                      show_default=False)],
+    size: Annotated[int | None, typer.Option("--size", metavar="N",
+                                             help="heightmap: side N = 2^n+1, at most 1025 (default: suggested).")
+                    ] = None,
+    method: Annotated[str, typer.Option("--method", help="heightmap: bilinear, cubic, average, max or nearest "
+                                                         "(max keeps vine-row tops when downsampling).")
+                      ] = "bilinear",
+    window: Annotated[str | None, typer.Option("--window", metavar="COL,ROW,WIDTH,HEIGHT",
+                                               help="heightmap: crop to this pixel window (centred square).")
+                      ] = None,
+    bbox: Annotated[str | None, typer.Option("--bbox", metavar="MINX,MINY,MAXX,MAXY",
+                                             help="heightmap: crop to this box in the DSM's CRS units.")] = None,
+    fill: Annotated[str, typer.Option("--fill", help="Nodata fill: idw, nearest, min, or a height in m.")] = "idw",
+    z_unit: Annotated[str | None, typer.Option("--z-unit", help="Override the height unit: m, ft or us-ft.")
+                      ] = None,
+    max_error: Annotated[float | None, typer.Option("--max-error", metavar="M",
+                                                    help="tiles: max vertical error per tile in m (default 0.1).")
+                         ] = None,
+    max_triangles: Annotated[int | None, typer.Option("--max-triangles", metavar="K",
+                                                      help="tiles: triangle budget per tile instead of/with "
+                                                           "--max-error.")] = None,
+    tile_px: Annotated[int, typer.Option("--tile-px", metavar="P",
+                                         help="tiles: tile step in pixels; neighbours share a border row/column.")
+                       ] = 256,
+    fmt: Annotated[str, typer.Option("--format", help="tiles: obj or stl (binary).")] = "obj",
+    workers: Annotated[int | None, typer.Option("--workers", help="tiles: worker processes (default: CPUs).")
+                       ] = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace a non-empty --out.")] = False,
+) -> None:
+    """Convert a DSM into a PyBullet/Gazebo heightmap or into error-bounded mesh tiles.
+
+    Examples: vinecli terrain convert field.tif --to heightmap --size 513 --method max --out hm;
+    vinecli terrain convert field.tif --to tiles --max-error 0.05 --tile-px 256 --out tiles
+    """
+    from vinecli.errors import InputError
+    from vinecli.terrain.crop import parse_floats, parse_ints
+
+    hm_only = {"--size": size, "--window": window, "--bbox": bbox}
+    tiles_only = {"--max-error": max_error, "--max-triangles": max_triangles, "--workers": workers}
+    if to == "heightmap":
+        bad = [k for k, v in tiles_only.items() if v is not None] + (["--format"] if fmt != "obj" else [])
+        if bad:
+            raise InputError(f"{', '.join(bad)} apply to --to tiles only", path=dsm)
+        from vinecli.terrain.heightmap import convert_to_heightmap
+
+        hm = convert_to_heightmap(
+            dsm, out, size=size, method=method,
+            window=parse_ints(window, 4, "--window", path=dsm) if window else None,  # type: ignore[arg-type]
+            bbox=parse_floats(bbox, 4, "--bbox", path=dsm) if bbox else None,  # type: ignore[arg-type]
+            fill=fill, z_unit=z_unit, overwrite=overwrite)
+        _render_heightmap(hm.meta, out)
+    elif to == "tiles":
+        bad = [k for k, v in hm_only.items() if v is not None] + (["--method"] if method != "bilinear" else [])
+        if bad:
+            raise InputError(f"{', '.join(bad)} apply to --to heightmap only", path=dsm)
+        from vinecli.terrain.tiles import convert_to_tiles
+
+        ts = convert_to_tiles(dsm, out, max_error=max_error, max_triangles=max_triangles, tile_px=tile_px, fmt=fmt,
+                              fill=fill, z_unit=z_unit, workers=workers, overwrite=overwrite)
+        _render_tiles(ts.meta, out)
+    else:
+        raise InputError(f"--to {to!r}: choose heightmap or tiles", path=dsm)
+
+
+def _origin_text(geo: dict | None) -> str:
+    if not geo:
+        return "unknown (no CRS)"
+    return f"{geo['lat']:.7f}°, {geo['lon']:.7f}°, {geo['alt']:.2f} m"
+
+
+def _render_heightmap(m: dict, out: Path) -> None:
+    """One rich table about a written heightmap."""
+    from rich.table import Table
+
+    t = Table(title=f"terrain convert --to heightmap -> {out}", show_header=False, title_justify="left")
+    t.add_column(style="bold")
+    t.add_column()
+    n = m["size_px"]
+    t.add_row("grid", f"{n} x {n} vertices, spacing {m['spacing_m']:.4g} m, side {m['size_m'][0]:.4g} m")
+    t.add_row("heights", f"{m['z_min']:.3f} .. {m['z_max']:.3f} m, PNG step {1000 * m['height_step_m']:.3f} mm")
+    t.add_row("crop", f"{m['crop']['mode']}" + (" (cut to its centred square)" if m["crop"]["trimmed_to_square"]
+                                                else ""))
+    t.add_row("resampling", f"{m['resampling']}; read: {m['read']}")
+    t.add_row("nodata filled", f"{100 * m['nodata_filled_fraction']:.2f}% ({m['fill_method']})")
+    loss = m.get("resolution_loss")
+    if loss and loss.get("samples"):
+        t.add_row("resolution loss", f"RMS {loss['rms_m']:.3f} m, max {loss['max_abs_m']:.3f} m vs the DSM samples")
+    t.add_row("CRS", str(m["crs"] if m["crs"] is None or len(str(m["crs"])) < 40 else "custom (WKT)"))
+    t.add_row("geodetic origin", _origin_text(m["geodetic_origin"]))
+    t.add_row("files", "heightmap.png (16-bit), heightmap.tif (float32), heightmap.json, manifest.json")
+    for w in m.get("warnings", []):
+        t.add_row("warning", w)
+    out_console.print(t)
+
+
+def _render_tiles(m: dict, out: Path) -> None:
+    """One rich table about written mesh tiles."""
+    from rich.table import Table
+
+    tot = m["totals"]
+    t = Table(title=f"terrain convert --to tiles -> {out}", show_header=False, title_justify="left")
+    t.add_column(style="bold")
+    t.add_column()
+    t.add_row("tiles", f"{tot['tiles']} ({m['tile_grid'][0]} x {m['tile_grid'][1]}), {m['mesh_format']}, "
+                       f"step {m['tile_px']} px")
+    t.add_row("triangles", f"{tot['triangles']:,} = {100 * tot['triangle_ratio']:.1f}% of the full grid "
+                           f"({tot['full_grid_triangles']:,})")
+    bound = f" (bound {m['max_error_m']:g} m)" if m["error_bound_enforced"] else " (triangle budget)"
+    t.add_row("vertical error", f"max {tot['max_error_m']:.4f} m{bound}, RMS {tot['rms_error_m']:.4f} m")
+    t.add_row("border gap", f"{tot['max_border_gap_m']:.3g} m (shared border vertices)")
+    t.add_row("nodata filled", f"{100 * m['nodata_filled_fraction']:.2f}% ({m['fill_method']})")
+    t.add_row("origin", f"CRS {m['origin']['crs_xy'][0]:.3f}, {m['origin']['crs_xy'][1]:.3f}; "
+                        f"geodetic {_origin_text(m['origin']['geodetic'])}")
+    t.add_row("seconds", ", ".join(f"{k} {v:.2f}" for k, v in m["seconds"].items()) + f" ({m['workers']} workers)")
+    out_console.print(t)
+
+
+@app.command("info")
+@handles_errors
+def info(
+    file: Annotated[Path, typer.Argument(help="DSM GeoTIFF or point cloud (.las .laz .ply .pcd .xyz).",
+                                         show_default=False)],
+    as_json: Annotated[bool, typer.Option("--json", help="Print the facts as JSON instead of a table.")] = False,
+) -> None:
+    """One screen about a raster or point cloud and what convert/reconstruct would do with it.
+
+    Example: vinecli terrain info field.tif
+    """
+    from vinecli.terrain.info import describe
+
+    facts = describe(file)
+    if as_json:
+        import json
+
+        from vinecli.outputs import _jsonable
+
+        typer.echo(json.dumps(_jsonable(facts), indent=2))
+        return
+    if facts.get("kind") == "raster":
+        _render_raster_info(facts)
+    else:
+        _render_generic(facts)
+
+
+def _render_raster_info(f: dict) -> None:
+    from rich.table import Table
+
+    t = Table(title=f"terrain info {f['file']}", show_header=False, title_justify="left")
+    t.add_column(style="bold")
+    t.add_column()
+    u = f["units"]
+    t.add_row("size", f"{f['size_px'][0]} x {f['size_px'][1]} px, {f['dtype']}, {f['layout']}")
+    t.add_row("CRS", f"{f['crs'] or 'none'} - {f['crs_name'] or 'coordinates taken as metres'} ({f['crs_kind']})")
+    t.add_row("units", f"xy {u['xy_unit']}, z {u['z_unit']} ({u['z_source']})")
+    t.add_row("resolution", f"{f['pixel_size'][0]:.6g} x {f['pixel_size'][1]:.6g} CRS units = "
+                            f"{f['pixel_size_m'][0]:.4g} x {f['pixel_size_m'][1]:.4g} m")
+    t.add_row("extent", f"{f['extent_m'][0]:.1f} x {f['extent_m'][1]:.1f} m")
+    t.add_row("centre", _origin_text({**f["geodetic_centre"], "alt": float("nan")}).rsplit(",", 1)[0]
+              if f["geodetic_centre"] else "unknown (no CRS)")
+    t.add_row("nodata", f"{100 * f['nodata_fraction']:.3f}% (value {f['nodata_value']})")
+    z = f"{f['z_min_m']:.3f} .. {f['z_max_m']:.3f} m (relief {f['relief_m']:.3f} m)" if f["z_min_m"] is not None \
+        else "no valid heights"
+    t.add_row("z range", z)
+    h = f["convert"]["heightmap"]
+    t.add_row("convert heightmap",
+              f"centred square {h['square_crop_m']:.1f} m ({h['square_crop_px']:.0f} px) on {h['grid']}; "
+              f"--size {h['suggested_size']} -> spacing {h['spacing_m']:.3g} m, x{h['downsampling_factor']:.2f} "
+              f"resampling, --method {h['suggested_method']}; PNG step {1000 * h['height_step_m']:.2f} mm; "
+              f"read: {h['read']}")
+    t.add_row("PyBullet heightfield", f"~{h['pybullet_heightfield_mb']:.0f} MB at {h['suggested_size']}², "
+                                      f"{'within' if h['pybullet_ok'] else 'ABOVE'} the 2^21-sample limit")
+    tl = f["convert"]["tiles"]
+    t.add_row("convert tiles", f"{tl['tile_grid'][0]} x {tl['tile_grid'][1]} tiles of {tl['tile_px']} px, "
+                               f"full grid {tl['full_grid_triangles']:,} triangles "
+                               f"(~{tl['pybullet_mb_full_grid']:.0f} MB in PyBullet), fewer at "
+                               f"--max-error {tl['max_error_m']} m")
+    for w in f.get("warnings", []):
+        t.add_row("warning", w)
+    out_console.print(t)
+
+
+def _render_generic(f: dict) -> None:
+    from rich.table import Table
+
+    t = Table(title=f"terrain info {f.get('file', '')}", show_header=False, title_justify="left")
+    t.add_column(style="bold")
+    t.add_column()
+    for k, v in f.items():
+        if isinstance(v, dict):
+            v = ", ".join(f"{kk}: {vv}" for kk, vv in v.items())
+        t.add_row(str(k), str(v))
+    out_console.print(t)
