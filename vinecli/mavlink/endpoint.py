@@ -287,8 +287,11 @@ class MavlinkControlledAutopilot:
         ap = self.ap
         ep = self.endpoint
         ep.update(obs.t_us * 1e-6, self._telemetry(obs))
+        armed = ap.armed
         cmd = ap.step(obs)
         self._track(obs)
+        if ap.armed != armed:  # tell clients at once (the run may end on this very step after landing)
+            ep.send_state_now(self._telemetry(obs))
         self._pace(obs.t_us)
         return cmd
 

@@ -112,6 +112,21 @@ class Link:
             self._send_bytes(buf)
             self.tx_count += 1
 
+    def send_raw(self, msgid: int, crc_extra: int, payload: bytes) -> None:
+        """Send a MAVLink 2 message this pymavlink dialect lacks (e.g. PROTOCOL_VERSION 300)."""
+        from pymavlink.generator.mavcrc import x25crc
+
+        while len(payload) > 1 and payload[-1] == 0:  # MAVLink 2 payload truncation
+            payload = payload[:-1]
+        with self._tx_lock:
+            hdr = bytes([0xFD, len(payload), 0, 0, self._tx.seq, self._tx.srcSystem, self._tx.srcComponent,
+                         msgid & 0xFF, (msgid >> 8) & 0xFF, (msgid >> 16) & 0xFF])
+            crc = x25crc(hdr[1:] + payload)
+            crc.accumulate(bytes([crc_extra]))
+            self._tx.seq = (self._tx.seq + 1) % 256
+            self._send_bytes(hdr + payload + bytes([crc.crc & 0xFF, crc.crc >> 8]))
+            self.tx_count += 1
+
     def _send_bytes(self, buf: bytes) -> None:  # pragma: no cover - overridden
         raise AutopilotError("send not implemented")
 

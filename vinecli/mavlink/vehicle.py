@@ -131,6 +131,15 @@ class VehicleEndpoint:
                 self._last[name] = (now_s, wall)
                 self._send_periodic(name, tel)
 
+    def send_state_now(self, tel: Telemetry) -> None:
+        """HEARTBEAT and EXTENDED_SYS_STATE right away (after an arm/mode change inside a step)."""
+        self.tel = tel
+        self._hb_key = (tel.armed, tel.mode)
+        wall = time.monotonic()
+        for name in ("hb", "ext"):
+            self._last[name] = (self._last.get(name, (0.0, wall))[0], wall)
+            self._send_periodic(name, tel)
+
     def statustext(self, text: str, severity: int = 6) -> None:
         """Send a STATUSTEXT (≤ 50 chars)."""
         self.link.send(self.link.mav.statustext_encode(severity, text[:50].encode()))
@@ -278,7 +287,8 @@ class VehicleEndpoint:
             self.link.send(mav.autopilot_version_encode(CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
                                                         0x56, 0x1, self.uid))
         elif msg_id == 300:
-            self.link.send(mav.protocol_version_encode(200, 100, 200, [0] * 8, [0] * 8))
+            # PROTOCOL_VERSION (300) is missing from pymavlink's common dialect: encode by hand (CRC extra 217)
+            self.link.send_raw(300, 217, struct.pack("<HHH8s8s", 200, 100, 200, bytes(8), bytes(8)))
         elif msg_id == 242:
             self._send_home(self.tel)
         else:
