@@ -105,7 +105,8 @@ class _Takeoff(_Phase):
             ap.idle = False
             z0 = min(ap.pos[2], self.target_z)
             self.path = PathFollower([(self.xy[0], self.xy[1], z0), (self.xy[0], self.xy[1], self.target_z)],
-                                     self.climb, accel=2.0, acceptance_m=self.spec.tolerance_m, max_lead_m=1.0)
+                                     self.climb, accel=2.0, acceptance_m=self.spec.tolerance_m, max_lead_m=1.0,
+                                     max_up=self.climb)
         sp, vff, _ = self.path.update(dt, ap.pos)
         if not ap.airborne:
             ap.cascade.reset_rate_integrators()
@@ -215,8 +216,13 @@ class _Spray(_Phase):
     def _new_path(self, ap: BuiltinAutopilot) -> None:
         pts, flows = self._passes((ap.hold_sp()[0], ap.hold_sp()[1]), self.reverse)
         self.reverse = not self.reverse
-        self.path = PathFollower(pts, self.spec.speed_mps, flows=flows, terrain=ap.terrain, acceptance_m=0.7,
-                                 max_lead_m=2.0)
+        terrain, lgh = ap.terrain, ap.vehicle.frame.landing_gear_height_m
+
+        def skids_above_terrain(x: float, y: float) -> float:
+            return terrain(x, y) + lgh  # the height is the skids' (as the recorded height_agl_m)
+
+        self.path = PathFollower(pts, self.spec.speed_mps, flows=flows, terrain=skids_above_terrain, acceptance_m=0.7,
+                                 max_lead_m=2.0, max_vz=min(ap.vehicle.control.max_vel_up, ap.vehicle.control.max_vel_down))
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
         if ap.tank_empty:
@@ -225,7 +231,9 @@ class _Spray(_Phase):
             return True
         sp, vff, done = self.path.update(dt, ap.pos)
         ap.set_position(sp, vff, aff=self.path.aff)
-        ap.set_flow(self.path.flow)
+        # spray only when the vehicle itself is at the carrot (not while catching up)
+        near = math.hypot(sp[0] - ap.pos[0], sp[1] - ap.pos[1]) < 0.7 and abs(sp[2] - ap.pos[2]) < 0.7
+        ap.set_flow(self.path.flow if near else 0.0)
         if done:
             if self.spec.until == "empty":
                 self._new_path(ap)
@@ -302,7 +310,8 @@ class _Rtl(_Phase):
         zr = max(z, h[2] + self.return_alt)
         speed = min(5.0, ap.vehicle.control.max_vel_xy)
         pts = [(x, y, z), (x, y, zr), (h[0], h[1], zr)]
-        self.path = PathFollower(pts, speed, accel=2.0, acceptance_m=0.5)
+        c = ap.vehicle.control
+        self.path = PathFollower(pts, speed, accel=2.0, acceptance_m=0.5, max_up=c.max_vel_up, max_down=c.max_vel_down)
         self.land: _Land | None = None
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
@@ -453,7 +462,8 @@ class BuiltinAutopilot:
                 zt = ap.home[2] + g.altitude_agl_m if g.altitude_agl_m is not None else z
                 speed = g.speed_mps or min(5.0, v.control.max_vel_xy)
                 return PathFollower([(x, y, z), (g.position_enu[0], g.position_enu[1], zt)], speed,
-                                    acceptance_m=g.acceptance_radius_m)
+                                    acceptance_m=g.acceptance_radius_m, max_up=v.control.max_vel_up,
+                                    max_down=v.control.max_vel_down)
 
             return _Path("goto", make_goto, p.timeout_s, yaw_deg=p.yaw_deg)
         if isinstance(p, WaypointsPhase):
@@ -462,7 +472,8 @@ class BuiltinAutopilot:
             def make_wp(ap: BuiltinAutopilot) -> PathFollower:
                 pts = [ap.hold_sp()] + [(x, y, ap.home[2] + a) for x, y, a in w.waypoints]
                 fl = [w.flow_lps if w.flow_lps is not None else ap.flow] * (len(pts) - 1)
-                return PathFollower(pts, w.speed_mps, acceptance_m=w.acceptance_radius_m, flows=fl)
+                return PathFollower(pts, w.speed_mps, acceptance_m=w.acceptance_radius_m, flows=fl,
+                                    max_up=v.control.max_vel_up, max_down=v.control.max_vel_down)
 
             return _Path("waypoints", make_wp, p.timeout_s, flow=p.flow_lps)
         if isinstance(p, SprayPhase):

@@ -4,7 +4,8 @@ A :class:`PathFollower` moves a "carrot" along a polyline at a cruise speed with
 acceleration, slowing down for corners and the end point, and never running more than
 ``max_lead_m`` ahead of the vehicle. Each segment carries a sprayer flow (L/s), so a
 boustrophedon pattern is one path with flow on along rows and off in the turns. Heights
-are absolute ENU z, or height above the terrain under the carrot when ``terrain`` is given.
+are absolute ENU z, or height above the terrain under the carrot when ``terrain`` is given
+(then low-passed with ``terrain_tau_s`` and limited to ``max_vz``: a DSM is rough).
 """
 
 from __future__ import annotations
@@ -18,12 +19,14 @@ from vinecli.frames import Vec3
 class PathFollower:
     """Carrot along ``points`` (x, y, z): ``z`` is ENU m, or height above ``terrain(x, y)``.
 
-    ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]).
+    ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]); ``max_up`` /
+    ``max_down`` (m/s) cap the carrot's vertical speed on climbing / descending segments.
     """
 
     def __init__(self, points: Sequence[Vec3], speed: float, *, accel: float = 1.5, flows: Sequence[float] | None = None,
                  terrain: Callable[[float, float], float] | None = None, acceptance_m: float = 0.5,
-                 max_lead_m: float = 2.5, corner_speed: float = 0.3) -> None:
+                 max_lead_m: float = 2.5, corner_speed: float = 0.3, terrain_tau_s: float = 0.4,
+                 max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf) -> None:
         pts = [tuple(float(c) for c in p) for p in points]
         # drop zero-length segments
         clean = [pts[0]]
@@ -38,6 +41,9 @@ class PathFollower:
         self.speed = speed
         self.accel = accel
         self.terrain = terrain
+        self.terrain_tau = terrain_tau_s
+        self.max_vz = max_vz
+        self._zf: float | None = None  # terrain-following height, low-passed and rate-limited
         self.acceptance = acceptance_m
         self.max_lead = max_lead_m
         n = len(clean)
@@ -52,13 +58,21 @@ class PathFollower:
             self.v_vertex[-1] = 0.0
         for i in range(1, n - 1):
             a, b, c = clean[i - 1], clean[i], clean[i + 1]
-            d1 = (b[0] - a[0], b[1] - a[1])
-            d2 = (c[0] - b[0], c[1] - b[1])
-            n1, n2 = math.hypot(*d1), math.hypot(*d2)
-            if n1 < 1e-9 or n2 < 1e-9:
-                continue
-            cosang = (d1[0] * d2[0] + d1[1] * d2[1]) / (n1 * n2)
+            d1 = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+            d2 = (c[0] - b[0], c[1] - b[1], c[2] - b[2])
+            n1, n2 = math.sqrt(sum(x * x for x in d1)), math.sqrt(sum(x * x for x in d2))
+            cosang = (d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]) / (n1 * n2)
             self.v_vertex[i] = speed if cosang > 0.985 else max(corner_speed, speed * max(0.0, cosang))
+        # cruise speed per segment: the vertical component within the climb / descent limits
+        self.v_seg = []
+        for i in range(n - 1):
+            a, b = clean[i], clean[i + 1]
+            L = self.cum[i + 1] - self.cum[i]
+            vz_frac = (b[2] - a[2]) / L if L > 0 else 0.0
+            lim = max_up if vz_frac > 0 else max_down
+            self.v_seg.append(min(speed, lim / abs(vz_frac)) if abs(vz_frac) > 1e-6 else speed)
+        for i in range(1, n - 1):
+            self.v_vertex[i] = min(self.v_vertex[i], self.v_seg[i - 1], self.v_seg[i])
         self.s = 0.0
         self.v = 0.0
         self.seg = 0
@@ -98,8 +112,8 @@ class PathFollower:
         """Advance by ``dt`` s given the vehicle position; returns (setpoint, velocity feed-forward, done)."""
         sp = self.sp
         lead = math.sqrt((sp[0] - pos[0]) ** 2 + (sp[1] - pos[1]) ** 2 + (sp[2] - pos[2]) ** 2)
-        # allowed speed: cruise, the next vertices' limits, acceleration ramp
-        v_allow = self.speed
+        # allowed speed: the segment's cruise, the next vertices' limits, acceleration ramp
+        v_allow = self.v_seg[self.seg] if self.v_seg else self.speed
         cum = self.cum
         for j in range(self.seg + 1, len(cum)):
             d = cum[j] - self.s
@@ -119,10 +133,24 @@ class PathFollower:
         self.v = v
         self.s = min(self.total, self.s + v * dt)
         new = self._at(self.s)
+        if self.terrain is not None:
+            # the terrain under the carrot is rough (a DSM): follow it through a first-order
+            # low-pass with a climb-rate limit, never differentiate it twice
+            zt = new[2]
+            zf = self._zf
+            if zf is None:
+                zf = zt
+            elif dt > 0.0:
+                dz = dt / (self.terrain_tau + dt) * (zt - zf)
+                lim = self.max_vz * dt
+                zf += lim if dz > lim else (-lim if dz < -lim else dz)
+            self._zf = zf
+            new = (new[0], new[1], zf)
         if dt > 0.0:
             vff = ((new[0] - sp[0]) / dt, (new[1] - sp[1]) / dt, (new[2] - sp[2]) / dt)
             o = self.vff
-            self.aff = ((vff[0] - o[0]) / dt, (vff[1] - o[1]) / dt, (vff[2] - o[2]) / dt)
+            self.aff = ((vff[0] - o[0]) / dt, (vff[1] - o[1]) / dt,
+                        0.0 if self.terrain is not None else (vff[2] - o[2]) / dt)
         else:
             vff = self.vff
         self.vff = vff
@@ -130,7 +158,7 @@ class PathFollower:
         self.flow = self.flows[min(self.seg, len(self.flows) - 1)]
         done = False
         if self.s >= self.total - 1e-9:
-            e = self.end
+            e = new  # the end point (terrain-following height as filtered)
             done = math.sqrt((e[0] - pos[0]) ** 2 + (e[1] - pos[1]) ** 2 + (e[2] - pos[2]) ** 2) <= self.acceptance
             self.flow = 0.0 if self.total > 0 else self.flow
         return new, vff, done
