@@ -1,0 +1,74 @@
+"""The shipped CI gate: pipelines/ci.yaml (thesis chapter 5) through the real loop and autopilot."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import REPO
+
+from vinecli.batch import run_batch
+
+EXPECTED = {
+    "takeoff": ("completed", {"tank_force_at_rest", "liftoff_force_jump", "steady_climb_force",
+                              "drag_opposes_vertical_motion", "altitude_reached"}),
+    "overload": ("cannot_take_off", {"cannot_take_off", "stays_on_ground"}),
+    "spray": ("completed", {"drain_time", "rotor_speed_follows_mass", "hover_law", "on_the_rows"}),
+    "gust": ("completed", {"holds_position", "rotors_follow_wind_period", "tilts_into_wind", "tilt_magnitude"}),
+}
+
+
+@pytest.fixture(scope="module")
+def ci_runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("ci") / "runs"
+    res = run_batch(REPO / "pipelines" / "ci.yaml", out, jobs=2)
+    assert [c.case for c in res.cases] == list(EXPECTED)
+    return out
+
+
+def test_ci_pipeline_passes_every_check(ci_runs: Path) -> None:
+    batch = json.loads((ci_runs / "batch.json").read_text())
+    assert batch["pipeline"] == "ci" and batch["passed"] is True
+    assert (ci_runs / "_worlds" / "vineyard-sample" / "world.json").is_file()  # the world spec, built once
+    for case in batch["cases"]:
+        status, must = EXPECTED[case["case"]]
+        s = json.loads((ci_runs / case["run_id"] / "summary.json").read_text())
+        assert s["status"] == status, case
+        checks = {c["name"]: c for c in s["checks"]}
+        assert must <= set(checks)
+        failed = [c for c in s["checks"] if not c["passed"]]
+        assert not failed, failed
+        assert s["world"]["name"] == "vineyard-sample" and len(s["world"]["rows_enu"]) == 16
+
+
+def test_ci_thesis_numbers(ci_runs: Path) -> None:
+    """The measured chapter-5 quantities, not just pass/fail."""
+    def checks(case: str) -> dict[str, float]:
+        s = json.loads((ci_runs / case / "summary.json").read_text())
+        return {c["name"]: c["value"] for c in s["checks"]}
+
+    t = checks("takeoff")
+    assert abs(t["tank_force_at_rest"] - 1.0) <= 0.01          # 1 L water -> 9.81 N at rest
+    assert t["liftoff_force_jump"] >= 0.05                      # inertial jump at lift-off
+    assert abs(t["steady_climb_force"] - 1.0) <= 0.03           # back to the weight in the steady climb
+    s = checks("spray")
+    assert abs(s["drain_time"] - 1.0) <= 0.02
+    assert 0.4 <= s["hover_law"] <= 0.6                         # w ~ m^(1/2)
+    g = checks("gust")
+    assert 0.9 <= g["rotors_follow_wind_period"] <= 1.1
+    assert 0.75 <= g["tilt_magnitude"] <= 1.25                  # tilt ~ atan(F_drag / (m g))
+
+
+def test_resume_skips_the_finished_ci_cases(ci_runs: Path) -> None:
+    res = run_batch(REPO / "pipelines" / "ci.yaml", ci_runs, jobs=1, resume=True)
+    assert all(c.skipped and c.passed for c in res.cases)
+
+
+def test_dask_executor_runs_a_real_mission(tmp_path: Path, ci_runs: Path) -> None:
+    world = ci_runs / "_worlds" / "vineyard-sample"
+    pipe = tmp_path / "p.yaml"
+    pipe.write_text(f"name: dask-real\nworld: {world}\nmissions: [{REPO / 'pipelines' / 'missions' / 'takeoff.yaml'}]\n")
+    res = run_batch(pipe, tmp_path / "runs", jobs=1, executor="dask", dask_processes=False)
+    assert res.cases[0].passed and res.cases[0].status == "completed"
+    assert json.loads((tmp_path / "runs" / "batch.json").read_text())["executor"] == "dask"
