@@ -358,7 +358,7 @@ class MavlinkControlledAutopilot:
             rates_frd=flu_to_frd(ap.omega), home=self.home_geo,
             gps_fix=3 if (g is None or g.fix_type >= 3) else g.fix_type,
             satellites=12 if g is None else g.satellites, eph_m=0.3 if g is None else g.eph_m,
-            prearm_ok=bool(ap.est_ready), mission_seq=self.mission_seq, mission_state=self.mission_state,
+            prearm_ok=bool(ap.est_ready), position_ok=bool(ap.est_ready), mission_seq=self.mission_seq, mission_state=self.mission_state,
             time_boot_ms=obs.t_us // 1000,
         )
 

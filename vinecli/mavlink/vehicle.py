@@ -59,6 +59,7 @@ class Telemetry:
     satellites: int = 12
     eph_m: float = 0.3
     prearm_ok: bool = True
+    position_ok: bool = True  # the position estimate is usable (GPS bit healthy)
     mission_seq: int = 0
     mission_state: int = M.MISSION_STATE_NOT_STARTED
     battery_pct: int = 100
@@ -158,7 +159,7 @@ class VehicleEndpoint:
             send(mav.heartbeat_encode(M.MAV_TYPE_QUADROTOR, M.MAV_AUTOPILOT_PX4, base, M.custom_mode(main, sub), state))
         elif name == "sys":
             health = M.SENSORS_BASIC | (M.SENSOR_PREARM_CHECK if t.prearm_ok else 0)
-            if t.gps_fix < 3:
+            if t.gps_fix < 3 or not t.position_ok:  # MAVSDK derives "global/local position ok" from this bit
                 health &= ~32
             present = M.SENSORS_BASIC | M.SENSOR_PREARM_CHECK
             send(mav.sys_status_encode(present, present, health, 200, 16200, -1, t.battery_pct, 0, 0, 0, 0, 0, 0))
@@ -211,7 +212,11 @@ class VehicleEndpoint:
             if m.type == M.MAV_TYPE_GCS:
                 self.gcs_seen = True
         elif typ in ("COMMAND_LONG", "COMMAND_INT"):
-            self._command(m)
+            try:
+                self._command(m)
+            except Exception as exc:  # noqa: BLE001 - every command gets an ACK, even a failed one
+                log.warning("command %d failed: %s", m.command, exc)
+                self._ack(m, m.command, M.MAV_RESULT_FAILED)
         elif typ == "SET_MODE":
             main, sub = M.decode_custom_mode(m.custom_mode)
             self.handler.on_mode(M.mode_name(main, sub))
@@ -234,7 +239,7 @@ class VehicleEndpoint:
             p5, p6, p7 = m.param5, m.param6, m.param7
         h = self.handler
         if cmd == M.CMD_COMPONENT_ARM_DISARM:
-            res, text = h.on_arm(p[0] >= 0.5, int(p[1]) == M.ARM_FORCE_MAGIC)
+            res, text = h.on_arm(p[0] >= 0.5, _int(p[1]) == M.ARM_FORCE_MAGIC)
             if text:
                 self.statustext(text, 4 if res else 6)
             self._ack(m, cmd, res)
@@ -248,8 +253,8 @@ class VehicleEndpoint:
         elif cmd == M.CMD_NAV_RETURN_TO_LAUNCH:
             self._ack(m, cmd, h.on_rtl())
         elif cmd == M.CMD_DO_SET_MODE:
-            if int(p[0]) & M.MODE_FLAG_CUSTOM:
-                name = M.mode_name(int(p[1]), int(p[2]))
+            if _int(p[0]) & M.MODE_FLAG_CUSTOM:
+                name = M.mode_name(_int(p[1]), _int(p[2]))
                 res = M.MAV_RESULT_DENIED if name.startswith("unknown") else h.on_mode(name)
             else:
                 res = M.MAV_RESULT_UNSUPPORTED
@@ -264,15 +269,15 @@ class VehicleEndpoint:
         elif cmd == M.CMD_DO_SET_ACTUATOR:
             self._ack(m, cmd, h.on_set_actuator(p[0]) if math.isfinite(p[0]) else M.MAV_RESULT_ACCEPTED)
         elif cmd == M.CMD_DO_SET_MISSION_CURRENT:
-            self._ack(m, cmd, h.on_set_current(int(p[0])))
+            self._ack(m, cmd, h.on_set_current(_int(p[0], -1)))
         elif cmd == M.CMD_SET_MESSAGE_INTERVAL:
             names = {33: "pos", 24: "gps", 30: "att", 31: "att", 245: "ext", 242: "home", 42: "mcur", 1: "sys", 0: "hb"}
-            key = names.get(int(p[0]))
+            key = names.get(_int(p[0]))
             if key is not None and p[1] > 0 and key != "hb":
                 self._periods[key] = max(0.01, p[1] * 1e-6)
             self._ack(m, cmd, M.MAV_RESULT_ACCEPTED)
         elif cmd in (M.CMD_REQUEST_MESSAGE, M.CMD_REQUEST_AUTOPILOT_CAPABILITIES, M.CMD_REQUEST_PROTOCOL_VERSION):
-            want = int(p[0]) if cmd == M.CMD_REQUEST_MESSAGE else (148 if cmd == M.CMD_REQUEST_AUTOPILOT_CAPABILITIES else 300)
+            want = _int(p[0]) if cmd == M.CMD_REQUEST_MESSAGE else (148 if cmd == M.CMD_REQUEST_AUTOPILOT_CAPABILITIES else 300)
             known = {148, 300, 242, 0, 1, 245, 33, 24}
             self._ack(m, cmd, M.MAV_RESULT_ACCEPTED if want in known else M.MAV_RESULT_UNSUPPORTED)
             self._emit_requested(want)
@@ -392,6 +397,11 @@ class VehicleEndpoint:
             self.params[name] = val
             self.handler.on_param(name, float(val))
             self._param_value(name, names.index(name))
+
+
+def _int(x: float, default: int = 0) -> int:
+    """int() of a command parameter that may be NaN (MAVSDK sends NaN for 'unused')."""
+    return int(x) if math.isfinite(x) else default
 
 
 def _pid(pid: Any) -> str:
