@@ -85,3 +85,20 @@ def test_spray_pass_over_rows(flat: Any) -> None:
     assert drained == pytest.approx(0.02 * on.sum() * dt, rel=0.05)
     edges = int(np.sum(on[1:] != on[:-1]))
     assert edges == 4  # on/off per row
+
+
+def test_geofence_breach_returns_home(flat: Any) -> None:
+    fence = {"polygon_enu": [[-6.0, -6.0], [6.0, -6.0], [6.0, 6.0], [-6.0, 6.0]], "max_altitude_agl_m": 20.0,
+             "action": "rtl"}
+    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "goto", "position_enu": [15.0, 0.0]}],
+              geofence=fence, max_s=60.0)
+    assert res.status is RunStatus.COMPLETED, res.detail
+    assert "geofence" in res.detail and "returned to launch" in res.detail
+    gf = [e for e in res.events if e.kind == "geofence"]
+    assert len(gf) == 1
+    assert gf[0].data["action"] == "rtl" and gf[0].data["gf_action"] == 3 and gf[0].data["violation"] == "polygon"
+    assert 5.5 < gf[0].data["x"] < 7.5
+    ts = res.timeseries
+    assert float(np.max(ts["pos_enu_x_m"])) < 9.0
+    assert math.hypot(ts["pos_enu_x_m"][-1], ts["pos_enu_y_m"][-1]) < 0.7  # back home (GNSS-grade accuracy)
+    assert ts["on_ground"][-1] == 1.0 and ts["armed"][-1] == 0.0
