@@ -311,7 +311,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     th = world.terrain_height
     wind_at = wind.velocity
     m_update = motors.update
-    m_app = motors.apparent_air_body
+    rotor_pos = tuple((float(r.position_m[0]), float(r.position_m[1]), float(r.position_m[2])) for r in veh.rotors)
     m_wrench = motors.wrench
 
     events: list[Event] = []
@@ -425,7 +425,16 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         w = m_update(cmd.rotor_speed_cmd, dt)
         wind_v = wind_at(t, (px, py, pz))
         wdx, wdy, wdz = wind_v
-        (fbx, fby, fbz), (tbx, tby, tbz) = m_wrench(m_app(quat, (vx, vy, vz), omega_body, wind_v))
+        # apparent air at each rotor, body FLU: R^T (wind - v) - ω_b × r_i
+        ux, uy, uz = wdx - vx, wdy - vy, wdz - vz
+        bax = r00 * ux + r10 * uy + r20 * uz
+        bay = r01 * ux + r11 * uy + r21 * uz
+        baz = r02 * ux + r12 * uy + r22 * uz
+        obx, oby, obz = omega_body
+        (fbx, fby, fbz), (tbx, tby, tbz) = m_wrench([
+            (bax - (oby * rpz - obz * rpy), bay - (obz * rpx - obx * rpz), baz - (obx * rpy - oby * rpx))
+            for rpx, rpy, rpz in rotor_pos
+        ])
         fx = r00 * fbx + r01 * fby + r02 * fbz
         fy = r10 * fbx + r11 * fby + r12 * fbz
         fz = r20 * fbx + r21 * fby + r22 * fbz
