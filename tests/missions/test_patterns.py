@@ -143,3 +143,25 @@ def test_detect_rows_on_real_dsm(tif: Path) -> None:
     assert 0.5 <= d.spacing_m <= 4.0
     assert d.strength > 50
     assert len(d.rows) >= 5
+
+
+@pytest.mark.parametrize("tif", sorted((REPO / "worlds" / "sample").glob("fieldimager*.tif")), ids=lambda p: p.name)
+def test_bundled_sample_rows_match_the_world_spec(tif: Path) -> None:
+    """The bundled drone DSM: rows detected from the raster agree with the 16 rows of worlds/vineyard-sample.yaml."""
+    import yaml
+
+    spec = yaml.safe_load((REPO / "worlds" / "vineyard-sample.yaml").read_text())
+    d, _ = detect_rows_in_dsm(tif)
+    assert ang_diff(d.direction_deg, 87.77) <= 2.0  # x = x0 + 0.039 y
+    assert d.spacing_m == pytest.approx(0.92, rel=0.05)
+    assert len(d.rows) == len(spec["rows"]) == 16
+
+    def x_at(line, y: float) -> float:
+        (x0, y0), (x1, y1) = line[0], line[-1]
+        return x0 + (x1 - x0) * (y - y0) / (y1 - y0)
+
+    # the raster-centred ENU frame and the world frame differ by a constant shift: compare relative positions
+    det = sorted(x_at(r, 10.0) for r in d.rows)
+    ref = sorted(x_at(r, 10.0) for r in spec["rows"])
+    shift = np.median(np.array(det) - np.array(ref))
+    assert np.max(np.abs(np.array(det) - np.array(ref) - shift)) < 0.2

@@ -195,7 +195,8 @@ def detect_rows_grid(
     direction = math.degrees(math.atan2(u[1], u[0])) % 180.0
     if direction >= 180.0 - 1e-9:
         direction = 0.0
-    rows = _clip_lines(offsets, nvec, u, x, y, valid, min_length_m if min_length_m is not None else 3 * spacing)
+    rows = _clip_lines(offsets, nvec, u, x, y, valid, min_length_m if min_length_m is not None else 3 * spacing,
+                      zz=zz, spacing=spacing)
     return RowDetection(round(direction, 3), round(spacing, 4), rows, round(strength, 2))
 
 
@@ -243,26 +244,57 @@ def _local_peak(prof: np.ndarray, axis: np.ndarray, o: float, half: float) -> fl
 
 
 def _clip_lines(offsets: Sequence[float], nvec: np.ndarray, u: np.ndarray, x: np.ndarray, y: np.ndarray,
-                valid: np.ndarray, min_length: float) -> list[Polyline]:
-    """Each line {p: p·n = o}, sampled every half cell, kept over its longest run of valid cells."""
+                valid: np.ndarray, min_length: float, zz: np.ndarray | None = None, spacing: float | None = None,
+                min_contrast: float = 0.3) -> list[Polyline]:
+    """Each line {p: p·n = o}, sampled every half cell, kept over its longest run where the grid has
+    data and (with ``zz``/``spacing``) a row is present: the ridge height over the mean of the two
+    neighbouring furrows (±spacing/2), averaged over 2 m along the line, is at least
+    ``min_contrast`` × the 90th percentile of that contrast over all lines."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     step = min(abs(dx), abs(dy)) / 2
     corners = np.array([[x[0], y[0]], [x[-1], y[0]], [x[0], y[-1]], [x[-1], y[-1]]])
     t_all = corners @ u
     ts = np.arange(t_all.min(), t_all.max() + step, step)
-    rows: list[Polyline] = []
-    for o in offsets:
-        px = o * nvec[0] + ts * u[0]
-        py = o * nvec[1] + ts * u[1]
+
+    def sample(ox: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        px = ox * nvec[0] + ts * u[0]
+        py = ox * nvec[1] + ts * u[1]
         ii = np.round((px - x[0]) / dx).astype(int)
         jj = np.round((py - y[0]) / dy).astype(int)
         inside = (ii >= 0) & (ii < x.size) & (jj >= 0) & (jj < y.size)
         ok = np.zeros(ts.size, dtype=bool)
         ok[inside] = valid[jj[inside], ii[inside]]
-        # longest run of True
+        h = np.full(ts.size, np.nan)
+        if zz is not None:
+            h[inside] = zz[jj[inside], ii[inside]]
+        return px, py, ok, h
+
+    lines = []
+    for o in offsets:
+        px, py, ok, h = sample(o)
+        contrast = None
+        if zz is not None and spacing:
+            _, _, ok_a, ha = sample(o - spacing / 2)
+            _, _, ok_b, hb = sample(o + spacing / 2)
+            c = h - 0.5 * (ha + hb)
+            c = np.where(ok & ok_a & ok_b, c, np.nan)
+            n = max(1, int(round(2.0 / step)))
+            num = np.convolve(np.nan_to_num(c), np.ones(n), "same")
+            den = np.convolve(np.isfinite(c).astype(float), np.ones(n), "same")
+            contrast = np.where(den > 0, num / np.maximum(den, 1), np.nan)
+        lines.append((px, py, ok, contrast))
+    thr = None
+    allc = [c[np.isfinite(c)] for *_, c in lines if c is not None]
+    if allc and sum(a.size for a in allc):
+        thr = min_contrast * float(np.percentile(np.concatenate(allc), 90))
+    rows: list[Polyline] = []
+    for px, py, ok, contrast in lines:
+        keep = ok.copy()
+        if contrast is not None and thr is not None and thr > 0:
+            keep &= np.nan_to_num(contrast, nan=-np.inf) >= thr
         best = (0, -1)
         start = None
-        for k, v in enumerate(np.append(ok, False)):
+        for k, v in enumerate(np.append(keep, False)):
             if v and start is None:
                 start = k
             elif not v and start is not None:
