@@ -229,3 +229,20 @@ def test_registry() -> None:
         make_autopilot("nope")
     with pytest.raises(InputError, match="unknown option"):
         make_autopilot("builtin", colour="red")
+
+
+def test_replace_phases_at_run_time() -> None:
+    d = RigidBodyDouble(vehicle())
+    ap = BuiltinAutopilot()
+    ap.reset(d.context(MissionSpec(name="t", truth=True, phases=[{"type": "takeoff", "altitude_agl_m": 2.0},
+                                                                 {"type": "hold", "duration_s": 60.0}])))
+    d.fly(ap, 6.0)
+    assert ap.status().mode == "AUTO.LOITER" and ap.status().phase_index == 1
+    from vinecli.specs.mission import GotoPhase, LandPhase
+
+    ap.replace_phases([GotoPhase(position_enu=(3.0, 0.0)), LandPhase()])
+    assert ap.status().phase_index == 0
+    d.fly(ap, 30.0)
+    st = ap.status()
+    assert st.status is RunStatus.COMPLETED and st.mode == "DISARMED"
+    assert d.pos[0] == pytest.approx(3.0, abs=0.3) and d.on_ground

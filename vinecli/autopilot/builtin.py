@@ -448,6 +448,18 @@ class BuiltinAutopilot:
         self._events = []
         self._next_phase()
 
+    def replace_phases(self, phases: list[object]) -> None:
+        """Replace the remaining mission by ``phases`` (mission phase specs) and start the first
+        one now (run-time missions, e.g. uploaded over MAVLink). Raises InputError for bad phases."""
+        ctx = self._ctx
+        if ctx is None:
+            raise AutopilotError("replace_phases before reset")
+        self.phases = [self._make_phase(p, ctx) for p in phases]
+        self._phase_i = -1
+        self._failsafe = False
+        self._countdown = 0
+        self._next_phase()
+
     def _make_phase(self, p: object, ctx: AutopilotContext) -> _Phase:
         v = ctx.vehicle
         if isinstance(p, TakeoffPhase):
