@@ -54,8 +54,8 @@ def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str =
     """The shell command that starts PX4 SITL against vinecli (daemon mode, no data-link failsafe)."""
     bin_path = px4_bin
     etc = "build/px4_sitl_default/etc"
-    if os.sep in px4_bin:
-        build = os.path.dirname(os.path.dirname(os.path.abspath(px4_bin)))
+    if os.sep in px4_bin and os.path.basename(os.path.dirname(os.path.abspath(px4_bin))) == "bin":
+        build = os.path.dirname(os.path.dirname(os.path.abspath(px4_bin)))  # build/px4_sitl_default/{bin,etc}
         etc = os.path.join(build, "etc")
     env = [f"PX4_SIM_MODEL={airframe}", "PX4_PARAM_NAV_DLL_ACT=0", "PX4_PARAM_COM_RC_IN_MODE=1"]
     if host not in ("127.0.0.1", "localhost"):
