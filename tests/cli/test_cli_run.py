@@ -200,3 +200,39 @@ def test_run_batch_bad_pipeline_exits_2(tmp_path: Path) -> None:
     p.write_text("name: x\nmissions: [nothing.yaml]\nworld: .\n")
     r = runner.invoke(app, ["run", "batch", str(p), "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and "p.yaml" in r.output and "nothing.yaml" in r.output
+
+
+def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_path: Path, monkeypatch) -> None:
+    """A real SIGINT while the loop runs: the run stops at the next step, is written, CLI exits 130."""
+    import os
+    import signal
+
+    import vinecli.runs.mission as rm
+
+    m = quick_mission(tmp_path, hold=30.0)
+    before = signal.getsignal(signal.SIGINT)
+    real_run = rm.run_mission
+    sent = {"t": None}
+
+    def run_and_press_ctrl_c(*args, **kw):
+        user_progress = kw.get("progress")
+
+        def progress(sim_t: float, wall_t: float) -> None:
+            if user_progress:
+                user_progress(sim_t, wall_t)
+            if sim_t >= 4.0 and sent["t"] is None:
+                sent["t"] = sim_t
+                os.kill(os.getpid(), signal.SIGINT)
+
+        kw["progress"] = progress
+        return real_run(*args, **kw)
+
+    monkeypatch.setattr("vinecli.runs.run_mission", run_and_press_ctrl_c)
+    out = tmp_path / "runs"
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out)])
+    assert r.exit_code == 130, r.output
+    s = json.loads((out / "quick-s0" / "summary.json").read_text())
+    assert s["status"] == "interrupted" and s["passed"] is False
+    assert sent["t"] is not None and sent["t"] <= s["sim_time_s"] < sent["t"] + 1.5
+    assert pq.read_table(out / "quick-s0" / "timeseries.parquet").num_rows > 50
+    assert signal.getsignal(signal.SIGINT) is before  # the handler is restored
