@@ -276,8 +276,11 @@ def _mesh(clean: CleanCloud, options: ReconstructOptions, timer: _Timer, path: P
         patches = 0
         result["radii_m"] = None
         result["max_edge_m"] = options.max_edge
-    with timer.stage("stats"):
-        after = pm.mesh_stats(vertices, faces)
+    if patches:
+        with timer.stage("stats"):
+            after = pm.mesh_stats(vertices, faces)
+    else:
+        after = before
     result["mesh_before_fill"] = before
     result["mesh"] = after
     result["holes_before"] = before["holes"]
