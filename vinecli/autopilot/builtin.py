@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Any
 
@@ -57,7 +58,7 @@ _NAN = float("nan")
 
 
 # ---------------------------------------------------------------------------------- phases
-class _Phase:
+class _Phase(ABC):
     """One step of the mission; ``update`` runs at the position-loop rate, returns True when done."""
 
     mode = "AUTO.LOITER"
@@ -65,10 +66,12 @@ class _Phase:
     timeout_s = math.inf
 
     def start(self, ap: BuiltinAutopilot) -> None:
-        """Called once when the phase becomes active."""
+        """Called once when the phase becomes active (default: remember when)."""
+        self.t_start_us = ap.t_us
 
+    @abstractmethod
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
-        raise NotImplementedError  # pragma: no cover - every concrete phase overrides it
+        """Set the setpoints for the next ``dt`` s; True when the phase is complete."""
 
 
 class _Takeoff(_Phase):
