@@ -147,6 +147,14 @@ class Px4SitlAutopilot:
         self.requested_state_interval_us: float | None = None
         self._events = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0, extra={})
+        try:
+            self._connect(ctx)
+        except BaseException:
+            self.close()  # nothing left listening after a failed start
+            self._closed = False
+            raise
+
+    def _connect(self, ctx: AutopilotContext) -> None:
         self.link = TcpServerLink(self.host, self.port)
         if self.use_mission:
             self.mission_client = Px4MissionClient(
@@ -342,6 +350,7 @@ class Px4SitlAutopilot:
         self._closed = True
         if self.mission_client is not None:
             self.mission_client.close()
+            self.mission_client = None
         if self.link is not None:
             self.link.close()
 
