@@ -32,6 +32,14 @@ def terrain_cloud(nx: int = 120, ny: int = 100, step: float = 0.5, jitter: float
     return np.column_stack((x + ORIGIN[0], y + ORIGIN[1], z + ORIGIN[2]))
 
 
+def random_terrain_cloud(n: int, size: float, *, noise: float = 0.02, seed: int = 1) -> np.ndarray:
+    """``n`` uniformly random samples of :func:`surface` over size x size m (Poisson gaps, like LiDAR), + ORIGIN."""
+    rng = np.random.default_rng(seed)
+    x, y = rng.uniform(0.0, size, n), rng.uniform(0.0, size, n)
+    z = surface(x, y) + rng.normal(0.0, noise, n)
+    return np.column_stack((x + ORIGIN[0], y + ORIGIN[1], z + ORIGIN[2]))
+
+
 def surface_at(xyz_world: np.ndarray) -> np.ndarray:
     """:func:`surface` evaluated at world coordinates (ORIGIN added), returned in world z (m)."""
     return surface(xyz_world[:, 0] - ORIGIN[0], xyz_world[:, 1] - ORIGIN[1]) + ORIGIN[2]
