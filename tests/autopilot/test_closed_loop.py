@@ -66,9 +66,9 @@ def test_takeoff_with_the_estimator(name: str) -> None:
     assert ap.status().status is RunStatus.COMPLETED
     idx = window(tr, tr.t[-1] - 6.0, tr.t[-1])
     zs = [tr.pos[i][2] for i in idx]
-    assert statistics.mean(zs) == pytest.approx(target, abs=0.1)
-    assert max(abs(z - target) for z in zs) < 0.25  # baro/GNSS noise
-    assert max(math.hypot(tr.pos[i][0], tr.pos[i][1]) for i in idx) < 1.0  # GNSS sigma 0.3 m
+    assert statistics.mean(zs) == pytest.approx(target, abs=0.05)
+    assert max(abs(z - target) for z in zs) < 0.1  # with baro/GNSS noise
+    assert max(math.hypot(tr.pos[i][0], tr.pos[i][1]) for i in idx) < 0.6  # GNSS sigma 0.3 m
 
 
 def test_no_steady_altitude_error_after_a_mass_step() -> None:
