@@ -115,7 +115,7 @@ class Px4SitlAutopilot:
 
     def reset(self, ctx: AutopilotContext) -> None:
         """Convert the mission, listen on TCP, wait for PX4 to connect (AutopilotTimeout otherwise)."""
-        from vinecli.autopilot.px4_mission import Px4MissionClient, plan_for
+        from vinecli.autopilot.px4_mission import plan_for
 
         self.ctx = ctx
         v = ctx.vehicle
@@ -155,6 +155,8 @@ class Px4SitlAutopilot:
             raise
 
     def _connect(self, ctx: AutopilotContext) -> None:
+        from vinecli.autopilot.px4_mission import Px4MissionClient
+
         self.link = TcpServerLink(self.host, self.port)
         if self.use_mission:
             self.mission_client = Px4MissionClient(
