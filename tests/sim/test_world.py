@@ -50,28 +50,33 @@ def test_flat_world(flat_world_dir):
 def test_dsm_tiles_world(bumpy_worlds, bumpy_dsm):
     d = bumpy_worlds["tiles"]
     w = load_world(d)
-    assert w.terrain.kind == "tiles" and len(w.terrain.files) == 16
-    # origin: raster centre (UTM 32N 465012, 5249988) at the minimum elevation
+    assert w.terrain.kind == "tiles" and len([f for f in w.terrain.files if f.suffix == ".obj"]) == 16
+    # origin: raster centre (UTM 32N 465012.05, 5249987.95) at the height there
     with rasterio.open(bumpy_dsm) as ds:
         z = ds.read(1, masked=True)
-    assert w.origin.alt == pytest.approx(float(z.min()), abs=1e-3)
+    assert w.origin.alt == pytest.approx(float(z[120, 120]), abs=1e-3)
     assert 47.0 < w.origin.lat < 47.5 and 8.5 < w.origin.lon < 8.6
-    # grid heights = DSM heights - origin alt; 241 px of 0.1 m: the north-west pixel centre is at (-12, 12)
-    assert w.terrain_height(-12.0, 12.0) == pytest.approx(float(z[0, 0]) - w.origin.alt, abs=1e-4)
-    assert w.terrain_height(12.0, -12.0) == pytest.approx(float(z[-1, -1]) - w.origin.alt, abs=1e-4)
-    assert w.terrain_height(-12.0 + 0.7, 12.0 - 0.5) == pytest.approx(float(z[5, 8]) - w.origin.alt, abs=0.06)  # nodata filled
+    assert w.terrain_height(0.0, 0.0) == pytest.approx(0.0, abs=0.02)
+    # grid heights (ray-cast on the tiles) = DSM heights - origin alt within the 2 cm max error;
+    # 241 px of 0.1 m: the north-west pixel centre is at (-12, 12)
+    assert w.terrain_height(-12.0, 12.0) == pytest.approx(float(z[0, 0]) - w.origin.alt, abs=0.021)
+    assert w.terrain_height(12.0, -12.0) == pytest.approx(float(z[-1, -1]) - w.origin.alt, abs=0.021)
+    assert w.terrain_height(-12.0 + 0.7, 12.0 - 0.5) == pytest.approx(float(z[5, 8]) - w.origin.alt, abs=0.07)
     # spawn on the surface
     assert w.spawn_enu[2] >= w.terrain_height(1.0, -2.0) + w.vehicle.frame.landing_gear_height_m
     world = _check_sdf(d)
     assert len(world.findall("model[@name='terrain']/link/collision/geometry/mesh")) == 16
-    # tiles triangulate the grid within their max error (sampled through PyBullet rays)
+    # the lookup grid agrees with the collision surface (PyBullet rays) and with the DSM
     from vinecli.sim.engine import Engine
 
     with Engine() as e:
         e.load_terrain(w.terrain)
         rng = np.random.default_rng(0)
         for x, y in rng.uniform(-11, 11, (50, 2)):
-            assert abs(e.ray_height(x, y) - w.terrain_height(x, y)) < 0.02 + 0.02
+            assert abs(e.ray_height(x, y) - w.terrain_height(x, y)) < 0.02
+            col, row = int(round((x + 12.0) / 0.1)), int(round((12.0 - y) / 0.1))
+            if (row, col) != (5, 7):
+                assert abs(w.terrain_height(x, y) - (float(z[row, col]) - w.origin.alt)) < 0.02 + 0.06
 
 
 def test_dsm_heightmap_world(bumpy_worlds):

@@ -65,7 +65,7 @@ class Engine:
         elif terrain.kind == "heightmap":
             bodies = [self._heightfield(terrain)]
         elif terrain.kind == "tiles":
-            bodies = [self._mesh_tile(f) for f in terrain.files if f.suffix.lower() in (".obj", ".stl")]
+            bodies = [self._mesh_tile(f, terrain.offset) for f in terrain.files if f.suffix.lower() in (".obj", ".stl")]
             if not bodies:
                 raise TerrainError("tiles terrain has no OBJ/STL files")
         else:
@@ -115,13 +115,13 @@ class Engine:
             )
         return body
 
-    def _mesh_tile(self, path: Path) -> int:
+    def _mesh_tile(self, path: Path, offset: Vec3 = (0.0, 0.0, 0.0)) -> int:
         c, p = self.client, self.p
         shape = c.createCollisionShape(p.GEOM_MESH, fileName=str(path), flags=p.GEOM_FORCE_CONCAVE_TRIMESH,
                                        meshScale=[1.0, 1.0, 1.0])
         if shape < 0:
             raise TerrainError("PyBullet could not load the mesh tile", path=path)
-        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[0.0, 0.0, 0.0])
+        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=list(offset))
 
     # ------------------------------------------------------------------ vehicle
     def load_vehicle(self, urdf: Path, pos: Vec3, quat: QuatXYZW, *, ccd_radius: float = 0.02) -> int:

@@ -19,7 +19,7 @@ from vinecli.outputs import Manifest, atomic_output_dir, write_json
 from vinecli.specs import load_spec
 from vinecli.world.grid import TerrainGrid
 from vinecli.world.model import SCHEMA, TerrainInfo, rest_position
-from vinecli.world.spec import DsmTerrain, FlatTerrain, HeightmapTerrain, TilesTerrain, WorldSpec
+from vinecli.world.spec import DsmTerrain, FlatTerrain, WorldSpec
 
 __all__ = ["build_world"]
 
@@ -34,7 +34,6 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
     """Build the world described by ``spec_path`` into ``out``; returns ``out``."""
     from vinecli.vehicle import load_vehicle
     from vinecli.vehicle.urdf import write_urdf
-    from vinecli.world import terrain_src as ts
     from vinecli.world.sdf import world_sdf
 
     spec_path = Path(spec_path)
@@ -50,72 +49,13 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
 
     with atomic_output_dir(out, man, overwrite=overwrite) as tmp:
         tdir = tmp / "terrain"
-        tdir.mkdir()
-        terrain_json: dict[str, Any]
-        sdf_terrain: dict[str, Any]
-        grid: TerrainGrid | None
         t = spec.terrain
         with man.stage("terrain"):
-            if isinstance(t, FlatTerrain):
-                if given_origin is None:
-                    raise SpecError("a flat world needs origin: {lat, lon, alt}", path=spec_path)
-                origin = given_origin
-                grid = None
-                h = t.size_m / 2
-                terrain_json = {"kind": "flat", "files": [], "grid": None, "bounds_enu": [-h, -h, h, h],
-                                "z_range_enu": [t.z_m, t.z_m], "flat_z": t.z_m, "source": {"type": "flat"}}
-                sdf_terrain = {"kind": "flat", "flat_z": t.z_m, "size": t.size_m}
-            else:
-                if isinstance(t, DsmTerrain):
-                    src = _resolve(base, t.path)
-                    man.inputs.append(src)
-                    dsm = ts.read_dsm(src, resolution_m=t.resolution_m, origin=given_origin)
-                    origin, full = dsm.origin, dsm.grid
-                    source: dict[str, Any] = {"type": "dsm", **dsm.info, "format": t.format}
-                    fmt = t.format
-                elif isinstance(t, HeightmapTerrain):
-                    src = _resolve(base, t.dir)
-                    full, origin, files = ts.read_heightmap_dir(src, given_origin)
-                    source = {"type": "heightmap_dir", "dir": str(src)}
-                    fmt = "heightmap"
-                elif isinstance(t, TilesTerrain):
-                    src = _resolve(base, t.dir)
-                    full, origin, files = ts.read_tiles_dir(src, given_origin)
-                    source = {"type": "tiles_dir", "dir": str(src)}
-                    fmt = "tiles"
-                else:  # pragma: no cover - closed union
-                    raise SpecError(f"unknown terrain type {type(t).__name__}", path=spec_path)
-                if fmt == "heightmap":
-                    size = t.size if isinstance(t, DsmTerrain) else full.nx
-                    grid = ts.square_heightmap(full, size) if isinstance(t, DsmTerrain) else full
-                    written = ts.write_heightmap(grid, tdir, origin)
-                    zmin, zmax = grid.z_range
-                    xmin, ymin, xmax, ymax = grid.bounds
-                    terrain_json = {"kind": "heightmap", "files": [f"terrain/{p.name}" for p in written],
-                                    "heightfield": {"size": grid.nx, "spacing_m": grid.dx}}
-                    sdf_terrain = {"kind": "heightmap", "heightmap_png": "terrain/heightmap.png",
-                                   "size_m": [xmax - xmin, ymax - ymin], "z_min": zmin, "z_max": zmax,
-                                   "centre": [(xmin + xmax) / 2, (ymin + ymax) / 2]}
-                else:
-                    grid = full
-                    if isinstance(t, DsmTerrain):
-                        tiles = ts.write_tiles(full, tdir / "tiles", max_error_m=t.max_error_m, tile_px=t.tile_px)
-                        source["max_error_m"] = t.max_error_m
-                    else:
-                        (tdir / "tiles").mkdir()
-                        tiles = []
-                        for f in files:
-                            dst = tdir / "tiles" / f.name
-                            shutil.copy2(f, dst)
-                            tiles.append(dst)
-                    rel = [p.relative_to(tmp).as_posix() for p in tiles]
-                    terrain_json = {"kind": "tiles", "files": rel}
-                    sdf_terrain = {"kind": "tiles", "tiles": rel}
-                grid.save(tdir / "grid.npz")
-                terrain_json.update({"grid": "terrain/grid.npz", "bounds_enu": list(grid.bounds),
-                                     "z_range_enu": list(grid.z_range), "source": source})
+            terrain_json, sdf_terrain, grid, origin = _terrain(t, tdir, tmp, base, given_origin, spec_path, man)
 
         info = TerrainInfo(kind=terrain_json["kind"], grid=grid, flat_z=float(terrain_json.get("flat_z", 0.0)))
+        if not tdir.exists():
+            tdir.mkdir()
         xmin, ymin, xmax, ymax = terrain_json["bounds_enu"]
         sx, sy = spec.spawn.x_m, spec.spawn.y_m
         if not (xmin <= sx <= xmax and ymin <= sy <= ymax):
@@ -155,3 +95,72 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
                               "vehicle": vehicle.name}
     log.info("world %s built in %s", spec.name, out)
     return out
+
+
+def _terrain(t: Any, tdir: Path, tmp: Path, base: Path, given_origin: GeoOrigin | None, spec_path: Path,
+             man: Manifest) -> tuple[dict[str, Any], dict[str, Any], TerrainGrid | None, GeoOrigin]:
+    """Convert/copy the terrain into ``tdir``; returns (world.json terrain, SDF terrain, grid, origin)."""
+    from vinecli.terrain.heightmap import convert_to_heightmap, load_heightmap
+    from vinecli.terrain.tiles import convert_to_tiles, load_tiles
+    from vinecli.world.terrain_src import heightmap_grid, origin_offset, tiles_grid
+
+    if isinstance(t, FlatTerrain):
+        if given_origin is None:
+            raise SpecError("a flat world needs origin: {lat, lon, alt}", path=spec_path)
+        h = t.size_m / 2
+        tj = {"kind": "flat", "files": [], "grid": None, "bounds_enu": [-h, -h, h, h],
+              "z_range_enu": [t.z_m, t.z_m], "flat_z": t.z_m, "source": {"type": "flat"}}
+        return tj, {"kind": "flat", "flat_z": t.z_m, "size": t.size_m}, None, given_origin
+
+    if isinstance(t, DsmTerrain):
+        src = _resolve(base, t.path)
+        man.inputs.append(src)
+        source: dict[str, Any] = {"type": "dsm", "dsm": str(src), "format": t.format}
+        if t.format == "tiles":
+            convert_to_tiles(src, tdir, max_error=t.max_error_m, tile_px=t.tile_px, **t.options)
+            source.update(max_error_m=t.max_error_m, tile_px=t.tile_px, options=t.options)
+            kind = "tiles"
+        else:
+            convert_to_heightmap(src, tdir, size=t.size, **t.options)
+            source.update(size=t.size, options=t.options)
+            kind = "heightmap"
+    else:
+        src = _resolve(base, t.dir)
+        if not src.is_dir():
+            raise SpecError(f"terrain directory not found: {src}", path=spec_path)
+        shutil.copytree(src, tdir)
+        source = {"type": f"{t.type}_dir", "dir": str(src)}
+        kind = t.type
+
+    if kind == "heightmap":
+        hm = load_heightmap(tdir)
+        origin = given_origin or hm.origin
+        if origin is None:
+            raise SpecError("the heightmap has no geodetic origin (DSM without CRS): give origin:", path=spec_path)
+        ox, oy, _oz = origin_offset(hm.origin, origin)
+        grid = heightmap_grid(hm.heights, hm.spacing_m, (ox, oy), -origin.alt)
+        zmin, zmax = hm.z_min - origin.alt, hm.z_max - origin.alt
+        files = [f"terrain/{n}" for n in ("heightmap.png", "heightmap.tif", "heightmap.json")]
+        tj = {"kind": "heightmap", "files": files, "heightfield": {"size": hm.size, "spacing_m": hm.spacing_m}}
+        sdf = {"kind": "heightmap", "heightmap_png": "terrain/heightmap.png", "size_m": [hm.size_m, hm.size_m],
+               "z_min": zmin, "z_max": zmax, "centre": [ox, oy]}
+    else:
+        ts = load_tiles(tdir)
+        origin = given_origin or ts.origin
+        if origin is None:
+            raise SpecError("the tiles have no geodetic origin (DSM without CRS): give origin:", path=spec_path)
+        if ts.origin is None:
+            offset = (0.0, 0.0, ts.alt_m - origin.alt)
+        else:
+            ox, oy, oz = origin_offset(ts.origin, origin)
+            offset = (ox, oy, oz + ts.alt_m - ts.origin.alt)
+        paths = [tile.path for tile in ts.tiles]
+        pix = ts.meta.get("pixel_size_m") or [0.05, 0.05]
+        grid = tiles_grid(paths, offset, spacing_m=max(0.05, float(min(pix))))
+        rel = [p.relative_to(tmp).as_posix() for p in paths]
+        tj = {"kind": "tiles", "files": [*rel, "terrain/tiles.json"], "offset_enu": list(offset)}
+        sdf = {"kind": "tiles", "tiles": rel, "offset": list(offset)}
+    grid.save(tdir / "grid.npz")
+    tj.update({"grid": "terrain/grid.npz", "bounds_enu": list(grid.bounds), "z_range_enu": list(grid.z_range),
+               "source": source})
+    return tj, sdf, grid, origin

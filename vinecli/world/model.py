@@ -10,6 +10,7 @@
                  "grid": "terrain/grid.npz" | null,      # height grid (ENU) for lookups and the heightfield
                  "bounds_enu": [xmin, ymin, xmax, ymax], "z_range_enu": [zmin, zmax],
                  "flat_z": float,                        # flat only
+                 "offset_enu": [x, y, z],                # tiles: where the meshes' local origin is
                  "heightfield": {"size": N, "spacing_m": d}  # heightmap only: the grid is N×N
                  "source": {...}},                       # how the terrain was made
      "vehicle": {"name", "urdf": "vehicles/<name>.urdf", "spec": {VehicleSpec as JSON}},
@@ -53,6 +54,7 @@ class TerrainInfo:
     z_range: tuple[float, float] = (0.0, 0.0)
     grid: TerrainGrid | None = None
     flat_z: float = 0.0
+    offset: Vec3 = (0.0, 0.0, 0.0)  # tiles: position of the meshes' local origin in the world (m ENU)
 
     def height(self, x: float, y: float) -> float:
         """Terrain z (m, ENU) at (x, y)."""
@@ -137,6 +139,7 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         z_range=tuple(t["z_range_enu"]),  # type: ignore[arg-type]
         grid=grid,
         flat_z=float(t.get("flat_z", 0.0)),
+        offset=tuple(float(c) for c in t.get("offset_enu", (0.0, 0.0, 0.0))),  # type: ignore[arg-type]
     )
     urdf = root / d["vehicle"]["urdf"]
     if not urdf.is_file():

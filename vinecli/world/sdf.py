@@ -193,6 +193,8 @@ def world_sdf(
             _sub(hm, "size", _v(sx, sy, max(zmax - zmin, 1e-3)))
             _sub(hm, "pos", _v(cx, cy, zmin))
     elif kind == "tiles":
+        _sub(tm, "pose", _v(*terrain.get("offset", (0.0, 0.0, 0.0)), 0.0, 0.0, 0.0))  # type: ignore[misc]
+        tm.insert(1, tm[-1])  # <pose> before <link>
         for i, rel in enumerate(terrain["tiles"]):  # type: ignore[attr-defined]
             for tag in ("collision", "visual"):
                 el = _sub(link, tag, name=f"tile_{i}_{tag}")

@@ -51,16 +51,19 @@ class TilesTerrain(StrictModel):
 
 
 class DsmTerrain(StrictModel):
-    """A DSM GeoTIFF converted while the world is built."""
+    """A DSM GeoTIFF converted while the world is built (``vinecli terrain convert`` with these options)."""
 
     type: Literal["dsm"] = "dsm"
     path: Path
     format: Literal["tiles", "heightmap"] = Field("tiles", description="what to convert the DSM into")
     max_error_m: float = Field(0.03, gt=0, description="tiles: maximum vertical error of the triangulation, m")
-    size: int = Field(513, ge=3, description="heightmap: side in samples (2^n + 1)")
-    tile_px: int = Field(256, ge=8, description="tiles: tile size in raster pixels (tiles share borders)")
-    resolution_m: float | None = Field(None, gt=0, description="resample the DSM to this pixel size first (max-style), m")
-    options: dict[str, Any] = Field(default_factory=dict, description="extra options for the terrain converter")
+    tile_px: int = Field(256, ge=2, description="tiles: tile step in raster pixels (tiles share borders)")
+    size: int | None = Field(513, ge=3, description="heightmap: side in samples (2^n + 1); None = suggested")
+    options: dict[str, Any] = Field(
+        default_factory=dict,
+        description="more converter options: tiles: fmt, fill, z_unit, max_triangles; heightmap: method, window, "
+        "bbox, fill, z_unit",
+    )
 
 
 Terrain = Annotated[FlatTerrain | HeightmapTerrain | TilesTerrain | DsmTerrain, Field(discriminator="type")]
