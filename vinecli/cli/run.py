@@ -24,6 +24,14 @@ def mission_cmd(
     rate: Annotated[float | None, typer.Option("--rate", help="Recording rate, Hz (default: the mission's).")] = None,
     mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap for Foxglove.")] = False,
     run_id: Annotated[str | None, typer.Option("--run-id", help="Run directory name (default <mission>-s<seed>).")] = None,
+    px4_instance: Annotated[int, typer.Option("--px4-instance", help="PX4 SITL instance (px4 -i N): TCP 4560+N.")] = 0,
+    px4_host: Annotated[str, typer.Option("--px4-host", help="Address to listen on for PX4 (loopback).")] = "127.0.0.1",
+    px4_connect_timeout: Annotated[float, typer.Option("--px4-connect-timeout", help="Seconds to wait for PX4.")] = 30.0,
+    mavlink: Annotated[str | None, typer.Option("--mavlink", help="Serve the built-in autopilot over MAVLink, "
+                                                "e.g. udp:127.0.0.1:14540 (where the GCS listens).")] = None,
+    realtime: Annotated[bool, typer.Option("--realtime", help="With --mavlink: pace the run at wall-clock speed.")] = False,
+    mavlink_allow_remote: Annotated[bool, typer.Option("--mavlink-allow-remote",
+                                                       help="Allow a non-loopback --mavlink address.")] = False,
 ) -> None:
     """Run one mission and write OUT/<run-id>/ (time series, summary, events, manifest).
 
@@ -50,7 +58,9 @@ def mission_cmd(
             bar.update(task, completed=min(sim_t, spec.max_duration_s), info=f"sim {sim_t:6.1f} s  {rtf:5.1f}x real time")
 
         summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
-                              record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id)
+                              record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id,
+                              autopilot_options=_autopilot_options(px4_instance, px4_host, px4_connect_timeout, mavlink,
+                                                                   realtime, mavlink_allow_remote))
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")
     out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
                       f"{summary.real_time_factor:.1f}x real time")
@@ -149,3 +159,22 @@ def _batch_table(result: Any) -> None:
         t.add_row(c.case, c.status, res, f"{c.sim_time_s:.1f}", f"{c.real_time_factor:.1f}",
                   c.error or ", ".join(c.failed_checks))
     out_console.print(t)
+
+
+def _autopilot_options(px4_instance: int, px4_host: str, px4_connect_timeout: float, mavlink: str | None,
+                       realtime: bool, mavlink_allow_remote: bool) -> dict[str, Any]:
+    """Only the PX4/MAVLink options that differ from the defaults (see vinecli.autopilot.px4_options)."""
+    opts: dict[str, Any] = {}
+    if px4_instance:
+        opts["px4_instance"] = px4_instance
+    if px4_host != "127.0.0.1":
+        opts["px4_host"] = px4_host
+    if px4_connect_timeout != 30.0:
+        opts["px4_connect_timeout_s"] = px4_connect_timeout
+    if mavlink is not None:
+        opts["mavlink"] = mavlink
+    if realtime:
+        opts["realtime"] = True
+    if mavlink_allow_remote:
+        opts["mavlink_allow_remote"] = True
+    return opts

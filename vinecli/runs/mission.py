@@ -103,6 +103,7 @@ def run_mission(
     should_stop: Callable[[], bool] | None = None,
     wall_timeout_s: float | None = None,
     case: str | None = None,
+    autopilot_options: dict[str, Any] | None = None,
 ) -> RunSummary:
     """Run one mission and write ``runs_dir/<run_id>/``.
 
@@ -145,9 +146,11 @@ def run_mission(
     if spec.vehicle is not None:
         vehicle = resolve_vehicle(spec.vehicle, relative_to=mission_path.parent if mission_path else None,
                                   path=mission_path or spec.name)
-    from vinecli.autopilot.registry import make_autopilot
+    from vinecli.autopilot.px4_options import make_run_autopilot
 
-    ap = make_autopilot(spec.autopilot, **({"truth": spec.truth} if spec.autopilot == "builtin" else {}))
+    # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
+    ap = make_run_autopilot(spec.autopilot, truth=spec.truth if spec.autopilot == "builtin" else None,
+                            **(autopilot_options or {}))
     run_id = run_id or default_run_id(spec, seed)
     stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
 
@@ -226,7 +229,7 @@ def run_mission(
     }
     manifest = Manifest(
         command="run mission",
-        parameters={"seed": seed, "autopilot": spec.autopilot, "truth": spec.truth,
+        parameters={"seed": seed, "autopilot": spec.autopilot, "truth": spec.truth, **(autopilot_options or {}),
                     "record_rate_hz": spec.record_rate_hz, "mcap": mcap, "run_id": run_id},
         inputs=[p for p in (mission_path, Path(world_dir) / "world.json") if p is not None],
         timings={"simulate": round(wall, 4)},
