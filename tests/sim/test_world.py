@@ -152,3 +152,31 @@ def test_cli_world_build(repo, tmp_path):
     res = runner.invoke(app, ["world", "build", str(bad), "--out", str(tmp_path / "x")])
     assert res.exit_code == 2 and "missing.tif" in res.output
     assert math.isfinite(json.loads((out / "world.json").read_text())["spawn"]["yaw_rad"])
+
+
+@pytest.mark.parametrize("fmt", ["tiles", "heightmap"])
+def test_world_from_a_converted_terrain_dir_with_an_explicit_origin(tmp_path, bumpy_dsm, fmt):
+    """`terrain convert` output as the world's terrain; an explicit origin 10 m east / 5 m north and 2 m
+    below the terrain's own origin shifts the terrain by (-10, -5, +2) in the world frame."""
+    from vinecli.terrain.heightmap import convert_to_heightmap
+    from vinecli.terrain.tiles import convert_to_tiles
+
+    tdir = tmp_path / "terrain"
+    if fmt == "tiles":
+        own = convert_to_tiles(bumpy_dsm, tdir, max_error=0.02, tile_px=64, workers=1).origin
+    else:
+        own = convert_to_heightmap(bumpy_dsm, tdir, size=129).origin
+    m_lat, m_lon = own.metres_per_degree
+    given = {"lat": own.lat + 5.0 / m_lat, "lon": own.lon + 10.0 / m_lon, "alt": own.alt - 2.0}
+    ref = load_world(build_world(world_yaml(tmp_path, {"type": fmt, "dir": str(tdir)}), tmp_path / "ref"))
+    assert ref.origin.lat == pytest.approx(own.lat) and ref.origin.alt == pytest.approx(own.alt)
+    spec = world_yaml(tmp_path, {"type": fmt, "dir": str(tdir)}, origin=given, spawn={"x_m": -10.0, "y_m": -5.0})
+    w = load_world(build_world(spec, tmp_path / "shifted"))
+    for x, y in [(0.0, 0.0), (3.3, -4.1), (-7.0, 6.5)]:
+        assert w.terrain_height(x - 10.0, y - 5.0) == pytest.approx(ref.terrain_height(x, y) + 2.0, abs=2e-3)
+    from vinecli.sim.engine import Engine
+
+    with Engine() as e:
+        e.load_terrain(w.terrain)
+        assert e.ray_height(-10.0 + 3.3, -5.0 - 4.1) == pytest.approx(w.terrain_height(-6.7, -9.1), abs=0.03)
+    _check_sdf(tmp_path / "shifted")
