@@ -144,3 +144,39 @@ def test_dask_local_cluster_same_code_path(pipe_dir: Path, tmp_path: Path) -> No
     assert by["hover"].passed and by["ok2"].passed
     assert by["boom"].status == "error" and "exploded" in by["boom"].error
     assert json.loads((tmp_path / "runs" / "batch.json").read_text())["executor"] == "dask"
+
+
+def test_shipped_pipelines_expand() -> None:
+    from conftest import REPO
+
+    ci = REPO / "pipelines" / "ci.yaml"
+    cases = expand_cases(load_pipeline(ci), ci)
+    assert [c.name for c in cases] == ["takeoff", "overload", "spray", "gust"]
+    assert all(c.world.endswith("vineyard-sample.yaml") for c in cases)
+    sw = REPO / "pipelines" / "sweep-wind-fill.yaml"
+    cases = expand_cases(load_pipeline(sw), sw)
+    assert len(cases) == 3 * 2 * 2 * 2 and len({c.name for c in cases}) == 24
+    assert {c.mission["vehicle"] for c in cases} == {"x500-sprayer", "hex-sprayer"}
+
+
+def test_dask_scheduler_address(pipe_dir: Path, tmp_path: Path) -> None:
+    """--scheduler: connect to an existing Dask scheduler instead of starting a cluster."""
+    from dask.distributed import LocalCluster
+
+    p = write_pipe(pipe_dir, "missions: [missions/hover.yaml, missions/ok2.yaml]\n")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
+        res = run_batch(p, tmp_path / "runs", jobs=1, executor="dask", scheduler=cluster.scheduler_address,
+                        job=job_light)
+    assert res.passed and len(res.cases) == 2
+
+
+def test_bad_executor_options(pipe_dir: Path, tmp_path: Path) -> None:
+    from vinecli.errors import InputError
+
+    p = write_pipe(pipe_dir, "missions: [missions/hover.yaml]\n")
+    with pytest.raises(InputError, match="unknown executor"):
+        run_batch(p, tmp_path / "r", executor="ray")
+    with pytest.raises(InputError, match="--scheduler needs --executor dask"):
+        run_batch(p, tmp_path / "r", scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(InputError, match="--jobs"):
+        run_batch(p, tmp_path / "r", jobs=0)

@@ -151,3 +151,15 @@ def test_gust_metrics() -> None:
 def test_every_metric_documents_a_unit() -> None:
     for name, met in METRICS.items():
         assert met.unit and met.doc, name
+
+
+def test_rotor_period_ignores_faster_attitude_oscillation() -> None:
+    """A stronger 2.2 s oscillation of some rotors (attitude loop) must not hide the wind's 8 s period."""
+    d = gust_series()
+    ts = dict(d.timeseries)
+    t = ts["t_s"]
+    ts["rotor3_w_radps"] = ts["rotor3_w_radps"] + 25 * np.sin(2 * np.pi * t / 2.2)
+    ts["rotor4_w_radps"] = ts["rotor4_w_radps"] - 25 * np.sin(2 * np.pi * t / 2.2)
+    d.timeseries = ts
+    assert m("rotor_wind_period_ratio", d) == pytest.approx(1.0, abs=0.02)
+    assert m("rotor_period_s", d) == pytest.approx(2.2, rel=0.03)  # the unrestricted metric sees it

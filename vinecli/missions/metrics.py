@@ -377,18 +377,25 @@ def hpos_error_rms_m(data: RunData, window: Window) -> float:
 
 def dominant_period(y: np.ndarray, t: np.ndarray, min_period: float = 0.2) -> float:
     """Period (s) of the strongest spectral peak of ``y`` (detrended, Hann, 16× zero-padded FFT,
-    parabolic peak interpolation); NaN if there is no variation."""
-    ok = np.isfinite(y)
-    y, t = y[ok], t[ok]
-    if y.size < 8:
+    parabolic peak interpolation); ``y`` may be 2-D (one series per row: their power spectra are
+    summed). NaN if there is no variation."""
+    ys = np.atleast_2d(np.asarray(y, dtype=float))
+    ok = np.all(np.isfinite(ys), axis=0)
+    ys, t = ys[:, ok], np.asarray(t, dtype=float)[ok]
+    if t.size < 8:
         return _nan()
     dt = float(np.median(np.diff(t)))
-    yy = y - np.polyval(np.polyfit(t - t[0], y, 1), t - t[0])
-    if np.allclose(yy, 0):
+    nfft = 1 << int(math.ceil(math.log2(t.size * 16)))
+    spec = np.zeros(nfft // 2 + 1)
+    tt = t - t[0]
+    for row in ys:
+        yy = row - np.polyval(np.polyfit(tt, row, 1), tt)
+        if np.allclose(yy, 0):
+            continue
+        spec += np.abs(np.fft.rfft(yy * np.hanning(yy.size), nfft)) ** 2
+    if not spec.any():
         return _nan()
-    yy = yy * np.hanning(yy.size)
-    nfft = 1 << int(math.ceil(math.log2(yy.size * 16)))
-    spec = np.abs(np.fft.rfft(yy, nfft))
+    spec = np.sqrt(spec)
     freq = np.fft.rfftfreq(nfft, dt)
     valid = (freq > 0) & (freq <= 1.0 / min_period)
     # ignore the lowest bins dominated by the window's own trend (< 1.5 cycles in the window)
@@ -400,7 +407,8 @@ def dominant_period(y: np.ndarray, t: np.ndarray, min_period: float = 0.2) -> fl
     if 0 < k < spec.size - 1:
         a, b, c = spec[k - 1], spec[k], spec[k + 1]
         den = a - 2 * b + c
-        shift = 0.5 * (a - c) / den if den != 0 else 0.0
+        shift = 0.5 * (a - c) / den if den < 0 else 0.0  # a true local maximum only
+        shift = max(-0.5, min(0.5, shift))
     else:
         shift = 0.0
     f = (k + shift) * (freq[1] - freq[0])
@@ -428,27 +436,31 @@ def wind_period_s(data: RunData, window: Window) -> float:
     return dominant_period(_wind_along_mean(data, sel), data.t[sel])
 
 
-@metric("rotor_period_s", "s")
-def rotor_period_s(data: RunData, window: Window) -> float:
-    """Median over the rotors of each rotor speed's dominant period (periods >= 2 s: the wind band,
-    not the controller's fast loops), s. Default: lift-off +5 s .. touchdown."""
+def _rotor_period(data: RunData, window: Window, min_period: float) -> float:
     sel = _flight_window(data, window, after_liftoff_s=5.0)
     if np.count_nonzero(sel) < 8:
         return _nan()
     cols = [c for c in data.timeseries if re.fullmatch(r"rotor\d+_w_radps", c)]
     if not cols:
         raise KeyError("rotor1_w_radps")
-    periods = [dominant_period(data.column(c)[sel], data.t[sel], min_period=2.0) for c in cols]
-    periods = [p for p in periods if math.isfinite(p)]
-    return float(np.median(periods)) if periods else _nan()
+    return dominant_period(np.vstack([data.column(c)[sel] for c in cols]), data.t[sel], min_period=min_period)
+
+
+@metric("rotor_period_s", "s")
+def rotor_period_s(data: RunData, window: Window) -> float:
+    """Dominant period of the rotor speeds (power spectra of every rotor summed, periods >= 2 s: the
+    wind band, not the controller's fast loops), s. Default: lift-off +5 s .. touchdown."""
+    return _rotor_period(data, window, 2.0)
 
 
 @metric("rotor_wind_period_ratio", "1")
 def rotor_wind_period_ratio(data: RunData, window: Window) -> float:
-    """Dominant period of the mean rotor speed / that of the wind (1 = rotors oscillate with the wind)."""
+    """Dominant period of the rotor speeds / that of the wind (1 = rotors oscillate with the wind); the
+    rotor spectrum is searched at periods above half the wind's (the attitude loops' faster motions out)."""
     pw = wind_period_s(data, window)
-    pr = rotor_period_s(data, window)
-    return pr / pw if math.isfinite(pw) and pw > 0 else _nan()
+    if not (math.isfinite(pw) and pw > 0):
+        return _nan()
+    return _rotor_period(data, window, 0.5 * pw) / pw
 
 
 def _tilt_terms(data: RunData, window: Window) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
