@@ -70,7 +70,7 @@ def test_feet_cloud_reconstructs_in_metres(tmp_path: Path) -> None:
              "--classes", "2")
     assert r.exit_code == 0, r.stderr
     stats = json.loads((out / "stats.json").read_text())
-    assert stats["units"]["xy_unit"] == "foot" and stats["crs"]["name"].endswith("[metre]")
+    assert stats["units"]["xy_unit"] == "foot" and stats["crs"]["name"].endswith("(metre)")
     assert stats["source_crs"]["epsg"] is None
     assert stats["points"]["used"] <= 20_000
     assert stats["mesh"]["holes"] == 0 and stats["mesh"]["components"] == 1
@@ -150,3 +150,32 @@ def test_overwrite_replaces_output(tmp_path: Path) -> None:
     r = _run(path, "--out", out, "--method", "delaunay25d", "--overwrite", "--dsm", "1")
     assert r.exit_code == 0, r.stderr
     assert (out / "dsm.tif").exists()
+
+
+def test_dsm_is_accepted_by_terrain_convert(tmp_path: Path) -> None:
+    out = tmp_path / "rc"
+    r = _run(DATA / "autzen_trim_als_rgb_ft.laz", "--out", out, "--classes", "2", "--method", "delaunay25d",
+             "--max-points", "5000", "--dsm", "1")
+    assert r.exit_code == 0, r.stderr
+    runner = CliRunner()
+    hm = runner.invoke(app, ["terrain", "convert", str(out / "dsm.tif"), "--to", "heightmap", "--size", "129",
+                             "--out", str(tmp_path / "hm")])
+    assert hm.exit_code == 0, hm.stderr
+    meta = json.loads((tmp_path / "hm" / "heightmap.json").read_text())
+    # The feet cloud became a metre DSM: 172 m is the short side of the 359 x 172 m footprint.
+    assert meta["size_m"][0] == pytest.approx(172, abs=3)
+    assert 123 < meta["z_min"] < meta["z_max"] < 160
+    tiles = runner.invoke(app, ["terrain", "convert", str(out / "dsm.tif"), "--to", "tiles", "--tile-px", "128",
+                                "--workers", "1", "--out", str(tmp_path / "tiles")])
+    assert tiles.exit_code == 0, tiles.stderr
+    assert list((tmp_path / "tiles").rglob("*.obj"))
+
+
+def test_terrain_info_describes_a_cloud() -> None:
+    r = CliRunner().invoke(app, ["terrain", "info", str(DATA / "lidr_mixedconifer_forest_normalized.laz"), "--json"])
+    assert r.exit_code == 0, r.stderr
+    facts = json.loads(r.stdout)
+    assert facts["kind"] == "pointcloud" and facts["points"] == 37_657 and facts["duplicate_points"] == 1
+    assert facts["crs"]["epsg"] == 26912 and facts["units"]["z_source"] == "geokey"
+    # Data README: 31,832 / 5,820 / 5 before removing the one duplicate (a class-1 point).
+    assert {int(k): v["count"] for k, v in facts["classes"].items()} == {1: 31_831, 2: 5_820, 11: 5}

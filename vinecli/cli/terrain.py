@@ -54,15 +54,16 @@ def reconstruct(
 
 def _render_reconstruct(stats: dict, out: Path) -> None:
     """One rich table with what reconstruct did."""
+    from rich.markup import escape
     from rich.table import Table
 
     p, m, b = stats["points"], stats["mesh"], stats["mesh_before_fill"]
-    t = Table(title=f"terrain reconstruct -> {out}", show_header=False, title_justify="left")
+    t = Table(title=escape(f"terrain reconstruct -> {out}"), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
     t.add_row("points", f"{p['in']:,} in, -{p['nan_dropped']:,} NaN, -{p['duplicates_removed']:,} duplicates, "
                         f"-{p['class_filtered_out'] + p['bbox_filtered_out']:,} filtered, {p['used']:,} used")
-    t.add_row("units / CRS", f"{stats['units']['xy_unit']} / {(stats['crs'] or {}).get('name', 'none')}")
+    t.add_row("units / CRS", escape(f"{stats['units']['xy_unit']} -> metres / {(stats['crs'] or {}).get('name', 'none')}"))
     t.add_row("offset (m)", ", ".join(f"{v:.0f}" for v in stats["offset_m"]))
     t.add_row("voxel / spacing d", f"{stats['voxel_m']:.3f} m / {stats['spacing_m']['d']:.3f} m")
     if stats.get("radii_m"):

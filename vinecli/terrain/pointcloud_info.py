@@ -32,9 +32,10 @@ def cloud_info(path: str | Path) -> dict[str, Any]:
     """Facts about a point cloud and what ``terrain reconstruct`` would do with it by default.
 
     Keys: path, kind ("pointcloud"), format, header, points, nonfinite_points,
-    duplicate_points, crs (name/epsg/wkt or None), units, bounds (file units) and bounds_m
+    duplicate_points, crs (name/epsg/is_compound or None), units, bounds (file units) and bounds_m
     (both [minx, miny, minz, maxx, maxy, maxz]),
-    extent_m, z_range_m, classes ({code: {"name", "count"}} or None), density_per_m2 (points
+    extent_m, z_range_m, classes ({code: {"name", "count"}} after dropping NaN and
+    duplicates, or None), density_per_m2 (points
     per m² over the x-y bounding box), spacing_m (mean/median nearest-neighbour, metres),
     reconstruct (default voxel, points after voxel, d, radii), notes (list of hints).
     Raises TerrainError/InputError naming the file for unreadable or degenerate clouds.
@@ -71,8 +72,8 @@ def cloud_info(path: str | Path) -> dict[str, Any]:
         voxel = prep.default_voxel(median_nn)
         after = prep.voxel_count(local, voxel)
         d_est = mean_nn * math.sqrt(max(len(xyz_u), 1) / max(after, 1))
-        plan.update(voxel_m=voxel, points_after_voxel=after, d_estimate_m=d_est,
-                    radii_estimate_m=[2 * d_est, 4 * d_est, 8 * d_est])
+        plan.update(voxel_m=round(voxel, 4), points_after_voxel=after, d_estimate_m=round(d_est, 4),
+                    radii_estimate_m=[round(f * d_est, 4) for f in (2, 4, 8)])
         if after > 1_000_000:
             notes.append(f"{after:,} points after the default voxel: ball pivoting is slow above 1M points; "
                          "use --max-points or a larger --voxel")
@@ -102,16 +103,16 @@ def cloud_info(path: str | Path) -> dict[str, Any]:
         "points": n_in,
         "nonfinite_points": n_nan,
         "duplicate_points": n_dup,
-        "crs": crs_summary(raw.crs),
+        "crs": crs_summary(raw.crs, wkt=False),
         "metric_crs": None if crs_m is None else crs_m.name,
         "units": units.to_dict(),
-        "bounds": [float(v) for v in (*xyz_f.min(axis=0), *xyz_f.max(axis=0))],
-        "bounds_m": [float(v) for v in (*lo, *hi)],
-        "extent_m": [float(v) for v in extent],
-        "z_range_m": [float(lo[2]), float(hi[2])],
+        "bounds": [round(float(v), 3) for v in (*xyz_f.min(axis=0), *xyz_f.max(axis=0))],
+        "bounds_m": [round(float(v), 3) for v in (*lo, *hi)],
+        "extent_m": [round(float(v), 3) for v in extent],
+        "z_range_m": [round(float(lo[2]), 3), round(float(hi[2]), 3)],
         "classes": classes,
-        "density_per_m2": len(xyz_u) / area if area > 0 else None,
-        "spacing_m": {"mean_nn": mean_nn, "median_nn": median_nn},
+        "density_per_m2": round(len(xyz_u) / area, 4) if area > 0 else None,
+        "spacing_m": {"mean_nn": round(mean_nn, 4), "median_nn": round(median_nn, 4)},
         "reconstruct": plan,
         "notes": notes,
     }

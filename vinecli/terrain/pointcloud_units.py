@@ -118,7 +118,7 @@ def _metres_in_place(node: Any) -> None:
                     axis["unit"] = "metre"
                     changed = True
         if changed and isinstance(node.get("name"), str):
-            node["name"] = node["name"] + " [metre]"
+            node["name"] = node["name"] + " (metre)"
         for key, value in node.items():
             if key != "coordinate_system":
                 _metres_in_place(value)
@@ -153,9 +153,11 @@ def to_metres(xyz: np.ndarray, crs: Any, units: CloudUnits) -> tuple[np.ndarray,
     return out, metric_crs(crs)
 
 
-def crs_summary(crs: Any) -> dict[str, Any] | None:
-    """Name, EPSG code (or None), and WKT of a CRS for JSON outputs."""
+def crs_summary(crs: Any, *, wkt: bool = True) -> dict[str, Any] | None:
+    """Name, EPSG code (or None), compound flag and (optionally) WKT of a CRS for JSON outputs."""
     if crs is None:
         return None
-    return {"name": crs.name, "epsg": crs.to_epsg(), "is_compound": bool(crs.is_compound),
-            "wkt": crs.to_wkt()}
+    out = {"name": crs.name, "epsg": crs.to_epsg(), "is_compound": bool(crs.is_compound)}
+    if wkt:
+        out["wkt"] = crs.to_wkt()
+    return out
