@@ -215,3 +215,14 @@ def test_start_command_is_exact():
     assert "PX4_SIM_HOST_ADDR=10.0.0.5" in cmd
     assert cmd.endswith("/opt/PX4-Autopilot/build/px4_sitl_default/bin/px4 -d -i 0 -w /tmp/px4-sitl-0 "
                         "/opt/PX4-Autopilot/build/px4_sitl_default/etc")
+
+
+def test_without_hil_state_only_sensors_and_gps_are_sent(ports):
+    ap, peer = start(ports, hil_state=False)
+    try:
+        ap.step(obs_at(0))
+        got = by_type(peer)
+        assert set(got) == {"HIL_SENSOR", "HIL_GPS"}
+    finally:
+        peer.close()
+        ap.close()

@@ -82,8 +82,14 @@ def test_spray_rows_drive_the_tank_through_do_set_actuator(tmp_path, ports):
         "name": "px4-spray", "autopilot": "px4", "max_duration_s": 90.0,
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
                    {"type": "spray", "height_agl_m": 2.0, "speed_mps": 1.5, "flow_lps": 0.05},
-                   {"type": "land"}]})
+                   {"type": "land"}],
+        "geofence": {"polygon_enu": [[-20, -20], [20, -20], [20, 20], [-20, 20]], "action": "rtl", "max_altitude_agl_m": 25}})
     res, ap, fake = fly(w, mission, ports)
+    ep = fake.ap.endpoint  # what the (fake) PX4 received on its API link
+    assert [it.command for it in ep.missions[1]] == [5001] * 4 and all(it.param1 == 4 for it in ep.missions[1])
+    assert ep.params["GF_ACTION"] == 3 and ep.params["GF_MAX_VER_DIST"] == 25.0 and ep.params["PWM_MAIN_FUNC9"] == 301
+    assert ep.params["MIS_TAKEOFF_ALT"] == 2.5
+    assert 187 in [it.command for it in ep.missions[0]]
     assert fake.error is None and fake.violations == []
     assert res.status is RunStatus.COMPLETED, (res.status, res.detail)
     ts = res.timeseries
