@@ -187,3 +187,27 @@ def test_same_seed_identical_time_series(flat_world):
     for k in a.timeseries:
         assert np.array_equal(a.timeseries[k], b.timeseries[k], equal_nan=True), k
     assert not np.array_equal(a.timeseries["wind_enu_x_mps"], c.timeseries["wind_enu_x_mps"])
+
+
+def test_link_drag_uses_the_link_velocity_with_rotation(flat_world):
+    """A drag link 0.5 m ahead of the CoM on a body spinning at ω about z moves at ω × r = (0, 0.5 ω, 0):
+    its drag is -c (0.5 ω)² along y, and its torque slows the spin."""
+    from vinecli.specs.vehicle import DragLinkSpec
+
+    c, wz = 0.2, 4.0
+    x500 = load_vehicle("x500")
+    arm = x500.model_copy(update={"drag": {"arm": DragLinkSpec(coefficient_kg_per_m=c, position_m=(0.5, 0.0, 0.0))}})
+    phase = _air(50.0, angular_velocity_flu=[0.0, 0.0, wz])
+    r = run_simulation(flat_world, mission([phase], max_duration_s=0.5), OpenLoop(lambda o: [0.0] * 4), seed=1,
+                       vehicle=arm)
+    ts = r.timeseries
+    assert ts["drag_enu_y_n"][0] == pytest.approx(-c * (0.5 * wz) ** 2, rel=1e-9)
+    assert ts["drag_enu_x_n"][0] == pytest.approx(0.0, abs=1e-12)
+    # torque r × F = 0.5 · (-c (0.5 ω)²) about z: dω/dt = τ / I_zz at the start
+    izz = arm.frame.inertia_kgm2[2] + 4 * arm.motor.rotor_mass_kg * (0.174**2 * 2 + 0.06**2 / 2)
+    dw = (ts["omega_flu_z_radps"][2] - ts["omega_flu_z_radps"][1]) / 0.004
+    assert dw == pytest.approx(0.5 * -c * (0.5 * wz) ** 2 / izz, rel=0.05)
+    r0 = run_simulation(flat_world, mission([phase], max_duration_s=0.5), OpenLoop(lambda o: [0.0] * 4), seed=1,
+                        vehicle=x500.model_copy(update={"drag": {}}))
+    assert r0.timeseries["omega_flu_z_radps"][-1] == pytest.approx(wz, rel=1e-6)
+    assert ts["omega_flu_z_radps"][-1] < wz - 0.1

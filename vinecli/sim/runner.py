@@ -284,10 +284,11 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
 
     # drag links: (c kg/m, r FLU)
     rho = world.air_density
-    drag_links = tuple(
-        (d.coefficient(rho), float(d.position_m[0]), float(d.position_m[1]), float(d.position_m[2]))
-        for d in veh.drag.values()
-    )
+    drag_all = [(d.coefficient(rho), float(d.position_m[0]), float(d.position_m[1]), float(d.position_m[2]))
+                for d in veh.drag.values()]
+    drag_c0 = sum(c_ for c_, x_, y_, z_ in drag_all if x_ == y_ == z_ == 0.0)
+    drag_links = tuple(d for d in drag_all if d[1:] != (0.0, 0.0, 0.0))
+    sqrt = math.sqrt
     if tank is not None:
         tmx, tmy, tmz = tank.mount_m
     else:
@@ -442,6 +443,10 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         ty = r10 * tbx + r11 * tby + r12 * tbz
         tz = r20 * tbx + r21 * tby + r22 * tbz
         dgx = dgy = dgz = 0.0
+        if drag_c0 > 0.0:  # links whose centre of pressure is the CoM: no lever arm
+            ux, uy, uz = wdx - vx, wdy - vy, wdz - vz
+            kd = drag_c0 * sqrt(ux * ux + uy * uy + uz * uz)
+            dgx, dgy, dgz = kd * ux, kd * uy, kd * uz
         for cd, rbx, rby, rbz in drag_links:
             rx = r00 * rbx + r01 * rby + r02 * rbz
             ry = r10 * rbx + r11 * rby + r12 * rbz
@@ -450,7 +455,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
             ux = wdx - vx - (oy * rz - oz * ry)
             uy = wdy - vy - (oz * rx - ox * rz)
             uz = wdz - vz - (ox * ry - oy * rx)
-            kd = cd * math.sqrt(ux * ux + uy * uy + uz * uz)
+            kd = cd * sqrt(ux * ux + uy * uy + uz * uz)
             f0, f1, f2 = kd * ux, kd * uy, kd * uz
             dgx += f0
             dgy += f1
