@@ -211,3 +211,16 @@ def test_link_drag_uses_the_link_velocity_with_rotation(flat_world):
                         vehicle=x500.model_copy(update={"drag": {}}))
     assert r0.timeseries["omega_flu_z_radps"][-1] == pytest.approx(wz, rel=1e-6)
     assert ts["omega_flu_z_radps"][-1] < wz - 0.1
+
+
+def test_recording_rate_and_final_row(flat_world):
+    ap = OpenLoop(lambda o: [0.0] * 4, done_after_s=1.23)
+    r = run_simulation(flat_world, mission(max_duration_s=5.0, record_rate_hz=10.0), ap, seed=1)
+    t = r.timeseries["t_s"]
+    assert r.status is RunStatus.COMPLETED and r.sim_time_s == pytest.approx(1.232)
+    assert np.allclose(t[:-1], np.arange(13) * 0.1)  # 10 Hz
+    assert t[-1] == pytest.approx(1.232)  # the last step is always recorded
+    assert r.events[-1].kind == "status" and r.events[-1].data["status"] == "completed"
+    r2 = run_simulation(flat_world, mission(max_duration_s=0.5), OpenLoop(lambda o: [0.0] * 4), seed=1,
+                        should_stop=lambda: True)
+    assert r2.status is RunStatus.INTERRUPTED and r2.sim_time_s == 0.0

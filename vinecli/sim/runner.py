@@ -505,8 +505,17 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                 events.append(Event(t_us + dt_us, "tank_empty", f"tank empty at {te:.3f} s", {}))
                 metrics["tank_empty_s"] = te
 
+        # ---- termination (the state at t_k is recorded below, always for the last step)
+        if status is RunStatus.RUNNING:
+            if st.status is not RunStatus.RUNNING:
+                status, detail = st.status, st.detail or st.status.message
+            elif t_us >= max_us:
+                status, detail = RunStatus.TIMEOUT, f"{RunStatus.TIMEOUT.message} ({mission.max_duration_s:g} s)"
+            elif should_stop is not None and k % stop_every == 0 and should_stop():
+                status, detail = RunStatus.INTERRUPTED, RunStatus.INTERRUPTED.message
+
         # ---- record
-        if t_us >= next_rec_us:
+        if t_us >= next_rec_us or status is not RunStatus.RUNNING:
             next_rec_us += rec_period_us
             if baro is not None:
                 baro_alt = baro.altitude_m
@@ -535,14 +544,6 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                     float(st.phase_index), 1.0 if cmd.armed else 0.0)
             rec.append(row)
 
-        # ---- termination (state at t_k recorded above)
-        if status is RunStatus.RUNNING:
-            if st.status is not RunStatus.RUNNING:
-                status, detail = st.status, st.detail or st.status.message
-            elif t_us >= max_us:
-                status, detail = RunStatus.TIMEOUT, f"{RunStatus.TIMEOUT.message} ({mission.max_duration_s:g} s)"
-            elif should_stop is not None and k % stop_every == 0 and should_stop():
-                status, detail = RunStatus.INTERRUPTED, RunStatus.INTERRUPTED.message
         if status is not RunStatus.RUNNING:
             break
 
