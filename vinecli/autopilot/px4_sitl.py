@@ -92,7 +92,7 @@ class Px4SitlAutopilot:
         from vinecli.mavlink.link import is_loopback
 
         if not is_loopback(host) and not allow_remote:
-            raise InputError(f"px4 autopilot: refusing to listen on non-loopback address {host} without allow_remote")
+            raise InputError(f"px4 autopilot: refusing to listen on non-loopback address {host} (add --px4-allow-remote)")
         self.host, self.instance = host, instance
         self.port = SIM_PORT_BASE + instance if port is None else port
         self.connect_timeout_s, self.step_timeout_s = connect_timeout_s, step_timeout_s

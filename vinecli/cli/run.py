@@ -27,6 +27,7 @@ def mission_cmd(
     px4_instance: Annotated[int, typer.Option("--px4-instance", help="PX4 SITL instance (px4 -i N): TCP 4560+N.")] = 0,
     px4_host: Annotated[str, typer.Option("--px4-host", help="Address to listen on for PX4 (loopback).")] = "127.0.0.1",
     px4_connect_timeout: Annotated[float, typer.Option("--px4-connect-timeout", help="Seconds to wait for PX4.")] = 30.0,
+    px4_allow_remote: Annotated[bool, typer.Option("--px4-allow-remote", help="Allow a non-loopback --px4-host.")] = False,
     mavlink: Annotated[str | None, typer.Option("--mavlink", help="Serve the built-in autopilot over MAVLink, "
                                                 "e.g. udp:127.0.0.1:14540 (where the GCS listens).")] = None,
     realtime: Annotated[bool, typer.Option("--realtime", help="With --mavlink: pace the run at wall-clock speed.")] = False,
@@ -60,7 +61,7 @@ def mission_cmd(
         summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
                               record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id,
                               autopilot_options=_autopilot_options(px4_instance, px4_host, px4_connect_timeout, mavlink,
-                                                                   realtime, mavlink_allow_remote))
+                                                                   realtime, mavlink_allow_remote, px4_allow_remote))
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")
     out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
                       f"{summary.real_time_factor:.1f}x real time")
@@ -162,7 +163,7 @@ def _batch_table(result: Any) -> None:
 
 
 def _autopilot_options(px4_instance: int, px4_host: str, px4_connect_timeout: float, mavlink: str | None,
-                       realtime: bool, mavlink_allow_remote: bool) -> dict[str, Any]:
+                       realtime: bool, mavlink_allow_remote: bool, px4_allow_remote: bool = False) -> dict[str, Any]:
     """Only the PX4/MAVLink options that differ from the defaults (see vinecli.autopilot.px4_options)."""
     opts: dict[str, Any] = {}
     if px4_instance:
@@ -177,4 +178,6 @@ def _autopilot_options(px4_instance: int, px4_host: str, px4_connect_timeout: fl
         opts["realtime"] = True
     if mavlink_allow_remote:
         opts["mavlink_allow_remote"] = True
+    if px4_allow_remote:
+        opts["px4_allow_remote"] = True
     return opts
