@@ -385,6 +385,9 @@ def _bad_files(tmp: Path, cloud: np.ndarray) -> dict[str, tuple[Path, type, str]
     trunc_ascii.write_bytes(good_ascii.read_bytes()[:-200])
     trunc_laz = tmp / "trunc.laz"
     trunc_laz.write_bytes((DATA / "lidr_topography_als.laz").read_bytes()[:200_000])
+    full_las = write_las(tmp / "full.las", cloud[:300])
+    trunc_las = tmp / "trunc.las"
+    trunc_las.write_bytes(full_las.read_bytes()[:-500])
     text_las = tmp / "text.las"
     text_las.write_text("this is not a LAS file\n")
     trunc_pcd = tmp / "trunc.pcd"
@@ -396,6 +399,7 @@ def _bad_files(tmp: Path, cloud: np.ndarray) -> dict[str, tuple[Path, type, str]
         "missing": (tmp / "nope.laz", InputError, "not found"),
         "text named .las": (text_las, TerrainError, "cannot read LAS/LAZ"),
         "truncated laz": (trunc_laz, TerrainError, "cannot read LAS/LAZ"),
+        "truncated las": (trunc_las, TerrainError, "cannot read LAS/LAZ"),
         "truncated ply": (trunc_ply, TerrainError, "truncated"),
         "truncated ascii ply": (trunc_ascii, TerrainError, "truncated"),
         "truncated pcd": (trunc_pcd, TerrainError, "truncated"),
