@@ -7,6 +7,10 @@ Terrain (world ENU, m):
   where PyBullet breaks silently; the AABB is checked after loading, terrain-notes.md §4);
 * ``tiles``: one static body per OBJ/STL tile with ``GEOM_FORCE_CONCAVE_TRIMESH`` and mass 0.
 
+Terrain bodies are created with ``useMaximalCoordinates=True`` (plain static collision objects):
+as fixed-base multibodies every tile costs time on every step even when nothing touches it
+(measured: 27 tiles of the sample world doubled the bare step time).
+
 Contact parameters (chosen so that a vehicle rests without jitter and a 2 m drop does not
 tunnel, tests/sim/test_contact.py): restitution 0, lateral friction 1, rolling/spinning
 friction 0.001, PyBullet's default ERP/contact solver with 50 iterations, linear/angular
@@ -79,7 +83,8 @@ class Engine:
     def _plane(self, z: float) -> int:
         c, p = self.client, self.p
         shape = c.createCollisionShape(p.GEOM_PLANE, planeNormal=[0, 0, 1])
-        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[0.0, 0.0, z])
+        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=[0.0, 0.0, z],
+                                 useMaximalCoordinates=True)
 
     def _heightfield(self, terrain: TerrainInfo) -> int:
         c, p = self.client, self.p
@@ -105,7 +110,8 @@ class Engine:
         )
         xmin, ymin, xmax, ymax = g.bounds
         centre = [(xmin + xmax) / 2.0, (ymin + ymax) / 2.0, (zmin + zmax) / 2.0]
-        body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=centre)
+        body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=centre,
+                                 useMaximalCoordinates=True)
         lo, hi = c.getAABB(body)
         tol = 0.1 + 2 * max(g.dx, g.dy)
         if (abs(lo[0] - xmin) > tol or abs(hi[0] - xmax) > tol or abs(lo[1] - ymin) > tol or abs(hi[1] - ymax) > tol
@@ -121,7 +127,8 @@ class Engine:
                                        meshScale=[1.0, 1.0, 1.0])
         if shape < 0:
             raise TerrainError("PyBullet could not load the mesh tile", path=path)
-        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=list(offset))
+        return c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=list(offset),
+                                 useMaximalCoordinates=True)
 
     # ------------------------------------------------------------------ vehicle
     def load_vehicle(self, urdf: Path, pos: Vec3, quat: QuatXYZW, *, ccd_radius: float = 0.02) -> int:
