@@ -72,3 +72,19 @@ def test_dask_executor_runs_a_real_mission(tmp_path: Path, ci_runs: Path) -> Non
     res = run_batch(pipe, tmp_path / "runs", jobs=1, executor="dask", dask_processes=False)
     assert res.cases[0].passed and res.cases[0].status == "completed"
     assert json.loads((tmp_path / "runs" / "batch.json").read_text())["executor"] == "dask"
+
+
+def test_plan_rows_on_the_built_sample_world(ci_runs: Path, tmp_path: Path) -> None:
+    """`vinecli plan rows WORLD_DIR`: the world's own rows, and rows detected on its height grid."""
+    from typer.testing import CliRunner
+
+    from vinecli.cli.app import app
+
+    world = ci_runs / "_worlds" / "vineyard-sample"
+    out = tmp_path / "rows.plan"
+    r = CliRunner().invoke(app, ["plan", "rows", str(world), "--out", str(out), "--world-rows"])
+    assert r.exit_code == 0, r.output
+    items = json.loads(out.read_text())["mission"]["items"]
+    assert sum(i["command"] == 187 for i in items) == 2 * 16
+    r = CliRunner().invoke(app, ["plan", "rows", str(world), "--out", str(tmp_path / "det.plan")])
+    assert r.exit_code == 0 and "16 rows" in r.output and "spacing 0.9" in r.output

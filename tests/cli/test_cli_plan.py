@@ -90,15 +90,3 @@ def test_import_plan_bad_item_exits_2(flat_world: Path, tmp_path: Path) -> None:
     assert r.exit_code == 2 and "bad.plan" in r.output and "mission.items[4]: unsupported command 31" in r.output
     assert not out.exists()
 
-
-def test_plan_rows_on_the_sample_world_uses_its_rows(tmp_path: Path) -> None:
-    from vinecli.world import build_world
-
-    world = build_world(REPO / "worlds" / "vineyard-sample.yaml", tmp_path / "w")
-    out = tmp_path / "rows.plan"
-    r = runner.invoke(app, ["plan", "rows", str(world), "--out", str(out), "--world-rows"])
-    assert r.exit_code == 0, r.output
-    items = json.loads(out.read_text())["mission"]["items"]
-    assert sum(i["command"] == 187 for i in items) == 2 * 16
-    r = runner.invoke(app, ["plan", "rows", str(world), "--out", str(tmp_path / "det.plan")])
-    assert r.exit_code == 0 and "16 rows" in r.output

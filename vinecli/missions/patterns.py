@@ -114,6 +114,20 @@ class RowDetection:
                 "rows_enu": [[list(p) for p in r] for r in self.rows]}
 
 
+def _decimate(z: np.ndarray, x: np.ndarray, y: np.ndarray, max_cells: int
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Block means (NaN-aware) by an integer factor so that the grid has at most ``max_cells`` cells."""
+    f = math.ceil(math.sqrt(z.size / max_cells)) if z.size > max_cells else 1
+    if f <= 1:
+        return z, x, y
+    ny, nx = (z.shape[0] // f) * f, (z.shape[1] // f) * f
+    blocks = z[:ny, :nx].reshape(ny // f, f, nx // f, f)
+    with np.errstate(invalid="ignore"):
+        cnt = np.isfinite(blocks).sum(axis=(1, 3))
+        zs = np.where(cnt > 0, np.nansum(blocks, axis=(1, 3)) / np.maximum(cnt, 1), np.nan)
+    return zs, x[:nx].reshape(-1, f).mean(axis=1), y[:ny].reshape(-1, f).mean(axis=1)
+
+
 def _fill_and_detrend(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     valid = np.isfinite(z)
     if valid.sum() < 16:
@@ -137,16 +151,19 @@ def detect_rows_grid(
     max_spacing_m: float = 6.0,
     spacing_m: float | None = None,
     min_length_m: float | None = None,
+    max_cells: int = 300_000,
 ) -> RowDetection:
     """Detect parallel rows in a regular height grid ``z[j, i]`` at ``x[i]``, ``y[j]`` (ENU m, uniform).
 
-    ``spacing_m`` fixes the expected spacing (the search is then limited to ±25 % of it).
+    ``spacing_m`` fixes the expected spacing (the search is then limited to ±25 % of it). Grids larger
+    than ``max_cells`` are block-averaged first (NaN-aware).
     """
     z = np.asarray(z, dtype=float)
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     if z.shape != (y.size, x.size) or x.size < 8 or y.size < 8:
         raise TerrainError(f"height grid must be at least 8x8 and match x, y (got {z.shape})")
+    z, x, y = _decimate(z, x, y, max_cells)
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     zz, valid = _fill_and_detrend(z)
     ny, nx = zz.shape
@@ -330,7 +347,7 @@ def _world_grid(w: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     return np.asarray(p["x"], float), np.asarray(p["y"], float), np.asarray(p["z"], float)
 
 
-def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 1 << 20, **kw: Any) -> tuple[RowDetection, GeoOrigin]:
+def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any) -> tuple[RowDetection, GeoOrigin]:
     """Rows in a DSM GeoTIFF. The ENU frame is centred on the raster centre (origin: its lat/lon and
     median height); CRS coordinates map to ENU by the local affine transform at the centre."""
     import rasterio
