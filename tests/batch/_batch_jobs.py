@@ -27,6 +27,6 @@ def job_light(spec: RunSpec) -> CaseResult:
     with atomic_output_dir(out, Manifest(command="test"), overwrite=True) as tmp:
         rundir.write_summary(tmp / rundir.SUMMARY, {
             "run_id": spec.run_id, "status": "completed", "passed": True, "checks": [], "sim_time_s": 1.0,
-            "seed": spec.seed, "pid": os.getpid(),
+            "seed": spec.seed, "pid": os.getpid(), "world_dir": spec.world_dir,
         })
     return CaseResult(spec.case, spec.run_id, "completed", True, seed=spec.seed, sim_time_s=1.0)

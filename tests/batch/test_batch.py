@@ -180,3 +180,14 @@ def test_bad_executor_options(pipe_dir: Path, tmp_path: Path) -> None:
         run_batch(p, tmp_path / "r", scheduler="tcp://127.0.0.1:1")
     with pytest.raises(InputError, match="--jobs"):
         run_batch(p, tmp_path / "r", jobs=0)
+
+
+def test_world_override(pipe_dir: Path, tmp_path: Path) -> None:
+    other = tmp_path / "other_world"
+    other.mkdir()
+    (other / "world.json").write_text("{}")
+    p = write_pipe(pipe_dir, "missions: [missions/hover.yaml, {mission: missions/ok2.yaml, world: world}]\n")
+    runs = tmp_path / "runs"
+    run_batch(p, runs, jobs=1, job=job_light, world=other)
+    assert json.loads((runs / "hover" / "summary.json").read_text())["world_dir"] == str(other.resolve())
+    assert json.loads((runs / "ok2" / "summary.json").read_text())["world_dir"] == str((pipe_dir / "world").resolve())

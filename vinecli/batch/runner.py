@@ -85,11 +85,13 @@ def run_batch(
     max_tasks_per_child: int = 4,
     grace_s: float | None = None,
     mcap: bool = False,
+    world: str | Path | None = None,
 ) -> BatchResult:
     """Run a pipeline's cases; returns the :class:`BatchResult` (also written to ``RUNS/batch.json``).
 
     ``timeout_s`` (wall seconds per case) overrides the pipeline's. ``job`` is the top-level,
-    picklable function executed per case (default :func:`~vinecli.batch.job.run_one`).
+    picklable function executed per case (default :func:`~vinecli.batch.job.run_one`). ``world`` (a built
+    world dir or a world spec) replaces the pipeline's default world (entries naming their own keep theirs).
     """
     if jobs < 1:
         raise InputError(f"--jobs must be >= 1, got {jobs}")
@@ -102,6 +104,10 @@ def run_batch(
     else:
         ppath = Path(pipeline)
         spec = load_pipeline(ppath)
+    if world is not None:
+        if not Path(world).exists():
+            raise InputError("world not found", path=world)
+        spec = spec.model_copy(update={"world": str(Path(world).resolve())})
     cases = expand_cases(spec, ppath)
     runs_dir = Path(runs_dir)
     try:

@@ -85,6 +85,8 @@ def batch_cmd(
     resume: Annotated[bool, typer.Option("--resume", help="Skip cases whose run is already complete.")] = False,
     timeout: Annotated[float | None, typer.Option("--timeout", help="Wall-clock limit per case, s.")] = None,
     mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap per case.")] = False,
+    world: Annotated[Path | None, typer.Option("--world", "-w", help="Built world dir or world spec replacing "
+                                               "the pipeline's default world.")] = None,
 ) -> None:
     """Run every case of a pipeline (missions and sweeps) and write OUT/batch.json.
 
@@ -98,7 +100,10 @@ def batch_cmd(
     from vinecli.batch.spec import expand_cases, load_pipeline
     from vinecli.errors import ChecksFailed, RuntimeFailure
 
-    n = len(expand_cases(load_pipeline(pipeline), pipeline))
+    spec = load_pipeline(pipeline)
+    if world is not None:
+        spec = spec.model_copy(update={"world": str(world.resolve())})
+    n = len(expand_cases(spec, pipeline))
     bar = Progress(
         TextColumn("[progress.description]{task.description}"), BarColumn(), MofNCompleteColumn(),
         TimeElapsedColumn(), TextColumn("{task.fields[info]}"), console=err_console, transient=True,
@@ -112,7 +117,7 @@ def batch_cmd(
             bar.update(task, completed=done, info=f"{r.case}: {mark}")
 
         result = run_batch(pipeline, out, jobs=jobs, executor=executor, scheduler=scheduler, resume=resume,
-                           timeout_s=timeout, progress=on_case, mcap=mcap)
+                           timeout_s=timeout, progress=on_case, mcap=mcap, world=world)
     _batch_table(result)
     out_console.print(f"{result.runs_dir}/batch.json  {result.n_passed} passed, {result.n_failed} failed, "
                       f"{result.n_errors} errors in {result.wall_time_s:.1f} s")
