@@ -149,11 +149,11 @@ def _kinematics(t: np.ndarray, pos_raw: np.ndarray, sigma_s: float, ground_clamp
     if ground_clamp:
         pos[:, 2] = np.maximum(pos[:, 2], ground)
     on_ground = pos[:, 2] <= ground + 1e-3
-    pos[on_ground, 2] = ground[on_ground]
     vel = np.gradient(pos, dt, axis=0)
     acc = np.gradient(vel, dt, axis=0)
-    vel[on_ground] = 0.0
-    acc[on_ground] = 0.0
+    still = on_ground & (np.abs(vel[:, 2]) < 1e-3)
+    vel[still] = 0.0
+    acc[still] = 0.0
     return pos, vel, acc, ground - COM_Z, on_ground
 
 
@@ -218,6 +218,9 @@ def _assemble(r: _Run, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, terrai
     for _ in range(3):  # rotor H-force grows with the rotor speed: a few fixed-point passes
         need = m_total[:, None] * (acc + np.array([0.0, 0.0, G])) - drag - K_D * 4.0 * w_air[:, None] * app_h
         w_air = np.sqrt(np.linalg.norm(need, axis=1) / (4.0 * K_F))
+    # after the first lift-off, rotors on the ground spin down (idle while armed, then stopped)
+    flown = np.cumsum(~on_ground) > 0
+    w_ground = np.where(flown & on_ground, np.where(armed, 350.0, 0.0), w_ground)
     w_mean = np.where(on_ground, w_ground, np.minimum(w_air, W_MAX))
     rotors = np.empty((n, 4))
     for i in range(4):

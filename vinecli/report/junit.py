@@ -1,0 +1,69 @@
+"""JUnit XML for CI (junitparser): one testsuite per mission, one testcase per check.
+
+Testcase ``classname`` is ``<mission>.<case>``, ``name`` the check name; a failed check is a
+``<failure>`` whose message states the measured value and the bound; a case that could not run
+is one ``<error>`` testcase; baseline regressions are extra failing testcases named
+``regression:<name>``. The output validates against the Jenkins/Surefire JUnit schema
+(``tests/data/junit-10.xsd``): ``<testsuites>`` carries name/tests/failures/errors/time only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from vinecli.report.baseline import Comparison, _fmt
+from vinecli.report.loader import Run
+
+
+def check_message(c: dict[str, Any]) -> str:
+    """One line: ``name: value V, expected OP BOUND``."""
+    return f"{c['name']}: value {_fmt(c.get('value'))}, expected {c.get('op')} {_fmt(c.get('bound'))}"
+
+
+def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None = None, name: str = "vinecli") -> None:
+    """Write ``junit.xml`` for ``runs`` (and regressions from ``comparison``)."""
+    from junitparser import Error, Failure, JUnitXml, TestCase, TestSuite
+
+    xml = JUnitXml(name)
+    suites: dict[str, Any] = {}
+    for run in runs:
+        suite = suites.get(run.mission)
+        if suite is None:
+            suite = suites[run.mission] = TestSuite(run.mission)
+            suite.add_property("mission", run.mission)
+        classname = f"{run.mission}.{run.case}"
+        wall = float(run.summary.get("wall_time_s") or 0.0)
+        if run.errored:
+            tc = TestCase("run", classname, 0.0)
+            err = Error(f"the case could not run: {run.error}", "error")
+            err.text = run.error or ""
+            tc.result = [err]
+            suite.add_testcase(tc)
+        checks = run.checks
+        for c in checks:
+            tc = TestCase(str(c["name"]), classname, round(wall / max(1, len(checks)), 4))
+            if not c.get("passed"):
+                f = Failure(check_message(c), "check")
+                f.text = (f"{c.get('message') or ''}\nquantity: {c.get('quantity')}, reduce: {c.get('reduce')}, "
+                          f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status})")
+                tc.result = [f]
+            suite.add_testcase(tc)
+        for r in comparison.for_case(run.case) if comparison else []:
+            tc = TestCase(f"regression:{r.name}", classname, 0.0)
+            tc.result = [Failure(r.message, f"regression-{r.kind}")]
+            suite.add_testcase(tc)
+    tests = failures = errors = 0
+    time = 0.0
+    for suite in suites.values():
+        suite.update_statistics()
+        suite.time = round(float(suite.time or 0.0), 4)
+        tests += int(suite.tests)
+        failures += int(suite.failures)
+        errors += int(suite.errors)
+        time += float(suite.time or 0.0)
+        xml.add_testsuite(suite)
+    # root statistics set by hand: the Jenkins schema has no "skipped" on <testsuites>
+    xml.tests, xml.failures, xml.errors, xml.time = tests, failures, errors, round(time, 4)
+    xml.write(str(path), pretty=True)
