@@ -36,7 +36,7 @@ class FillResult:
     filled_pixels: int
 
 
-def parse_fill(text: str | float | None) -> str | float:
+def parse_fill(text: str | float | None, *, path: Path | None = None) -> str | float:
     """Validate a ``--fill`` value: one of :data:`FILL_CHOICES` or a height in metres."""
     if text is None:
         return "idw"
@@ -48,7 +48,8 @@ def parse_fill(text: str | float | None) -> str | float:
     try:
         return float(t)
     except ValueError:
-        raise InputError(f"--fill {text!r}: choose {', '.join(FILL_CHOICES)} or a height in metres") from None
+        raise InputError(f"--fill {text!r}: choose {', '.join(FILL_CHOICES)} or a height in metres",
+                         path=path) from None
 
 
 def _nearest(z: np.ndarray, holes: np.ndarray) -> None:

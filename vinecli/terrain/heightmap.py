@@ -30,11 +30,12 @@ import numpy as np
 
 from vinecli.errors import InputError, RuntimeFailure, TerrainError
 from vinecli.geo import GeoOrigin
-from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
+from vinecli.outputs import Manifest, atomic_output_dir, write_json
 from vinecli.terrain.crop import SquareCrop, square_crop
 from vinecli.terrain.fill import FillResult, fill_nodata, parse_fill
 from vinecli.terrain.raster import (
     DsmMeta,
+    check_out_dir,
     crs_label,
     gdal_env,
     horizontal_crs,
@@ -53,7 +54,7 @@ MAX_SAMPLES = 2**21
 #: Crops above this many pixels are streamed through GDAL's warper when downsampling.
 MAX_READ_PX = 2**25
 #: Pixel budget of the intermediate grid of the streamed path.
-MAX_INTERMEDIATE_PX = 2**24
+MAX_INTERMEDIATE_PX = 2**22
 #: Samples used to measure what the resolution loses (strided above this).
 LOSS_SAMPLES = 4_000_000
 FORMAT = "vinecli-heightmap/1"
@@ -140,16 +141,16 @@ def validate_size(n: int, *, path: Path | None = None) -> None:
 def suggest_size(side_px: float) -> int:
     """Smallest 2^n+1 >= the crop's pixel count per side, capped at 1025 (PyBullet limit)."""
     n = 3
-    while n - 1 < side_px - 1e-9 and n < 1025:
+    while n < side_px - 1e-9 and n < 1025:
         n = 2 * n - 1
     return n
 
 
-def _resampling(method: str) -> Any:
+def _resampling(method: str, path: Path | None = None) -> Any:
     from rasterio.enums import Resampling
 
     if method not in METHODS:
-        raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
+        raise InputError(f"--method {method!r}: choose one of {', '.join(METHODS)}", path=path)
     return Resampling[method]
 
 
@@ -328,8 +329,8 @@ def build_heightmap(dsm: Path, size: int | None = None, *, method: str = "biline
     """
     t0 = time.perf_counter()
     dsm = Path(dsm)
-    fill = parse_fill(fill)
-    _resampling(method)
+    fill = parse_fill(fill, path=dsm)
+    _resampling(method, dsm)
     if size is not None:
         validate_size(size, path=dsm)
     with gdal_env(), open_raster(dsm) as src:
@@ -454,7 +455,7 @@ def convert_to_heightmap(dsm: Path, out: Path, *, size: int | None = None, metho
     OutputError (exit 2) on bad input, leaving nothing in ``out``.
     """
     dsm, out = Path(dsm), Path(out)
-    check_output_target(out, overwrite=overwrite)
+    check_out_dir(out, overwrite=overwrite)
     manifest = Manifest("terrain convert --to heightmap", inputs=[dsm], parameters={
         "size": size, "method": method, "window": window, "bbox": bbox, "fill": fill, "z_unit": z_unit})
     with manifest.stage("heightmap"):

@@ -35,7 +35,7 @@ from vinecli.errors import InputError, TerrainError
 log = logging.getLogger(__name__)
 
 RASTER_SUFFIXES: tuple[str, ...] = (".tif", ".tiff")
-CLOUD_SUFFIXES: tuple[str, ...] = (".las", ".laz", ".ply", ".pcd", ".xyz")
+CLOUD_SUFFIXES: tuple[str, ...] = (".las", ".laz", ".ply", ".pcd", ".xyz", ".txt", ".csv")
 
 FOOT_M = 0.3048
 US_FOOT_M = 1200.0 / 3937.0
@@ -225,7 +225,8 @@ def placeholder_crs() -> Any:
 
 
 # ------------------------------------------------------------------ units
-def detect_units(crs: Any, band_unit: str | None, z_unit: str | None = None) -> tuple[Units, list[str]]:
+def detect_units(crs: Any, band_unit: str | None, z_unit: str | None = None,
+                 path: Path | None = None) -> tuple[Units, list[str]]:
     """Horizontal and vertical units of a raster (see the module docstring for the order).
 
     Returns the units and a list of warnings for the user.
@@ -254,7 +255,7 @@ def detect_units(crs: Any, band_unit: str | None, z_unit: str | None = None) -> 
     if z_unit is not None:
         uf = unit_factor(z_unit)
         if uf is None:
-            raise InputError(f"unknown vertical unit {z_unit!r} (choose from {', '.join(Z_UNIT_CHOICES)})")
+            raise InputError(f"unknown vertical unit {z_unit!r} (choose from {', '.join(Z_UNIT_CHOICES)})", path=path)
         z_name, z_to_m, z_source = uf[0], uf[1], "option"
     elif unit_factor(band_unit) is not None:
         z_name, z_to_m = unit_factor(band_unit)  # type: ignore[misc]
@@ -282,6 +283,31 @@ def check_suffix(path: Path, allowed: tuple[str, ...] = RASTER_SUFFIXES) -> None
         raise InputError("file not found", path=path)
     if not path.is_file():
         raise InputError("not a file", path=path)
+
+
+def check_out_dir(out: Path, *, overwrite: bool = False) -> None:
+    """Fail early (OutputError, exit 2) if ``out`` cannot be written, before any heavy work.
+
+    :func:`vinecli.outputs.check_output_target` plus a real probe: a temporary directory is created
+    and removed in the nearest existing ancestor (catches read-only file systems, /proc, root-owned
+    mounts where ``os.access`` says yes).
+    """
+    import tempfile
+
+    from vinecli.errors import OutputError
+    from vinecli.outputs import check_output_target
+
+    out = Path(out)
+    check_output_target(out, overwrite=overwrite)
+    probe = out.absolute().parent
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"output location is not writable ({probe} is not a directory)", path=out)
+    try:
+        Path(tempfile.mkdtemp(prefix=".vinecli-probe-", dir=probe)).rmdir()
+    except OSError as exc:
+        raise OutputError(f"output location is not writable ({exc.strerror})", path=out) from exc
 
 
 def _gdal_message(exc: BaseException) -> str:
@@ -352,7 +378,7 @@ def inspect_dsm(src: Any, *, z_unit: str | None = None) -> DsmMeta:
     except RasterioError as exc:
         raise TerrainError(f"truncated or corrupt GeoTIFF: pixel data unreadable ({_gdal_message(exc)})", path=path) from exc
     band_unit = src.units[0] if src.units else None
-    units, warnings = detect_units(src.crs if src.crs else None, band_unit, z_unit)
+    units, warnings = detect_units(src.crs if src.crs else None, band_unit, z_unit, path)
     for w in warnings:
         log.warning("%s: %s", path.name, w)
     flags = src.mask_flag_enums[0]

@@ -35,9 +35,9 @@ import numpy as np
 
 from vinecli.errors import InputError, RuntimeFailure
 from vinecli.geo import GeoOrigin
-from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
+from vinecli.outputs import Manifest, atomic_output_dir, write_json
 from vinecli.terrain.fill import fill_nodata, parse_fill
-from vinecli.terrain.raster import gdal_env, inspect_dsm, open_raster, read_heights, to_lonlat
+from vinecli.terrain.raster import check_out_dir, gdal_env, inspect_dsm, open_raster, read_heights, to_lonlat
 from vinecli.terrain.tin import Tin, job_finish, job_mesh, split_border
 
 log = logging.getLogger(__name__)
@@ -167,7 +167,7 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
     """
     t_start = time.perf_counter()
     dsm, out = Path(dsm), Path(out)
-    fill = parse_fill(fill)
+    fill = parse_fill(fill, path=dsm)
     if fmt not in MESH_FORMATS:
         raise InputError(f"--format {fmt!r}: choose {' or '.join(MESH_FORMATS)}", path=dsm)
     if tile_px < 2:
@@ -179,7 +179,7 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
     bounded = max_triangles is None
     if max_error is None:
         max_error = DEFAULT_MAX_ERROR if max_triangles is None else 0.0
-    check_output_target(out, overwrite=overwrite)
+    check_out_dir(out, overwrite=overwrite)
     manifest = Manifest("terrain convert --to tiles", inputs=[dsm], parameters={
         "max_error": max_error, "max_triangles": max_triangles, "tile_px": tile_px, "format": fmt, "fill": fill,
         "z_unit": z_unit})
@@ -311,6 +311,7 @@ def _tiles_json(dsm: Path, meta: Any, keys: list[tuple[int, int]], tins: dict[tu
             "note": "centre of the raster bounds; alt_m = raster height there (bilinear)" +
                     ("" if origin else "; geodetic origin unknown: the DSM has no CRS"),
         },
+        "geodetic_origin": origin.to_dict() if origin else None,
         "horizontal": horizontal,
         "pixel_size_m": list(pix_m),
         "raster_size_px": [w, h],
