@@ -1,7 +1,8 @@
 """Time-series recording into preallocated numpy arrays (CONTRACTS.md column names).
 
 The loop appends one row (a plain list of floats, in :func:`timeseries_columns` order) per
-record period; :meth:`Recorder.columns_dict` returns ``{name: 1-D array}`` at the end.
+record period; rows go into a preallocated array in blocks; :meth:`Recorder.columns_dict`
+returns ``{name: 1-D array}`` at the end (the missions tools write them to Parquet).
 """
 
 from __future__ import annotations
@@ -36,24 +37,42 @@ def timeseries_columns(n_rotors: int) -> list[str]:
 
 
 class Recorder:
-    """Rows of floats appended into a preallocated (capacity, n_columns) float64 array."""
+    """Rows of floats collected into a preallocated (capacity, n_columns) float64 array.
+
+    :meth:`append` only stores the row list; rows are copied into the array in blocks of
+    :attr:`BLOCK` (one numpy call per block instead of one per row).
+    """
+
+    BLOCK = 256
 
     def __init__(self, columns: list[str], capacity: int) -> None:
         self.columns = list(columns)
         self.index = {c: i for i, c in enumerate(self.columns)}
         self.buf = np.full((max(int(capacity), 16), len(self.columns)), np.nan)
         self.n = 0
+        self._pending: list[list[float]] = []
 
     def append(self, row: list[float]) -> None:
-        """Append one row (len = number of columns); grows by doubling if full."""
-        if self.n >= self.buf.shape[0]:
+        """Append one row (len = number of columns)."""
+        self._pending.append(row)
+        if len(self._pending) >= self.BLOCK:
+            self.flush()
+
+    def flush(self) -> None:
+        """Copy pending rows into the array (grows by doubling if full)."""
+        k = len(self._pending)
+        if not k:
+            return
+        while self.n + k > self.buf.shape[0]:
             grown = np.full((2 * self.buf.shape[0], self.buf.shape[1]), np.nan)
-            grown[: self.n] = self.buf
+            grown[: self.n] = self.buf[: self.n]
             self.buf = grown
-        self.buf[self.n] = row
-        self.n += 1
+        self.buf[self.n : self.n + k] = self._pending
+        self.n += k
+        self._pending = []
 
     def columns_dict(self) -> dict[str, np.ndarray]:
-        """``{column: 1-D float64 array}`` of the rows recorded so far (copies)."""
+        """``{column: 1-D float64 array}`` of every row recorded so far (copies)."""
+        self.flush()
         data = self.buf[: self.n]
         return {c: data[:, i].copy() for i, c in enumerate(self.columns)}
