@@ -28,9 +28,11 @@ def build(
     path = build_world(spec, out, overwrite=overwrite)
     w = load_world(path)
     xmin, ymin, xmax, ymax = w.terrain.bounds
+    n_tiles = sum(f.suffix.lower() in (".obj", ".stl") for f in w.terrain.files)
+    tiles = f", {n_tiles} tiles" if n_tiles else ""
     out_console.print(
         f"world [bold]{w.name}[/] -> {path}: terrain {w.terrain.kind} "
-        f"({xmax - xmin:.1f} m × {ymax - ymin:.1f} m, {len(w.terrain.files)} files), vehicle {w.vehicle.name}, "
+        f"({xmax - xmin:.1f} m × {ymax - ymin:.1f} m{tiles}), vehicle {w.vehicle.name}, "
         f"origin {w.origin.lat:.6f}, {w.origin.lon:.6f}, {w.origin.alt:.1f} m, {len(w.vine_rows_enu)} rows",
         markup=True,
     )
