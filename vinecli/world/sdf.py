@@ -76,6 +76,7 @@ def _vehicle_model(world: etree._Element, v: VehicleSpec, pose: tuple[float, flo
     _sub(model, "pose", _v(x, y, z, 0.0, 0.0, yaw))
     base = _sub(model, "link", name="base_link")
     _inertial(base, v.frame.mass_kg, *v.frame.inertia_kgm2)
+    _sub(base, "enable_wind", "true")  # WindEffects acts on links that opt in
     bx, by, bz = v.frame.collision_box_m
     cz = -v.frame.landing_gear_height_m + bz / 2.0
     for tag in ("collision", "visual"):
