@@ -142,6 +142,7 @@ def run_mission(
     from vinecli.world import load_world
 
     world = load_world(Path(world_dir))
+    _auto_rows(world)
     vehicle = None
     if spec.vehicle is not None:
         vehicle = resolve_vehicle(spec.vehicle, relative_to=mission_path.parent if mission_path else None,
@@ -255,6 +256,21 @@ def run_mission(
         wall_time_s=round(wall, 4), real_time_factor=round(rtf, 3), checks=summary["checks"], metrics=metrics,
         status_message=status_message,
     )
+
+
+def _auto_rows(world: Any) -> None:
+    """``rows: auto`` worlds: detect the vine rows on the world's height grid (in memory, before the run)."""
+    if not getattr(world, "rows_auto", False) or world.vine_rows_enu:
+        return
+    from vinecli.missions.patterns import _world_grid, detect_rows_grid
+
+    grid = _world_grid(world)
+    if grid is None:
+        return
+    det = detect_rows_grid(grid[2], grid[0], grid[1])
+    world.vine_rows_enu = det.rows
+    log.info("world %s: %d rows detected (direction %.1f deg, spacing %.2f m)", world.name, len(det.rows),
+             det.direction_deg, det.spacing_m)
 
 
 def _rows_for_metrics(spec: MissionSpec, world: Any) -> list[list[tuple[float, float]]]:
