@@ -1,0 +1,57 @@
+"""``rows: auto`` worlds: rows detected on the height grid, then sprayed in the real loop."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import rasterio
+import yaml
+from rasterio.transform import from_origin
+
+from vinecli.runs import run_mission
+
+
+def vineyard_tif(path: Path) -> None:
+    """40 m x 40 m, 0.1 m pixels, UTM 32N; rows along 20 deg (ENU grid), 2.5 m apart, 1 m canopy."""
+    res, n = 0.1, 401
+    xs = (np.arange(n) + 0.5) * res - 20.0
+    ys = 20.0 - (np.arange(n) + 0.5) * res
+    X, Y = np.meshgrid(xs, ys)
+    th = math.radians(20.0)
+    s = -math.sin(th) * X + math.cos(th) * Y
+    z = 240.0 + 1.0 * np.clip(np.cos(2 * np.pi * s / 2.5), 0, None) ** 2
+    with rasterio.open(path, "w", driver="GTiff", width=n, height=n, count=1, dtype="float32", crs="EPSG:32632",
+                       transform=from_origin(424000.0, 4950040.0, res, res)) as ds:
+        ds.write(z.astype("float32"), 1)
+
+
+def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
+    from vinecli.world import build_world
+
+    vineyard_tif(tmp_path / "v.tif")
+    (tmp_path / "w.yaml").write_text(yaml.safe_dump({
+        "name": "auto-rows", "terrain": {"type": "dsm", "path": "v.tif", "format": "heightmap", "size": 257},
+        "vehicle": "x500-sprayer", "spawn": {"x_m": 0.0, "y_m": 1.33}, "rows": "auto",  # in a furrow
+    }))
+    world = build_world(tmp_path / "w.yaml", tmp_path / "world")
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({
+        "name": "auto-spray", "vehicle": "x500-sprayer", "tank_fill_l": 0.3, "max_duration_s": 60,
+        "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
+                   {"type": "spray", "rows": "world", "height_agl_m": 2.0, "speed_mps": 2.0, "flow_lps": 0.05,
+                    "until": "empty"},
+                   {"type": "land"}],
+        "checks": [{"name": "on_rows", "quantity": "metric:cross_track_p95_m", "op": "<=", "bound": 0.5},
+                   {"name": "drain", "quantity": "metric:drain_time_ratio", "op": "between", "bound": [0.98, 1.02]}],
+    }))
+    s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=2)
+    assert s.passed, s.checks
+    summ = json.loads((Path(s.run_dir) / "summary.json").read_text())
+    rows = summ["world"]["rows_enu"]
+    assert len(rows) >= 10
+    for row in rows:  # every detected row runs at ~20 deg
+        (x0, y0), (x1, y1) = row[0], row[-1]
+        d = math.degrees(math.atan2(y1 - y0, x1 - x0)) % 180
+        assert min(abs(d - 20.0), 180 - abs(d - 20.0)) < 2.5
