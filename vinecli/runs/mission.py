@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
-from vinecli.missions.checks import RunData, evaluate_checks
+from vinecli.missions.checks import EventMissing, RunData, evaluate_checks
 from vinecli.missions.metrics import METRICS, MetricContext
 from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
 from vinecli.outputs import Manifest, atomic_output_dir
@@ -192,6 +192,11 @@ def run_mission(
     checks = evaluate_checks(spec.checks, data)
     passed = all(c.passed for c in checks)
     metrics: dict[str, float | None] = {k: _num(v) for k, v in result.metrics.items()}
+    for kind in ("liftoff", "tank_empty"):  # as the checks see them: debounced lift-off, empty from the level
+        try:
+            metrics[f"{kind}_s"] = data.event_time(kind)
+        except EventMissing:
+            metrics.setdefault(f"{kind}_s", None)
     for name in SUMMARY_METRICS:
         if name not in metrics:
             try:
