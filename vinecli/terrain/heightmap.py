@@ -56,7 +56,7 @@ MAX_READ_PX = 2**25
 #: Pixel budget of the intermediate grid of the streamed path.
 MAX_INTERMEDIATE_PX = 2**22
 #: Samples used to measure what the resolution loses (strided above this).
-LOSS_SAMPLES = 4_000_000
+LOSS_SAMPLES = 1_000_000
 FORMAT = "vinecli-heightmap/1"
 
 
@@ -203,9 +203,12 @@ def _loss(meta: DsmMeta, crop: SquareCrop, n: int, heights: np.ndarray, z: np.nd
     """What the chosen resolution loses: DSM samples in the square vs the heightmap (bilinear) there."""
     from scipy.ndimage import map_coordinates
 
-    rows, cols = np.nonzero(valid)
-    stride = max(1, math.ceil(rows.size / LOSS_SAMPLES))
-    rows, cols = rows[::stride], cols[::stride]
+    stride = max(1, math.ceil(math.sqrt(valid.size / LOSS_SAMPLES)))  # regular subgrid, bounded memory
+    r_sub = np.arange(0, valid.shape[0], stride)
+    c_sub = np.arange(0, valid.shape[1], stride)
+    rr, cc = np.nonzero(valid[np.ix_(r_sub, c_sub)])
+    rows, cols = r_sub[rr], c_sub[cc]
+    del rr, cc
     t = meta.transform
     xs = t.c + (win.col_off + cols + 0.5) * t.a
     ys = t.f + (win.row_off + rows + 0.5) * t.e

@@ -54,7 +54,7 @@ Z_UNIT_CHOICES: tuple[str, ...] = ("m", "ft", "us-ft")
 #: Block size (pixels) of streamed whole-raster scans (:func:`scan_heights`).
 SCAN_CHUNK_PX = 1 << 22
 #: GDAL block cache for our reads (MB); GDAL's default is 5% of RAM, which would hold a whole DSM.
-GDAL_CACHE_MB = 128
+GDAL_CACHE_MB = 32
 
 
 def unit_factor(name: str | None) -> tuple[str, float] | None:
