@@ -398,3 +398,12 @@ def test_large_dsm_peak_memory_below_raster_size(tmp_path: Path) -> None:
     assert peak_mib < 0.8 * raster_mib, f"peak RSS {peak_mib:.0f} MiB for a {raster_mib:.0f} MiB raster"
     hm = load_heightmap(tmp_path / "hm")
     assert hm.z_max == pytest.approx(100 + 0.001 * (n - 1) + 0.3 + 0.5, abs=0.05)  # max kept the 2-px ridges
+
+
+def test_origin_in_source_crs_and_grid_crs(tmp_path: Path) -> None:
+    src, lat_c, lon_c = geographic_plane_dsm(tmp_path / "geo.tif")
+    m = build_heightmap(src, 65).meta
+    assert m["crs"] == "EPSG:4326" and m["origin"] == pytest.approx([lon_c, lat_c])
+    assert m["origin_grid_crs"] == [0.0, 0.0]  # local TM centred on the origin
+    proj = build_heightmap(plane_dsm(tmp_path / "p.tif"), 65).meta
+    assert proj["origin"] == proj["origin_grid_crs"]

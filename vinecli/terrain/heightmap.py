@@ -364,7 +364,8 @@ def build_heightmap(dsm: Path, size: int | None = None, *, method: str = "biline
         from vinecli.terrain.raster import metres_per_degree
 
         m_lat, m_lon = metres_per_degree(origin.lat if origin else 0.0)
-        src_origin = [origin.lon if origin else None, origin.lat if origin else None]
+        rx0, ry0, rx1, ry1 = crop.region  # the local TM grid is centred on the region's centre
+        src_origin = [(rx0 + rx1) / 2, (ry0 + ry1) / 2]
         warnings.append(f"geographic CRS: resampled onto a local transverse Mercator grid centred at the origin "
                         f"(metres per degree there: {m_lon:.1f} E-W, {m_lat:.1f} N-S)")
     else:
@@ -383,9 +384,10 @@ def build_heightmap(dsm: Path, size: int | None = None, *, method: str = "biline
         "png_encoding": "uint16 value v <-> height z_min + v * height_step_m (metres)",
         "crs": meta.crs_label,
         "grid_crs": crs_label(crop.grid_crs),
-        "origin": [cx, cy],
-        "origin_note": "centre vertex of the square, in grid_crs units",
-        "origin_source_crs": src_origin,
+        "origin": src_origin,
+        "origin_grid_crs": [cx, cy],
+        "origin_note": "centre vertex of the square: 'origin' in crs units (lon/lat for a geographic DSM), "
+                       "'origin_grid_crs' in grid_crs units (the heightmap.tif grid)",
         "origin_alt_m": alt,
         "geodetic_origin": origin.to_dict() if origin else None,
         "geodetic_origin_note": ("lat/lon (WGS84) of the centre vertex; alt = height there (DSM vertical datum, m)"
