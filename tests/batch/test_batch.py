@@ -191,3 +191,16 @@ def test_world_override(pipe_dir: Path, tmp_path: Path) -> None:
     run_batch(p, runs, jobs=1, job=job_light, world=other)
     assert json.loads((runs / "hover" / "summary.json").read_text())["world_dir"] == str(other.resolve())
     assert json.loads((runs / "ok2" / "summary.json").read_text())["world_dir"] == str((pipe_dir / "world").resolve())
+
+
+def test_world_as_a_sweep_axis(pipe_dir: Path, tmp_path: Path) -> None:
+    other = pipe_dir / "world2"
+    other.mkdir()
+    (other / "world.json").write_text("{}")
+    p = write_pipe(pipe_dir, "sweep: {mission: missions/hover.yaml, matrix: {world: [world, world2]}, seeds: 1}\n")
+    cases = expand_cases(load_pipeline(p), p)
+    assert [Path(c.world).name for c in cases] == ["world", "world2"]
+    assert cases[0].name != cases[1].name
+    res = run_batch(p, tmp_path / "runs", jobs=1, job=job_light)
+    dirs = {json.loads((tmp_path / "runs" / c.run_id / "summary.json").read_text())["world_dir"] for c in res.cases}
+    assert dirs == {str((pipe_dir / "world").resolve()), str(other.resolve())}
