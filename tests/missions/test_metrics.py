@@ -30,6 +30,7 @@ def takeoff_series(force_scale: float = 1.0, drag_sign: float = 1.0) -> RunData:
     ts = {
         "t_s": t, "acc_enu_z_mps2": acc, "vel_enu_z_mps": vel, "on_ground": on_ground, "tank_mass_kg": mass,
         "tank_force_enu_z_n": fz, "tank_force_inertial_enu_z_n": -mass * acc, "drag_enu_z_n": drag,
+        "pos_enu_z_m": 0.2 + np.concatenate([[0.0], np.cumsum(vel[:-1]) * 0.02]),
     }
     return RunData(ts, events=[(2.0, "liftoff")], context=MetricContext(gravity=G))
 
@@ -43,6 +44,8 @@ def test_takeoff_metrics() -> None:
     assert m("climb_tank_force_ratio", d) == pytest.approx(1.0)
     assert m("climb_duration_s", d) == pytest.approx(8.0 - 3.1, abs=0.15)
     assert m("drag_opposes_vertical_motion", d) == pytest.approx(1.0)
+    # climbed 1 m while accelerating (2 -> 3 s) then 2 m/s: 1 + 2 * (t - 3) at the end of the run
+    assert m("altitude_above_home_m", d, (7.0, 7.0)) == pytest.approx(1.0 + 2.0 * 4.0, abs=0.05)
     off = takeoff_series(force_scale=1.02, drag_sign=-1.0)
     assert m("tank_force_rest_ratio", off) == pytest.approx(1.02)
     assert m("drag_opposes_vertical_motion", off) == pytest.approx(0.0)
