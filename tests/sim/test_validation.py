@@ -224,3 +224,20 @@ def test_recording_rate_and_final_row(flat_world):
     r2 = run_simulation(flat_world, mission(max_duration_s=0.5), OpenLoop(lambda o: [0.0] * 4), seed=1,
                         should_stop=lambda: True)
     assert r2.status is RunStatus.INTERRUPTED and r2.sim_time_s == 0.0
+
+
+def test_liftoff_when_thrust_exceeds_the_weight(flat_world):
+    """Ramp the rotors: the lift-off event comes within 0.08 s of thrust = total weight, and while
+    accelerating the tank force is m (g + a) with a = (T - (M + m) g) / (M + m)."""
+    v = flat_world.vehicle
+    w_h = v.hover_speed(v.dry_mass() + 1.0, G)
+    ap = OpenLoop(lambda o: [w_h * min(1.1, o.t_us * 1e-6 / 2.0 * 1.1)] * 4)
+    r = run_simulation(flat_world, mission(max_duration_s=2.5), ap, seed=0)
+    ts = r.timeseries
+    m_all = v.dry_mass() + 1.0
+    t_cross = ts["t_s"][np.argmax(ts["thrust_total_n"] > m_all * G)]
+    assert 0.0 <= r.metrics["liftoff_s"] - t_cross < 0.08
+    late = ts["t_s"] > 2.1
+    a = (ts["thrust_total_n"][late] - m_all * G) / m_all
+    assert np.allclose(ts["acc_enu_z_mps2"][late], a, atol=0.01)
+    assert np.allclose(ts["tank_force_enu_z_n"][late], -1.0 * (G + a), atol=0.02)

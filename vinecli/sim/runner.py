@@ -62,7 +62,8 @@ log = logging.getLogger(__name__)
 
 _DEBOUNCE_S = 0.05  # s of (no) contact before lift-off / touchdown is declared
 _CONTACT_MARGIN_M = 0.6
-SPAWN_GAP_M = 0.0  # m between the skids and the terrain at spawn  # contacts are queried only when the skids are this close to the grid height
+SPAWN_GAP_M = 0.0
+_TOUCH_M = 1e-4  # m: a contact point closer than this counts as touching  # m between the skids and the terrain at spawn  # contacts are queried only when the skids are this close to the grid height
 
 
 @dataclass
@@ -376,7 +377,14 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         omega_body = (r00 * ox + r10 * oy + r20 * oz, r01 * ox + r11 * oy + r21 * oz, r02 * ox + r12 * oy + r22 * oz)
         tz_ = th(px, py)
         agl = pz - tz_ - lgh
-        on_ground = bool(contacts(bodyA=body)) if agl < _CONTACT_MARGIN_M else False
+        on_ground = False
+        if agl < _CONTACT_MARGIN_M:
+            # PyBullet also lists points within its contact threshold (a few mm apart): count only
+            # points that carried a normal force in the last step or are closer than 0.1 mm
+            for cp in contacts(bodyA=body):
+                if cp[9] > 0.0 or cp[8] <= _TOUCH_M:
+                    on_ground = True
+                    break
 
         # ---- events from the truth
         if on_ground != (not airborne):
