@@ -228,7 +228,7 @@ def test_recording_rate_and_final_row(flat_world):
 
 def test_liftoff_when_thrust_exceeds_the_weight(flat_world):
     """Ramp the rotors: the lift-off event comes within 0.08 s of thrust = total weight, and while
-    accelerating the tank force is m (g + a) with a = (T - (M + m) g) / (M + m)."""
+    accelerating the tank force is m (g + a) with a = (T + D - (M + m) g) / (M + m)."""
     v = flat_world.vehicle
     w_h = v.hover_speed(v.dry_mass() + 1.0, G)
     ap = OpenLoop(lambda o: [w_h * min(1.1, o.t_us * 1e-6 / 2.0 * 1.1)] * 4)
@@ -238,6 +238,6 @@ def test_liftoff_when_thrust_exceeds_the_weight(flat_world):
     t_cross = ts["t_s"][np.argmax(ts["thrust_total_n"] > m_all * G)]
     assert 0.0 <= r.metrics["liftoff_s"] - t_cross < 0.08
     late = ts["t_s"] > 2.1
-    a = (ts["thrust_total_n"][late] - m_all * G) / m_all
+    a = (ts["thrust_total_n"][late] + ts["drag_enu_z_n"][late] - m_all * G) / m_all
     assert np.allclose(ts["acc_enu_z_mps2"][late], a, atol=0.01)
     assert np.allclose(ts["tank_force_enu_z_n"][late], -1.0 * (G + a), atol=0.02)
