@@ -85,6 +85,9 @@ def test_spray_metrics() -> None:
     assert m("drain_time_pred_s", d) == pytest.approx(20.0, rel=1e-3)
     assert m("drain_time_s", d) == pytest.approx(20.0, rel=2e-3)
     assert m("drain_time_ratio", d) == pytest.approx(1.0, abs=2e-3)
+    d.timeseries = {**d.timeseries, "tank_flow_lps": np.where(d.timeseries["tank_level_l"] > 0,
+                                                              d.timeseries["tank_flow_cmd_lps"] * 0.9, 0.0)}
+    assert m("spray_flow_ratio", d) == pytest.approx(0.9, abs=1e-3)
     assert m("rotor_mass_correlation", d) > 0.99
     assert m("hover_w_mass_exponent", d) == pytest.approx(0.5, abs=0.02)
     assert m("cross_track_rms_m", d) == pytest.approx(0.2)

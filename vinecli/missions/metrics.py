@@ -264,6 +264,21 @@ def drain_time_ratio(data: RunData, window: Window) -> float:
     return m / p if p and math.isfinite(p) else _nan()
 
 
+@metric("spray_flow_ratio", "1")
+def spray_flow_ratio(data: RunData, window: Window) -> float:
+    """Delivered / commanded nozzle flow while the flow is commanded on and the tank has liquid (1 = the
+    level falls at the commanded rate). Default: whole run."""
+    sel = _mask(data, window, None)
+    cmd = data.column("tank_flow_cmd_lps")
+    flow = data.column("tank_flow_lps")
+    level = data.column("tank_level_l")
+    prev_level = np.concatenate([level[:1], level[:-1]])
+    on = sel & (cmd > 0) & (prev_level > 1e-9) & (level > 1e-9)
+    if not on.any() or cmd[on].sum() <= 0:
+        return _nan()
+    return float(flow[on].sum() / cmd[on].sum())
+
+
 def _flight_window(data: RunData, window: Window, after_liftoff_s: float = 3.0) -> np.ndarray:
     t = data.t
     tl = _try_event(data, "liftoff")
