@@ -180,3 +180,22 @@ def test_world_from_a_converted_terrain_dir_with_an_explicit_origin(tmp_path, bu
         e.load_terrain(w.terrain)
         assert e.ray_height(-10.0 + 3.3, -5.0 - 4.1) == pytest.approx(w.terrain_height(-6.7, -9.1), abs=0.03)
     _check_sdf(tmp_path / "shifted")
+
+
+def test_world_json_carries_rows_geofence_wind_and_physics(tmp_path):
+    spec = world_yaml(
+        tmp_path, {"type": "flat", "z_m": 1.5}, origin={"lat": 10.0, "lon": 20.0, "alt": 100.0}, rows="auto",
+        wind={"law": {"type": "sinusoid", "mean_mps": 2.0, "amplitude_mps": 1.0, "heading_deg": 90.0}},
+        physics_rate_hz=500, gravity_mps2=9.81, air_density_kgm3=1.1,
+        geofence={"polygon_enu": [[-5, -5], [5, -5], [5, 5]], "action": "rtl"}, spawn={"x_m": 1.0, "yaw_deg": 90.0},
+    )
+    w = load_world(build_world(spec, tmp_path / "w"))
+    assert w.rows_auto and w.vine_rows_enu == []
+    assert w.physics_rate_hz == 500 and w.gravity == 9.81 and w.air_density == 1.1
+    assert w.wind.law.type == "sinusoid" and w.geofence.action == "rtl"
+    assert w.spawn_enu == pytest.approx((1.0, 0.0, 1.5 + w.vehicle.frame.landing_gear_height_m), abs=0.005)
+    assert w.spawn_yaw_rad == pytest.approx(math.pi / 2)
+    assert w.terrain_height(3.0, 4.0) == 1.5
+    sdf = etree.parse(str(tmp_path / "w" / "world.sdf")).getroot()
+    assert sdf.findtext("world/wind/linear_velocity") == "2 0 0"  # mean of the sinusoid, towards east
+    assert sdf.findtext("world/physics/max_step_size") == "0.002"
