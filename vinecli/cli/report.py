@@ -28,7 +28,7 @@ def report_cmd(
                                                            "failing first up to --max-figure-runs), all, failed, "
                                                            "none.")] = "auto",
     max_figure_runs: Annotated[int, typer.Option("--max-figure-runs", help="Figure budget (runs) for "
-                                                                           "--figures auto/failed.")] = 30,
+                                                                           "--figures auto/failed.")] = 20,
     jobs: Annotated[int | None, typer.Option("--jobs", "-j", help="Processes rendering figures "
                                                                   "(default: min(4, CPUs)).")] = None,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing, non-empty --out.")] = False,

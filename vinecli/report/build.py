@@ -163,7 +163,7 @@ def build_report(
     *,
     tolerances: Mapping[str, Tolerance] | None = None,
     figures: FigurePolicy = "auto",
-    max_figure_runs: int = 30,
+    max_figure_runs: int = 20,
     inline_limit: int = 20,
     page_size: int = 100,
     jobs: int | None = None,

@@ -28,11 +28,14 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
 
     xml = JUnitXml(name)
     suites: dict[str, Any] = {}
+    cases: dict[str, list[Any]] = {}  # added once per suite: add_testcase recounts the suite each time (O(n²))
     for run in runs:
         suite = suites.get(run.mission)
         if suite is None:
             suite = suites[run.mission] = TestSuite(run.mission)
             suite.add_property("mission", run.mission)
+            cases[run.mission] = []
+        add = cases[run.mission].append
         classname = f"{run.mission}.{run.case}"
         wall = float(run.summary.get("wall_time_s") or 0.0)
         if run.errored:
@@ -40,7 +43,7 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
             err = Error(f"the case could not run: {run.error}", "error")
             err.text = run.error or ""
             tc.result = [err]
-            suite.add_testcase(tc)
+            add(tc)
         checks = run.checks
         for c in checks:
             tc = TestCase(str(c["name"]), classname, round(wall / max(1, len(checks)), 4))
@@ -49,15 +52,15 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
                 f.text = (f"{c.get('message') or ''}\nquantity: {c.get('quantity')}, reduce: {c.get('reduce')}, "
                           f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status})")
                 tc.result = [f]
-            suite.add_testcase(tc)
+            add(tc)
         for r in comparison.for_case(run.case) if comparison else []:
             tc = TestCase(f"regression:{r.name}", classname, 0.0)
             tc.result = [Failure(r.message, f"regression-{r.kind}")]
-            suite.add_testcase(tc)
+            add(tc)
     tests = failures = errors = 0
     time = 0.0
-    for suite in suites.values():
-        suite.update_statistics()
+    for mission, suite in suites.items():
+        suite.add_testcases(cases[mission])
         suite.time = round(float(suite.time or 0.0), 4)
         tests += int(suite.tests)
         failures += int(suite.failures)

@@ -48,7 +48,15 @@ class PlotData:
         return self.cols["t_s"]
 
     def event_times(self, kind: str) -> list[float]:
-        return sorted(float(e["t_s"]) for e in self.events if e.get("kind") == kind)
+        """Times of events of ``kind``; ``tank_empty`` falls back to the level column reaching 0."""
+        times = sorted(float(e["t_s"]) for e in self.events if e.get("kind") == kind)
+        if not times and kind == "tank_empty" and self.has("tank_level_l"):
+            lvl = self.cols["tank_level_l"]
+            if lvl.size and float(np.nanmax(lvl)) > 0:
+                idx = np.flatnonzero(lvl <= 1e-6)
+                if idx.size:
+                    times = [float(self.t[idx[0]])]
+        return times
 
     def rotors(self) -> list[str]:
         i, out = 1, []
@@ -79,7 +87,7 @@ def columns_needed() -> list[str]:
             "rotor_drag_flu_x_n", "rotor_drag_flu_y_n", "rotor_drag_flu_z_n", "tank_level_l", "tank_mass_kg",
             "tank_flow_lps", "tank_flow_cmd_lps", "tank_force_enu_z_n", "tank_force_grav_enu_z_n",
             "tank_force_inertial_enu_z_n", "total_mass_kg", "terrain_z_m", "height_agl_m", "on_ground",
-            "phase_index"]
+            "phase_index", "sp_pos_enu_x_m", "sp_pos_enu_y_m", "sp_pos_enu_z_m"]
     return base + [f"rotor{i}_w_radps" for i in range(1, 9)]
 
 
@@ -154,6 +162,7 @@ def _spans(axes: Sequence[Any], name: str, data: PlotData) -> None:
             ax.axvspan(t0, t1, color=color, alpha=0.10, lw=0)
             if j == 0:
                 label = ", ".join(f"{c['name']} ({'pass' if c.get('passed') else 'FAIL'})" for c in cs)
+                label = label if len(label) <= 90 else label[:88] + "…"
                 ax.annotate(f"checks: {label}", (t0, 0.0), xycoords=("data", "axes fraction"),
                             xytext=(3, 3 + 10 * i), textcoords="offset points", fontsize=7, color=color)
 
@@ -190,7 +199,7 @@ def fig16_path(data: PlotData) -> bytes:
 
     fig = Figure(figsize=SIZES["fig16"], dpi=DPI)
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.05, 0.09, 0.47, 0.80))
+    ax = fig.add_axes((0.05, 0.15, 0.47, 0.74))
     ax3 = fig.add_axes((0.56, 0.04, 0.42, 0.86), projection="3d")
     pv = data.preview
     if pv is not None:
@@ -199,7 +208,11 @@ def fig16_path(data: PlotData) -> bytes:
         dy = abs(pv["y"][1] - pv["y"][0]) if pv["y"].size > 1 else 1.0
         shade = LightSource(azdeg=315, altdeg=45).hillshade(pv["z"], vert_exag=3.0, dx=dx, dy=dy)
         ax.imshow(shade, extent=ext, origin="lower", cmap="gray", alpha=0.55, aspect="equal", zorder=0)
-        cs = ax.contour(pv["x"], pv["y"], pv["z"], levels=10, colors="#8c6d31", linewidths=0.6, zorder=1)
+        from scipy.ndimage import gaussian_filter
+
+        # contours of the smoothed surface (a DSM's canopy would otherwise turn them into noise)
+        zs = gaussian_filter(pv["z"], sigma=max(1.0, min(pv["z"].shape) / 40.0), mode="nearest")
+        cs = ax.contour(pv["x"], pv["y"], zs, levels=8, colors="#8c6d31", linewidths=0.6, zorder=1)
         ax.clabel(cs, fontsize=6, fmt="%.1f m")
     for i, r in enumerate(rows):
         r = np.asarray(r, float)
@@ -210,12 +223,24 @@ def fig16_path(data: PlotData) -> bytes:
         ax.plot(f[:, 0], f[:, 1], color=C_FAIL, ls="--", lw=1.2, zorder=2, label="geofence")
     agl = c["height_agl_m"] if data.has("height_agl_m") else z - np.nanmin(z)
     seg = np.stack([np.column_stack([x[:-1], y[:-1]]), np.column_stack([x[1:], y[1:]])], axis=1)
-    lc = LineCollection(seg, cmap="plasma", linewidths=2.6, zorder=3)
+    lc = LineCollection(seg, cmap="plasma", linewidths=2.6, zorder=6)
     lc.set_array(agl[:-1])
     ax.add_collection(lc)
     fig.colorbar(lc, ax=ax, fraction=0.05, pad=0.02, label="path height above terrain, m")
-    ax.plot(x[0], y[0], marker="^", color="k", ms=8, ls="", zorder=4, label="start")
-    ax.plot(x[-1], y[-1], marker="s", color="k", ms=6, ls="", zorder=4, label="end")
+    ax.plot(x[0], y[0], marker="^", color="k", ms=7, ls="", zorder=4, label="start")
+    ax.plot(x[-1], y[-1], marker="s", color="k", ms=5, ls="", zorder=4, label="end")
+    if float(np.max(np.nanmax(np.column_stack([x, y]), axis=0) - np.nanmin(np.column_stack([x, y]), axis=0))) < 3.0:
+        # hover-like flight: the drift is invisible at field scale, show it in an inset
+        air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(x.shape, bool)
+        ins = ax.inset_axes((0.6, 0.5, 0.38, 0.38))
+        ins.plot(x[air], y[air], color="#d62728", lw=0.8)
+        if data.has("sp_pos_enu_x_m", "sp_pos_enu_y_m"):
+            ins.plot(c["sp_pos_enu_x_m"][air], c["sp_pos_enu_y_m"][air], marker="+", color="k", ms=8, ls="",
+                     label="setpoint")
+        ins.set_aspect("equal", adjustable="datalim")
+        ins.tick_params(labelsize=6)
+        ins.set_title("airborne path detail, m (ENU)", fontsize=7)
+        ins.grid(alpha=0.3)
     if data.has("wind_enu_x_mps", "wind_enu_y_mps"):
         wx, wy = c["wind_enu_x_mps"], c["wind_enu_y_mps"]
         air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(x.shape, bool)
@@ -224,16 +249,21 @@ def fig16_path(data: PlotData) -> bytes:
         if np.nanmax(np.hypot(wx, wy)) > 0.05:
             q = ax.quiver(x[k], y[k], wx[k], wy[k], color="#1565c0", angles="xy", scale_units="inches", scale=6.0,
                           width=0.004, zorder=5)
-            ax.quiverkey(q, 0.86, 1.02, 3.0, "wind 3 m/s", labelpos="W", fontproperties={"size": 7})
+            ax.quiverkey(q, 0.97, 1.03, 3.0, "wind 3 m/s", labelpos="W", fontproperties={"size": 7})
         else:
             ax.text(0.02, 0.97, "no horizontal wind", transform=ax.transAxes, fontsize=7, va="top")
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
+    # top view: zoomed on the flown path (the 3D view keeps the whole field for context)
+    plo, phi = np.nanmin(np.column_stack([x, y]), axis=0), np.nanmax(np.column_stack([x, y]), axis=0)
+    margin = max(8.0, 0.15 * float(np.max(phi - plo)))
+    vlo, vhi = np.maximum(plo - margin, lo), np.minimum(phi + margin, hi)
+    ax.set_xlim(vlo[0], vhi[0])
+    ax.set_ylim(vlo[1], vhi[1])
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("east x, m (ENU)")
     ax.set_ylabel("north y, m (ENU)")
-    ax.set_title("top view", fontsize=9)
-    ax.legend(fontsize=7, loc="lower left")
+    ax.set_title("top view", fontsize=9, loc="left")
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="lower left", bbox_to_anchor=(0.01, 0.0), ncol=4,
+               frameon=False)
     # 3D view: terrain surface (downsampled) and the path
     if pv is not None:
         sx = max(1, pv["x"].size // 40)
@@ -289,6 +319,19 @@ def fig17_tank_force(data: PlotData) -> bytes:
         a.grid(alpha=0.3)
     _spans([ax, ax2], "fig17", data)
     ax2.set_xlim(float(t[sel][0]), float(t[sel][-1]))
+    # y limits ignore the first 0.5 s (the vehicle settling on the terrain at spawn can spike the force)
+    settle = sel & (t >= float(t[0]) + 0.5)
+    if settle.sum() > 10:
+        for a, names in ((ax, ("tank_force_enu_z_n", "tank_force_grav_enu_z_n", "tank_force_inertial_enu_z_n")),
+                         (ax2, ("acc_enu_z_mps2", "vel_enu_z_mps"))):
+            vals = np.concatenate([c[n][settle] for n in names if data.has(n)] or [np.zeros(1)])
+            vals = vals[np.isfinite(vals)]
+            if vals.size:
+                lo_y, hi_y = float(np.min(vals)), float(np.max(vals))
+                pad = max(0.5, 0.1 * (hi_y - lo_y))
+                a.set_ylim(min(lo_y, 0.0) - pad, max(hi_y, 0.0) + pad)
+                if np.nanmax(np.abs(np.concatenate([c[n][sel] for n in names if data.has(n)]))) > max(abs(lo_y), abs(hi_y)) + pad:
+                    a.annotate("spawn transient clipped", (0.01, 0.02), xycoords="axes fraction", fontsize=7, color="0.4")
     _title(fig, data, "Fig. 17  Tank force around lift-off" + ("" if lo is not None else " (no lift-off)"))
     return _png(fig)
 
@@ -364,7 +407,12 @@ def fig20_rotors(data: PlotData) -> bytes:
     for i, r in enumerate(rotors):
         ax.plot(t, c[r], lw=0.7, alpha=0.6, label=f"rotor {i + 1}")
     mean = np.mean([c[r] for r in rotors], axis=0)
-    ax.plot(t, mean, color="k", lw=1.5, label="mean")
+    ax.plot(t, mean, color="0.35", lw=0.8, label="mean")
+    if t.size > 3:
+        dt = float(np.median(np.diff(t)))
+        k = max(1, int(round(2.0 / dt))) if dt > 0 else 1
+        avg = np.convolve(mean, np.ones(k) / k, mode="same") if t.size > k else mean
+        ax.plot(t, avg, color="k", lw=1.8, label="mean, 2 s average")
     air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(t.shape, bool)
     if air.any():
         ymin, ymax = np.nanpercentile(mean[air], [1, 99])
