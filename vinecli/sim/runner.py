@@ -302,14 +302,17 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     rec = Recorder(columns, max_us // rec_period_us + 4)
     next_rec_us = 0
 
-    c = engine.client
-    get_po = c.getBasePositionAndOrientation
-    get_v = c.getBaseVelocity
-    apply_f = c.applyExternalForce
-    apply_t = c.applyExternalTorque
-    contacts = c.getContactPoints
-    step_sim = c.stepSimulation
-    world_frame = engine.p.WORLD_FRAME
+    # raw pybullet functions with the client id passed positionally: ~0.4 µs less per call than
+    # BulletClient's keyword partials (5 calls per step)
+    pb = engine.p
+    cid = engine.client._client
+    get_po = pb.getBasePositionAndOrientation
+    get_v = pb.getBaseVelocity
+    apply_f = pb.applyExternalForce
+    apply_t = pb.applyExternalTorque
+    contacts = engine.client.getContactPoints
+    step_sim = pb.stepSimulation
+    world_frame = pb.WORLD_FRAME
     th = world.terrain_height
     wind_at = wind.velocity
     m_update = motors.update
@@ -345,8 +348,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     detail = ""
     gnss_lat = gnss_lon = gnss_alt = math.nan
     baro_alt = math.nan
-    vpx, vpy, vpz = get_v(body)[0]
-    opx, opy, opz = get_v(body)[1]
+    vpx, vpy, vpz = get_v(body, cid)[0]
+    opx, opy, opz = get_v(body, cid)[1]
     first_step = True
     airborne0 = bool(kw["airborne_start"])
     pex = pey = pez = ptx = pty = ptz = 0.0
@@ -358,8 +361,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     while True:
         t_us = k * dt_us
         t = t_us * 1e-6
-        (px, py, pz), quat = get_po(body)
-        (vx, vy, vz), (ox, oy, oz) = get_v(body)
+        (px, py, pz), quat = get_po(body, cid)
+        (vx, vy, vz), (ox, oy, oz) = get_v(body, cid)
         qx, qy, qz, qw = quat
         # rotation matrix body FLU -> world ENU (rows)
         xx, yy, zz = qx * qx, qy * qy, qz * qz
@@ -556,9 +559,9 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         if status is not RunStatus.RUNNING:
             break
 
-        apply_f(body, -1, (fx, fy, fz), (px, py, pz), world_frame)
-        apply_t(body, -1, (tx, ty, tz), world_frame)
-        step_sim()
+        apply_f(body, -1, (fx, fy, fz), (px, py, pz), world_frame, cid)
+        apply_t(body, -1, (tx, ty, tz), world_frame, cid)
+        step_sim(cid)
         vpx, vpy, vpz, opx, opy, opz = vx, vy, vz, ox, oy, oz
         first_step = False
         k += 1
