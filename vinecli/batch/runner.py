@@ -205,6 +205,17 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                             inflight.pop(f)
                         _kill_pool(ex)
                         ex = make_local_executor(jobs, max_tasks_per_child)
+        except KeyboardInterrupt:
+            # Ctrl-C reached the workers too: their runs stop at the next step and are written as
+            # "interrupted" partial runs; give them a moment to finish writing before stopping the pool.
+            done, _ = wait(list(inflight), timeout=20)
+            for f in done:
+                s, _t, _a = inflight.pop(f)
+                try:
+                    record(f.result())
+                except BaseException:  # noqa: BLE001 - a worker that died on the signal
+                    record(_error(s, "interrupted"))
+            raise
         finally:
             if local:
                 if inflight:
