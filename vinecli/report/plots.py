@@ -112,8 +112,22 @@ def _png(fig: Any) -> bytes:
 
 def _title(fig: Any, data: PlotData, what: str) -> None:
     s = data.summary
-    fig.suptitle(f"{what} — {s.get('case') or s.get('run_id', '')} ({s.get('mission', '')}, seed {s.get('seed', '-')})",
-                 fontsize=11)
+    who = f"{s.get('case') or s.get('run_id', '')} ({s.get('mission', '')}, seed {s.get('seed', '-')})"
+    sep = "\n" if len(what) + len(who) > 90 else " — "
+    fig.suptitle(f"{what}{sep}{who}", fontsize=11 if sep == " — " else 10)
+
+
+def _align_zero(ax: Any, tw: Any) -> None:
+    """Make y = 0 sit at the same height on an axis and its twin (so signs can be compared)."""
+    (a0, a1), (b0, b1) = ax.get_ylim(), tw.get_ylim()
+    if not (a0 < 0 < a1 or b0 < 0 < b1):
+        a0, b0 = min(a0, 0.0), min(b0, 0.0)
+    # fraction of the axis below zero: use the larger of the two for both
+    fa = -a0 / (a1 - a0) if a1 > a0 else 0.5
+    fb = -b0 / (b1 - b0) if b1 > b0 else 0.5
+    f = min(max(fa, fb, 0.05), 0.95)
+    ax.set_ylim(-f / (1 - f) * max(a1, 1e-12) if a1 > 0 else a0, max(a1, 1e-12) if a1 > 0 else -a0 * (1 - f) / f)
+    tw.set_ylim(-f / (1 - f) * max(b1, 1e-12) if b1 > 0 else b0, max(b1, 1e-12) if b1 > 0 else -b0 * (1 - f) / f)
 
 
 def _vlines(ax: Any, data: PlotData, kinds: Sequence[str] = ("liftoff", "touchdown", "tank_empty")) -> None:
@@ -356,10 +370,11 @@ def fig18_drag(data: PlotData) -> bytes:
         lines = ax.get_lines()[:1] + tw.get_lines()
         ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right")
         ax.grid(alpha=0.3)
+        _align_zero(ax, tw)
         _vlines(ax, data, ("liftoff", "touchdown"))
     axes[2, 0].set_xlabel("time, s")
     _spans([axes[k, 0] for k in range(3)], "fig18", data)
-    _title(fig, data, "Fig. 18  Drag force vs wind and velocity (drag = c|v_app|v_app, v_app = wind − velocity)")
+    _title(fig, data, "Fig. 18  Link drag c|v_app|v_app (v_app = wind − velocity) vs wind and velocity")
     return _png(fig)
 
 
@@ -411,8 +426,10 @@ def fig20_rotors(data: PlotData) -> bytes:
     if t.size > 3:
         dt = float(np.median(np.diff(t)))
         k = max(1, int(round(2.0 / dt))) if dt > 0 else 1
-        avg = np.convolve(mean, np.ones(k) / k, mode="same") if t.size > k else mean
-        ax.plot(t, avg, color="k", lw=1.8, label="mean, 2 s average")
+        if t.size > 3 * k:  # centred average, normalised at the edges
+            box = np.ones(k)
+            avg = np.convolve(mean, box, mode="same") / np.convolve(np.ones_like(mean), box, mode="same")
+            ax.plot(t, avg, color="k", lw=1.8, label="mean, 2 s average")
     air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(t.shape, bool)
     if air.any():
         ymin, ymax = np.nanpercentile(mean[air], [1, 99])
