@@ -46,6 +46,9 @@ def test_takeoff_metrics() -> None:
     assert m("drag_opposes_vertical_motion", d) == pytest.approx(1.0)
     # climbed 1 m while accelerating (2 -> 3 s) then 2 m/s: 1 + 2 * (t - 3) at the end of the run
     assert m("altitude_above_home_m", d, (7.0, 7.0)) == pytest.approx(1.0 + 2.0 * 4.0, abs=0.05)
+    assert m("max_rise_m", d, (2.5, 3.0)) == pytest.approx(0.75, abs=0.05)  # 1/2 a (t^2): 1 - 0.25
+    assert m("max_rise_m", d, (0.0, 1.9)) == 0.0
+    assert m("airborne_time_s", d) == pytest.approx(8.0 - 2.0, abs=0.03)
     off = takeoff_series(force_scale=1.02, drag_sign=-1.0)
     assert m("tank_force_rest_ratio", off) == pytest.approx(1.02)
     assert m("drag_opposes_vertical_motion", off) == pytest.approx(0.0)

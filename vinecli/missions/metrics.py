@@ -220,6 +220,29 @@ def altitude_above_home_m(data: RunData, window: Window) -> float:
     return float(np.mean(z[sel]) - z[0]) if sel.any() else _nan()
 
 
+@metric("max_rise_m", "m")
+def max_rise_m(data: RunData, window: Window) -> float:
+    """Highest point of the vehicle above its height at the window start, m (0 = never rose).
+    Default window: 0.5 s after the start (the spawn settle) to the end."""
+    t = data.t
+    z = data.column("pos_enu_z_m")
+    sel = _mask(data, window, (float(t[0]) + 0.5, float(t[-1])))
+    if not sel.any():
+        return _nan()
+    zs = z[sel]
+    return float(np.max(zs) - zs[0])
+
+
+@metric("airborne_time_s", "s")
+def airborne_time_s(data: RunData, window: Window) -> float:
+    """Time without ground contact (sum of the sample intervals with on_ground = 0), s.
+    Default window: 0.5 s after the start (the spawn settle) to the end."""
+    t = data.t
+    sel = _mask(data, window, (float(t[0]) + 0.5, float(t[-1])))
+    dt = np.diff(t, append=t[-1])
+    return float(np.sum(dt[sel & _airborne(data)]))
+
+
 # ---------------------------------------------------------------- spraying (thesis §5.2)
 def _drain(data: RunData, window: Window) -> tuple[float, float]:
     """(measured flow-on time until empty, predicted volume / commanded flow), s."""
