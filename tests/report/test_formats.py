@@ -172,3 +172,15 @@ def test_large_batch_paginates_with_per_run_pages(ci_runs: Path, tmp_path: Path)
     s = json.loads(res.files["json"].read_text())
     assert len(s["runs"]) == 130 and all((out / r["page"]).is_file() for r in s["runs"])
     validate_junit(res.files["junit"])
+
+
+def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None:
+    from vinecli.report.build import render_all
+    from vinecli.report.loader import load_runs
+    from vinecli.report.plots import png_size
+
+    runs = [r for r in load_runs(ci_runs) if r.case in ("overload", "takeoff")]
+    calls: list[tuple[int, int]] = []
+    figs = render_all(runs, jobs=2, progress=lambda i, n: calls.append((i, n)))
+    assert sorted(figs) == ["overload", "takeoff"] and calls[-1] == (2, 2)
+    assert all(png_size(f["png"]) for run in figs.values() for f in run.values())
