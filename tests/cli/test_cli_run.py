@@ -161,7 +161,7 @@ def test_interrupted_run_is_a_valid_partial_run(flat_world: Path, tmp_path: Path
 
 def test_run_batch_cli_on_a_small_pipeline(flat_world: Path, tmp_path: Path) -> None:
     quick_mission(tmp_path, name="ok.yaml")
-    quick_mission(tmp_path, name="slow.yaml", hold=300.0, maxdur=400.0)
+    quick_mission(tmp_path, name="slow.yaml", hold=5000.0, maxdur=6000.0)
     bad = yaml.safe_load(QUICK.format(high=50, hold=1, maxdur=40))
     bad["name"] = "fails"
     (tmp_path / "fails.yaml").write_text(yaml.safe_dump(bad))
