@@ -111,3 +111,15 @@ def test_check_windows_go_to_the_figures_of_their_quantities() -> None:
 def test_png_size_rejects_non_png() -> None:
     with pytest.raises(ValueError):
         png_size(b"GIF89a" + b"\0" * 30)
+
+
+def test_a_run_without_samples_gets_notes_not_figures(tmp_path: Path, ci_runs: Path) -> None:
+    import shutil
+
+    import pyarrow.parquet as pq
+
+    d = tmp_path / "run"
+    shutil.copytree(ci_runs / "takeoff", d)
+    pq.write_table(pq.read_table(d / "timeseries.parquet").slice(0, 0), d / "timeseries.parquet")
+    figs = render_figures(str(d))
+    assert all(f["png"] is None and f["note"].startswith("no ") for f in figs.values())

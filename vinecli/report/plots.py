@@ -63,7 +63,7 @@ class PlotData:
         while f"rotor{i}_w_radps" in self.cols:
             out.append(f"rotor{i}_w_radps")
             i += 1
-        return out
+        return out if out and self.has(*out) else []
 
     def liftoff(self) -> float | None:
         """The main lift-off: first on_ground 1 -> 0 transition after which the vehicle stays up >= 1 s."""
@@ -184,7 +184,7 @@ def _spans(axes: Sequence[Any], name: str, data: PlotData) -> None:
 def _need(data: PlotData, *names: str, what: str) -> None:
     missing = [n for n in names if not data.has(n)]
     if missing:
-        raise NoData(f"no {what} in this run (missing {', '.join(missing)})")
+        raise NoData(f"no {what} in this run (no finite samples of {', '.join(missing)})")
 
 
 def _has_tank(data: PlotData) -> bool:
