@@ -237,3 +237,19 @@ def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_pat
     assert sent["t"] is not None and sent["t"] <= s["sim_time_s"] < sent["t"] + 1.5
     assert pq.read_table(out / "quick-s0" / "timeseries.parquet").num_rows > 50
     assert signal.getsignal(signal.SIGINT) is before  # the handler is restored
+
+
+def test_recheck_a_finished_run(flat_world: Path, tmp_path: Path) -> None:
+    m = quick_mission(tmp_path)
+    out = tmp_path / "runs"
+    assert runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out)]).exit_code == 0
+    run = out / "quick-s0"
+    before = {p.name: p.stat().st_mtime_ns for p in run.iterdir()}
+    r = runner.invoke(app, ["run", "checks", str(run)])
+    assert r.exit_code == 0 and "climbed" in r.output
+    stricter = quick_mission(tmp_path, high=2.5, name="stricter.yaml")  # max z > 2.5 m: fails after a 2 m climb
+    r = runner.invoke(app, ["run", "checks", str(run), "--mission", str(stricter)])
+    assert r.exit_code == 1 and "too_high" in r.output
+    assert {p.name: p.stat().st_mtime_ns for p in run.iterdir()} == before  # read-only
+    r = runner.invoke(app, ["run", "checks", str(tmp_path)])
+    assert r.exit_code == 2 and "summary.json" in r.output

@@ -129,6 +129,28 @@ def batch_cmd(
                            + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
 
 
+@app.command("checks")
+@handles_errors
+def checks_cmd(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory (RUNS/<run-id>/).")],
+    mission: Annotated[Path | None, typer.Option("--mission", "-m", help="Evaluate this mission's checks instead "
+                                                 "of the run's own mission.yaml.")] = None,
+) -> None:
+    """Evaluate checks again on a finished run (no simulation; the run directory is not changed).
+
+    Exit 1 if a check fails. Example: vinecli run checks runs/gust-s0 --mission my-stricter-gust.yaml
+    """
+    from vinecli.errors import ChecksFailed
+    from vinecli.runs import recheck_run
+
+    summary, results = recheck_run(run_dir, mission)
+    checks = [r.to_dict() for r in results]
+    _checks_table(checks, title=f"{summary.get('run_id', run_dir.name)}: {summary.get('status')}")
+    failed = [c["name"] for c in checks if not c["passed"]]
+    if failed:
+        raise ChecksFailed(f"{len(failed)} check(s) failed: {', '.join(failed)}", path=run_dir)
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.4g}"

@@ -1,5 +1,5 @@
 """Running missions into run directories (``RUNS/<run_id>/``)."""
 
-from vinecli.runs.mission import RunSummary, run_mission
+from vinecli.runs.mission import RunSummary, recheck_run, run_mission
 
-__all__ = ["RunSummary", "run_mission"]
+__all__ = ["RunSummary", "recheck_run", "run_mission"]

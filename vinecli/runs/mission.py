@@ -330,3 +330,43 @@ class _sigint_to_flag:
     def __exit__(self, *exc: object) -> None:
         if self.old is not None:
             signal.signal(signal.SIGINT, self.old)
+
+
+def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = None) -> tuple[dict[str, Any], list[Any]]:
+    """Evaluate checks again on a finished run directory (nothing is simulated, nothing is written).
+
+    ``mission``: the checks to evaluate (a mission file or spec); default: the run's own ``mission.yaml``.
+    Returns (summary.json as a dict, list of :class:`~vinecli.missions.checks.CheckResult`).
+    """
+    run_dir = Path(run_dir)
+    summary = rundir.read_summary(run_dir)
+    if mission is None:
+        spec = load_mission(run_dir / rundir.MISSION, check_vehicle=False)
+    elif isinstance(mission, MissionSpec):
+        spec = mission
+    else:
+        spec = load_mission(mission, check_vehicle=False)
+    ts_path = run_dir / rundir.TIMESERIES
+    if not ts_path.is_file():
+        raise SpecError("run directory has no timeseries.parquet", path=run_dir)
+    ts = rundir.read_timeseries(ts_path)
+    events = [(float(e["t_s"]), str(e["kind"])) for e in rundir.read_events(run_dir / rundir.EVENTS)]
+    world = summary.get("world") or {}
+    gravity = 9.80665
+    try:
+        from vinecli.world import load_world
+
+        gravity = float(load_world(Path(world["dir"])).gravity)
+    except (KeyError, TypeError, VinecliError):
+        log.info("world of %s not available: g = %.5f m/s²", run_dir, gravity)
+    rows = [[tuple(p) for p in r] for r in world.get("rows_enu") or []]
+
+    class _W:  # the parts of a World that _rows_for_metrics reads
+        vine_rows_enu = rows
+
+    data = RunData(
+        timeseries=ts, events=events, status=str(summary.get("status")),
+        metrics={k: float(v) for k, v in (summary.get("metrics") or {}).items() if isinstance(v, (int, float))},
+        context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, _W())),
+    )
+    return summary, evaluate_checks(spec.checks, data)
