@@ -2,7 +2,7 @@
 
 Errors are :class:`~vinecli.errors.SpecError` lines naming the file and the field. A
 ``vehicle:`` given as a name or path is checked against :func:`vinecli.vehicle.load_vehicle`
-(when the vehicle module is available) so a typo fails before any simulation starts.
+so a typo fails before any simulation starts.
 """
 
 from __future__ import annotations
@@ -48,25 +48,12 @@ def resolve_vehicle(name_or_path: str, *, relative_to: Path | None = None, path:
         cand = relative_to / name_or_path
         if cand.suffix in (".yaml", ".yml") and cand.is_file():
             name_or_path = str(cand)
-    try:
-        from vinecli.vehicle import load_vehicle
-    except ImportError:  # the vehicle module is not there yet: fall back to the spec loader
-        load_vehicle = _load_vehicle_fallback
+    from vinecli.vehicle import load_vehicle
+
     try:
         return load_vehicle(name_or_path)
     except SpecError as exc:
         raise SpecError(f"vehicle: {exc}", path=path) from None
-
-
-def _load_vehicle_fallback(name_or_path: str) -> VehicleSpec:
-    from vinecli.specs import load_spec
-
-    p = Path(name_or_path)
-    if not p.is_file():
-        p = Path(__file__).resolve().parents[2] / "vehicles" / f"{name_or_path}.yaml"
-    if not p.is_file():
-        raise SpecError(f"unknown vehicle {name_or_path!r}")
-    return load_spec(p, VehicleSpec)
 
 
 def _check_windows_syntax(mission: MissionSpec, path: Path | str) -> None:
