@@ -6,10 +6,7 @@ import os
 from pathlib import Path
 
 import pytest
-
-REPO = Path(__file__).resolve().parents[1]
-TEST_DATA = REPO / "tests" / "data"
-SHARED_DATA = Path(os.environ.get("VINECLI_SHARED_DATA", REPO.parent / "shared" / "data"))
+from repo_paths import REPO, SHARED_DATA, TEST_DATA, shared_files  # noqa: F401 (re-exported)
 
 # Headless, single-threaded numerics: deterministic and no oversubscription on 2 cores.
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -27,9 +24,3 @@ def repo() -> Path:
 def test_data() -> Path:
     """tests/data (small committed fixtures with attribution)."""
     return TEST_DATA
-
-
-def shared_files(sub: str, pattern: str) -> list[Path]:
-    """Files of ../shared/data/<sub> matching pattern, or [] when ../shared is absent (fresh clone)."""
-    d = SHARED_DATA / sub
-    return sorted(d.glob(pattern)) if d.is_dir() else []

@@ -111,7 +111,7 @@ def geographic_plane_dsm(path: Path, *, lat0: float = 44.0, lon0: float = 8.0, r
 
 def shared_dsms() -> list[Path]:
     """Every DSM of ../shared/data/dsm (empty on a fresh clone)."""
-    from conftest import shared_files
+    from repo_paths import shared_files
 
     return shared_files("dsm", "*.tif")
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import shared_files
+from repo_paths import shared_files
 from pointcloud_synth import terrain_cloud, write_las, write_ply, write_xyz
 from typer.testing import CliRunner
 

@@ -147,7 +147,7 @@ def test_dask_local_cluster_same_code_path(pipe_dir: Path, tmp_path: Path) -> No
 
 
 def test_shipped_pipelines_expand() -> None:
-    from conftest import REPO
+    from repo_paths import REPO
 
     ci = REPO / "pipelines" / "ci.yaml"
     cases = expand_cases(load_pipeline(ci), ci)

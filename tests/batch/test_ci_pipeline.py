@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-from conftest import REPO
+from repo_paths import REPO
 
 from vinecli.batch import run_batch
 

@@ -9,7 +9,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import REPO
+from repo_paths import REPO
 from typer.testing import CliRunner
 
 from vinecli.cli.app import app

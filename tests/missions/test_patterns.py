@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
-from conftest import REPO, shared_files
+from repo_paths import REPO, shared_files
 from pyproj import Transformer
 from rasterio.transform import from_origin
 from typer.testing import CliRunner
