@@ -144,6 +144,8 @@ def run_batch(
     for r in list(results.values()):
         if progress is not None:
             progress(r, list(results).index(r.case) + 1, total)
+    # longest first (LPT): the mission's time limit is the cost estimate, so short cases fill the tail
+    todo.sort(key=lambda rs: -float(rs.mission.get("max_duration_s") or 0.0))
     if todo:
         hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
         _execute(todo, job, jobs, executor, scheduler, dask_processes, max_tasks_per_child, hard, record)
