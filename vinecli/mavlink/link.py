@@ -74,6 +74,20 @@ class Link:
     def _reader(self) -> None:  # pragma: no cover - overridden
         raise AutopilotError("reader not implemented")
 
+    def _read_stream(self, sock: socket.socket) -> None:
+        """Reader loop of a connected TCP socket: feed bytes until stop, EOF or error, then set ``closed_by_peer``."""
+        while not self._stop.is_set():
+            try:
+                data = sock.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                break
+            if not data:
+                break
+            self._feed(data)
+        self.closed_by_peer.set()
+
     def recv(self, timeout: float | None = None) -> Message | None:
         """Next received message, or None after ``timeout`` seconds."""
         try:
@@ -178,19 +192,8 @@ class TcpServerLink(Link):
         self._start_reader()
 
     def _reader(self) -> None:
-        conn = self._conn
-        assert conn is not None
-        while not self._stop.is_set():
-            try:
-                data = conn.recv(65536)
-            except TimeoutError:
-                continue
-            except OSError:
-                break
-            if not data:
-                break
-            self._feed(data)
-        self.closed_by_peer.set()
+        assert self._conn is not None
+        self._read_stream(self._conn)
 
     def _send_bytes(self, buf: bytes) -> None:
         if self._conn is None:
@@ -237,19 +240,8 @@ class TcpClientLink(Link):
         return False
 
     def _reader(self) -> None:
-        s = self._sock
-        assert s is not None
-        while not self._stop.is_set():
-            try:
-                data = s.recv(65536)
-            except TimeoutError:
-                continue
-            except OSError:
-                break
-            if not data:
-                break
-            self._feed(data)
-        self.closed_by_peer.set()
+        assert self._sock is not None
+        self._read_stream(self._sock)
 
     def _send_bytes(self, buf: bytes) -> None:
         if self._sock is None:
