@@ -56,6 +56,19 @@ def test_drain_time_is_volume_over_flow(flow: float, dt: float) -> None:
     assert all(b <= a for a, b in zip(levels, levels[1:], strict=False))
 
 
+def test_drain_residue_snaps_to_exactly_empty() -> None:
+    """1 L at 0.02 L/s in 4 ms steps: 12500 subtractions leave ~1e-13 L of rounding residue without the
+    snap; the tank must be exactly empty after volume / flow (and not one step earlier)."""
+    tank = Tank(SPEC, 1.0)
+    n = round(1.0 / 0.02 / 0.004)
+    for _ in range(n - 1):
+        tank.update(0.02, 0.004)
+    assert not tank.empty and tank.level_l == pytest.approx(0.02 * 0.004, rel=1e-6)
+    tank.update(0.02, 0.004)
+    assert tank.empty and tank.mass_kg == 0.0 and tank.level_l == 0.0
+    assert tank.flow_lps == pytest.approx(0.02, rel=1e-6)
+
+
 def test_never_negative_and_flow_zero_when_empty() -> None:
     tank = Tank(SPEC, 0.01)
     tank.update(0.1, 1.0)  # asks for 0.1 L with 0.01 L left

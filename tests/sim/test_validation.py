@@ -128,6 +128,25 @@ def test_drain_time_equals_volume_over_flow(flat_world):
     assert r.timeseries["total_mass_kg"][-1] == pytest.approx(flat_world.vehicle.dry_mass())
 
 
+def test_tank_empty_event_when_the_flow_stops_at_a_tiny_level(flat_world):
+    """The autopilot closes the nozzle once the level reads <= 1e-6 L: a floating-point residue
+    (1 L at 0.02 L/s in 4 ms steps) must not leave the tank 'almost empty' without a tank_empty event."""
+    q = 0.02
+    ap = OpenLoop(lambda o: [0.0] * 4, flow_lps=q)
+    step = ap.step
+
+    def step_closing(obs):
+        ap.flow = q if obs.tank_level_l > 1e-6 else 0.0
+        return step(obs)
+
+    ap.step = step_closing
+    r = run_simulation(flat_world, mission(max_duration_s=51.0, record_rate_hz=10.0), ap, seed=7)
+    dt = 1.0 / flat_world.physics_rate_hz
+    assert [e.kind for e in r.events].count("tank_empty") == 1
+    assert abs(r.metrics["tank_empty_s"] - 1.0 / q) <= dt + 1e-9
+    assert r.timeseries["tank_level_l"][-1] == 0.0
+
+
 def test_yaw_torque_sign(flat_world):
     """Speeding up the CCW rotors (1, 2) yaws the body clockwise (negative ENU yaw rate)."""
     v = flat_world.vehicle

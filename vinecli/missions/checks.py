@@ -130,11 +130,6 @@ class RunData:
         v = self.metrics.get(key)
         if v is not None and np.isfinite(v):
             return float(v)
-        if kind == "tank_empty" and self.has("tank_level_l"):  # derived: first sample with (almost) no liquid
-            lvl = self.column("tank_level_l")
-            idx = np.flatnonzero(lvl <= 1e-6)
-            if idx.size and lvl[0] > 1e-6:
-                return float(self.t[idx[0]])
         raise EventMissing(f"event '{kind}' did not happen in this run")
 
     def window_mask(self, window: tuple[float, float] | None) -> np.ndarray:

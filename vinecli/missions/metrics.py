@@ -256,10 +256,7 @@ def _drain(data: RunData, window: Window) -> tuple[float, float]:
     i0 = int(np.flatnonzero(on)[0])
     t_empty = _try_event(data, "tank_empty")
     if t_empty is None:
-        empty_idx = np.flatnonzero(sel & (level <= 1e-9) & (np.arange(t.size) >= i0))
-        if empty_idx.size == 0:
-            return _nan(), _nan()
-        t_empty = float(t[empty_idx[0]])
+        return _nan(), _nan()
     dt = np.diff(t, append=t[-1])
     before = on & (t < t_empty - 1e-9)
     measured = float(np.sum(dt[before]))

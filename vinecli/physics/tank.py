@@ -1,7 +1,9 @@
 """Spray tank: variable liquid mass and its force on the frame (thesis "sloshing-effects").
 
 Mass from the nozzle flow command q (L/s, clamped to [0, nozzle_max_flow]) by backward
-rectangular integration ``m_k = max(0, m_{k-1} - ρ q_k dt)``. The liquid pushes on the frame
+rectangular integration ``m_k = max(0, m_{k-1} - ρ q_k dt)``; a floating-point residue below
+``EMPTY_EPS_KG`` (1e-9 kg, 1 µL of water) left by the subtractions is snapped to exactly 0, so a
+tank drained for exactly volume / flow is empty (``empty`` True, ``level_l`` 0). The liquid pushes on the frame
 at the tank mount with ``F = m (g - a_mount)`` (world ENU, g the gravity vector pointing
 down): at rest the liquid weight, a jump at lift-off, the weight again in a steady climb.
 
@@ -30,9 +32,11 @@ from vinecli.errors import SpecError
 from vinecli.frames import Vec3
 from vinecli.specs.vehicle import TankSpec
 
-__all__ = ["Tank", "slosh_parameters"]
+__all__ = ["EMPTY_EPS_KG", "Tank", "slosh_parameters"]
 
 XI1 = 1.841
+#: liquid mass below which the tank counts as empty (floating-point residue of the drain sum), kg
+EMPTY_EPS_KG = 1e-9
 
 
 def slosh_parameters(
@@ -99,7 +103,7 @@ class Tank:
         q = min(max(flow_cmd_lps, 0.0), self.max_flow_lps)
         m0 = self.mass_kg
         m1 = m0 - self._kg_per_l * q * dt
-        if m1 < 0.0:
+        if m1 < EMPTY_EPS_KG:  # never below 0; a rounding residue of the sum counts as empty
             m1 = 0.0
         self.mass_kg = m1
         self.flow_lps = (m0 - m1) / (self._kg_per_l * dt) if dt > 0 else 0.0
