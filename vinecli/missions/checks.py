@@ -115,15 +115,10 @@ class RunData:
     def event_time(self, kind: str) -> float:
         """Time of the first event of ``kind`` (events first, then the simulator's ``<kind>_s`` metric).
 
-        A ``liftoff`` followed by a ``touchdown`` within 0.5 s (the vehicle settling on the terrain at
-        the spawn, a bounce) does not count: lift-off is the first one that stays airborne.
+        The simulator settles the vehicle before t = 0 and reports a lift-off only with the rotors
+        carrying the vehicle, so the first ``liftoff`` is the take-off.
         """
         times = sorted(float(te) for te, k in self.events if k == kind)
-        if kind == "liftoff" and times:
-            downs = sorted(float(te) for te, k in self.events if k == "touchdown")
-            times = [t for t in times if not any(t <= d <= t + 0.5 for d in downs)]
-            if not times:
-                raise EventMissing("event 'liftoff' did not happen in this run (only bounces)")
         if times:
             return times[0]
         key = _EVENT_METRIC.get(kind, f"{kind}_s")

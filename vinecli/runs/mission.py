@@ -192,7 +192,7 @@ def run_mission(
     checks = evaluate_checks(spec.checks, data)
     passed = all(c.passed for c in checks)
     metrics: dict[str, float | None] = {k: _num(v) for k, v in result.metrics.items()}
-    for kind in ("liftoff", "tank_empty"):  # as the checks see them (first lift-off that stays airborne, tank_empty event)
+    for kind in ("liftoff", "tank_empty"):  # as the checks see them (first event, else the simulator metric)
         try:
             metrics[f"{kind}_s"] = data.event_time(kind)
         except EventMissing:

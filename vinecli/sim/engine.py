@@ -22,18 +22,30 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 from vinecli.errors import RuntimeFailure, TerrainError
-from vinecli.frames import QuatXYZW, Vec3
+from vinecli.frames import QuatXYZW, Vec3, quat_rotate
 from vinecli.world.model import TerrainInfo
 
-__all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine"]
+__all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine", "SettleResult", "rest_pose"]
 
 log = logging.getLogger(__name__)
 
 #: PyBullet's heightfield silently breaks above this many samples (terrain-notes.md §4)
 HEIGHTFIELD_MAX_SAMPLES = 2**21
+
+
+@dataclass(frozen=True)
+class SettleResult:
+    """Rest pose reached by :meth:`Engine.settle_vehicle`: CoM (m ENU), attitude (FLU -> ENU),
+    simulated settling time (s) and whether the vehicle came to rest within the time limit."""
+
+    pos: Vec3
+    quat: QuatXYZW
+    time_s: float
+    settled: bool
 
 
 class Engine:
@@ -46,6 +58,7 @@ class Engine:
         self.p = p
         self.client = BulletClient(connection_mode=p.DIRECT)
         self.dt = 1.0 / rate_hz
+        self.gravity = gravity
         c = self.client
         c.setGravity(0.0, 0.0, -gravity)
         c.setPhysicsEngineParameter(
@@ -153,6 +166,44 @@ class Engine:
         c.resetBasePositionAndOrientation(self.vehicle, list(pos), list(quat))
         c.resetBaseVelocity(self.vehicle, list(vel), list(omega_world))
 
+    def settle_vehicle(self, *, liquid_kg: float = 0.0, mount_flu: Vec3 = (0.0, 0.0, 0.0), max_s: float = 3.0,
+                       v_tol: float = 1e-3, w_tol: float = 1e-2, hold_s: float = 0.1) -> SettleResult:
+        """Let the (motors-off) vehicle come to rest on the terrain before the run's clock starts.
+
+        Steps the world with gravity and the liquid weight ``liquid_kg · g`` (down, at the tank mount
+        ``mount_flu``, m body FLU) until |v| < ``v_tol`` m/s and |ω| < ``w_tol`` rad/s for ``hold_s``
+        (or ``max_s`` simulated seconds), then zeroes the velocities. A vehicle placed on a slope or
+        a ridge tilts or slides here, not after t = 0 (no spurious contact events in the run).
+        """
+        c, p, b = self.client, self.p, self.vehicle
+        wz = -liquid_kg * self.gravity
+        hold = max(1, int(round(hold_s / self.dt)))
+        calm = 0
+        k = 0
+        n_max = max(1, int(round(max_s / self.dt)))
+        settled = False
+        while k < n_max:
+            if wz != 0.0:
+                pos, q = c.getBasePositionAndOrientation(b)
+                r = quat_rotate(q, mount_flu)
+                c.applyExternalForce(b, -1, (0.0, 0.0, wz), (pos[0] + r[0], pos[1] + r[1], pos[2] + r[2]),
+                                     p.WORLD_FRAME)
+            c.stepSimulation()
+            k += 1
+            v, w = c.getBaseVelocity(b)
+            if math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) < v_tol and math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2) < w_tol:
+                calm += 1
+                if calm >= hold:
+                    settled = True
+                    break
+            else:
+                calm = 0
+        pos, q = c.getBasePositionAndOrientation(b)
+        c.resetBaseVelocity(b, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+        if not settled:
+            log.warning("vehicle still moving after %.1f s of settling at the spawn", k * self.dt)
+        return SettleResult(tuple(pos), tuple(q), k * self.dt, settled)  # type: ignore[arg-type]
+
     def in_contact(self) -> bool:
         """True if the vehicle touches any terrain body."""
         return bool(self.client.getContactPoints(bodyA=self.vehicle))
@@ -192,3 +243,24 @@ class Engine:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
+              collision_box_m: Vec3, landing_gear_height_m: float, liquid_kg: float = 0.0,
+              mount_flu: Vec3 = (0.0, 0.0, 0.0), rate_hz: float = 250.0, gravity: float = 9.80665) -> SettleResult:
+    """Where a vehicle placed at (x, y, yaw) on ``terrain`` comes to rest (as the runner settles it).
+
+    Skids on the highest ray hit under the collision box (``z_guess`` CoM z if the rays miss), then
+    :meth:`Engine.settle_vehicle` with the liquid weight at the mount. Used by ``world build`` to
+    report the rest attitude at the spawn.
+    """
+    from vinecli.frames import quat_from_euler
+
+    with Engine(rate_hz=rate_hz, gravity=gravity) as eng:
+        eng.load_terrain(terrain)
+        quat = quat_from_euler(0.0, 0.0, yaw)
+        ground = eng.footprint_height(x, y, collision_box_m[0] / 2.0, collision_box_m[1] / 2.0, yaw)
+        pos = (x, y, ground + landing_gear_height_m if ground is not None else z_guess)
+        eng.load_vehicle(urdf, pos, quat)
+        eng.reset_vehicle(pos, quat, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        return eng.settle_vehicle(liquid_kg=liquid_kg, mount_flu=mount_flu)

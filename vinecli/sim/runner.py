@@ -29,8 +29,10 @@ Per physics step k (t_us = k · dt_us, dt_us = round(1e6 / rate)):
 6. ``stepSimulation``; termination: autopilot finished, hard impact (crash), max duration
    (TIMEOUT), ``should_stop()`` (INTERRUPTED).
 
-Events detected from the truth: ``liftoff`` (no contact for 0.05 s), ``touchdown`` (contact
-again for 0.05 s after a lift-off), ``tank_empty``, ``crash`` (contact with a vertical speed
+Before t = 0 a vehicle starting on the ground is settled at rest (:meth:`Engine.settle_vehicle`,
+motors off, liquid weight at the mount): home is that rest pose. Events detected from the truth:
+``liftoff`` (no contact for 0.05 s with the rotors carrying at least half the weight -- a bounce or
+a tumble with idle motors is none), ``touchdown`` (contact again for 0.05 s after a lift-off), ``tank_empty``, ``crash`` (contact with a vertical speed
 above ``crash_speed_mps``). Plain floats throughout the loop (design.md §8).
 """
 
@@ -61,6 +63,7 @@ __all__ = ["SimResult", "resolve_vehicle", "run_simulation"]
 log = logging.getLogger(__name__)
 
 _DEBOUNCE_S = 0.05  # s of (no) contact before lift-off / touchdown is declared
+_LIFTOFF_THRUST_FRAC = 0.5  # rotor thrust / weight when contact is lost, for that to count as a lift-off
 _CONTACT_MARGIN_M = 0.6
 SPAWN_GAP_M = 0.0
 _TOUCH_M = 1e-4  # m: a contact point closer than this counts as touching  # m between the skids and the terrain at spawn  # contacts are queried only when the skids are this close to the grid height
@@ -209,9 +212,16 @@ def run_simulation(
             ground = engine.footprint_height(pos0[0], pos0[1], bx / 2.0, by / 2.0, quat_to_euler(quat0)[2])
             if ground is not None:
                 pos0 = (pos0[0], pos0[1], ground + lgh + SPAWN_GAP_M)
-        home = pos0 if not airborne_start else rest_position(world.terrain, veh, pos0[0], pos0[1])
         body = engine.load_vehicle(urdf, pos0, quat0)
         engine.reset_vehicle(pos0, quat0, vel0, quat_rotate(quat0, omega0_body))
+        settle_s = 0.0
+        if not airborne_start and vel0 == (0.0, 0.0, 0.0) and omega0_body == (0.0, 0.0, 0.0):
+            # settle at rest BEFORE the clock starts: a vehicle on a slope or a ridge tilts/slides
+            # here, so t = 0 is a true rest state (no contact flicker -> no spurious events)
+            rest = engine.settle_vehicle(liquid_kg=tank.mass_kg if tank is not None else 0.0,
+                                         mount_flu=tank.mount_m if tank is not None else (0.0, 0.0, 0.0))
+            pos0, quat0, settle_s = rest.pos, rest.quat, rest.time_s
+        home = pos0 if not airborne_start else rest_position(world.terrain, veh, pos0[0], pos0[1])
         engine.client.performCollisionDetection()  # contacts are known at t = 0
         return _loop(
             world=world, mission=mission, autopilot=autopilot, seed=seed, veh=veh, engine=engine, body=body,
@@ -219,6 +229,7 @@ def run_simulation(
             dt_us=dt_us, dt=dt, inv_dt=inv_dt, lgh=lgh, airborne_start=airborne_start, init_phase=first if init else None,
             on_progress=on_progress, should_stop=should_stop, end_on_crash=end_on_crash,
             crash_speed=crash_speed_mps, wall0=wall0, MotorBank=MotorBank, make_sensors=make_sensors,
+            settle_s=settle_s,
         )
     finally:
         engine.close()
@@ -330,11 +341,14 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         "hover_w_pred": veh.hover_speed(mass0, g),
         "physics_rate_hz": 1e6 / dt_us,
         "max_impact_speed_mps": 0.0,
+        "spawn_settle_s": kw["settle_s"],
+        "spawn_tilt_rad": tilt_angle(get_po(body, cid)[1]),
     }
     debounce = max(1, int(round(_DEBOUNCE_S / dt)))
     airborne = bool(kw["airborne_start"])
     flip_count = 0
     flip_t_us = 0
+    flip_thrust = False
     tank_was_empty = tank.empty if tank is not None else True
     impact_pending = True  # the next first contact is an impact to measure
     end_on_crash: bool = kw["end_on_crash"]
@@ -393,6 +407,10 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         if on_ground != (not airborne):
             if flip_count == 0:
                 flip_t_us = t_us
+                # a lift-off needs the rotors to carry at least half the weight (thrust of the last
+                # step); a vehicle tumbling or bouncing with idle motors does not "lift off"
+                flip_thrust = motors.thrust_total >= _LIFTOFF_THRUST_FRAC * g * (
+                    rigid_mass + (tank.mass_kg if tank is not None else 0.0))
             flip_count += 1
             if on_ground and impact_pending:
                 impact_pending = False
@@ -405,7 +423,11 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                     if end_on_crash and status is RunStatus.RUNNING:
                         status = RunStatus.CRASHED
                         detail = f"{RunStatus.CRASHED.message} (impact {vimp:.2f} m/s > {crash_speed:.1f} m/s)"
-            if flip_count >= debounce:
+            if flip_count >= debounce and not on_ground and not (
+                    flip_thrust or motors.thrust_total >= _LIFTOFF_THRUST_FRAC * g * (
+                        rigid_mass + (tank.mass_kg if tank is not None else 0.0))):
+                impact_pending = True  # off the ground without thrust (bounce, tumble): no lift-off event
+            elif flip_count >= debounce:
                 airborne = not on_ground
                 flip_count = 0
                 ts = flip_t_us * 1e-6
