@@ -1,13 +1,20 @@
-"""The spawn: the runner settles the vehicle at rest before t = 0 (no contact events from the spawn itself)."""
+"""The spawn: the sample world's take-off spot is flat (rest attitude reported by world build), and
+the runner settles the vehicle at rest before t = 0 (no contact events from the spawn itself)."""
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import logging
+import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
-from sim_helpers import OpenLoop, mission
+import rasterio
+from rasterio.transform import from_origin
+from sim_helpers import OpenLoop, mission, world_yaml
 
 from vinecli.autopilot.registry import make_autopilot
 from vinecli.sim.runner import run_simulation
@@ -19,6 +26,22 @@ from vinecli.world.model import rest_position
 @pytest.fixture(scope="module")
 def sample_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
     return build_world(repo / "worlds" / "vineyard-sample.yaml", tmp_path_factory.mktemp("vs") / "vineyard-sample")
+
+
+def test_sample_spawn_is_flat_and_inside_the_geofence(sample_dir: Path) -> None:
+    from vinecli.autopilot.geofence import point_in_polygon
+
+    rest = json.loads((sample_dir / "world.json").read_text())["spawn"]["rest"]
+    assert rest["settled"] and rest["tilt_deg"] < 5.0 and rest["drift_m"] < 0.05
+    w = load_world(sample_dir)
+    x, y, _ = w.spawn_enu
+    poly = [tuple(p) for p in w.geofence.polygon_enu]
+    for dx, dy in ((0.4, 0.0), (-0.4, 0.0), (0.0, 0.4), (0.0, -0.4)):  # 0.4 m margin to the fence
+        assert point_in_polygon(x + dx, y + dy, poly)
+    # the runner's own rest state at t = 0 is as level as the build's
+    r = run_simulation(w, mission(max_duration_s=0.5), OpenLoop(lambda o: [0.0] * 4), seed=1)
+    assert math.degrees(r.timeseries["tilt_rad"][0]) < 5.0
+    assert np.ptp(r.timeseries["pos_enu_z_m"]) < 1e-3 and r.timeseries["on_ground"].all()
 
 
 def test_takeoff_has_one_liftoff_after_arming(sample_dir: Path) -> None:
@@ -47,3 +70,21 @@ def test_a_ridge_top_spawn_settles_before_t0_without_events(sample_dir: Path) ->
     ts = r.timeseries
     assert ts["on_ground"].all() and np.ptp(ts["pos_enu_z_m"]) < 2e-3
     assert r.metrics["spawn_settle_s"] > 0.1
+
+
+def test_world_build_warns_about_a_tilted_spawn(tmp_path: Path, caplog: Any) -> None:
+    n = 121
+    x = np.arange(n) * 0.1
+    X, _ = np.meshgrid(x, x)
+    z = (400.0 + math.tan(math.radians(15.0)) * X).astype(np.float32)  # a 15 deg slope towards east
+    tif = tmp_path / "slope.tif"
+    with rasterio.open(tif, "w", driver="GTiff", width=n, height=n, count=1, dtype="float32", crs="EPSG:32632",
+                       transform=from_origin(465000.0, 5250000.0, 0.1, 0.1)) as ds:
+        ds.write(z, 1)
+    spec = world_yaml(tmp_path, {"type": "dsm", "path": str(tif), "format": "tiles", "max_error_m": 0.01,
+                                 "tile_px": 64})
+    with caplog.at_level(logging.WARNING, logger="vinecli.world.build"):
+        d = build_world(spec, tmp_path / "w")
+    rest = json.loads((d / "world.json").read_text())["spawn"]["rest"]
+    assert rest["tilt_deg"] == pytest.approx(15.0, abs=1.5)
+    assert any("tilted" in rec.getMessage() for rec in caplog.records)

@@ -120,7 +120,7 @@ def test_vineyard_sample_builds_from_the_repo(repo, tmp_path):
     assert np.mean(on) > np.mean(off) + 0.03
     assert w.geofence is not None and len(w.geofence.polygon_enu) == 4
     _check_sdf(d)
-    assert w.spawn_enu[2] > w.terrain_height(0.0, -33.0)
+    assert w.spawn_enu[2] > w.terrain_height(w.spawn_enu[0], w.spawn_enu[1])
 
 
 def test_spec_errors(tmp_path):

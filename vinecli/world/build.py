@@ -67,6 +67,12 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
             urdf = write_urdf(vehicle, tmp / "vehicles" / f"{vehicle.name}.urdf")
             (tmp / "vehicles" / f"{vehicle.name}.json").write_text(vehicle.model_dump_json(indent=1))
 
+        with man.stage("spawn"):
+            rest = _rest_at_spawn(terrain_json, tmp, grid, vehicle, urdf, sx, sy, yaw, spawn, spec)
+        if rest["tilt_deg"] > MAX_REST_TILT_DEG:
+            log.warning("world %s: the vehicle rests %.1f deg tilted at the spawn (%.2f, %.2f) (more than %.0f deg): "
+                        "move the spawn to a flat spot", spec.name, rest["tilt_deg"], sx, sy, MAX_REST_TILT_DEG)
+
         rows = [] if spec.rows in (None, "auto") else [[list(p) for p in row] for row in spec.rows]
         doc = {
             "schema": SCHEMA,
@@ -79,7 +85,7 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
             "terrain": terrain_json,
             "vehicle": {"name": vehicle.name, "urdf": urdf.relative_to(tmp).as_posix(),
                         "spec": json.loads(vehicle.model_dump_json())},
-            "spawn": {"enu": list(spawn), "yaw_rad": yaw},
+            "spawn": {"enu": list(spawn), "yaw_rad": yaw, "rest": rest},
             "wind": json.loads(spec.wind.model_dump_json()),
             "vine_rows_enu": rows,
             "rows_auto": spec.rows == "auto",
@@ -95,6 +101,31 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
                               "vehicle": vehicle.name}
     log.info("world %s built in %s", spec.name, out)
     return out
+
+
+#: a rest attitude tilted more than this at the spawn is reported (log warning), deg
+MAX_REST_TILT_DEG = 10.0
+
+
+def _rest_at_spawn(terrain_json: dict[str, Any], tmp: Path, grid: TerrainGrid | None, vehicle: Any, urdf: Path,
+                   x: float, y: float, yaw: float, spawn: Any, spec: WorldSpec) -> dict[str, Any]:
+    """Settle the vehicle (full tank) at the spawn in PyBullet: its rest pose for world.json ``spawn.rest``."""
+    from vinecli.frames import quat_to_euler, tilt_angle
+    from vinecli.sim.engine import rest_pose
+
+    info = TerrainInfo(kind=terrain_json["kind"], files=[tmp / f for f in terrain_json.get("files", [])],
+                       grid=grid, flat_z=float(terrain_json.get("flat_z", 0.0)),
+                       offset=tuple(terrain_json.get("offset_enu", (0.0, 0.0, 0.0))))  # type: ignore[arg-type]
+    tank = vehicle.tank
+    r = rest_pose(info, urdf, x=x, y=y, yaw=yaw, z_guess=spawn[2], collision_box_m=vehicle.frame.collision_box_m,
+                  landing_gear_height_m=vehicle.frame.landing_gear_height_m,
+                  liquid_kg=vehicle.liquid_mass(tank.capacity_l) if tank is not None else 0.0,
+                  mount_flu=tuple(tank.mount_m) if tank is not None else (0.0, 0.0, 0.0),
+                  rate_hz=spec.physics_rate_hz, gravity=spec.gravity_mps2)
+    roll, pitch, _ = quat_to_euler(r.quat)
+    return {"enu": [float(c) for c in r.pos], "tilt_deg": math.degrees(tilt_angle(r.quat)),
+            "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch),
+            "drift_m": math.hypot(r.pos[0] - x, r.pos[1] - y), "settled": r.settled, "settle_time_s": r.time_s}
 
 
 def _terrain(t: Any, tdir: Path, tmp: Path, base: Path, given_origin: GeoOrigin | None, spec_path: Path,

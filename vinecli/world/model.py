@@ -14,7 +14,10 @@
                  "heightfield": {"size": N, "spacing_m": d}  # heightmap only: the grid is N×N
                  "source": {...}},                       # how the terrain was made
      "vehicle": {"name", "urdf": "vehicles/<name>.urdf", "spec": {VehicleSpec as JSON}},
-     "spawn": {"enu": [x, y, z], "yaw_rad"},            # vehicle CoM at rest on the terrain
+     "spawn": {"enu": [x, y, z], "yaw_rad",             # vehicle CoM placed on the terrain (level)
+               "rest": {"enu", "tilt_deg", "roll_deg", "pitch_deg", "drift_m", "settled", "settle_time_s"}},
+                                                         # where it comes to rest in PyBullet (full tank); world
+                                                         # build warns when tilt_deg > 10 (not a take-off spot)
      "wind": {WindSpec as JSON},
      "vine_rows_enu": [[[x, y], ...], ...], "rows_auto": bool,
      "geofence": {GeofenceSpec as JSON} | null,
