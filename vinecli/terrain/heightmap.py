@@ -18,7 +18,6 @@ z up; vertex (row i, col j) is at x = (j - c)·d, y = (c - i)·d with c = (N-1)/
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import time
@@ -42,6 +41,7 @@ from vinecli.terrain.raster import (
     inspect_dsm,
     open_raster,
     placeholder_crs,
+    read_format_json,
     read_heights,
     to_lonlat,
 )
@@ -481,16 +481,8 @@ def load_heightmap(directory: Path) -> Heightmap:
     import rasterio
 
     directory = Path(directory)
-    js = directory / "heightmap.json"
+    meta = read_format_json(directory, "heightmap", FORMAT)
     tif = directory / "heightmap.tif"
-    if not js.is_file():
-        raise InputError("not a heightmap directory (no heightmap.json)", path=directory)
-    try:
-        meta = json.loads(js.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"unreadable heightmap.json ({exc})", path=js) from exc
-    if meta.get("format") != FORMAT:
-        raise InputError(f"unknown heightmap format {meta.get('format')!r} (expected {FORMAT})", path=js)
     if not tif.is_file():
         raise InputError("heightmap.tif missing", path=directory)
     with rasterio.open(tif) as src:

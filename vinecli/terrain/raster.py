@@ -310,6 +310,25 @@ def check_out_dir(out: Path, *, overwrite: bool = False) -> None:
         raise OutputError(f"output location is not writable ({exc.strerror})", path=out) from exc
 
 
+def read_format_json(directory: Path, kind: str, fmt: str) -> dict[str, Any]:
+    """``directory/<kind>.json`` of a terrain output directory, checked to be format ``fmt``.
+
+    InputError naming the file (or the directory when it is not a ``kind`` directory) otherwise.
+    """
+    import json
+
+    js = directory / f"{kind}.json"
+    if not js.is_file():
+        raise InputError(f"not a {kind} directory (no {kind}.json)", path=directory)
+    try:
+        meta = json.loads(js.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputError(f"unreadable {kind}.json ({exc})", path=js) from exc
+    if meta.get("format") != fmt:
+        raise InputError(f"unknown {kind} format {meta.get('format')!r} (expected {fmt})", path=js)
+    return meta
+
+
 def _gdal_message(exc: BaseException) -> str:
     """The most specific GDAL message in an exception chain, on one line."""
     msgs = []

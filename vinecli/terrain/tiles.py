@@ -18,7 +18,6 @@ against the filled raster.
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import os
@@ -37,7 +36,15 @@ from vinecli.errors import InputError, RuntimeFailure
 from vinecli.geo import GeoOrigin
 from vinecli.outputs import Manifest, atomic_output_dir, write_json
 from vinecli.terrain.fill import fill_nodata, parse_fill
-from vinecli.terrain.raster import check_out_dir, gdal_env, inspect_dsm, open_raster, read_heights, to_lonlat
+from vinecli.terrain.raster import (
+    check_out_dir,
+    gdal_env,
+    inspect_dsm,
+    open_raster,
+    read_format_json,
+    read_heights,
+    to_lonlat,
+)
 from vinecli.terrain.tin import Tin, job_finish, job_mesh, split_border
 
 log = logging.getLogger(__name__)
@@ -342,15 +349,7 @@ def _tiles_json(dsm: Path, meta: Any, keys: list[tuple[int, int]], tins: dict[tu
 def load_tiles(directory: Path) -> TileSet:
     """Load a tiles directory (tiles.json) for the world builder; mesh paths made absolute."""
     directory = Path(directory)
-    js = directory / "tiles.json"
-    if not js.is_file():
-        raise InputError("not a tiles directory (no tiles.json)", path=directory)
-    try:
-        meta = json.loads(js.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"unreadable tiles.json ({exc})", path=js) from exc
-    if meta.get("format") != FORMAT:
-        raise InputError(f"unknown tiles format {meta.get('format')!r} (expected {FORMAT})", path=js)
+    meta = read_format_json(directory, "tiles", FORMAT)
     tiles = []
     for e in meta["tiles"]:
         p = directory / e["file"]
