@@ -17,7 +17,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +55,16 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
+@contextmanager
+def timed_stage(seconds: dict[str, float], name: str, digits: int = 6) -> Iterator[None]:
+    """Add the wall-clock seconds of the ``with`` block to ``seconds[name]`` (rounded to ``digits``)."""
+    t0 = time.perf_counter()
+    try:
+        yield
+    finally:
+        seconds[name] = round(seconds.get(name, 0.0) + time.perf_counter() - t0, digits)
+
+
 @dataclass
 class Manifest:
     """What a command read, how it was configured and what it wrote.
@@ -68,14 +78,9 @@ class Manifest:
     timings: dict[str, float] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
 
-    @contextmanager
-    def stage(self, name: str) -> Iterator[None]:
+    def stage(self, name: str) -> AbstractContextManager[None]:
         """Time a named stage into ``timings`` (seconds)."""
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.timings[name] = round(self.timings.get(name, 0.0) + time.perf_counter() - t0, 6)
+        return timed_stage(self.timings, name)
 
     def to_dict(self, root: Path) -> dict[str, Any]:
         """Manifest as a JSON-able dict; outputs are every file under ``root`` with hashes."""

@@ -17,9 +17,8 @@ Pipeline (each stage timed into ``stats.json["seconds"]``):
 from __future__ import annotations
 
 import logging
-import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
+from contextlib import AbstractContextManager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -27,7 +26,7 @@ from typing import Any, Literal
 import numpy as np
 
 from vinecli.errors import InputError, TerrainError
-from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
+from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, timed_stage, write_json
 from vinecli.terrain import pointcloud_prep as prep
 from vinecli.terrain.pointcloud_io import RawCloud, read_cloud
 from vinecli.terrain.pointcloud_units import CloudUnits, cloud_units, crs_summary, to_metres
@@ -91,13 +90,9 @@ class _Timer:
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
 
-    @contextmanager
-    def stage(self, name: str) -> Iterator[None]:
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[name] = round(self.seconds.get(name, 0.0) + time.perf_counter() - t0, 4)
+    def stage(self, name: str) -> AbstractContextManager[None]:
+        """Time a named stage into ``seconds`` (rounded to 0.1 ms)."""
+        return timed_stage(self.seconds, name, digits=4)
 
 
 @dataclass
