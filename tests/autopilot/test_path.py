@@ -88,3 +88,23 @@ def test_rough_terrain_is_smoothed() -> None:
     assert all(a == 0.0 for a in (p.aff[2],))
     mid = [sp[2] for sp, _, _, _ in out[len(out) // 4: 3 * len(out) // 4]]
     assert sum(mid) / len(mid) == pytest.approx(1.5 + 0.2, abs=0.1)  # mean terrain + height
+
+
+def test_terrain_step_is_climbed_before_it_is_reached() -> None:
+    """A 3 m terrain step (building edge) at y = 20: the carrot looks ahead and is already well
+    above the step top when it gets there (low-pass alone climbs only after the edge)."""
+    def terrain(x: float, y: float) -> float:
+        return 3.0 if y >= 20.0 else 0.0
+
+    p = PathFollower([(0.0, 0.0, 2.0), (0.0, 40.0, 2.0)], 2.0, terrain=terrain, max_vz=1.5)
+    assert p.lookahead == pytest.approx(2.0 * 2.0 + 2.0 * 2.0 / (2 * 1.5))  # v·2 s + braking distance
+    out = follow(p, 40.0)
+    at_edge = [sp[2] for sp, _, _, _ in out if 19.5 <= sp[1] < 20.0]
+    assert at_edge and min(at_edge) >= 3.0 + 1.3  # ≥ 1.3 m above the step top before reaching it
+    clear = [sp[2] - terrain(sp[0], sp[1] + dy) for sp, _, _, _ in out for dy in (0.0, 0.3)]
+    assert min(clear) >= 1.3  # also 0.3 m ahead of the carrot (the airframe)
+    vz = [v[2] for _, v, _, _ in out]
+    assert max(vz) <= 1.5 + 1e-6  # rate-limited climb
+    early = [sp[2] for sp, _, _, _ in out if sp[1] < 20.0 - p.lookahead - 0.5]
+    assert max(early) == pytest.approx(2.0, abs=0.05)  # no climb before the step is in view
+    assert out[-1][0][2] == pytest.approx(5.0, abs=0.05)  # and the set height above the step top

@@ -6,6 +6,17 @@ acceleration, slowing down for corners and the end point, and never running more
 boustrophedon pattern is one path with flow on along rows and off in the turns. Heights
 are absolute ENU z, or height above the terrain under the carrot when ``terrain`` is given
 (then low-passed with ``terrain_tau_s`` and limited to ``max_vz``: a DSM is rough).
+
+Terrain look-ahead (as a terrain-following sprayer's radar/DSM look-ahead): the low-passed height
+would meet a terrain step (a building or tree edge) too late, so the carrot also keeps above a
+floor from the path ahead. Over ``lookahead_m`` (default: cruise speed × ``lookahead_s`` + the
+braking distance v²/2a) the demanded height z_d(s') = path z + terrain is reduced by the height
+the carrot can climb on the way there at ``climb_frac`` × ``max_vz``:
+``floor(s) = max_{s ≤ s' ≤ s+L} [z_d(s') - (s' - s) k] - margin``, ``k = climb_frac · max_vz / speed``,
+``margin = floor_margin_frac`` × the set height. Ridges and slopes the carrot can follow give no
+floor above the low-passed height (no change there); a step makes the carrot climb before it,
+rate-limited. The demand is sampled every ``_PROFILE_DS`` m along the path when it is built,
+so the per-update cost is one slice max.
 """
 
 from __future__ import annotations
@@ -14,6 +25,8 @@ import math
 from collections.abc import Callable, Sequence
 
 from vinecli.frames import Vec3
+
+_PROFILE_DS = 0.2  # m between samples of the terrain demand along the path
 
 
 class PathFollower:
@@ -26,7 +39,9 @@ class PathFollower:
     def __init__(self, points: Sequence[Vec3], speed: float, *, accel: float = 1.5, flows: Sequence[float] | None = None,
                  terrain: Callable[[float, float], float] | None = None, acceptance_m: float = 0.5,
                  max_lead_m: float = 2.5, corner_speed: float = 0.3, terrain_tau_s: float = 0.4,
-                 max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf) -> None:
+                 max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf,
+                 lookahead_s: float = 2.0, lookahead_m: float | None = None, climb_frac: float = 0.5,
+                 floor_margin_frac: float = 0.25) -> None:
         pts = [tuple(float(c) for c in p) for p in points]
         # drop zero-length segments
         clean = [pts[0]]
@@ -44,6 +59,7 @@ class PathFollower:
         self.terrain_tau = terrain_tau_s
         self.max_vz = max_vz
         self._zf: float | None = None  # terrain-following height, low-passed and rate-limited
+        self._zfloor: float | None = None  # look-ahead floor, rate-limited
         self.acceptance = acceptance_m
         self.max_lead = max_lead_m
         n = len(clean)
@@ -76,12 +92,42 @@ class PathFollower:
         self.s = 0.0
         self.v = 0.0
         self.seg = 0
+        self._q: list[float] = []
+        if terrain is not None and self.total > 0.0:
+            self._build_lookahead(speed, accel, max_vz, lookahead_s, lookahead_m, climb_frac, floor_margin_frac)
         self._last_z: float | None = None
         self.sp: Vec3 = self._at(0.0)
         self.vff: Vec3 = (0.0, 0.0, 0.0)
         #: acceleration feed-forward of the last update, m/s² ENU
         self.aff: Vec3 = (0.0, 0.0, 0.0)
         self.flow = self.flows[0]
+
+    def _build_lookahead(self, speed: float, accel: float, max_vz: float, lookahead_s: float,
+                         lookahead_m: float | None, climb_frac: float, floor_margin_frac: float) -> None:
+        """Sample the demanded height along the path: ``_q[i] = z_d(s_i) - k s_i`` (see the module doc)."""
+        self.lookahead = lookahead_m if lookahead_m is not None else speed * lookahead_s + speed * speed / (2.0 * accel)
+        self._k = climb_frac * max_vz / speed
+        heights = [abs(p[2]) for p in self.points]
+        self._margin = floor_margin_frac * (sum(heights) / len(heights))
+        n = int(math.ceil(self.total / _PROFILE_DS)) + 1
+        ds = self.total / (n - 1)
+        self._ds = ds
+        self._nw = max(1, int(math.ceil(self.lookahead / ds)))
+        seg = self.seg
+        q = []
+        for i in range(n):
+            si = i * ds
+            q.append(self._at(si)[2] - self._k * si)
+        self.seg = seg
+        self._q = q
+
+    def terrain_floor(self, s: float) -> float:
+        """Lowest carrot z (m ENU) at path position ``s`` that still climbs over the terrain ahead in time."""
+        q = self._q
+        if not q:
+            return -math.inf
+        i0 = min(len(q) - 1, max(0, int(math.ceil(s / self._ds - 1e-9))))
+        return max(q[i0:i0 + self._nw + 1]) + self._k * s - self._margin
 
     def _at(self, s: float) -> Vec3:
         cum = self.cum
@@ -145,6 +191,19 @@ class PathFollower:
                 lim = self.max_vz * dt
                 zf += lim if dz > lim else (-lim if dz < -lim else dz)
             self._zf = zf
+            if self._q:
+                # look-ahead floor: climb (rate-limited) before a terrain step instead of into it
+                floor = self.terrain_floor(self.s)
+                zl = self._zfloor
+                if zl is None or dt <= 0.0:
+                    zl = floor
+                else:
+                    lim = self.max_vz * dt
+                    d = floor - zl
+                    zl += lim if d > lim else (-lim if d < -lim else d)
+                self._zfloor = zl
+                if zl > zf:
+                    zf = zl
             new = (new[0], new[1], zf)
         if dt > 0.0:
             vff = ((new[0] - sp[0]) / dt, (new[1] - sp[1]) / dt, (new[2] - sp[2]) / dt)
