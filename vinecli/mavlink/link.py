@@ -12,6 +12,7 @@ Sending is thread-safe (one lock around encoding and ``send``). Links never prin
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import socket
@@ -153,7 +154,7 @@ class Link:
             t.join(timeout=1.0)
 
     def _close_sockets(self) -> None:  # pragma: no cover - overridden
-        pass
+        """Close the subclass's sockets (the base class has none)."""
 
 
 class TcpServerLink(Link):
@@ -207,10 +208,8 @@ class TcpServerLink(Link):
     def _close_sockets(self) -> None:
         for s in (self._conn, self._srv):
             if s is not None:
-                try:
+                with contextlib.suppress(OSError):
                     s.close()
-                except OSError:
-                    pass
 
 
 class TcpClientLink(Link):
@@ -250,10 +249,8 @@ class TcpClientLink(Link):
 
     def _close_sockets(self) -> None:
         if self._sock is not None:
-            try:
+            with contextlib.suppress(OSError):
                 self._sock.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
             self._sock.close()
 
 
