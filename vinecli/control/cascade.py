@@ -16,8 +16,9 @@ loops every step.
   current mass estimate; vertical thrust has priority; tilt limited to ``MPC_TILTMAX``.
 * Attitude: PX4 ``AttitudeControl`` (reduced attitude for the thrust direction, then yaw
   with weight ``MC_YAW_WEIGHT``), ``rate_sp = 2 K_att sign(q_e.w) q_e.xyz``.
-* Rate: PID on body rates with derivative on the filtered gyro derivative, integral
-  limited and frozen in the direction the mixer reports saturated; output normalised
+* Rate: PID on body rates (one :class:`vinecli.control.pid.Pid` per axis) with derivative on
+  the filtered gyro derivative, integral limited and frozen in the direction the mixer reports
+  saturated; output normalised
   torques (see :mod:`vinecli.control.allocation` for the scale) -> N m -> mixer.
 """
 
@@ -26,6 +27,7 @@ from __future__ import annotations
 import math
 
 from vinecli.control.allocation import Mixer
+from vinecli.control.pid import Pid
 from vinecli.frames import QuatXYZW, Vec3
 from vinecli.specs.vehicle import VehicleSpec
 
@@ -162,7 +164,6 @@ class Cascade:
         self.tan_tilt = math.tan(math.radians(c.max_tilt_deg))
         self.torque_scale = self.mixer.torque_scale
         self.max_rate = tuple(math.radians(r) for r in c.max_rate_deg_s)
-        self.rate_alpha = dt / (1.0 / (2.0 * math.pi * c.rate_d_cutoff_hz) + dt)
         self.vel_d_tau = 1.0 / (2.0 * math.pi * c.vel_d_cutoff_hz)
         # setpoints (ENU): position, velocity feed-forward, yaw
         self.pos_sp: Vec3 = (0.0, 0.0, 0.0)
@@ -178,11 +179,13 @@ class Cascade:
     def reset(self) -> None:
         """Zero all integrators and filters."""
         self.vel_int = [0.0, 0.0, 0.0]
-        self.rate_int = [0.0, 0.0, 0.0]
         self._prev_vel: Vec3 | None = None
         self._acc_f = [0.0, 0.0, 0.0]
-        self._prev_omega: Vec3 | None = None
-        self._domega_f = [0.0, 0.0, 0.0]
+        c = self.c
+        self.rate_pid = tuple(
+            Pid(c.rate_p[i], c.rate_i[i], c.rate_d[i], i_limit=c.rate_i_limit, d_cutoff_hz=c.rate_d_cutoff_hz)
+            for i in (0, 1, 2)
+        )
         self.q_sp: QuatXYZW = (0.0, 0.0, 0.0, 1.0)
         self.thrust_sp = 0.0  # N collective
         self.vel_sp: Vec3 = (0.0, 0.0, 0.0)
@@ -193,7 +196,8 @@ class Cascade:
 
     def reset_rate_integrators(self) -> None:
         """Zero the rate integrators (on the ground, as PX4 does while landed)."""
-        self.rate_int = [0.0, 0.0, 0.0]
+        for pid in self.rate_pid:
+            pid.integral = 0.0
 
     # ------------------------------------------------------------------ position / velocity loop
     def update_position(self, pos: Vec3, vel: Vec3, mass_kg: float, dt: float) -> None:
@@ -299,35 +303,18 @@ class Cascade:
         rsz = mr[2] if rsz > mr[2] else (-mr[2] if rsz < -mr[2] else rsz)
         self.rate_sp = (rsx, rsy, rsz)
         ox, oy, oz = omega
-        po = self._prev_omega
-        df = self._domega_f
-        if po is not None and dt > 0.0:
-            a = self.rate_alpha
-            inv = 1.0 / dt
-            df[0] += a * ((ox - po[0]) * inv - df[0])
-            df[1] += a * ((oy - po[1]) * inv - df[1])
-            df[2] += a * ((oz - po[2]) * inv - df[2])
-        self._prev_omega = omega
-        kp, ki, kd = c.rate_p, c.rate_i, c.rate_d
-        ri = self.rate_int
+        px, py, pz = self.rate_pid
         ex, ey, ez = rsx - ox, rsy - oy, rsz - oz
-        ux = kp[0] * ex + ri[0] - kd[0] * df[0]
-        uy = kp[1] * ey + ri[1] - kd[1] * df[1]
-        uz = kp[2] * ez + ri[2] - kd[2] * df[2]
+        ux = px.output(ex, ox, dt)
+        uy = py.output(ey, oy, dt)
+        uz = pz.output(ez, oz, dt)
         self.torque_norm = (ux, uy, uz)
         ts = self.torque_scale
         mixer = self.mixer
         w_cmd = mixer.rotor_speeds(mixer.allocate_thrusts(self.thrust_sp, ux * ts[0], uy * ts[1], uz * ts[2]))
-        # rate integrators, frozen in the saturated direction
+        # rate integrators, frozen in the direction the mixer saturated
         _st, sx, sy, sz = mixer.saturation
-        lim = c.rate_i_limit
-        e3 = (ex, ey, ez)
-        s3 = (sx, sy, sz)
-        for i in (0, 1, 2):
-            e = e3[i]
-            s = s3[i]
-            if (s > 0 and e > 0.0) or (s < 0 and e < 0.0):
-                continue
-            v = ri[i] + ki[i] * e * dt
-            ri[i] = lim if v > lim else (-lim if v < -lim else v)
+        px.integrate(ex, dt, sx)
+        py.integrate(ey, dt, sy)
+        pz.integrate(ez, dt, sz)
         return w_cmd

@@ -63,26 +63,39 @@ class Pid:
 
     def update(self, error: float, measurement: float, dt: float, external_sat: int = 0) -> float:
         """One step: ``error`` = setpoint - measurement; returns the saturated command."""
+        u_sat = self.output(error, measurement, dt)
+        self.integrate(error, dt, external_sat)
+        return u_sat
+
+    def output(self, error: float, measurement: float, dt: float) -> float:
+        """The saturated command for this step, without integrating (call :meth:`integrate` next).
+
+        Split from :meth:`update` for a caller that learns of downstream saturation (``external_sat``)
+        only after using the command, as the cascade's rate loop does with the mixer.
+        """
         # filtered derivative of the measurement
         d = 0.0
         if self.kd != 0.0:
             prev = self._prev_meas
             if prev is not None and dt > 0.0:
-                raw = -(measurement - prev) / dt
+                raw = (prev - measurement) * (1.0 / dt)
                 a = dt / (self.d_alpha_tau + dt)
                 self._d_filt += a * (raw - self._d_filt)
             d = self.kd * self._d_filt
         self._prev_meas = measurement
-        p = self.kp * error
-        u = p + self.integral + d
+        u = self.kp * error + self.integral + d
         lo, hi = self.out_min, self.out_max
         u_sat = hi if u > hi else (lo if u < lo else u)
         self.last_unsat = u
         self.last_out = u_sat
-        # integral: conditional integration + optional back-calculation
+        return u_sat
+
+    def integrate(self, error: float, dt: float, external_sat: int = 0) -> None:
+        """Advance the integral after :meth:`output`: conditional integration + optional back-calculation."""
+        u, u_sat = self.last_unsat, self.last_out
         if self.ki != 0.0:
             di = self.ki * error * dt
-            sat_dir = 1 if u > hi else (-1 if u < lo else external_sat)
+            sat_dir = 1 if u > self.out_max else (-1 if u < self.out_min else external_sat)
             if not ((sat_dir > 0 and di > 0.0) or (sat_dir < 0 and di < 0.0)):
                 self.integral += di
         if self.k_aw != 0.0:
@@ -92,4 +105,3 @@ class Pid:
             self.integral = il
         elif self.integral < -il:
             self.integral = -il
-        return u_sat
