@@ -151,16 +151,10 @@ def checks_cmd(
         raise ChecksFailed(f"{len(failed)} check(s) failed: {', '.join(failed)}", path=run_dir)
 
 
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_fmt(x) for x in v) + "]"
-    return "-" if v is None else str(v)
-
-
 def _checks_table(checks: list[dict[str, Any]], title: str) -> None:
     from rich.table import Table
+
+    from vinecli.report.baseline import _fmt
 
     t = Table(title=title, title_justify="left")
     for col in ("check", "value", "op", "bound", "result"):
