@@ -36,7 +36,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check vinecli tests benchmarks
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/terrain.py
+	for b in terrain reconstruct physics sim autopilot_step batch report; do $(BIN)/python benchmarks/$$b.py || exit 1; done
 
 clean:
 	rm -rf $(DEMO_OUT) .pytest_cache
