@@ -12,12 +12,12 @@ are not written.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from lxml import etree
 
 from vinecli.geo import GeoOrigin
+from vinecli.physics.wind import heading_unit_enu
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import ConstantWind, DrydenWind, GustWind, SinusoidWind, SumWind, WindLaw, WindSpec
 
@@ -39,20 +39,15 @@ def _sub(parent: etree._Element, tag: str, text: str | None = None, **attrib: st
     return el
 
 
-def _heading_enu(heading_deg: float) -> tuple[float, float]:
-    yaw = math.pi / 2 - math.radians(heading_deg)
-    return math.cos(yaw), math.sin(yaw)
-
-
 def mean_wind_enu(law: WindLaw) -> tuple[float, float, float]:
     """Mean (steady) part of a wind law, m/s ENU (gusts and turbulence average to zero)."""
     if isinstance(law, ConstantWind):
         return tuple(float(c) for c in law.velocity_enu)  # type: ignore[return-value]
     if isinstance(law, SinusoidWind):
-        ex, ey = _heading_enu(law.heading_deg)
+        ex, ey, _ = heading_unit_enu(law.heading_deg)
         return (law.mean_mps * ex, law.mean_mps * ey, 0.0)
     if isinstance(law, DrydenWind):
-        ex, ey = _heading_enu(law.heading_deg)
+        ex, ey, _ = heading_unit_enu(law.heading_deg)
         return (law.mean_mps * ex, law.mean_mps * ey, 0.0)
     if isinstance(law, GustWind):
         return (0.0, 0.0, 0.0)
