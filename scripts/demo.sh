@@ -35,8 +35,10 @@ $VINECLI report "$OUT/runs" --out "$OUT/report"
 report_rc=$?
 set -e
 
-echo
-echo "report: $(cd "$OUT/report" && pwd)/report.html"
+if [ ! -f "$OUT/report/report.html" ]; then
+  echo "no report was written" >&2
+  exit 1
+fi
 if [ "$batch_rc" -ne 0 ] || [ "$report_rc" -ne 0 ]; then
   echo "some checks failed (batch exit $batch_rc, report exit $report_rc)" >&2
   exit 1

@@ -52,11 +52,14 @@ class Engine:
     """A PyBullet DIRECT client stepping at a fixed rate with gravity along -z (ENU)."""
 
     def __init__(self, *, rate_hz: float = 250.0, gravity: float = 9.80665, solver_iterations: int = 50) -> None:
-        import pybullet as p
-        from pybullet_utils.bullet_client import BulletClient
+        from vinecli.sim.quiet import c_output_silenced
 
+        with c_output_silenced():  # pybullet printf()s its build time and argv[0]
+            import pybullet as p
+            from pybullet_utils.bullet_client import BulletClient
+
+            self.client = BulletClient(connection_mode=p.DIRECT)
         self.p = p
-        self.client = BulletClient(connection_mode=p.DIRECT)
         self.dt = 1.0 / rate_hz
         self.gravity = gravity
         c = self.client
