@@ -133,16 +133,22 @@ def tank_force_rest_ratio(data: RunData, window: Window) -> float:
     return float(np.median(force_down) / w) if w > 0 else _nan()
 
 
+def _around_liftoff(data: RunData, window: Window) -> np.ndarray | None:
+    """Mask of ``window``, by default lift-off -1 s .. +2 s; None if there is neither or it is empty."""
+    if window is None:
+        tl = _try_event(data, "liftoff")
+        if tl is None:
+            return None
+        window = (tl - 1.0, tl + 2.0)
+    sel = data.window_mask(window)
+    return sel if sel.any() else None
+
+
 @metric("liftoff_force_jump_ratio", "1")
 def liftoff_force_jump_ratio(data: RunData, window: Window) -> float:
     """Peak tank force around lift-off over the liquid weight, minus 1 (0.2 = 20 % jump). Default window: lift-off -1 s .. +2 s."""
-    tl = _try_event(data, "liftoff")
-    if window is None:
-        if tl is None:
-            return _nan()
-        window = (tl - 1.0, tl + 2.0)
-    sel = data.window_mask(window)
-    if not sel.any():
+    sel = _around_liftoff(data, window)
+    if sel is None:
         return _nan()
     force_down = -data.column("tank_force_enu_z_n")[sel]
     weight = data.column("tank_mass_kg")[sel] * _g(data)
@@ -153,13 +159,8 @@ def liftoff_force_jump_ratio(data: RunData, window: Window) -> float:
 @metric("liftoff_force_jump_n", "N")
 def liftoff_force_jump_n(data: RunData, window: Window) -> float:
     """Largest |inertial part| of the tank force (z) around lift-off, N. Default window: lift-off -1 s .. +2 s."""
-    tl = _try_event(data, "liftoff")
-    if window is None:
-        if tl is None:
-            return _nan()
-        window = (tl - 1.0, tl + 2.0)
-    sel = data.window_mask(window)
-    if not sel.any():
+    sel = _around_liftoff(data, window)
+    if sel is None:
         return _nan()
     if data.has("tank_force_inertial_enu_z_n"):
         f = data.column("tank_force_inertial_enu_z_n")[sel]
