@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from repo_paths import shared_files
 from pointcloud_synth import terrain_cloud, write_las, write_ply, write_xyz
+from repo_paths import shared_files
 from typer.testing import CliRunner
 
 from vinecli.cli.app import app

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
-from repo_paths import REPO, shared_files
 from pyproj import Transformer
 from rasterio.transform import from_origin
+from repo_paths import REPO, shared_files
 from typer.testing import CliRunner
 
 from vinecli.cli.app import app

@@ -1,4 +1,4 @@
-"""Synthetic run directories that follow CONTRACTS.md ("Time-series columns", "Run directory").
+"""Synthetic run directories that follow docs/architecture.md ("Time-series columns", "Run directory").
 
 Physically plausible thesis-§5 signals for the report's tests and benchmark, without running
 PyBullet: kinematics are built from time-stamped waypoints (piecewise linear, Gaussian-smoothed,

@@ -17,7 +17,7 @@ from vinecli.specs.mission import GeofenceSpec, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 
 
-class RunStatus(str, Enum):
+class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values are used explicitly
     """How a run ended (value = machine name, message = for people)."""
 
     RUNNING = "running"

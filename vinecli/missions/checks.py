@@ -67,7 +67,7 @@ def parse_time_ref(ref: str) -> tuple[str, int | None, float]:
 class RunData:
     """What checks and metrics see of a run.
 
-    ``timeseries``: columns (CONTRACTS.md), each a 1-D array sampled at ``t_s``;
+    ``timeseries``: columns (docs/architecture.md), each a 1-D array sampled at ``t_s``;
     ``events``: (t_s, kind) pairs; ``status``: final status name; ``metrics``: scalars the
     simulator reported; ``context``: world/vehicle facts metrics need (see
     :class:`vinecli.missions.metrics.MetricContext`).

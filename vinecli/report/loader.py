@@ -1,4 +1,4 @@
-"""Finding and validating the runs a report reads (CONTRACTS.md "Run directory").
+"""Finding and validating the runs a report reads (docs/architecture.md "Run directory").
 
 ``RUNS`` is either a batch (``RUNS/batch.json`` listing the cases), a directory of run
 directories (each with ``summary.json``), or one run directory. Every run is validated

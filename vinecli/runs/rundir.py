@@ -1,4 +1,4 @@
-"""Writing and reading run directories (CONTRACTS.md "Run directory").
+"""Writing and reading run directories (docs/architecture.md "Run directory").
 
 ``RUNS/<run_id>/``: ``timeseries.parquet`` (SI columns, frame in the name), ``summary.json``,
 ``events.jsonl``, ``manifest.json``, ``mission.yaml`` (resolved copy), ``terrain_preview.npz``

@@ -1,4 +1,4 @@
-"""Time-series recording into preallocated numpy arrays (CONTRACTS.md column names).
+"""Time-series recording into preallocated numpy arrays (docs/architecture.md column names).
 
 The loop appends one row (a plain list of floats, in :func:`timeseries_columns` order) per
 record period; rows go into a preallocated array in blocks; :meth:`Recorder.columns_dict`

@@ -71,7 +71,7 @@ _TOUCH_M = 1e-4  # m: a contact point closer than this counts as touching  # m b
 
 @dataclass
 class SimResult:
-    """Outcome of :func:`run_simulation` (CONTRACTS.md)."""
+    """Outcome of :func:`run_simulation` (docs/architecture.md)."""
 
     status: RunStatus
     detail: str

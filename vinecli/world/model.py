@@ -67,7 +67,7 @@ class TerrainInfo:
 
 @dataclass
 class World:
-    """Everything a run needs (CONTRACTS.md "World"). Positions ENU m, angles rad."""
+    """Everything a run needs (docs/architecture.md "World"). Positions ENU m, angles rad."""
 
     name: str
     dir: Path
