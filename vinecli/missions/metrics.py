@@ -15,6 +15,7 @@ import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -65,6 +66,16 @@ def _try_event(data: RunData, kind: str) -> float | None:
         return data.event_time(kind)
     except EventMissing:
         return None
+
+
+def _reduce(fn: Callable[[np.ndarray], Any], a: np.ndarray) -> float:
+    """fn(a) as a float, NaN for an empty selection."""
+    return float(fn(a)) if a.size else _nan()
+
+
+def _rms(a: np.ndarray) -> float:
+    """Root mean square, NaN for an empty selection."""
+    return _reduce(lambda v: np.sqrt(np.mean(v * v)), a)
 
 
 def _mask(data: RunData, window: Window, default: Window) -> np.ndarray:
@@ -364,21 +375,21 @@ def _cross_track(data: RunData, window: Window) -> np.ndarray:
 def cross_track_rms_m(data: RunData, window: Window) -> float:
     """RMS horizontal distance to the nearest row while spraying (flow commanded, airborne), m."""
     d = _cross_track(data, window)
-    return float(np.sqrt(np.mean(d * d))) if d.size else _nan()
+    return _rms(d)
 
 
 @metric("cross_track_max_m", "m")
 def cross_track_max_m(data: RunData, window: Window) -> float:
     """Largest horizontal distance to the nearest row while spraying, m."""
     d = _cross_track(data, window)
-    return float(np.max(d)) if d.size else _nan()
+    return _reduce(np.max, d)
 
 
 @metric("cross_track_p95_m", "m")
 def cross_track_p95_m(data: RunData, window: Window) -> float:
     """95th percentile of the distance to the nearest row while spraying, m."""
     d = _cross_track(data, window)
-    return float(np.percentile(d, 95)) if d.size else _nan()
+    return _reduce(lambda a: np.percentile(a, 95), d)
 
 
 # ---------------------------------------------------------------- wind (thesis §5.3)
@@ -401,14 +412,14 @@ def _hpos_error(data: RunData, window: Window) -> np.ndarray:
 def hpos_error_max_m(data: RunData, window: Window) -> float:
     """Largest horizontal distance from the position setpoint (mean position where none), m. Default: lift-off +5 s .. touchdown."""
     e = _hpos_error(data, window)
-    return float(np.max(e)) if e.size else _nan()
+    return _reduce(np.max, e)
 
 
 @metric("hpos_error_rms_m", "m")
 def hpos_error_rms_m(data: RunData, window: Window) -> float:
     """RMS horizontal distance from the position setpoint, m. Default: lift-off +5 s .. touchdown."""
     e = _hpos_error(data, window)
-    return float(np.sqrt(np.mean(e * e))) if e.size else _nan()
+    return _rms(e)
 
 
 def dominant_period(y: np.ndarray, t: np.ndarray, min_period: float = 0.2) -> float:
