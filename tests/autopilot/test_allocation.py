@@ -23,7 +23,7 @@ def vehicle(name: str) -> VehicleSpec:
 def wrench_of(v: VehicleSpec, w: tuple[float, ...]) -> tuple[float, float, float, float]:
     """(thrust N, tx, ty, tz N m) produced by rotor speeds w, from the physics motor model."""
     bank = MotorBank(v.motor, v.rotors)
-    bank.w = list(w)
+    bank.reset(w)
     f, t = bank.wrench(None)
     return (f[2], t[0], t[1], t[2])
 

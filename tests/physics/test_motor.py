@@ -200,7 +200,7 @@ def test_wrench_state_equals_general_path(name: str) -> None:
     bank = MotorBank(spec.motor, spec.rotors)
     assert bank.all_vertical
     for _ in range(50):
-        bank.w = [rng.uniform(0.0, spec.motor.w_max) for _ in range(bank.n)]
+        bank.reset([rng.uniform(0.0, spec.motor.w_max) for _ in range(bank.n)])
         q = quat_from_euler(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-3, 3))
         args = (
             q,

@@ -342,7 +342,8 @@ class _OpenLoop(_Phase):
             self.schedule = [(0.0, self._speeds(spec.rotor_speeds_rad_s))]
         else:
             self.schedule = [(float(t), self._speeds(s)) for t, s in sorted(spec.schedule or [], key=lambda e: e[0])]
-        self.times = [t for t, _ in self.schedule]
+        self.times_us = [int(round(t * 1e6)) for t, _ in self.schedule]
+        self.duration_us = int(round(spec.duration_s * 1e6))
 
     def _speeds(self, s: float | list[float]) -> tuple[float, ...]:
         if isinstance(s, int | float):
@@ -354,18 +355,23 @@ class _OpenLoop(_Phase):
     def start(self, ap: BuiltinAutopilot) -> None:
         self.t0_us = ap.t_us
         self.i = 0
+        # before the first breakpoint the rotors keep the previous command (rad/s); a mission that
+        # starts airborne spins them at the first breakpoint's speeds (the runner's initial state)
+        init = self.spec.initial_state
+        airborne = init is not None and init.position_enu is not None and init.position_enu[2] > 0.0
+        self.before = self.schedule[0][1] if airborne else tuple(ap.rotor_command)
         ap.set_flow(self.spec.flow_lps)
         if not ap.armed:
             ap.arm()
 
     def command(self, t_us: int) -> tuple[tuple[float, ...], bool]:
-        """(rotor speeds, done) at time t_us."""
-        t = (t_us - self.t0_us) * 1e-6
-        times = self.times
+        """(rotor speeds, done) at time t_us (breakpoints compared in integer µs, no float drift)."""
+        t = t_us - self.t0_us
+        times = self.times_us
         while self.i + 1 < len(times) and t >= times[self.i + 1]:
             self.i += 1
-        speeds = self.schedule[self.i][1] if t >= times[0] else (0.0,) * self.n
-        return speeds, t >= self.spec.duration_s - 1e-9
+        speeds = self.schedule[self.i][1] if t >= times[0] else self.before
+        return speeds, t >= self.duration_us
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
         return False
@@ -620,6 +626,11 @@ class BuiltinAutopilot:
             ex["sp_x"] = ex["sp_y"] = ex["sp_z"] = _NAN
             self.emit("arming", "disarmed", {"armed": False})
             self._set_mode("DISARMED")
+
+    @property
+    def rotor_command(self) -> tuple[float, ...]:
+        """The last rotor speed command, rad/s per rotor (zeros before the first)."""
+        return self._w_cmd
 
     def set_flow(self, flow: float) -> None:
         if flow != self.flow:

@@ -4,8 +4,13 @@ Per rotor i, body frame FLU, SI units:
 
 * speed: first-order lag to the command, time constant ``tau_up_s`` when the command is above
   the current speed and ``tau_down_s`` otherwise, exact discretisation
-  ``w += (1 - exp(-dt/tau)) (w_cmd - w)``, clamped to ``[0, w_max]``;
-* thrust ``T_i = k_f w_i²`` along the rotor axis ``a_i``;
+  ``w += (1 - exp(-dt/tau)) (w_cmd - w)``, command clamped to ``[0, w_max]``;
+* timing: :meth:`MotorBank.update` moves the speeds from ``t_k`` to ``t_k + dt`` and keeps the
+  speeds at ``t_k`` in ``.w_start``; the forces of that step (held constant by the rigid-body
+  step) use the exact means of the speed over the interval, ``w̄`` and ``mean(w²)``, so the
+  impulse of a lagged rotor is the analytic one and the effective lag is exactly ``tau``
+  (forces from the end-of-step speed would lag by ``tau - dt/2``);
+* thrust ``T_i = k_f mean(w_i²)`` along the rotor axis ``a_i``;
 * rotor drag (H-force) ``D_i = -k_d w_i V⊥`` and rolling moment ``M_i = -k_roll w_i V⊥``,
   where ``V⊥`` is the in-plane part of the rotor's velocity relative to the air
   (``v_rotor - wind`` = ``-v_app``), exactly as Gazebo-classic and gz-sim compute
@@ -63,6 +68,12 @@ class MotorBank:
         self._a_up = 0.0
         self._a_down = 0.0
         self.w: list[float] = [0.0] * self.n
+        #: speeds at the start of the last update's interval (rad/s): the value at the step's time
+        self.w_start: tuple[float, ...] = (0.0,) * self.n
+        #: interval means of w and w² the forces use (rad/s, rad²/s²), see the module docstring
+        self.w_mean: list[float] = [0.0] * self.n
+        self.w2_mean: list[float] = [0.0] * self.n
+        self._b_up = self._b_down = self._c_up = self._c_down = 0.0
         self.thrust: list[float] = [0.0] * self.n
         self.thrust_total = 0.0
         self.rotor_drag_body: Vec3 = (0.0, 0.0, 0.0)
@@ -70,19 +81,35 @@ class MotorBank:
         self.rolling_moment_body: Vec3 = (0.0, 0.0, 0.0)
 
     # ------------------------------------------------------------------ speed dynamics
-    def reset(self, w0: float = 0.0) -> None:
-        """Set every rotor speed to ``w0`` rad/s (clamped to [0, w_max])."""
-        w0 = min(max(float(w0), 0.0), self.w_max)
-        self.w = [w0] * self.n
+    def reset(self, w0: float | Sequence[float] = 0.0) -> None:
+        """Set the rotor speeds to ``w0`` rad/s (one for all or one per rotor; clamped to [0, w_max])."""
+        ws = [float(w0)] * self.n if isinstance(w0, int | float) else [float(v) for v in w0]
+        if len(ws) != self.n:
+            raise ValueError(f"{len(ws)} rotor speeds for {self.n} rotors")
+        self.w = [min(max(v, 0.0), self.w_max) for v in ws]
+        self.w_start = tuple(self.w)
+        self.w_mean = list(self.w)
+        self.w2_mean = [v * v for v in self.w]
 
     def update(self, w_cmd: Sequence[float], dt: float) -> list[float]:
-        """Advance the rotor speeds by ``dt`` s towards ``w_cmd`` (rad/s per rotor); returns ``.w``."""
+        """Advance the rotor speeds by ``dt`` s towards ``w_cmd`` (rad/s per rotor); returns ``.w``.
+
+        ``w(s) = c + (w_k - c) e^(-s/tau)`` on the interval (``c`` = clamped command): ``.w`` is
+        its end value, ``.w_start`` its start, ``.w_mean``/``.w2_mean`` its exact means of ``w`` and
+        ``w²`` (what :meth:`wrench` uses).
+        """
         if dt != self._dt:
             self._dt = dt
-            self._a_up = 1.0 - math.exp(-dt / self.tau_up)
-            self._a_down = 1.0 - math.exp(-dt / self.tau_down)
-        a_up, a_down, w_max = self._a_up, self._a_down, self.w_max
+            e_up, e_down = math.exp(-dt / self.tau_up), math.exp(-dt / self.tau_down)
+            self._a_up, self._a_down = 1.0 - e_up, 1.0 - e_down
+            # means over [0, dt] of e^(-s/tau) and e^(-2s/tau)
+            self._b_up, self._b_down = self.tau_up / dt * (1.0 - e_up), self.tau_down / dt * (1.0 - e_down)
+            self._c_up = self.tau_up / (2.0 * dt) * (1.0 - e_up * e_up)
+            self._c_down = self.tau_down / (2.0 * dt) * (1.0 - e_down * e_down)
+        w_max = self.w_max
         w = self.w
+        self.w_start = tuple(w)
+        wm, w2m = self.w_mean, self.w2_mean
         for i in range(self.n):
             c = w_cmd[i]
             if c > w_max:
@@ -90,7 +117,15 @@ class MotorBank:
             elif c < 0.0:
                 c = 0.0
             wi = w[i]
-            wi += (a_up if c > wi else a_down) * (c - wi)
+            d = wi - c
+            if c > wi:
+                wi = c + d * (1.0 - self._a_up)
+                wm[i] = c + d * self._b_up
+                w2m[i] = c * c + 2.0 * c * d * self._b_up + d * d * self._c_up
+            else:
+                wi = c + d * (1.0 - self._a_down)
+                wm[i] = c + d * self._b_down
+                w2m[i] = c * c + 2.0 * c * d * self._b_down + d * d * self._c_down
             w[i] = w_max if wi > w_max else (0.0 if wi < 0.0 else wi)
         return w
 
@@ -119,7 +154,7 @@ class MotorBank:
         ``.reaction_torque_body`` and ``.rolling_moment_body`` for recording.
         """
         k_f, k_m, k_d, k_roll = self.k_f, self.k_m, self.k_d, self.k_roll
-        w = self.w
+        w, w2 = self.w_mean, self.w2_mean
         thrust = self.thrust
         fx = fy = fz = 0.0
         tx = ty = tz = 0.0
@@ -129,7 +164,7 @@ class MotorBank:
         tsum = 0.0
         for i, (px, py, pz, ax, ay, az, s) in enumerate(self.geometry):
             wi = w[i]
-            t = k_f * wi * wi
+            t = k_f * w2[i]
             thrust[i] = t
             tsum += t
             f0, f1, f2 = t * ax, t * ay, t * az
@@ -187,11 +222,11 @@ class MotorBank:
         thrust = self.thrust
         fz = tx = ty = 0.0
         dx = dy = rz = tz = mx = my = 0.0
-        w = self.w
+        w, w2 = self.w_mean, self.w2_mean
         i = 0
         for px, py, pz, s in self._vgeo:
             wi = w[i]
-            t = k_f * wi * wi
+            t = k_f * w2[i]
             thrust[i] = t
             i += 1
             # in-plane apparent air at the rotor: (wind - v_com - ω × r) without the z part

@@ -262,7 +262,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     init_phase = kw["init_phase"]
     if kw["airborne_start"] and init_phase is not None:
         cmds = _first_commands(init_phase, n_rot)
-        motors.w = [min(max(c, 0.0), motors.w_max) for c in cmds]
+        motors.reset(cmds)
     sensors = kw["make_sensors"](veh.sensors, world.origin, seed, g=g)
     sample_all = sensors.sample_all
 
@@ -456,8 +456,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
             next_cam_us += cam_period_us
             point_clouds.append((t, camera.capture((px, py, pz), quat)))
 
-        # ---- forces for the step t_k -> t_k+1
-        w = m_update(cmd.rotor_speed_cmd, dt)
+        # ---- forces for the step t_k -> t_k+1 (interval means of the lagged speeds; motor.py)
+        m_update(cmd.rotor_speed_cmd, dt)
         wind_v = wind_at(t, (px, py, pz))
         wdx, wdy, wdz = wind_v
         # apparent air at each rotor, body FLU: R^T (wind - v) - ω_b × r_i
@@ -558,6 +558,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
             roll, pitch, yaw = quat_to_euler(quat)
             row = [t, px, py, pz, vx, vy, vz, ax, ay, az, qx, qy, qz, qw, roll, pitch, yaw, tilt_angle(quat),
                    omega_body[0], omega_body[1], omega_body[2]]
+            w = motors.w_start  # the speeds at t_k (the row's time)
             wc = cmd.rotor_speed_cmd
             thr = motors.thrust
             for i in range(n_rot):

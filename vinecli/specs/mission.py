@@ -172,3 +172,12 @@ class MissionSpec(StrictModel):
     record_rate_hz: float = Field(50.0, gt=0)
     phases: list[Phase] = Field(min_length=1)
     checks: list[CheckSpec] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _initial_state_first(self) -> MissionSpec:
+        """``initial_state`` sets where the run starts, so only the first phase may carry it."""
+        for i, ph in enumerate(self.phases[1:], start=2):
+            if isinstance(ph, OpenLoopPhase) and ph.initial_state is not None:
+                raise ValueError(f"phase {i} (open_loop): initial_state is only allowed on the first phase "
+                                 "(it sets the state the run starts from)")
+        return self
