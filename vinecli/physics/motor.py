@@ -19,7 +19,8 @@ Per rotor i, body frame FLU, SI units:
   ``-V⊥`` (Gazebo's convention: no spin-direction factor, vector along the in-plane
   airspeed, not about the axis perpendicular to it);
 * reaction torque ``Q_i = -s_i k_m T_i a_i`` with ``s = +1`` for CCW rotors: a CCW rotor yaws
-  the body clockwise seen from above (negative z torque in FLU).
+  the body clockwise seen from above (negative z torque in FLU); the motors deliver the same
+  torque, so the shaft power is ``sum k_m T_i w_i`` (``.shaft_power``, W).
 
 The total wrench about the centre of mass adds ``r_i × (T_i a_i + D_i)``. Gazebo-classic's
 extra thrust reduction ``(1 - v_axial/25)`` is not modelled (valid near hover, |V| < tip
@@ -79,6 +80,8 @@ class MotorBank:
         self.rotor_drag_body: Vec3 = (0.0, 0.0, 0.0)
         self.reaction_torque_body: Vec3 = (0.0, 0.0, 0.0)
         self.rolling_moment_body: Vec3 = (0.0, 0.0, 0.0)
+        #: mechanical power all rotors take from the motors, sum of k_m T_i w_i, W (last wrench)
+        self.shaft_power = 0.0
 
     # ------------------------------------------------------------------ speed dynamics
     def reset(self, w0: float | Sequence[float] = 0.0) -> None:
@@ -161,12 +164,13 @@ class MotorBank:
         dx = dy = dz = 0.0
         qx = qy = qz = 0.0
         mx = my = mz = 0.0
-        tsum = 0.0
+        tsum = psum = 0.0
         for i, (px, py, pz, ax, ay, az, s) in enumerate(self.geometry):
             wi = w[i]
             t = k_f * w2[i]
             thrust[i] = t
             tsum += t
+            psum += t * wi
             f0, f1, f2 = t * ax, t * ay, t * az
             if v_app_body is not None:
                 vx, vy, vz = v_app_body[i]
@@ -196,6 +200,7 @@ class MotorBank:
             ty += pz * f0 - px * f2
             tz += px * f1 - py * f0
         self.thrust_total = tsum
+        self.shaft_power = k_m * psum
         self.rotor_drag_body = (dx, dy, dz)
         self.reaction_torque_body = (qx, qy, qz)
         self.rolling_moment_body = (mx, my, mz)
@@ -220,7 +225,7 @@ class MotorBank:
         wx, wy, wz = omega_body
         k_f, k_m, k_d, k_roll = self.k_f, self.k_m, self.k_d, self.k_roll
         thrust = self.thrust
-        fz = tx = ty = 0.0
+        fz = tx = ty = psum = 0.0
         dx = dy = rz = tz = mx = my = 0.0
         w, w2 = self.w_mean, self.w2_mean
         i = 0
@@ -228,6 +233,7 @@ class MotorBank:
             wi = w[i]
             t = k_f * w2[i]
             thrust[i] = t
+            psum += t * wi
             i += 1
             # in-plane apparent air at the rotor: (wind - v_com - ω × r) without the z part
             ux = bx - (wy * pz - wz * py)
@@ -246,6 +252,7 @@ class MotorBank:
             ty += pz * hx - px * t
             tz += px * hy - py * hx
         self.thrust_total = fz
+        self.shaft_power = k_m * psum
         self.rotor_drag_body = (dx, dy, 0.0)
         self.rolling_moment_body = (mx, my, 0.0)
         self.reaction_torque_body = (0.0, 0.0, rz)

@@ -45,7 +45,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -57,6 +57,9 @@ from vinecli.sim.types import Event, Observation, RigidState
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.world.model import World, rest_position
+
+if TYPE_CHECKING:
+    from vinecli.physics.battery import Battery
 
 __all__ = ["SimResult", "resolve_vehicle", "run_simulation"]
 
@@ -138,6 +141,7 @@ def run_simulation(
     end_on_crash : end the run with CRASHED on a hard impact (else only the event is logged).
     crash_speed_mps : vertical speed at first contact above which an impact is a crash, m/s.
     """
+    from vinecli.physics.battery import Battery
     from vinecli.physics.motor import MotorBank
     from vinecli.physics.sensors import make_sensors
     from vinecli.physics.tank import Tank
@@ -165,6 +169,7 @@ def run_simulation(
         if fill > tank_spec.capacity_l + 1e-9:
             raise SpecError(f"tank_fill_l {fill} exceeds the tank capacity {tank_spec.capacity_l} L of {veh.name!r}")
     tank = Tank(tank_spec, fill) if tank_spec is not None else None
+    battery = Battery(veh.battery) if veh.battery is not None else None
     rigid_mass = veh.dry_mass()
     mass0 = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
 
@@ -225,7 +230,7 @@ def run_simulation(
         engine.client.performCollisionDetection()  # contacts are known at t = 0
         return _loop(
             world=world, mission=mission, autopilot=autopilot, seed=seed, veh=veh, engine=engine, body=body,
-            tank=tank, wind=wind, geofence=geofence, home=home, mass0=mass0, rigid_mass=rigid_mass, g=g, g_vec=g_vec,
+            tank=tank, battery=battery, wind=wind, geofence=geofence, home=home, mass0=mass0, rigid_mass=rigid_mass, g=g, g_vec=g_vec,
             dt_us=dt_us, dt=dt, inv_dt=inv_dt, lgh=lgh, airborne_start=airborne_start, init_phase=first if init else None,
             on_progress=on_progress, should_stop=should_stop, end_on_crash=end_on_crash,
             crash_speed=crash_speed_mps, wall0=wall0, MotorBank=MotorBank, make_sensors=make_sensors,
@@ -245,6 +250,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     engine = kw["engine"]
     body: int = kw["body"]
     tank = kw["tank"]
+    battery: Battery | None = kw["battery"]
     wind = kw["wind"]
     seed: int = kw["seed"]
     home: Vec3 = kw["home"]
@@ -306,6 +312,12 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     else:
         tmx = tmy = tmz = 0.0
     gx, gy, gz = g_vec
+    if battery is not None:  # electrical load = shaft / eta + avionics + pump (physics/battery.py)
+        b_spec = battery.spec
+        inv_eta = 1.0 / b_spec.motor_efficiency
+        pump_w_per_lps = (b_spec.pump_w_at_max_flow / tank.spec.nozzle_max_flow_lps) if tank is not None else 0.0
+        b_update = battery.update
+    energy_j = 0.0
 
     columns = timeseries_columns(n_rot)
     rec_period_us = max(dt_us, int(round(1e6 / mission.record_rate_hz)))
@@ -446,7 +458,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
 
         truth = RigidState(t_us, (px, py, pz), quat, (vx, vy, vz), omega_body, (ax, ay, az), on_ground)
         imu, baro, mag, gnss = sample_all(truth)
-        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0)
+        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0,
+                          *((battery.soc, battery.voltage_v) if battery is not None else (math.nan, math.nan)))
         cmd = ap_step(obs)
         st = ap_status()
         new_events = ap_drain()
@@ -539,6 +552,11 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                 events.append(Event(t_us + dt_us, "tank_empty", f"tank empty at {te:.3f} s", {}))
                 metrics["tank_empty_s"] = te
 
+        if battery is not None:
+            b_update(motors.shaft_power * inv_eta + b_spec.avionics_w
+                     + (pump_w_per_lps * tank.flow_lps if tank is not None else 0.0), dt)
+            energy_j += battery.power_drawn_w * dt
+
         # ---- termination (the state at t_k is recorded below, always for the last step)
         if status is RunStatus.RUNNING:
             if st.status is not RunStatus.RUNNING:
@@ -577,6 +595,10 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                     tz_, agl, 1.0 if on_ground else 0.0,
                     ex.get("sp_x", math.nan), ex.get("sp_y", math.nan), ex.get("sp_z", math.nan),
                     float(st.phase_index), 1.0 if cmd.armed else 0.0)
+            if battery is not None:
+                row += (battery.soc_start, battery.voltage_v, battery.current_a, battery.power_drawn_w)
+            else:
+                row += (math.nan, math.nan, math.nan, math.nan)
             rec.append(row)
 
         if status is not RunStatus.RUNNING:
@@ -600,6 +622,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     metrics["cpu_per_step_us"] = (cpu_end - cpu_loop0) / max(k, 1) * 1e6  # process CPU time (robust to load)
     metrics["real_time_factor"] = sim_time / (wall_end - wall_loop0) if wall_end > wall_loop0 else math.inf
     metrics["final_mass_kg"] = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
+    metrics["energy_wh"] = energy_j / 3600.0 if battery is not None else math.nan
+    metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
     events.append(Event(t_us, "status", detail, {"status": status.value}))
     events.sort(key=lambda e: e.t_us)
     log.info("run ended at %.3f s: %s (%s); %.1f µs/step", sim_time, status.value, detail, metrics["wall_per_step_us"])

@@ -7,6 +7,7 @@ they are created every physics step.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from vinecli.frames import QuatXYZW, Vec3
@@ -72,6 +73,8 @@ class Observation:
     gnss: GnssSample | None = None
     terrain_height_m: float = 0.0  # terrain z (ENU) under the vehicle, m (a rangefinder would give this)
     tank_level_l: float = 0.0
+    battery_soc: float = math.nan  # state of charge 0..1 (NaN: the vehicle has no battery model)
+    battery_voltage_v: float = math.nan  # terminal voltage under the last step's load, V
 
 
 @dataclass(slots=True)

@@ -38,6 +38,11 @@ class MotorSpec(StrictModel):
     tau_up_s: float = Field(gt=0, description="first-order time constant when spinning up, s")
     tau_down_s: float = Field(gt=0, description="first-order time constant when spinning down, s")
     rotor_mass_kg: float = Field(0.005, ge=0, description="mass of one rotor link, kg")
+    prop_diameter_m: float = Field(0.254, gt=0, le=3.0, description="propeller diameter (disk area for momentum theory), m")
+
+    def disk_area_m2(self) -> float:
+        """One rotor's disk area pi D² / 4, m²."""
+        return math.pi * self.prop_diameter_m**2 / 4.0
 
 
 class RotorSpec(StrictModel):
@@ -86,6 +91,38 @@ class TankSpec(StrictModel):
     slosh: bool = Field(False, description="add the pendulum sloshing model (beyond the thesis)")
     slosh_damping_ratio: float = Field(0.05, ge=0, description="pendulum damping ratio")
     tank_height_m: float = Field(0.12, gt=0, description="inner height (pendulum length scale), m")
+
+
+class BatterySpec(StrictModel):
+    """Lithium-polymer pack and the electrical loads on it (vinecli/physics/battery.py).
+
+    Open-circuit voltage per cell from the state of charge (energy fraction) by Chen &
+    Rincón-Mora (2006) unless ``ocv_table`` gives ``[[soc, volts], ...]``; terminal voltage sags by
+    ``I R`` with ``R = cells r_cell``. Failsafe thresholds as PX4's BAT_LOW_THR / BAT_CRIT_THR /
+    BAT_EMERGEN_THR (state of charge, 0..1).
+    """
+
+    cells: int = Field(ge=1, le=24, description="cells in series (S)")
+    capacity_wh: float = Field(gt=0, le=1e5, description="energy at full charge, Wh")
+    internal_resistance_ohm_per_cell: float = Field(0.005, ge=0, le=1.0, description="Ω per cell")
+    ocv_table: list[tuple[float, float]] | None = Field(None, description="[[soc 0..1, V per cell], ...] ascending in soc")
+    initial_soc: float = Field(1.0, gt=0, le=1.0, description="state of charge at the start of a run")
+    motor_efficiency: float = Field(0.80, gt=0, le=1.0, description="motor + ESC efficiency, shaft / electrical power")
+    avionics_w: float = Field(10.0, ge=0, description="flight controller, GNSS, radios, W")
+    pump_w_at_max_flow: float = Field(0.0, ge=0, description="spray pump power at the nozzle's maximum flow, W (linear in flow)")
+    low_soc: float = Field(0.15, ge=0, lt=1, description="BAT_LOW_THR: warning / return for a refill")
+    critical_soc: float = Field(0.07, ge=0, lt=1, description="BAT_CRIT_THR: return to launch")
+    emergency_soc: float = Field(0.05, ge=0, lt=1, description="BAT_EMERGEN_THR: land now")
+
+    @model_validator(mode="after")
+    def _order(self) -> BatterySpec:
+        if not self.emergency_soc <= self.critical_soc <= self.low_soc:
+            raise ValueError("need emergency_soc <= critical_soc <= low_soc")
+        if self.ocv_table is not None:
+            socs = [p[0] for p in self.ocv_table]
+            if len(socs) < 2 or socs != sorted(socs) or socs[0] > 0.0 or socs[-1] < 1.0:
+                raise ValueError("ocv_table needs >= 2 points, ascending soc, covering 0..1")
+        return self
 
 
 class PayloadSpec(StrictModel):
@@ -210,6 +247,7 @@ class VehicleSpec(StrictModel):
     rotors: list[RotorSpec] = Field(min_length=3)
     drag: dict[str, DragLinkSpec] = Field(default_factory=dict, description="per-link wind drag; 'base' is the frame")
     tank: TankSpec | None = None
+    battery: BatterySpec | None = Field(None, description="pack and electrical loads; none = no energy model")
     payload: PayloadSpec = PayloadSpec()
     sensors: SensorsSpec = SensorsSpec()
     control: ControlSpec = ControlSpec()
