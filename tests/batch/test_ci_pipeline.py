@@ -16,6 +16,7 @@ EXPECTED = {
     "overload": ("cannot_take_off", {"cannot_take_off", "stays_on_ground"}),
     "spray": ("completed", {"drain_time", "rotor_speed_follows_mass", "hover_law", "on_the_rows"}),
     "gust": ("completed", {"holds_position", "rotors_follow_wind_period", "tilts_into_wind", "tilt_magnitude"}),
+    "job": ("completed", {"every_row_sprayed", "several_sorties", "litres_per_sortie"}),
 }
 
 
@@ -55,6 +56,10 @@ def test_ci_thesis_numbers(ci_runs: Path) -> None:
     s = checks("spray")
     assert abs(s["drain_time"] - 1.0) <= 0.02
     assert 0.4 <= s["hover_law"] <= 0.6                         # w ~ m^(1/2)
+    j = json.loads((ci_runs / "job" / "summary.json").read_text())
+    assert len(j["sorties"]) == j["metrics"]["sorties"] >= 8   # the whole field takes ~10 tanks
+    assert all(s["end_reason"] == "tank empty" for s in j["sorties"][:-1])
+    assert all(abs(s["volume_l"] - 1.0) < 0.02 for s in j["sorties"][:-1])
     g = checks("gust")
     assert 0.9 <= g["rotors_follow_wind_period"] <= 1.1
     assert 0.75 <= g["tilt_magnitude"] <= 1.25                  # tilt ~ atan(F_drag / (m g))

@@ -33,6 +33,7 @@ from vinecli.frames import quat_from_euler, quat_rotate_inv, tilt_angle
 G = 9.80665
 K_F = 8.54858e-6  # N/(rad/s)^2, x500 rotor
 K_D = 8.06428e-5  # rotor drag coefficient
+K_M = 0.016  # reaction torque / thrust, m (shaft power k_m T w)
 W_MAX = 1300.0  # rad/s, x500-sprayer
 TAU_UP = 1.0 / 80.0
 DRAG_C = 0.5 * 1.225 * (0.06 * 1.0 + 0.02 * 0.8)  # 0.5 rho sum(Cd A), kg/m
@@ -271,6 +272,16 @@ def _assemble(r: _Run, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, terrai
         c[f"sp_pos_enu_{ax}_m"] = sp[:, k]
     c["phase_index"] = phase
     c["armed"] = armed.astype(float)
+    # battery (physics/battery.py): shaft power k_m T w over 80 % + 10 W avionics from a 4S 74 Wh pack
+    from vinecli.physics.battery import ocv_chen_rincon_mora
+
+    p_load = K_M * sum(c[f"rotor{i + 1}_thrust_n"] * rotors[:, i] for i in range(4)) / 0.8 + 10.0
+    soc = np.clip(1.0 - np.cumsum(p_load) * dt / (74.0 * 3600.0), 0.0, 1.0)
+    e = 4.0 * np.array([ocv_chen_rincon_mora(float(x)) for x in soc])
+    cur = 2.0 * p_load / (e + np.sqrt(e * e - 4.0 * 0.02 * p_load))
+    c["battery_soc"], c["battery_voltage_v"], c["battery_current_a"] = soc, e - 0.02 * cur, cur
+    c["power_elec_w"] = e * cur
+    c["sortie"] = np.ones(n)
     return c
 
 

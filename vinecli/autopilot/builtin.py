@@ -40,12 +40,13 @@ from vinecli.control.cascade import Cascade, G
 from vinecli.control.path import PathFollower
 from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import Vec3, quat_to_euler
-from vinecli.sim.types import ActuatorCommand, Event, Observation
+from vinecli.sim.types import ActuatorCommand, Event, Observation, ServiceRequest
 from vinecli.specs.mission import (
     GotoPhase,
     HoldPhase,
     LandPhase,
     OpenLoopPhase,
+    RefillSpec,
     RtlPhase,
     SprayerPhase,
     SprayPhase,
@@ -176,14 +177,48 @@ class _Path(_Phase):
         return done
 
 
+class _Service(_Phase):
+    """On the ground, disarmed: the crew refills the tank (and swaps the battery) in ``time_s``."""
+
+    mode = "AUTO.LOITER"
+    type = "service"
+
+    def __init__(self, spec: RefillSpec, fill_l: float) -> None:
+        self.spec = spec
+        self.fill_l = fill_l
+
+    def start(self, ap: BuiltinAutopilot) -> None:
+        self.t = 0.0
+        self.requested = False
+
+    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        self.t += dt
+        if self.t < self.spec.time_s:
+            return False
+        if not self.requested:
+            ap.request_service(ServiceRequest(self.fill_l, self.spec.swap_battery))
+            self.requested = True
+            return False
+        return ap.tank_level_l >= self.fill_l - 1e-6
+
+
 class _Spray(_Phase):
-    mode = "AUTO.MISSION"
     type = "spray"
 
     def __init__(self, spec: SprayPhase, rows: list[list[tuple[float, float]]]) -> None:
         self.spec = spec
         self.rows = rows
         self.timeout_s = spec.timeout_s
+        self.sortie = 1
+        self.sub: _Phase | None = None  # return / service / take-off between sorties
+        self._queue: list[_Phase] = []
+        self._resume: tuple[list[Vec3], list[float]] | None = None
+        self._left_at_last_end = math.inf  # path length left when the last sortie ended, m
+
+    @property
+    def mode(self) -> str:  # type: ignore[override]
+        """The sortie step's mode while one runs, else AUTO.MISSION."""
+        return self.sub.mode if self.sub is not None else "AUTO.MISSION"
 
     def _passes(self, start_xy: tuple[float, float], reverse: bool) -> tuple[list[Vec3], list[float]]:
         """Boustrophedon: rows sorted across their direction, alternate directions, flow on rows only."""
@@ -216,9 +251,49 @@ class _Spray(_Phase):
         self.reverse = False
         self._new_path(ap)
 
-    def _new_path(self, ap: BuiltinAutopilot) -> None:
-        pts, flows = self._passes((ap.hold_sp()[0], ap.hold_sp()[1]), self.reverse)
-        self.reverse = not self.reverse
+    # ---- sorties (refill jobs)
+    @staticmethod
+    def _sortie_over(ap: BuiltinAutopilot, refill: RefillSpec) -> str:
+        """Why this sortie must end now ('' = it goes on): tank at the reserve, battery low."""
+        if ap.vehicle.tank is not None and ap.tank_level_l <= max(refill.reserve_l, 1e-6):
+            return "tank empty" if refill.reserve_l <= 0.0 else f"tank at the {refill.reserve_l:g} L reserve"
+        bat = ap.vehicle.battery
+        if refill.swap_battery and bat is not None and ap.battery_soc <= bat.low_soc:
+            return f"battery at {ap.battery_soc * 100:.0f} % (low {bat.low_soc * 100:.0f} %)"
+        return ""
+
+    def _end_sortie(self, ap: BuiltinAutopilot, refill: RefillSpec, reason: str) -> None:
+        """Record the breakpoint, then return, land, get serviced and take off again."""
+        ap.set_flow(0.0)
+        bp = self.path.sp
+        self._resume = self.path.remaining(refill.overlap_m)
+        ap.emit("sortie", f"sortie {self.sortie} ends ({reason}) at breakpoint ({bp[0]:.1f}, {bp[1]:.1f})",
+                {"sortie": self.sortie, "event": "end", "reason": reason, "breakpoint_enu": [bp[0], bp[1], bp[2]]})
+        tank = ap.vehicle.tank
+        fill = refill.fill_l if refill.fill_l is not None else (tank.capacity_l if tank is not None else 0.0)
+        up = TakeoffPhase(altitude_agl_m=self.spec.height_agl_m)
+        self._queue = [_Rtl(refill.return_altitude_agl_m, math.inf), _Service(refill, fill), _Takeoff(up, ap)]
+        self._next_step(ap)
+
+    def _next_step(self, ap: BuiltinAutopilot) -> None:
+        if self._queue:
+            self.sub = self._queue.pop(0)
+            self.sub.start(ap)
+            return
+        self.sub = None
+        self.sortie += 1
+        ap.sortie = self.sortie
+        ap.emit("sortie", f"sortie {self.sortie} starts", {"sortie": self.sortie, "event": "start"})
+        self._new_path(ap, resume=self._resume)
+
+    def _new_path(self, ap: BuiltinAutopilot, resume: tuple[list[Vec3], list[float]] | None = None) -> None:
+        if resume is None:
+            pts, flows = self._passes((ap.hold_sp()[0], ap.hold_sp()[1]), self.reverse)
+            self.reverse = not self.reverse
+        else:  # from where the vehicle is to the breakpoint (flow off), then the rest of the rows
+            h = self.spec.height_agl_m
+            pts = [(ap.hold_sp()[0], ap.hold_sp()[1], h), *resume[0]]
+            flows = [0.0, *resume[1]]
         terrain, lgh = ap.terrain, ap.vehicle.frame.landing_gear_height_m
 
         def skids_above_terrain(x: float, y: float) -> float:
@@ -228,6 +303,28 @@ class _Spray(_Phase):
                                  max_lead_m=2.0, max_vz=min(ap.vehicle.control.max_vel_up, ap.vehicle.control.max_vel_down))
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+        if self.sub is not None:
+            if self.sub.update(ap, dt):
+                self._next_step(ap)
+            return False
+        refill = self.spec.refill
+        if refill is not None:
+            reason = self._sortie_over(ap, refill)
+            if reason:
+                if self.sortie >= refill.max_sorties:
+                    ap.emit("sortie", f"sortie {self.sortie} ends ({reason}): max_sorties {refill.max_sorties} reached",
+                            {"sortie": self.sortie, "event": "end", "reason": reason, "last": True})
+                    ap.set_flow(0.0)
+                    return True
+                left = self.path.total - self.path.s
+                if left >= self._left_at_last_end - 0.5:
+                    ap.emit("sortie", f"sortie {self.sortie} ends ({reason}) before reaching new rows: job aborted",
+                            {"sortie": self.sortie, "event": "end", "reason": f"no progress ({reason})", "last": True})
+                    ap.set_flow(0.0)
+                    return True
+                self._left_at_last_end = left
+                self._end_sortie(ap, refill, reason)
+                return False
         if ap.tank_empty:
             ap.set_flow(0.0)
             ap.set_position(ap.hold_sp(), (0.0, 0.0, 0.0))
@@ -440,6 +537,10 @@ class BuiltinAutopilot:
         self.mass = ctx.total_mass_kg
         self._dry_mass: float | None = None
         self.tank_empty = False
+        self.tank_level_l = 0.0
+        self.battery_soc = math.nan
+        self.sortie = 1
+        self._service: ServiceRequest | None = None
         self.mode = "DISARMED"
         self._phase_i = -1
         self._phase: _Phase | None = None
@@ -453,7 +554,8 @@ class BuiltinAutopilot:
         self._w_cmd: tuple[float, ...] = (0.0,) * v.n_rotors
         self._off = ActuatorCommand((0.0,) * v.n_rotors, 0.0, False)
         self._status = AutopilotStatus(mode="DISARMED", phase_index=0,
-                                       extra={"sp_x": _NAN, "sp_y": _NAN, "sp_z": _NAN, "mass_est_kg": self.mass})
+                                       extra={"sp_x": _NAN, "sp_y": _NAN, "sp_z": _NAN, "mass_est_kg": self.mass,
+                                              "sortie": 1.0})
         self._events = []
         self._next_phase()
 
@@ -576,6 +678,9 @@ class BuiltinAutopilot:
             if isinstance(self._phase, _OpenLoop):
                 return self._command(obs)
         if not self.armed:
+            if self._service is not None:  # the ground crew's turn (refill sorties)
+                req, self._service = self._service, None
+                return ActuatorCommand(self._off.rotor_speed_cmd, 0.0, False, req)
             return self._off
         q = self.quat
         if 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1]) < self.cos_lost:
@@ -631,6 +736,13 @@ class BuiltinAutopilot:
     def rotor_command(self) -> tuple[float, ...]:
         """The last rotor speed command, rad/s per rotor (zeros before the first)."""
         return self._w_cmd
+
+    def request_service(self, req: ServiceRequest) -> None:
+        """Ask the ground crew (the simulator) to refill / swap the battery; only honoured while
+        disarmed on the ground."""
+        self._service = req
+        self.emit("service", f"refill to {req.fill_l:g} L" + (", battery swap" if req.swap_battery else ""),
+                  {"fill_l": req.fill_l, "swap_battery": req.swap_battery})
 
     def set_flow(self, flow: float) -> None:
         if flow != self.flow:
@@ -712,6 +824,8 @@ class BuiltinAutopilot:
             self._dry_mass = self._ctx.total_mass_kg - v.liquid_mass(level)  # type: ignore[union-attr]
         self.mass = self._dry_mass + v.liquid_mass(level)
         self.tank_empty = v.tank is not None and level <= 1e-6
+        self.tank_level_l = level
+        self.battery_soc = obs.battery_soc
         h_agl = self.pos[2] - self._z_armed
         if self.armed and not self.airborne and self.height_terrain > 0.2 and not self.ground_contact:
             self.airborne = True
@@ -759,6 +873,7 @@ class BuiltinAutopilot:
         else:
             ex["sp_x"], ex["sp_y"], ex["sp_z"] = sp
         ex["mass_est_kg"] = self.mass
+        ex["sortie"] = float(self.sortie)
 
     def _on_geofence(self, violation: str) -> None:
         action = self.geofence.action  # type: ignore[union-attr]

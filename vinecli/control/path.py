@@ -148,6 +148,21 @@ class PathFollower:
             z += self.terrain(x, y)
         return (x, y, z)
 
+    def remaining(self, back_m: float = 0.0) -> tuple[list[Vec3], list[float]]:
+        """The rest of the path from ``back_m`` metres behind the carrot (not before the start of
+        its segment): (points as given, i.e. terrain-relative z if ``terrain``, flows per segment).
+        A breakpoint: the path a resumed job flies."""
+        cum = self.cum
+        if len(cum) == 1:
+            return [self.points[0]], []
+        i = self.seg
+        s = max(cum[i], self.s - back_m)
+        a, b = self.points[i], self.points[i + 1]
+        seg_len = cum[i + 1] - cum[i]
+        f = 0.0 if seg_len <= 0 else min(1.0, (s - cum[i]) / seg_len)
+        start = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
+        return [start, *self.points[i + 1:]], list(self.flows[i:])
+
     @property
     def end(self) -> Vec3:
         """Final point (ENU, with the terrain height added if terrain-relative)."""

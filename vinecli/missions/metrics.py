@@ -576,3 +576,64 @@ def tilt_pred_deg(data: RunData, window: Window) -> float:
     _, pred, _ = _tilt_terms(data, window)
     return float(np.degrees(np.mean(pred))) if pred.size else _nan()
 
+
+
+# ---------------------------------------------------------------- whole-field jobs (issue 13)
+def _job_span(data: RunData) -> tuple[float, float] | None:
+    """(first lift-off, last armed sample) in s, or None without a lift-off."""
+    t0 = _try_event(data, "liftoff")
+    if t0 is None or not data.has("armed"):
+        return None
+    armed = np.flatnonzero(data.column("armed") > 0.5)
+    return (t0, float(data.t[armed[-1]])) if armed.size else None
+
+
+@metric("sorties", "1")
+def sorties(data: RunData, window: Window) -> float:
+    """Number of sorties flown (take-offs of a refill job; 1 for a single flight), from the sortie column."""
+    if not data.has("sortie"):
+        return _nan()
+    s = data.column("sortie")
+    return float(np.nanmax(s)) if np.isfinite(s).any() else _nan()
+
+
+@metric("job_time_s", "s")
+def job_time_s(data: RunData, window: Window) -> float:
+    """First lift-off to the last disarm of the run (ground service between sorties included), s."""
+    span = _job_span(data)
+    return span[1] - span[0] if span is not None else _nan()
+
+
+@metric("rows_sprayed_fraction", "1")
+def rows_sprayed_fraction(data: RunData, window: Window) -> float:
+    """Share of the target rows' length that liquid was delivered over (within 0.5 m); NaN if nothing was sprayed."""
+    from vinecli.missions.job import rows_sprayed
+
+    rows = getattr(data.context, "rows_enu", ()) or ()
+    if not data.has("tank_flow_lps") or not (np.nan_to_num(data.column("tank_flow_lps")) > 0).any():
+        return _nan()
+    return rows_sprayed(data.timeseries, rows)[0]
+
+
+@metric("area_rate_ha_per_h", "ha/h")
+def area_rate_ha_per_h(data: RunData, window: Window) -> float:
+    """Sprayed area (sprayed row length x row spacing) per hour of job time, ha/h."""
+    from vinecli.missions.job import row_spacing_m, rows_sprayed
+
+    rows = getattr(data.context, "rows_enu", ()) or ()
+    t_job = job_time_s(data, None)
+    if not data.has("tank_flow_lps") or not t_job > 0:
+        return _nan()
+    _, length = rows_sprayed(data.timeseries, rows)
+    return length * row_spacing_m(rows) / 1e4 / (t_job / 3600.0)
+
+
+@metric("litres_per_sortie", "L")
+def litres_per_sortie(data: RunData, window: Window) -> float:
+    """Liquid delivered (integral of tank_flow_lps) per sortie, L."""
+    n = sorties(data, None)
+    if not data.has("tank_flow_lps") or not n > 0:
+        return _nan()
+    t = data.t
+    flow = np.nan_to_num(data.column("tank_flow_lps"))
+    return float(np.sum(flow[:-1] * np.diff(t))) / n if t.size > 1 else _nan()

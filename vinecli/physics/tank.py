@@ -97,6 +97,14 @@ class Tank:
         """Horizontal displacement of the slosh pendulum bob (m, ENU x, y)."""
         return (self._x[0], self._x[1])
 
+    def refill(self, fill_l: float) -> None:
+        """The ground crew fills the tank to ``fill_l`` litres (clamped to the capacity); the
+        liquid is at rest afterwards (slosh state cleared)."""
+        self.mass_kg = min(max(float(fill_l), 0.0), self.capacity_l) * self._kg_per_l
+        self.flow_lps = 0.0
+        self._x = [0.0, 0.0]
+        self._v = [0.0, 0.0]
+
     def update(self, flow_cmd_lps: float, dt: float) -> float:
         """Drain for ``dt`` s at the commanded flow (L/s); returns the new mass (kg)."""
         self.flow_cmd_lps = flow_cmd_lps

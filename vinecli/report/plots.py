@@ -1,4 +1,4 @@
-"""The thesis §5 figures (16-21) for one run, as PNG bytes.
+"""The thesis §5 figures (16-21) and the battery / sorties figure (22) for one run, as PNG bytes.
 
 matplotlib object API only (:class:`matplotlib.figure.Figure` + ``FigureCanvasAgg``, no pyplot
 state). Each ``figNN_*`` function takes a :class:`PlotData` and returns PNG bytes, or raises
@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 DPI = 100
 #: figure sizes in inches (pixels = inches * DPI)
 SIZES = {"fig16": (12.0, 5.2), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
-         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0)}
+         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6)}
 C_OK, C_FAIL = "#2ca02c", "#d62728"
 
 
@@ -87,7 +87,8 @@ def columns_needed() -> list[str]:
             "rotor_drag_flu_x_n", "rotor_drag_flu_y_n", "rotor_drag_flu_z_n", "tank_level_l", "tank_mass_kg",
             "tank_flow_lps", "tank_flow_cmd_lps", "tank_force_enu_z_n", "tank_force_grav_enu_z_n",
             "tank_force_inertial_enu_z_n", "total_mass_kg", "terrain_z_m", "height_agl_m", "on_ground",
-            "phase_index", "sp_pos_enu_x_m", "sp_pos_enu_y_m", "sp_pos_enu_z_m"]
+            "phase_index", "sp_pos_enu_x_m", "sp_pos_enu_y_m", "sp_pos_enu_z_m",
+            "battery_soc", "battery_voltage_v", "power_elec_w", "sortie"]
     return base + [f"rotor{i}_w_radps" for i in range(1, 9)]
 
 
@@ -132,15 +133,24 @@ def _align_zero(ax: Any, tw: Any) -> None:
 
 def _vlines(ax: Any, data: PlotData, kinds: Sequence[str] = ("liftoff", "touchdown", "tank_empty")) -> None:
     styles = {"liftoff": ("#1f77b4", "lift-off"), "touchdown": ("#7f7f7f", "touchdown"),
-              "tank_empty": ("#9467bd", "tank empty")}
+              "tank_empty": ("#9467bd", "tank empty"), "battery_swap": ("#2e7d32", "battery swap"),
+              "refill": ("#0d47a1", "refill / service")}
+    every = ("battery_swap", "refill")  # one line per service of a refill job, labelled once
     lo = data.liftoff()
+    drawn: list[float] = []
     for k in kinds:
-        times = [lo] if (k == "liftoff" and lo is not None) else ([] if k == "liftoff" else data.event_times(k)[-1:])
-        for te in times:
+        if k == "liftoff":
+            times = [lo] if lo is not None else []
+        else:
+            times = data.event_times(k) if k in every else data.event_times(k)[-1:]
+        times = [te for te in times if all(abs(te - d) > 0.05 for d in drawn)]  # a swap during a refill: once
+        drawn += times
+        for i, te in enumerate(times):
             color, label = styles[k]
             ax.axvline(te, color=color, ls=":", lw=1.2)
-            ax.annotate(label, (te, 1.0), xycoords=("data", "axes fraction"), xytext=(2, -10),
-                        textcoords="offset points", fontsize=7, color=color)
+            if i == 0:
+                ax.annotate(label, (te, 1.0), xycoords=("data", "axes fraction"), xytext=(2, -10),
+                            textcoords="offset points", fontsize=7, color=color)
 
 
 #: check quantities each figure shows (substring match on the check's quantity)
@@ -150,6 +160,7 @@ CHECK_TOPICS: dict[str, tuple[str, ...]] = {
     "fig19": ("tank_level", "tank_flow", "drain", "tank_mass"),
     "fig20": ("rotor", "hover", "mass"),
     "fig21": ("tilt", "wind", "hpos", "roll", "pitch", "yaw"),
+    "fig22": ("battery", "energy", "sortie", "soc"),
 }
 
 
@@ -241,6 +252,14 @@ def fig16_path(data: PlotData) -> bytes:
     lc.set_array(agl[:-1])
     ax.add_collection(lc)
     fig.colorbar(lc, ax=ax, fraction=0.05, pad=0.02, label="path height above terrain, m")
+    bps = [s["breakpoint_enu"] for s in data.summary.get("sorties") or [] if s.get("breakpoint_enu")]
+    if bps:  # where each sortie of a refill job stopped spraying (and the next one resumed)
+        b = np.asarray(bps, float)
+        ax.plot(b[:, 0], b[:, 1], marker="X", color="#0d47a1", ms=8, mec="w", ls="", zorder=7,
+                label=f"sortie breakpoints ({len(bps) + 1} sorties)")
+        for i, (bx, by) in enumerate(b[:, :2], start=1):
+            ax.annotate(str(i), (bx, by), xytext=(4, 3), textcoords="offset points", fontsize=7, color="#0d47a1",
+                        zorder=7)
     ax.plot(x[0], y[0], marker="^", color="k", ms=7, ls="", zorder=4, label="start")
     ax.plot(x[-1], y[-1], marker="s", color="k", ms=5, ls="", zorder=4, label="end")
     if float(np.max(np.nanmax(np.column_stack([x, y]), axis=0) - np.nanmin(np.column_stack([x, y]), axis=0))) < 3.0:
@@ -516,6 +535,42 @@ def fig21_attitude(data: PlotData) -> bytes:
     return _png(fig)
 
 
+# ---------------------------------------------------------------- figure 22
+def fig22_battery(data: PlotData) -> bytes:
+    """Battery voltage and state of charge, electrical power, and the sorties of a refill job."""
+    _need(data, "battery_soc", "battery_voltage_v", what="battery")
+    c, t = data.cols, data.t
+    fig, axes = _figure("fig22", 2, 1)
+    ax, ax2 = axes[0, 0], axes[1, 0]
+    ax.plot(t, c["battery_voltage_v"], color="#6a1b9a", lw=1.2, label="terminal voltage, V")
+    ax.set_ylabel("voltage, V")
+    tw = ax.twinx()
+    tw.plot(t, 100.0 * c["battery_soc"], color="#2e7d32", lw=1.6, label="state of charge, %")
+    tw.set_ylabel("state of charge, %")
+    tw.set_ylim(0.0, 105.0)
+    lines = ax.get_lines() + tw.get_lines()
+    ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="lower left")
+    if data.has("power_elec_w"):
+        ax2.plot(t, c["power_elec_w"], color="#e65100", lw=0.9, label="electrical power drawn, W")
+    if data.has("sortie") and np.nanmax(c["sortie"]) > 1:
+        tw2 = ax2.twinx()
+        tw2.step(t, c["sortie"], where="post", color="#0d47a1", lw=1.0, label="sortie")
+        tw2.set_ylabel("sortie")
+        lines = ax2.get_lines() + tw2.get_lines()
+        ax2.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right")
+    else:
+        ax2.legend(fontsize=7, loc="upper right")
+    ax2.set_ylabel("power, W")
+    ax2.set_xlabel("time, s")
+    for a in (ax, ax2):
+        a.grid(alpha=0.3)
+        _vlines(a, data, ("liftoff", "refill", "battery_swap"))
+    e_wh = (data.summary.get("metrics") or {}).get("energy_wh")
+    what = "Fig. 22  Battery and sorties" + (f" ({e_wh:.1f} Wh drawn)" if isinstance(e_wh, float) else "")
+    _title(fig, data, what)
+    return _png(fig)
+
+
 #: figure id -> (caption, function)
 FIGURES: dict[str, tuple[str, Callable[[PlotData], bytes]]] = {
     "fig16": ("Flown path over the terrain with vine rows, wind arrows and geofence", fig16_path),
@@ -524,6 +579,7 @@ FIGURES: dict[str, tuple[str, Callable[[PlotData], bytes]]] = {
     "fig19": ("Tank level and liquid mass vs time with the flow command", fig19_tank),
     "fig20": ("Rotor speeds against the factors that drive them (mass, wind)", fig20_rotors),
     "fig21": ("Roll, pitch, yaw vs wind: the tilt into the gust", fig21_attitude),
+    "fig22": ("Battery voltage, state of charge and power; sorties and battery swaps of a refill job", fig22_battery),
 }
 
 

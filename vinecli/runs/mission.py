@@ -21,6 +21,7 @@ from typing import Any
 
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
 from vinecli.missions.checks import EventMissing, RunData, evaluate_checks
+from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS, MetricContext
 from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
 from vinecli.outputs import Manifest, atomic_output_dir
@@ -34,6 +35,7 @@ SUMMARY_METRICS = (
     "tank_force_rest_ratio", "liftoff_force_jump_ratio", "climb_tank_force_ratio", "drag_opposes_vertical_motion",
     "drain_time_ratio", "rotor_mass_correlation", "cross_track_rms_m", "hpos_error_max_m",
     "rotor_wind_period_ratio", "tilt_into_wind_ratio",
+    "sorties", "job_time_s", "rows_sprayed_fraction", "area_rate_ha_per_h", "litres_per_sortie",
 )
 
 
@@ -231,6 +233,7 @@ def run_mission(
         "record_rate_hz": spec.record_rate_hz,
         "checks": [c.to_dict() for c in checks],
         "metrics": metrics,
+        "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
         "started_utc": started,
     }
     manifest = Manifest(

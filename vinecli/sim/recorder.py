@@ -33,7 +33,7 @@ def timeseries_columns(n_rotors: int) -> list[str]:
     cols += ["baro_alt_m", "gnss_lat_deg", "gnss_lon_deg", "gnss_alt_m"]
     cols += ["terrain_z_m", "height_agl_m", "on_ground"]
     cols += _xyz("sp_pos_enu", "m") + ["phase_index", "armed"]
-    cols += ["battery_soc", "battery_voltage_v", "battery_current_a", "power_elec_w"]
+    cols += ["battery_soc", "battery_voltage_v", "battery_current_a", "power_elec_w", "sortie"]
     return cols
 
 

@@ -53,13 +53,14 @@ from vinecli.autopilot.base import Autopilot, AutopilotContext, RunStatus
 from vinecli.errors import SpecError
 from vinecli.frames import Vec3, quat_from_euler, quat_to_euler, tilt_angle
 from vinecli.sim.recorder import Recorder, timeseries_columns
-from vinecli.sim.types import Event, Observation, RigidState
+from vinecli.sim.types import Event, Observation, RigidState, ServiceRequest
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.world.model import World, rest_position
 
 if TYPE_CHECKING:
     from vinecli.physics.battery import Battery
+    from vinecli.physics.tank import Tank
 
 __all__ = ["SimResult", "resolve_vehicle", "run_simulation"]
 
@@ -112,6 +113,28 @@ def _first_commands(phase: OpenLoopPhase, n: int) -> list[float]:
     if isinstance(src, (int, float)):
         return [float(src)] * n
     return [float(w) for w in src]
+
+
+def _serve(req: ServiceRequest, armed: bool, on_ground: bool, tank: Tank | None, battery: Battery | None,
+           t_us: int, events: list[Event], tank_was_empty: bool) -> bool:
+    """The ground crew refills the tank / swaps the battery of a landed, disarmed vehicle (events
+    ``refill``, ``battery_swap``); a request in the air is refused (event ``service_refused``).
+    Returns the new 'tank was empty' flag of the tank_empty event detector."""
+    if armed or not on_ground:
+        events.append(Event(t_us, "service_refused", "ground service refused: the vehicle is not landed and disarmed", {}))
+        return tank_was_empty
+    if tank is not None:
+        before = tank.level_l
+        tank.refill(req.fill_l)
+        events.append(Event(t_us, "refill", f"tank refilled {before:.3f} -> {tank.level_l:.3f} L",
+                            {"before_l": before, "level_l": tank.level_l}))
+        tank_was_empty = tank.empty
+    if req.swap_battery and battery is not None:
+        soc = battery.soc
+        battery.reset(battery.spec.initial_soc)
+        events.append(Event(t_us, "battery_swap", f"battery swapped at {soc * 100:.1f} % state of charge",
+                            {"soc_before": soc, "soc": battery.soc}))
+    return tank_was_empty
 
 
 def run_simulation(
@@ -461,6 +484,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0,
                           *((battery.soc, battery.voltage_v) if battery is not None else (math.nan, math.nan)))
         cmd = ap_step(obs)
+        if cmd.service is not None:
+            tank_was_empty = _serve(cmd.service, cmd.armed, on_ground, tank, battery, t_us, events, tank_was_empty)
         st = ap_status()
         new_events = ap_drain()
         if new_events:
@@ -599,6 +624,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                 row += (battery.soc_start, battery.voltage_v, battery.current_a, battery.power_drawn_w)
             else:
                 row += (math.nan, math.nan, math.nan, math.nan)
+            row.append(ex.get("sortie", math.nan))
             rec.append(row)
 
         if status is not RunStatus.RUNNING:

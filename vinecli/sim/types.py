@@ -77,6 +77,14 @@ class Observation:
     battery_voltage_v: float = math.nan  # terminal voltage under the last step's load, V
 
 
+@dataclass(frozen=True, slots=True)
+class ServiceRequest:
+    """What the ground crew does for a landed, disarmed vehicle (refill sorties)."""
+
+    fill_l: float  # tank level after the refill, L
+    swap_battery: bool  # a fresh battery at its initial state of charge
+
+
 @dataclass(slots=True)
 class ActuatorCommand:
     """Autopilot output for one step."""
@@ -84,6 +92,7 @@ class ActuatorCommand:
     rotor_speed_cmd: tuple[float, ...]  # rad/s per rotor, vehicle rotor order
     spray_flow_lps: float = 0.0  # commanded nozzle flow, L/s
     armed: bool = False
+    service: ServiceRequest | None = None  # ground crew request (only honoured on the ground, disarmed)
 
 
 @dataclass(slots=True)

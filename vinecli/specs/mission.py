@@ -52,9 +52,24 @@ class WaypointsPhase(StrictModel):
     timeout_s: float = Field(600.0, gt=0)
 
 
+class RefillSpec(StrictModel):
+    """Sorties of a spray job: when the tank (or the battery) runs low the vehicle records the
+    breakpoint, returns home, lands, is refilled (and gets a fresh battery), takes off and resumes
+    the rows at the breakpoint."""
+
+    time_s: float = Field(60.0, ge=0, le=3600, description="ground time for the refill and battery swap, s")
+    fill_l: float | None = Field(None, gt=0, description="litres after a refill; default: the tank's capacity")
+    reserve_l: float = Field(0.0, ge=0, description="return for a refill when the tank holds this much or less, L")
+    swap_battery: bool = Field(True, description="a fresh battery at every refill (and return when it runs low)")
+    return_altitude_agl_m: float = Field(5.0, gt=0, le=120, description="transit height above home, m")
+    overlap_m: float = Field(1.0, ge=0, le=10, description="resume this far before the breakpoint along the row, m")
+    max_sorties: int = Field(30, ge=1, le=1000)
+
+
 class SprayPhase(StrictModel):
     """Boustrophedon passes along the world's vine rows at a height above the canopy, flow on
-    along each row and off in the turns."""
+    along each row and off in the turns. With ``refill`` a ``rows_done`` job continues across
+    tanks (sorties)."""
 
     type: Literal["spray"] = "spray"
     rows: Literal["world"] | list[int] | list[list[Vec2L]] = Field(
@@ -65,6 +80,13 @@ class SprayPhase(StrictModel):
     flow_lps: float = Field(gt=0, description="nozzle flow while over a row, L/s")
     until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
     timeout_s: float = Field(900.0, gt=0)
+    refill: RefillSpec | None = Field(None, description="refill sorties until every row is sprayed (until: rows_done)")
+
+    @model_validator(mode="after")
+    def _refill_needs_rows_done(self) -> SprayPhase:
+        if self.refill is not None and self.until != "rows_done":
+            raise ValueError("refill sorties need until: rows_done (until: empty ends at the first empty tank)")
+        return self
 
 
 class SprayerPhase(StrictModel):

@@ -1,0 +1,104 @@
+"""Whole-field spray jobs from a run's time series: sorties, rows sprayed, area rate (issue 13).
+
+Plain numpy on the recorded columns (docs/architecture.md): ``sortie`` (1, 2, ... from the
+built-in autopilot), ``tank_flow_lps`` (delivered flow), ``power_elec_w`` (battery power drawn),
+positions ENU in metres. Rows are ENU polylines.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+Polyline = Sequence[tuple[float, float]]
+
+#: a row point counts as sprayed when the vehicle delivered liquid within this horizontal distance, m
+SPRAYED_RADIUS_M = 0.5
+#: spacing of the sample points along each row, m
+ROW_SAMPLE_M = 0.25
+
+
+def _integral(ts: Mapping[str, np.ndarray], col: str, sel: np.ndarray | None = None) -> float:
+    """∫ col dt over the rows in ``sel`` (each row holds its value until the next row)."""
+    t = np.asarray(ts["t_s"], dtype=float)
+    y = np.nan_to_num(np.asarray(ts[col], dtype=float))
+    if t.size < 2:
+        return 0.0
+    dt = np.append(np.diff(t), 0.0)
+    w = y * dt
+    return float(np.sum(w[sel] if sel is not None else w))
+
+
+def sorties(ts: Mapping[str, np.ndarray], events: Sequence[tuple[float, str, dict]] = ()) -> list[dict[str, object]]:
+    """One entry per sortie: number, start/end time (s), volume sprayed (L), energy drawn (Wh),
+    why it ended and the breakpoint (ENU m) from the autopilot's ``sortie`` events."""
+    if "sortie" not in ts or np.all(np.isnan(np.asarray(ts["sortie"], dtype=float))):
+        return []
+    t = np.asarray(ts["t_s"], dtype=float)
+    s = np.asarray(ts["sortie"], dtype=float)
+    ends = {int(d.get("sortie", 0)): d for _t, kind, d in events if kind == "sortie" and d.get("event") == "end"}
+    out: list[dict[str, object]] = []
+    for n in np.unique(s[~np.isnan(s)]).astype(int):
+        sel = s == n
+        idx = np.flatnonzero(sel)
+        end = ends.get(int(n), {})
+        entry: dict[str, object] = {
+            "sortie": int(n),
+            "t_start_s": float(t[idx[0]]),
+            "t_end_s": float(t[idx[-1]]),
+            "volume_l": _integral(ts, "tank_flow_lps", sel) if "tank_flow_lps" in ts else 0.0,
+            "energy_wh": _integral(ts, "power_elec_w", sel) / 3600.0 if "power_elec_w" in ts else math.nan,
+            "end_reason": end.get("reason", "job done"),
+            "breakpoint_enu": end.get("breakpoint_enu"),
+        }
+        out.append(entry)
+    return out
+
+
+def _row_samples(rows: Sequence[Polyline]) -> list[np.ndarray]:
+    out = []
+    for r in rows:
+        p = np.asarray(r, dtype=float)
+        if len(p) < 2:
+            continue
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        s = np.linspace(0.0, cum[-1], max(2, int(math.ceil(cum[-1] / ROW_SAMPLE_M)) + 1))
+        out.append(np.column_stack([np.interp(s, cum, p[:, 0]), np.interp(s, cum, p[:, 1])]))
+    return out
+
+
+def rows_sprayed(ts: Mapping[str, np.ndarray], rows: Sequence[Polyline]) -> tuple[float, float]:
+    """(fraction of the rows' length sprayed, sprayed row length in m): a row point is sprayed when
+    liquid was delivered within ``SPRAYED_RADIUS_M`` of it."""
+    samples = _row_samples(rows)
+    if not samples:
+        return math.nan, 0.0
+    flow = np.nan_to_num(np.asarray(ts["tank_flow_lps"], dtype=float))
+    on = flow > 0.0
+    total = sum(float(np.hypot(*np.diff(np.asarray(r, dtype=float), axis=0).T).sum()) for r in rows if len(r) >= 2)
+    if not on.any() or total <= 0.0:
+        return 0.0, 0.0
+    xy = np.column_stack([np.asarray(ts["pos_enu_x_m"], dtype=float)[on], np.asarray(ts["pos_enu_y_m"], dtype=float)[on]])
+    tree = cKDTree(xy)
+    pts = np.vstack(samples)
+    d, _ = tree.query(pts, distance_upper_bound=SPRAYED_RADIUS_M)
+    frac = float(np.mean(np.isfinite(d)))
+    return frac, frac * total
+
+
+def row_spacing_m(rows: Sequence[Polyline]) -> float:
+    """Median distance between the midpoints of neighbouring rows (sorted across them), m; NaN for < 2 rows."""
+    mids = [np.mean(np.asarray(r, dtype=float), axis=0) for r in rows if len(r) >= 2]
+    if len(mids) < 2:
+        return math.nan
+    r0 = np.asarray(rows[0], dtype=float)
+    u = r0[-1] - r0[0]
+    u = u / (np.linalg.norm(u) or 1.0)
+    across = np.sort([float(-u[1] * m[0] + u[0] * m[1]) for m in mids])
+    gaps = np.diff(across)
+    gaps = gaps[gaps > 1e-3]
+    return float(np.median(gaps)) if gaps.size else math.nan
