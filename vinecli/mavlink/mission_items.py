@@ -196,6 +196,9 @@ def phases_to_items(mission: MissionSpec, ctx: PlanContext) -> Px4Plan:
         elif isinstance(ph, SprayPhase):
             if ph.until == "empty":
                 raise SpecError(f"{where}: 'until: empty' is not possible with PX4 (a PX4 mission is fixed at upload; use rows_done)")
+            if ph.refill is not None:
+                raise SpecError(f"{where}: refill sorties need the built-in autopilot (the simulated ground crew "
+                                "serves its landings); with PX4 export one plan per sortie (vinecli plan)")
             u = _flow_to_u(ph.flow_lps, ctx, where)
             rows = _spray_rows(ph, ctx, where)
             speed(ph.speed_mps, pi)
