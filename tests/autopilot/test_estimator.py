@@ -121,3 +121,37 @@ def test_periodic_gains_are_sane() -> None:
     (k_hi,) = periodic_gains(0.004, 0.04, 4e-4, [(50.0, ((1.0, 0.0, 0.0),), (1.0,))], horizon_s=10.0)
     assert 0.0 < k_hi[0][0] < k_lo[0][0] < 1.0
     assert k_lo[1][0] > 0.0  # a position residual also corrects velocity
+
+
+def test_periodic_gains_equal_the_step_by_step_riccati_iteration():
+    """The period-compressed solver (predictions between corrections folded into F^m, Q_m, stopped
+    at the periodic steady state) gives the gains of the plain step-by-step iteration over 30 s."""
+    import numpy as np
+    from scipy.linalg import expm
+
+    from vinecli.autopilot.estimator import periodic_gains
+
+    dt, acc_psd, bias_psd = 0.004, 0.04, 0.0004
+    sensors = [(50.0, ((1.0, 0.0, 0.0),), (0.007,)), (10.0, ((0.0, 1.0, 0.0),), (0.0025,))]
+    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])
+    vl = np.zeros((6, 6))
+    vl[:3, :3], vl[:3, 3:], vl[3:, 3:] = -a, np.diag([0.0, acc_psd, bias_psd]), a.T
+    e = expm(vl * dt)
+    f = e[3:, 3:].T
+    q = f @ e[:3, 3:]
+    q = 0.5 * (q + q.T)
+    p = np.diag([100.0, 10.0, 1.0])
+    ref = [None, None]
+    for k in range(1, int(30.0 / dt) + 1):
+        p = f @ p @ f.T + q
+        for j, n in enumerate((5, 25)):
+            if k % n == 0:
+                h, r = np.array(sensors[j][1]), np.diag(sensors[j][2])
+                kg = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
+                p = (np.eye(3) - kg @ h) @ p
+                p = 0.5 * (p + p.T)
+                ref[j] = kg
+    got = periodic_gains(dt, acc_psd, bias_psd, sensors)
+    for g, rg in zip(got, ref, strict=True):
+        assert np.allclose(np.array(g), rg, rtol=1e-10, atol=1e-14)
+    assert periodic_gains(dt, acc_psd, bias_psd, sensors) == got  # cached, same values

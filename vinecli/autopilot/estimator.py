@@ -16,6 +16,7 @@ altitude AMSL becomes ENU up as ``alt - origin.alt``. SI units throughout.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 
@@ -38,6 +39,15 @@ def earth_field_enu(origin: GeoOrigin) -> Vec3:
 def periodic_gains(dt: float, acc_psd: float, bias_psd: float,
                    sensors: list[tuple[float, tuple[tuple[float, float, float], ...], tuple[float, ...]]],
                    horizon_s: float = 30.0) -> list[tuple[tuple[float, ...], ...]]:
+    """Cached :func:`_periodic_gains` (a batch worker builds the same estimator for every case)."""
+    key = tuple((float(r), tuple(tuple(map(float, h)) for h in hs), tuple(map(float, v))) for r, hs, v in sensors)
+    return list(_periodic_gains(float(dt), float(acc_psd), float(bias_psd), key, float(horizon_s)))
+
+
+@functools.lru_cache(maxsize=64)
+def _periodic_gains(dt: float, acc_psd: float, bias_psd: float,
+                    sensors: tuple[tuple[float, tuple[tuple[float, ...], ...], tuple[float, ...]], ...],
+                    horizon_s: float) -> tuple[tuple[tuple[float, ...], ...], ...]:
     """Kalman gains (3 x m each) of state (p, v, b) with ``a = a_meas - b``, predicted every ``dt``
     s and corrected by each of ``sensors`` = [(rate_hz, H rows, measurement variances)], once the
     covariance has reached its periodic steady state (run offline over ``horizon_s``).
@@ -62,16 +72,34 @@ def periodic_gains(dt: float, acc_psd: float, bias_psd: float,
     hs = [np.array(h, dtype=float) for _, h, _ in sensors]
     rs = [np.diag(r) for _, _, r in sensors]
     gains: list[np.ndarray] = [np.zeros((3, len(r))) for _, _, r in sensors]
-    for k in range(1, int(horizon_s / dt) + 1):
-        p = f @ p @ f.T + q
-        for j, n in enumerate(every):
-            if k % n == 0:
+    # one period of the correction pattern (lcm of the sensor intervals) as segments "m predictions,
+    # then these corrections": m predictions at once are F^m P F^mT + Q_m, Q_m = sum F^i Q F^iT
+    period = math.lcm(*every)
+    segments: list[tuple[np.ndarray, np.ndarray, list[int]]] = []
+    powers = {0: (np.eye(3), np.zeros((3, 3)))}
+    m = 0
+    for k in range(1, period + 1):
+        m += 1
+        if m not in powers:
+            fp, qp = powers[m - 1]
+            powers[m] = (f @ fp, f @ qp @ f.T + q)
+        due = [j for j, n in enumerate(every) if k % n == 0]
+        if due:
+            segments.append((*powers[m], due))
+            m = 0
+    for _ in range(max(1, int(horizon_s / dt) // period)):
+        p_start = p
+        for fm, qm, due in segments:
+            p = fm @ p @ fm.T + qm
+            for j in due:
                 h, r = hs[j], rs[j]
                 kg = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
                 p = (np.eye(3) - kg @ h) @ p
                 p = 0.5 * (p + p.T)
                 gains[j] = kg
-    return [tuple(tuple(float(x) for x in row) for row in g) for g in gains]
+        if np.max(np.abs(p - p_start)) <= 1e-14 * float(np.max(np.abs(p))):
+            break  # periodic steady state reached
+    return tuple(tuple(tuple(float(x) for x in row) for row in g) for g in gains)
 
 
 class Estimator:

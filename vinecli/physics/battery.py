@@ -88,20 +88,21 @@ class Battery:
 
     def update(self, load_w: float, dt: float) -> None:
         """Deliver ``load_w`` W for ``dt`` s (held constant): current, sagged voltage, energy drawn."""
-        e = self.open_circuit_v()
-        p = max(float(load_w), 0.0)
-        p_max = self.max_power_w()
+        e = self.cells * (ocv_chen_rincon_mora(self.soc) if self._table is None else self.ocv_cell(self.soc))
+        p = load_w if load_w > 0.0 else 0.0
+        r = self.r_ohm
+        p_max = e * e / (4.0 * r) if r > 0.0 else math.inf
         self.saturated = p > p_max
         if self.saturated:
             p = p_max
-        r = self.r_ohm
         i = 2.0 * p / (e + math.sqrt(max(e * e - 4.0 * r * p, 0.0))) if e > 0.0 else 0.0
         self.current_a = i
         self.load_w = p
         self.voltage_v = e - i * r
         self.power_drawn_w = e * i
         self.soc_start = self.soc
-        self.soc = max(self.soc - e * i * dt / self.capacity_j, 0.0)
+        soc = self.soc - e * i * dt / self.capacity_j
+        self.soc = soc if soc > 0.0 else 0.0
 
     @property
     def depleted(self) -> bool:
