@@ -14,6 +14,9 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip wheel
 	$(BIN)/pip install -q -e '.[dev]'
+	# RotorPy: independent reference simulator for tests/sim/test_rotorpy_agreement.py; its vehicle
+	# model needs only numpy + scipy, so none of its heavy optional dependencies
+	$(BIN)/pip install -q --no-deps 'rotorpy==3.0.0'
 	touch $(STAMP)
 
 install: $(STAMP)
