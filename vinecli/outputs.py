@@ -8,15 +8,16 @@ removed, so a failed command leaves nothing half-written in ``--out``.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
 import platform
+import secrets
 import shutil
 import sys
-import tempfile
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -111,32 +112,74 @@ class Manifest:
         }
 
 
-def check_output_target(out: Path, *, overwrite: bool = False) -> None:
-    """Fail early (exit 2) if ``out`` cannot be created: exists as a non-empty dir, or parent not writable."""
+def contained_path(root: Path, *parts: str) -> Path:
+    """``root/parts...``, proven (after resolving symlinks and ``..``) to stay strictly inside ``root``.
+
+    OutputError (exit 2) otherwise: the one guard every run, case and page path goes through.
+    """
+    root = Path(root)
+    target = root.joinpath(*parts)
+    base = root.resolve()
+    resolved = target.resolve()
+    if resolved == base or not resolved.is_relative_to(base):
+        raise OutputError(f"refusing to write outside the output directory {root}", path=target)
+    return target
+
+
+def check_output_target(out: Path, *, overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> None:
+    """Fail early (OutputError, exit 2), before any heavy work, if ``out`` cannot or must not be written.
+
+    Refused: ``out`` exists and is not a directory, exists non-empty without ``overwrite``, equals or
+    contains one of ``inputs`` (replacing it would delete the input), or its nearest existing ancestor
+    is not writable. Writability is probed for real (a directory is created and removed there), which
+    catches read-only file systems and mounts where ``os.access`` says yes.
+    """
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise OutputError("exists and is not a directory", path=out)
+    resolved = out.resolve()
+    for inp in inputs:
+        rin = Path(inp).resolve()
+        if rin == resolved or rin.is_relative_to(resolved):
+            raise OutputError(f"the output directory would replace the input {inp}", path=out)
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise OutputError("output directory exists and is not empty (use --overwrite)", path=out)
-    parent = out.resolve().parent
-    probe = parent
+    probe = resolved.parent
     while not probe.exists():
         probe = probe.parent
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise OutputError("output location is not writable", path=out)
+    if not probe.is_dir():
+        raise OutputError(f"output location is not writable ({probe} is not a directory)", path=out)
+    try:
+        _make_unique_dir(probe, ".vinecli-probe-").rmdir()
+    except OSError as exc:
+        raise OutputError(f"output location is not writable ({exc.strerror})", path=out) from None
+
+
+def _make_unique_dir(parent: Path, prefix: str) -> Path:
+    """Create a new, uniquely named directory in ``parent`` with the umask's permissions (not mkdtemp's 0700)."""
+    for _ in range(100):
+        d = parent / f"{prefix}{os.getpid()}-{secrets.token_hex(4)}"
+        try:
+            d.mkdir(mode=0o777)
+        except FileExistsError:
+            continue
+        return d
+    raise FileExistsError(errno.EEXIST, "no free temporary name", str(parent))
 
 
 @contextmanager
 def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False) -> Iterator[Path]:
     """Yield a temporary directory; on success write ``manifest.json`` and rename it to ``out``.
 
-    On any exception the temporary directory is deleted and ``out`` is left untouched.
+    On any exception the temporary directory is deleted and ``out`` is left untouched. ``out`` may not
+    equal or contain one of ``manifest.inputs`` (see :func:`check_output_target`). Directories are
+    created with the process umask.
     """
     out = Path(out)
-    check_output_target(out, overwrite=overwrite)
+    check_output_target(out, overwrite=overwrite, inputs=manifest.inputs)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+        tmp = _make_unique_dir(out.parent, f".{out.name}.tmp-")
     except OSError as exc:
         raise OutputError(f"cannot create output directory ({exc.strerror})", path=out) from exc
     try:

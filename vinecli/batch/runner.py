@@ -32,7 +32,7 @@ from vinecli.batch.executors import EXECUTORS, dask_executor, make_local_executo
 from vinecli.batch.job import CaseResult, RunSpec, run_one
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline
 from vinecli.errors import InputError, OutputError, SpecError
-from vinecli.outputs import write_json
+from vinecli.outputs import contained_path, write_json
 from vinecli.runs import rundir
 
 log = logging.getLogger(__name__)
@@ -292,8 +292,8 @@ def prepare_worlds(cases: Sequence[Case], runs_dir: Path) -> dict[str, str]:
 def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
     """Build a world spec into ``worlds_root/<stem>/`` unless a build of the same spec is there."""
     digest = hashlib.sha256(spec_path.read_bytes()).hexdigest()
-    out = worlds_root / spec_path.stem
-    stamp = worlds_root / f".{spec_path.stem}.spec-sha256"
+    out = contained_path(worlds_root, spec_path.stem)
+    stamp = contained_path(worlds_root, f".{spec_path.stem}.spec-sha256")
     if (out / "world.json").is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
     from vinecli.world import build_world

@@ -30,6 +30,7 @@ import copy
 import hashlib
 import itertools
 import json
+import math
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,17 +41,21 @@ from pydantic import Field, field_validator, model_validator
 
 from vinecli.errors import SpecError
 from vinecli.missions.spec_io import mission_from_dict
+from vinecli.names import SafeName, check_name
 from vinecli.specs import StrictModel, load_spec, read_yaml, resolve_base
+
+#: most cases one pipeline may expand to
+MAX_CASES = 100_000
 
 
 class MissionEntry(StrictModel):
     """One mission of a pipeline, optionally with overrides and replicates."""
 
     mission: str = Field(description="mission YAML, relative to the pipeline file")
-    name: str | None = Field(None, description="case name (default: the mission's name)")
+    name: SafeName | None = Field(None, description="case name (default: the mission's name)")
     world: str | None = Field(None, description="world spec or built world dir for this case (default: the pipeline's)")
     seed: int | None = Field(None, ge=0, description="explicit seed (default: derived from the root seed)")
-    seeds: int = Field(1, ge=1, description="number of replicates with derived seeds")
+    seeds: int = Field(1, ge=1, le=MAX_CASES, description="number of replicates with derived seeds")
     set: dict[str, Any] = Field(default_factory=dict, description="dotted-path overrides of the mission")
 
 
@@ -58,10 +63,10 @@ class SweepSpec(StrictModel):
     """Cartesian product over dotted paths of one mission (``world`` and ``seed`` are special axes)."""
 
     mission: str
-    name: str | None = Field(None, description="case name prefix (default: the mission's name)")
+    name: SafeName | None = Field(None, description="case name prefix (default: the mission's name)")
     world: str | None = None
     matrix: dict[str, list[Any]] = Field(min_length=1)
-    seeds: int = Field(1, ge=1, description="replicates per grid point when 'seed' is not an axis")
+    seeds: int = Field(1, ge=1, le=MAX_CASES, description="replicates per grid point when 'seed' is not an axis")
     set: dict[str, Any] = Field(default_factory=dict)
 
     @model_validator(mode="after")
@@ -75,7 +80,7 @@ class SweepSpec(StrictModel):
 class PipelineSpec(StrictModel):
     """A batch of cases: missions and/or sweeps, on a shared world or one per case."""
 
-    name: str
+    name: SafeName
     description: str = ""
     world: str | None = Field(None, description="default world: a world spec (worlds/*.yaml) or a built world dir")
     seed: int = Field(0, ge=0, description="root seed")
@@ -103,6 +108,15 @@ class PipelineSpec(StrictModel):
         if self.sweep is None:
             return []
         return self.sweep if isinstance(self.sweep, list) else [self.sweep]
+
+
+def count_cases(pipeline: PipelineSpec) -> int:
+    """How many cases ``pipeline`` expands to (computed without expanding)."""
+    n = sum(e.seeds for e in pipeline.missions)
+    for sw in pipeline.sweeps():
+        grid = math.prod(len(v) for k, v in sw.matrix.items())
+        n += grid * (1 if "seed" in sw.matrix else sw.seeds)
+    return n
 
 
 @dataclass(frozen=True)
@@ -181,6 +195,9 @@ def expand_cases(pipeline: PipelineSpec, pipeline_path: Path | str) -> list[Case
     """All cases of a pipeline, validated (SpecError names the pipeline file and the case)."""
     pipeline_path = Path(pipeline_path)
     base = pipeline_path.resolve().parent
+    n_cases = count_cases(pipeline)
+    if n_cases > MAX_CASES:
+        raise SpecError(f"the pipeline expands to {n_cases:,} cases (at most {MAX_CASES:,})", path=pipeline_path)
     cases: list[Case] = []
 
     def make(name: str, mpath: Path, raw: dict[str, Any], overrides: dict[str, Any], world: str, seed: int,
@@ -239,6 +256,7 @@ def expand_cases(pipeline: PipelineSpec, pipeline_path: Path | str) -> list[Case
 
     seen: set[str] = set()
     for c in cases:
+        check_name(c.name, "case name", path=pipeline_path)
         if c.name in seen:
             raise SpecError(f"duplicate case name {c.name!r} (give entries distinct 'name's)", path=pipeline_path)
         seen.add(c.name)

@@ -33,6 +33,7 @@ def mission_cmd(
     realtime: Annotated[bool, typer.Option("--realtime", help="With --mavlink: pace the run at wall-clock speed.")] = False,
     mavlink_allow_remote: Annotated[bool, typer.Option("--mavlink-allow-remote",
                                                        help="Allow a non-loopback --mavlink address.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing OUT/<run-id>/.")] = False,
 ) -> None:
     """Run one mission and write OUT/<run-id>/ (time series, summary, events, manifest).
 
@@ -59,7 +60,7 @@ def mission_cmd(
             bar.update(task, completed=min(sim_t, spec.max_duration_s), info=f"sim {sim_t:6.1f} s  {rtf:5.1f}x real time")
 
         summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
-                              record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id,
+                              record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
                               autopilot_options=_autopilot_options(px4_instance, px4_host, px4_connect_timeout, mavlink,
                                                                    realtime, mavlink_allow_remote, px4_allow_remote))
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")

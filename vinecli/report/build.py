@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from vinecli.errors import InputError
-from vinecli.outputs import Manifest, atomic_output_dir, write_json
+from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
 
@@ -178,7 +178,8 @@ def build_report(
     ``figures``/``max_figure_runs``: which runs get figures (see :func:`select_figure_runs`); ``inline_limit``:
     batches up to this size put every run in report.html, larger ones get runs/<id>.html pages and an overview
     paginated by ``page_size``; ``jobs``: figure processes (default min(4, CPUs)).
-    Raises InputError (exit 2) for a bad runs/baseline directory or option.
+    Raises InputError (exit 2) for a bad runs/baseline directory or option, OutputError (exit 2, before any
+    work) when ``out_dir`` is not writable, exists without ``overwrite`` or equals/contains the runs or baseline.
     """
     fmts = parse_formats(formats)
     if figures not in ("auto", "all", "failed", "none"):
@@ -186,6 +187,8 @@ def build_report(
     if max_figure_runs < 0 or inline_limit < 0 or page_size < 1:
         raise InputError("max_figure_runs and inline_limit must be >= 0, page_size >= 1")
     runs_dir = Path(runs_dir)
+    check_output_target(Path(out_dir), overwrite=overwrite,
+                        inputs=[runs_dir, *([Path(baseline)] if baseline is not None else [])])
     jobs = jobs if jobs is not None else max(1, min(4, os.cpu_count() or 1))
     manifest = Manifest(command="report", parameters={
         "runs_dir": str(runs_dir), "formats": list(fmts), "baseline": str(baseline) if baseline else None,

@@ -24,7 +24,8 @@ from vinecli.missions.checks import EventMissing, RunData, evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS, MetricContext
 from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
-from vinecli.outputs import Manifest, atomic_output_dir
+from vinecli.names import check_name
+from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
 from vinecli.runs import rundir
 from vinecli.specs.mission import MissionSpec, SprayPhase
 
@@ -106,6 +107,7 @@ def run_mission(
     wall_timeout_s: float | None = None,
     case: str | None = None,
     autopilot_options: dict[str, Any] | None = None,
+    overwrite: bool = False,
 ) -> RunSummary:
     """Run one mission and write ``runs_dir/<run_id>/``.
 
@@ -119,6 +121,7 @@ def run_mission(
     mcap : also write ``run.mcap`` (Foxglove)
     progress : called as ``progress(sim_time_s, wall_time_s)`` by the loop
     should_stop : extra stop predicate (polled every step); ``wall_timeout_s``: stop after this wall time
+    overwrite : replace an existing ``runs_dir/<run_id>/`` (otherwise OutputError, exit 2, before simulating)
 
     Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
     Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
@@ -141,6 +144,11 @@ def run_mission(
     if updates:
         spec = MissionSpec.model_validate({**spec.model_dump(), **updates})
 
+    run_id = check_name(run_id or default_run_id(spec, seed), "run id")
+    out = contained_path(Path(runs_dir), run_id)
+    inputs = [p for p in (mission_path, Path(world_dir)) if p is not None]
+    check_output_target(out, overwrite=overwrite, inputs=inputs)
+
     from vinecli.world import load_world
 
     world = load_world(Path(world_dir))
@@ -154,7 +162,6 @@ def run_mission(
     # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
     ap = make_run_autopilot(spec.autopilot, truth=spec.truth if spec.autopilot == "builtin" else None,
                             **(autopilot_options or {}))
-    run_id = run_id or default_run_id(spec, seed)
     stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
 
     from vinecli.sim.runner import run_simulation
@@ -244,9 +251,8 @@ def run_mission(
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
-    out = Path(runs_dir) / run_id
     t1 = time.perf_counter()
-    with atomic_output_dir(out, manifest, overwrite=True) as tmp:
+    with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
         rundir.write_timeseries(tmp / rundir.TIMESERIES, result.timeseries,
                                 {"run_id": run_id, "mission": spec.name, "seed": str(seed), "units": "SI; frame in names"})
         rundir.write_events(tmp / rundir.EVENTS, result.events)

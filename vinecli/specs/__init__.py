@@ -19,10 +19,15 @@ from vinecli.errors import SpecError
 M = TypeVar("M", bound=BaseModel)
 
 
-class StrictModel(BaseModel):
-    """Base for every spec: unknown keys are errors (typos must not pass silently)."""
+#: most values a spec file may expand to (YAML aliases counted every time they are used)
+MAX_YAML_VALUES = 1_000_000
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+
+class StrictModel(BaseModel):
+    """Base for every spec: unknown keys are errors (typos must not pass silently), and so are
+    NaN and ±inf in any number field."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
@@ -39,11 +44,51 @@ def read_yaml(path: Path) -> dict[str, Any]:
         raise SpecError(f"invalid YAML{where}: {problem}", path=path) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SpecError(f"cannot read: {exc}", path=path) from None
+    except RecursionError:
+        raise SpecError("invalid YAML: nested too deeply", path=path) from None
     if data is None:
         raise SpecError("file is empty", path=path)
     if not isinstance(data, dict):
         raise SpecError(f"expected a mapping at the top level, got {type(data).__name__}", path=path)
+    try:
+        expanded_size(data, MAX_YAML_VALUES)
+    except ValueError as exc:
+        raise SpecError(str(exc), path=path) from None
+    except RecursionError:
+        raise SpecError("invalid YAML: nested too deeply", path=path) from None
     return data
+
+
+def expanded_size(data: Any, limit: int) -> int:
+    """Number of values ``data`` holds once every shared (aliased) part is counted each time it is used.
+
+    Linear in the distinct containers (sizes are memoised by identity), so an alias bomb
+    (``a: &a [x, x]``, ``b: &b [*a, *a]``...) is measured without being expanded. ValueError when the
+    count exceeds ``limit`` or a container contains itself (a recursive alias).
+    """
+    sizes: dict[int, int] = {}
+    active: set[int] = set()
+
+    def size(obj: Any) -> int:
+        if not isinstance(obj, (dict, list)):
+            return 1
+        key = id(obj)
+        if key in sizes:
+            return sizes[key]
+        if key in active:
+            raise ValueError("a YAML alias refers to itself (recursive structure)")
+        active.add(key)
+        items = [*obj.keys(), *obj.values()] if isinstance(obj, dict) else obj
+        n = 1
+        for item in items:
+            n += size(item)
+            if n > limit:
+                raise ValueError(f"the file expands to more than {limit:,} values (YAML aliases: an alias bomb?)")
+        active.discard(key)
+        sizes[key] = n
+        return n
+
+    return size(data)
 
 
 def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:

@@ -11,6 +11,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
+from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.wind import WindSpec
 
@@ -181,7 +182,7 @@ class CheckSpec(StrictModel):
 class MissionSpec(StrictModel):
     """A test mission."""
 
-    name: str
+    name: SafeName
     description: str = ""
     vehicle: str | None = Field(None, description="vehicle name (vehicles/<name>.yaml) or path; default: the world's")
     autopilot: Literal["builtin", "px4"] = "builtin"

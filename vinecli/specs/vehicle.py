@@ -12,6 +12,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 
 Vec3L = tuple[float, float, float]
@@ -240,7 +241,7 @@ class Px4MappingSpec(StrictModel):
 class VehicleSpec(StrictModel):
     """A multicopter: frame, rotors, drag, tank, payload, sensors and controller gains."""
 
-    name: str
+    name: SafeName
     description: str = ""
     frame: FrameSpec
     motor: MotorSpec

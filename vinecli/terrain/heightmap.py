@@ -460,7 +460,7 @@ def convert_to_heightmap(dsm: Path, out: Path, *, size: int | None = None, metho
     OutputError (exit 2) on bad input, leaving nothing in ``out``.
     """
     dsm, out = Path(dsm), Path(out)
-    check_out_dir(out, overwrite=overwrite)
+    check_out_dir(out, overwrite=overwrite, inputs=[dsm])
     manifest = Manifest("terrain convert --to heightmap", inputs=[dsm], parameters={
         "size": size, "method": method, "window": window, "bbox": bbox, "fill": fill, "z_unit": z_unit})
     with manifest.stage("heightmap"):

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -285,29 +285,15 @@ def check_suffix(path: Path, allowed: tuple[str, ...] = RASTER_SUFFIXES) -> None
         raise InputError("not a file", path=path)
 
 
-def check_out_dir(out: Path, *, overwrite: bool = False) -> None:
+def check_out_dir(out: Path, *, overwrite: bool = False, inputs: Sequence[Path] = ()) -> None:
     """Fail early (OutputError, exit 2) if ``out`` cannot be written, before any heavy work.
 
-    :func:`vinecli.outputs.check_output_target` plus a real probe: a temporary directory is created
-    and removed in the nearest existing ancestor (catches read-only file systems, /proc, root-owned
-    mounts where ``os.access`` says yes).
+    Same as :func:`vinecli.outputs.check_output_target` (probes writability for real; ``out`` may not
+    equal or contain one of ``inputs``).
     """
-    import tempfile
-
-    from vinecli.errors import OutputError
     from vinecli.outputs import check_output_target
 
-    out = Path(out)
-    check_output_target(out, overwrite=overwrite)
-    probe = out.absolute().parent
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        raise OutputError(f"output location is not writable ({probe} is not a directory)", path=out)
-    try:
-        Path(tempfile.mkdtemp(prefix=".vinecli-probe-", dir=probe)).rmdir()
-    except OSError as exc:
-        raise OutputError(f"output location is not writable ({exc.strerror})", path=out) from exc
+    check_output_target(Path(out), overwrite=overwrite, inputs=inputs)
 
 
 def read_format_json(directory: Path, kind: str, fmt: str) -> dict[str, Any]:

@@ -186,7 +186,7 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
     bounded = max_triangles is None
     if max_error is None:
         max_error = DEFAULT_MAX_ERROR if max_triangles is None else 0.0
-    check_out_dir(out, overwrite=overwrite)
+    check_out_dir(out, overwrite=overwrite, inputs=[dsm])
     manifest = Manifest("terrain convert --to tiles", inputs=[dsm], parameters={
         "max_error": max_error, "max_triangles": max_triangles, "tile_px": tile_px, "format": fmt, "fill": fill,
         "z_unit": z_unit})

@@ -15,7 +15,7 @@ from typing import Any
 
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
-from vinecli.outputs import Manifest, atomic_output_dir, write_json
+from vinecli.outputs import Manifest, atomic_output_dir, contained_path, write_json
 from vinecli.specs import load_spec
 from vinecli.world.grid import TerrainGrid
 from vinecli.world.model import SCHEMA, TerrainInfo, rest_position
@@ -46,6 +46,9 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
     if spec.vehicle.endswith((".yaml", ".yml")):
         veh_arg = _resolve(base, Path(spec.vehicle))
     vehicle = load_vehicle(veh_arg)
+    man.inputs += [_resolve(base, Path(src)) for src in _terrain_sources(spec.terrain)]
+    if isinstance(veh_arg, Path):
+        man.inputs.append(veh_arg)
 
     with atomic_output_dir(out, man, overwrite=overwrite) as tmp:
         tdir = tmp / "terrain"
@@ -64,8 +67,8 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
         yaw = math.radians(spec.spawn.yaw_deg)
 
         with man.stage("vehicle"):
-            urdf = write_urdf(vehicle, tmp / "vehicles" / f"{vehicle.name}.urdf")
-            (tmp / "vehicles" / f"{vehicle.name}.json").write_text(vehicle.model_dump_json(indent=1))
+            urdf = write_urdf(vehicle, contained_path(tmp, "vehicles", f"{vehicle.name}.urdf"))
+            (contained_path(tmp, "vehicles", f"{vehicle.name}.json")).write_text(vehicle.model_dump_json(indent=1))
 
         with man.stage("spawn"):
             rest = _rest_at_spawn(terrain_json, tmp, grid, vehicle, urdf, sx, sy, yaw, spawn, spec)
@@ -128,6 +131,15 @@ def _rest_at_spawn(terrain_json: dict[str, Any], tmp: Path, grid: TerrainGrid | 
             "drift_m": math.hypot(r.pos[0] - x, r.pos[1] - y), "settled": r.settled, "settle_time_s": r.time_s}
 
 
+def _terrain_sources(t: Any) -> list[Path]:
+    """Files or directories the terrain is read from (``--out`` may not equal or contain them)."""
+    if isinstance(t, DsmTerrain):
+        return [t.path]
+    if isinstance(t, FlatTerrain):
+        return []
+    return [t.dir]
+
+
 def _terrain(t: Any, tdir: Path, tmp: Path, base: Path, given_origin: GeoOrigin | None, spec_path: Path,
              man: Manifest) -> tuple[dict[str, Any], dict[str, Any], TerrainGrid | None, GeoOrigin]:
     """Convert/copy the terrain into ``tdir``; returns (world.json terrain, SDF terrain, grid, origin)."""
@@ -145,7 +157,6 @@ def _terrain(t: Any, tdir: Path, tmp: Path, base: Path, given_origin: GeoOrigin 
 
     if isinstance(t, DsmTerrain):
         src = _resolve(base, t.path)
-        man.inputs.append(src)
         source: dict[str, Any] = {"type": "dsm", "dsm": str(src), "format": t.format}
         if t.format == "tiles":
             convert_to_tiles(src, tdir, max_error=t.max_error_m, tile_px=t.tile_px, **t.options)

@@ -11,6 +11,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
+from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.wind import WindSpec
@@ -88,7 +89,7 @@ class SpawnSpec(StrictModel):
 class WorldSpec(StrictModel):
     """A simulation world: terrain, origin, vehicle and spawn, wind, physics constants, rows, geofence."""
 
-    name: str
+    name: SafeName
     description: str = ""
     terrain: Terrain = FlatTerrain()
     origin: OriginSpec | None = Field(None, description="default: from the terrain's sidecar")
