@@ -43,6 +43,7 @@ from vinecli.errors import SpecError
 from vinecli.missions.spec_io import mission_from_dict
 from vinecli.names import SafeName, check_name
 from vinecli.specs import StrictModel, load_spec, read_yaml, resolve_base
+from vinecli.specs.limits import MAX_DURATION_S, MAX_RATE_HZ
 
 #: most cases one pipeline may expand to
 MAX_CASES = 100_000
@@ -86,8 +87,8 @@ class PipelineSpec(StrictModel):
     seed: int = Field(0, ge=0, description="root seed")
     autopilot: str | None = Field(None, description="override every mission's autopilot")
     truth: bool | None = None
-    record_rate_hz: float | None = Field(None, gt=0)
-    timeout_s: float | None = Field(900.0, gt=0, description="wall-clock limit per case, s")
+    record_rate_hz: float | None = Field(None, gt=0, le=MAX_RATE_HZ)
+    timeout_s: float | None = Field(900.0, gt=0, le=MAX_DURATION_S, description="wall-clock limit per case, s")
     missions: list[MissionEntry] = Field(default_factory=list, description="mission paths or MissionEntry mappings")
     sweep: SweepSpec | list[SweepSpec] | None = None
 

@@ -13,33 +13,42 @@ from pydantic import Field, model_validator
 
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
+from vinecli.specs.limits import (
+    MAX_DISTANCE_M,
+    MAX_DURATION_S,
+    MAX_RATE_HZ,
+    MAX_SPEED_MPS,
+    Vec2Coord,
+    Vec3Coord,
+    Vec3Speed,
+)
 from vinecli.specs.wind import WindSpec
 
-Vec2L = tuple[float, float]
-Vec3L = tuple[float, float, float]
+Vec2L = Vec2Coord
+Vec3L = Vec3Coord
 
 
 class TakeoffPhase(StrictModel):
     type: Literal["takeoff"] = "takeoff"
-    altitude_agl_m: float = Field(gt=0, description="target height above home, m")
-    climb_speed_mps: float | None = Field(None, gt=0, description="default: vehicle max_vel_up")
-    tolerance_m: float = Field(0.3, gt=0, description="phase ends when within this of the target")
-    timeout_s: float = Field(30.0, gt=0)
+    altitude_agl_m: float = Field(gt=0, le=MAX_DISTANCE_M, description="target height above home, m")
+    climb_speed_mps: float | None = Field(None, gt=0, le=MAX_SPEED_MPS, description="default: vehicle max_vel_up")
+    tolerance_m: float = Field(0.3, gt=0, le=MAX_DISTANCE_M, description="phase ends when within this of the target")
+    timeout_s: float = Field(30.0, gt=0, le=MAX_DURATION_S)
 
 
 class HoldPhase(StrictModel):
     type: Literal["hold"] = "hold"
-    duration_s: float = Field(gt=0)
+    duration_s: float = Field(gt=0, le=MAX_DURATION_S)
 
 
 class GotoPhase(StrictModel):
     type: Literal["goto"] = "goto"
     position_enu: Vec2L = Field(description="target x east, y north, m")
-    altitude_agl_m: float | None = Field(None, description="default: keep the current altitude")
-    speed_mps: float | None = Field(None, gt=0)
-    acceptance_radius_m: float = Field(0.5, gt=0)
+    altitude_agl_m: float | None = Field(None, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M, description="default: keep the current altitude")
+    speed_mps: float | None = Field(None, gt=0, le=MAX_SPEED_MPS)
+    acceptance_radius_m: float = Field(0.5, gt=0, le=MAX_DISTANCE_M)
     yaw_deg: float | None = Field(None, description="ENU yaw, deg from east CCW; default: keep")
-    timeout_s: float = Field(120.0, gt=0)
+    timeout_s: float = Field(120.0, gt=0, le=MAX_DURATION_S)
 
 
 class WaypointsPhase(StrictModel):
@@ -47,10 +56,10 @@ class WaypointsPhase(StrictModel):
 
     type: Literal["waypoints"] = "waypoints"
     waypoints: list[Vec3L] = Field(min_length=1, description="(x east m, y north m, altitude AGL m)")
-    speed_mps: float = Field(2.0, gt=0)
-    acceptance_radius_m: float = Field(0.5, gt=0)
+    speed_mps: float = Field(2.0, gt=0, le=MAX_SPEED_MPS)
+    acceptance_radius_m: float = Field(0.5, gt=0, le=MAX_DISTANCE_M)
     flow_lps: float | None = Field(None, ge=0, description="sprayer flow during the phase, L/s (None = unchanged)")
-    timeout_s: float = Field(600.0, gt=0)
+    timeout_s: float = Field(600.0, gt=0, le=MAX_DURATION_S)
 
 
 class RefillSpec(StrictModel):
@@ -76,11 +85,11 @@ class SprayPhase(StrictModel):
     rows: Literal["world"] | list[int] | list[list[Vec2L]] = Field(
         "world", description="'world' = all rows of the world, indices into them, or explicit polylines (ENU)"
     )
-    height_agl_m: float = Field(2.0, gt=0, description="height above the terrain under the drone, m")
-    speed_mps: float = Field(1.5, gt=0)
+    height_agl_m: float = Field(2.0, gt=0, le=MAX_DISTANCE_M, description="height above the terrain under the drone, m")
+    speed_mps: float = Field(1.5, gt=0, le=MAX_SPEED_MPS)
     flow_lps: float = Field(gt=0, description="nozzle flow while over a row, L/s")
     until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
-    timeout_s: float = Field(900.0, gt=0)
+    timeout_s: float = Field(900.0, gt=0, le=MAX_DURATION_S)
     refill: RefillSpec | None = Field(None, description="refill sorties until every row is sprayed (until: rows_done)")
 
     @model_validator(mode="after")
@@ -99,21 +108,21 @@ class SprayerPhase(StrictModel):
 
 class LandPhase(StrictModel):
     type: Literal["land"] = "land"
-    descent_speed_mps: float = Field(0.7, gt=0)
-    timeout_s: float = Field(60.0, gt=0)
+    descent_speed_mps: float = Field(0.7, gt=0, le=MAX_SPEED_MPS)
+    timeout_s: float = Field(60.0, gt=0, le=MAX_DURATION_S)
 
 
 class RtlPhase(StrictModel):
     type: Literal["rtl"] = "rtl"
-    return_altitude_agl_m: float = Field(5.0, gt=0)
-    timeout_s: float = Field(180.0, gt=0)
+    return_altitude_agl_m: float = Field(5.0, gt=0, le=MAX_DISTANCE_M)
+    timeout_s: float = Field(180.0, gt=0, le=MAX_DURATION_S)
 
 
 class InitialState(StrictModel):
     """State an open-loop test starts from (default: at rest on the ground at the spawn pose)."""
 
     position_enu: Vec3L | None = Field(None, description="m; z is height above terrain")
-    velocity_enu: Vec3L = (0.0, 0.0, 0.0)
+    velocity_enu: Vec3Speed = (0.0, 0.0, 0.0)
     rpy_deg: Vec3L = (0.0, 0.0, 0.0)
     angular_velocity_flu: Vec3L = (0.0, 0.0, 0.0)
 
@@ -126,7 +135,7 @@ class OpenLoopPhase(StrictModel):
     """
 
     type: Literal["open_loop"] = "open_loop"
-    duration_s: float = Field(gt=0)
+    duration_s: float = Field(gt=0, le=MAX_DURATION_S)
     rotor_speeds_rad_s: float | list[float] | None = None
     schedule: list[tuple[float, float | list[float]]] | None = None
     flow_lps: float = Field(0.0, ge=0)
@@ -149,8 +158,8 @@ class GeofenceSpec(StrictModel):
     """Polygon (ENU, m) + max altitude + cylinder around home; action as PX4's GF_ACTION."""
 
     polygon_enu: list[Vec2L] | None = Field(None, description="inclusion polygon vertices, m")
-    max_altitude_agl_m: float | None = Field(None, gt=0)
-    max_horizontal_distance_m: float | None = Field(None, gt=0, description="GF_MAX_HOR_DIST from home")
+    max_altitude_agl_m: float | None = Field(None, gt=0, le=MAX_DISTANCE_M)
+    max_horizontal_distance_m: float | None = Field(None, gt=0, le=MAX_DISTANCE_M, description="GF_MAX_HOR_DIST from home")
     action: Literal["none", "warn", "hold", "rtl", "land", "terminate"] = "hold"
 
     @model_validator(mode="after")
@@ -191,8 +200,8 @@ class MissionSpec(StrictModel):
     payload_kg: float | None = Field(None, ge=0, description="replaces the vehicle's payload mass")
     wind: WindSpec | None = Field(None, description="replaces the world's wind law")
     geofence: GeofenceSpec | None = Field(None, description="replaces the world's geofence")
-    max_duration_s: float = Field(120.0, gt=0)
-    record_rate_hz: float = Field(50.0, gt=0)
+    max_duration_s: float = Field(120.0, gt=0, le=MAX_DURATION_S)
+    record_rate_hz: float = Field(50.0, gt=0, le=MAX_RATE_HZ)
     phases: list[Phase] = Field(min_length=1)
     checks: list[CheckSpec] = Field(default_factory=list)
 

@@ -14,6 +14,7 @@ from pydantic import Field, model_validator
 
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
+from vinecli.specs.limits import MAX_IMAGE_PX, MAX_RATE_HZ
 
 Vec3L = tuple[float, float, float]
 
@@ -141,7 +142,7 @@ class MountSpec(StrictModel):
 
 
 class ImuSpec(StrictModel):
-    rate_hz: float = Field(250.0, gt=0)
+    rate_hz: float = Field(250.0, gt=0, le=MAX_RATE_HZ)
     accel_noise_density: float = Field(0.002, ge=0, description="m/s²/√Hz")
     gyro_noise_density: float = Field(0.0002, ge=0, description="rad/s/√Hz")
     accel_bias_random_walk: float = Field(3e-4, ge=0, description="m/s³/√Hz")
@@ -152,20 +153,20 @@ class ImuSpec(StrictModel):
 
 
 class BaroSpec(StrictModel):
-    rate_hz: float = Field(50.0, gt=0)
+    rate_hz: float = Field(50.0, gt=0, le=MAX_RATE_HZ)
     noise_pa: float = Field(1.0, ge=0, description="white noise σ, Pa")
     drift_pa_per_sqrt_s: float = Field(0.0, ge=0, description="random-walk drift, Pa/√s")
     quantization_pa: float = Field(0.0, ge=0)
 
 
 class MagSpec(StrictModel):
-    rate_hz: float = Field(100.0, gt=0)
+    rate_hz: float = Field(100.0, gt=0, le=MAX_RATE_HZ)
     noise_gauss: float = Field(0.0005, ge=0, description="white noise σ, gauss")
     mount: MountSpec = MountSpec()
 
 
 class GnssSpec(StrictModel):
-    rate_hz: float = Field(10.0, gt=0)
+    rate_hz: float = Field(10.0, gt=0, le=MAX_RATE_HZ)
     horizontal_noise_m: float = Field(0.3, ge=0, description="σ per horizontal axis, m")
     vertical_noise_m: float = Field(0.5, ge=0, description="σ, m")
     velocity_noise_mps: float = Field(0.05, ge=0, description="σ per axis, m/s")
@@ -175,9 +176,9 @@ class GnssSpec(StrictModel):
 
 class DepthCameraSpec(StrictModel):
     enabled: bool = False
-    rate_hz: float = Field(5.0, gt=0)
-    width_px: int = Field(64, gt=0)
-    height_px: int = Field(48, gt=0)
+    rate_hz: float = Field(5.0, gt=0, le=MAX_RATE_HZ)
+    width_px: int = Field(64, gt=0, le=MAX_IMAGE_PX)
+    height_px: int = Field(48, gt=0, le=MAX_IMAGE_PX)
     fov_deg: float = Field(70.0, gt=0, lt=180, description="vertical field of view")
     near_m: float = Field(0.1, gt=0)
     far_m: float = Field(30.0, gt=0)

@@ -13,6 +13,7 @@ from pydantic import Field
 
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
+from vinecli.specs.limits import MAX_DISTANCE_M, Coord, Vec2Coord
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.wind import WindSpec
 
@@ -26,7 +27,7 @@ __all__ = [
     "WorldSpec",
 ]
 
-Vec2L = tuple[float, float]
+Vec2L = Vec2Coord
 
 
 class FlatTerrain(StrictModel):
@@ -34,7 +35,7 @@ class FlatTerrain(StrictModel):
 
     type: Literal["flat"] = "flat"
     z_m: float = Field(0.0, description="ground height, m ENU")
-    size_m: float = Field(200.0, gt=0, description="side of the square ground shown in Gazebo/plots, m")
+    size_m: float = Field(200.0, gt=0, le=MAX_DISTANCE_M, description="side of the square ground shown in Gazebo/plots, m")
 
 
 class HeightmapTerrain(StrictModel):
@@ -81,8 +82,8 @@ class OriginSpec(StrictModel):
 class SpawnSpec(StrictModel):
     """Where the vehicle starts: x, y (m ENU); z is placed on the terrain surface."""
 
-    x_m: float = 0.0
-    y_m: float = 0.0
+    x_m: Coord = 0.0
+    y_m: Coord = 0.0
     yaw_deg: float = Field(0.0, description="ENU yaw, deg from east, CCW")
 
 
