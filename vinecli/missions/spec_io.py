@@ -14,6 +14,7 @@ from typing import Any
 import yaml
 
 from vinecli.errors import SpecError
+from vinecli.missions.quantities import check_quantities
 from vinecli.specs import read_yaml, resolve_base, validate_spec
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
@@ -25,6 +26,7 @@ def mission_from_dict(data: dict[str, Any], path: Path | str) -> MissionSpec:
     """Validate a mission mapping (``base:`` already resolved); SpecError names ``path`` and the field."""
     mission = validate_spec(MissionSpec, data, path)
     _check_windows_syntax(mission, path)
+    check_quantities(mission.checks, path)
     return mission
 
 

@@ -23,6 +23,7 @@ from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
 from vinecli.missions.checks import EventMissing, RunData, evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS, MetricContext
+from vinecli.missions.quantities import check_quantities
 from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
@@ -157,6 +158,7 @@ def run_mission(
     if spec.vehicle is not None:
         vehicle = resolve_vehicle(spec.vehicle, relative_to=mission_path.parent if mission_path else None,
                                   path=mission_path or spec.name)
+    check_quantities(spec.checks, mission_path or spec.name, n_rotors=(vehicle or world.vehicle).n_rotors)
     from vinecli.autopilot.px4_options import make_run_autopilot
 
     # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
