@@ -22,6 +22,7 @@ from vinecli.report.baseline import Comparison, _fmt
 from vinecli.report.loader import Run
 from vinecli.report.markdown import run_order
 from vinecli.report.plots import FIGURES, check_spans
+from vinecli.report.text import printable
 
 TEMPLATE = "report.html.j2"
 
@@ -31,7 +32,16 @@ def _env() -> Any:
 
     return jinja2.Environment(loader=jinja2.FileSystemLoader(str(Path(__file__).parent / "templates")),
                               autoescape=jinja2.select_autoescape(["html", "j2"]), trim_blocks=True,
-                              lstrip_blocks=True, undefined=jinja2.StrictUndefined)
+                              lstrip_blocks=True, undefined=jinja2.StrictUndefined, finalize=_finalize)
+
+
+def _finalize(value: Any) -> Any:
+    """Every ``{{ }}`` output: plain strings lose their control characters (then autoescaping applies)."""
+    from markupsafe import Markup
+
+    if isinstance(value, str) and not isinstance(value, Markup):
+        return printable(value)
+    return value
 
 
 def page_name(run: Run, taken: set[str]) -> str:

@@ -3,7 +3,7 @@
 Testcase ``classname`` is ``<mission>.<case>``, ``name`` the check name; a failed check is a
 ``<failure>`` whose message states the measured value and the bound; a case that could not run
 is one ``<error>`` testcase; baseline regressions are extra failing testcases named
-``regression:<name>``. The output validates against the Jenkins/Surefire JUnit schema
+``regression:<name>``. Control characters in any text are written as ``\\xNN`` escapes. The output validates against the Jenkins/Surefire JUnit schema
 (``tests/data/junit-10.xsd``): ``<testsuites>`` carries name/tests/failures/errors/time only.
 """
 
@@ -15,47 +15,49 @@ from typing import Any
 
 from vinecli.report.baseline import Comparison, _fmt
 from vinecli.report.loader import Run
+from vinecli.report.text import printable
 
 
 def check_message(c: dict[str, Any]) -> str:
-    """One line: ``name: value V, expected OP BOUND``."""
-    return f"{c['name']}: value {_fmt(c.get('value'))}, expected {c.get('op')} {_fmt(c.get('bound'))}"
+    """One line: ``name: value V, expected OP BOUND`` (control characters escaped)."""
+    return printable(f"{c['name']}: value {_fmt(c.get('value'))}, expected {c.get('op')} {_fmt(c.get('bound'))}")
 
 
 def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None = None, name: str = "vinecli") -> None:
     """Write ``junit.xml`` for ``runs`` (and regressions from ``comparison``)."""
     from junitparser import Error, Failure, JUnitXml, TestCase, TestSuite
 
-    xml = JUnitXml(name)
+    x = printable
+    xml = JUnitXml(x(name))
     suites: dict[str, Any] = {}
     cases: dict[str, list[Any]] = {}  # added once per suite: add_testcase recounts the suite each time (O(n²))
     for run in runs:
         suite = suites.get(run.mission)
         if suite is None:
-            suite = suites[run.mission] = TestSuite(run.mission)
-            suite.add_property("mission", run.mission)
+            suite = suites[run.mission] = TestSuite(x(run.mission))
+            suite.add_property("mission", x(run.mission))
             cases[run.mission] = []
         add = cases[run.mission].append
-        classname = f"{run.mission}.{run.case}"
+        classname = x(f"{run.mission}.{run.case}")
         wall = float(run.summary.get("wall_time_s") or 0.0)
         if run.errored:
             tc = TestCase("run", classname, 0.0)
-            err = Error(f"the case could not run: {run.error}", "error")
-            err.text = run.error or ""
+            err = Error(x(f"the case could not run: {run.error}"), "error")
+            err.text = x(run.error or "")
             tc.result = [err]
             add(tc)
         checks = run.checks
         for c in checks:
-            tc = TestCase(str(c["name"]), classname, round(wall / max(1, len(checks)), 4))
+            tc = TestCase(x(c["name"]), classname, round(wall / max(1, len(checks)), 4))
             if not c.get("passed"):
                 f = Failure(check_message(c), "check")
-                f.text = (f"{c.get('message') or ''}\nquantity: {c.get('quantity')}, reduce: {c.get('reduce')}, "
-                          f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status})")
+                f.text = x(f"{c.get('message') or ''}\nquantity: {c.get('quantity')}, reduce: {c.get('reduce')}, "
+                           f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status})")
                 tc.result = [f]
             add(tc)
         for r in comparison.for_case(run.case) if comparison else []:
-            tc = TestCase(f"regression:{r.name}", classname, 0.0)
-            tc.result = [Failure(r.message, f"regression-{r.kind}")]
+            tc = TestCase(x(f"regression:{r.name}"), classname, 0.0)
+            tc.result = [Failure(x(r.message), f"regression-{r.kind}")]
             add(tc)
     tests = failures = errors = 0
     time = 0.0

@@ -11,10 +11,11 @@ from typing import Any
 
 from vinecli.report.baseline import Comparison, _fmt
 from vinecli.report.loader import Run
+from vinecli.report.text import md_text
 
 
 def _cell(v: Any) -> str:
-    return str(v).replace("|", "\\|").replace("\n", " ")
+    return md_text(v)
 
 
 def run_order(runs: Sequence[Run], comparison: Comparison | None = None) -> list[Run]:
@@ -46,7 +47,7 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
     regs = comparison.regressions if comparison else []
     reg_cases = {r.case for r in regs}
     ok = n_err == 0 and n_fail == 0 and not regs
-    lines = [f"## {'✅' if ok else '❌'} {title}: {n} run{'s' if n != 1 else ''} — {n_pass} passed, {n_fail} failed, "
+    lines = [f"## {'✅' if ok else '❌'} {_cell(title)}: {n} run{'s' if n != 1 else ''} — {n_pass} passed, {n_fail} failed, "
              f"{n_err} error{'s' if n_err != 1 else ''}"
              + (f", {len(regs)} regression{'s' if len(regs) != 1 else ''} vs baseline" if comparison else ""), ""]
     lines += ["| case | mission | vehicle | seed | status | result | checks | sim time | RTF |",
@@ -74,7 +75,7 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
         if len(failed) > max_rows * 2:
             lines.append(f"\n… and {len(failed) - max_rows * 2} more failed checks.")
     if comparison is not None:
-        lines += ["", f"### Regressions vs baseline `{_cell(comparison.baseline_dir)}`", ""]
+        lines += ["", f"### Regressions vs baseline {_cell(comparison.baseline_dir)}", ""]
         if regs:
             lines += ["| case | kind | name | detail |", "|---|---|---|---|"]
             for g in regs[:max_rows * 2]:
@@ -82,7 +83,8 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
         else:
             lines.append(f"No regressions ({comparison.compared} cases compared).")
         if comparison.missing_cases:
-            lines.append(f"\nCases in the baseline but not in this batch: {', '.join(comparison.missing_cases[:20])}")
+            lines.append("\nCases in the baseline but not in this batch: "
+                         + ", ".join(_cell(c) for c in comparison.missing_cases[:20]))
     if html_name:
         lines += ["", f"Full report with figures: `{html_name}` (artifact)."]
     return "\n".join(lines) + "\n"
