@@ -44,7 +44,7 @@ def hostile_batch(root: Path) -> Path:
 
 def test_helpers() -> None:
     assert printable("a\x1bb\x00c\td\ne") == "a\\x1bb\\x00c\td\ne"
-    assert md_text("<b>&|x\n") == "&lt;b&gt;&amp;\\|x "
+    assert md_text("<b>&amp;|x\n<= 3 & 4") == "&lt;b>&amp;amp;\\|x <= 3 & 4"
 
 
 def test_every_format_escapes_hostile_text(tmp_path: Path) -> None:
@@ -59,7 +59,7 @@ def test_every_format_escapes_hostile_text(tmp_path: Path) -> None:
         for raw in (SCRIPT, SVG, IMG, "<script", "<svg", "<img"):
             assert raw not in text
         assert "\x1b" not in text and "\x00" not in text and "\x07" not in text
-    assert "&lt;script&gt;" in md and "\\x1b" in md
+    assert "&lt;script>" in md and "\\x1b" in md
     root = ET.fromstring(junit)  # well-formed XML (a control character made `report` exit 3 before)
     names = [tc.get("name") for tc in root.iter("testcase")]
     assert any(n and n.startswith(SVG + "\\x00") for n in names)

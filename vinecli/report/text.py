@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
+_TAG_RE = re.compile(r"<(?=[A-Za-z/!?])")
+_AMP_RE = re.compile(r"&(?=[A-Za-z#])")
 # C0 controls but tab/newline/carriage return, DEL, C1 controls, surrogates and the XML non-characters
 _CONTROL_RE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
 
@@ -22,6 +24,11 @@ def printable(value: Any) -> str:
 
 
 def md_text(value: Any) -> str:
-    """Text for a Markdown table cell or line: printable, one line, no raw HTML, ``|`` escaped."""
-    s = printable(value).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    """Text for a Markdown table cell or line: printable, one line, no raw HTML, ``|`` escaped.
+
+    A ``<`` that could open a tag, comment or autolink (followed by a letter, ``/``, ``!`` or ``?``) and
+    an ``&`` that could start an entity become entities; ``<= 0.1`` stays readable.
+    """
+    s = _AMP_RE.sub("&amp;", printable(value))
+    s = _TAG_RE.sub("&lt;", s)
     return s.replace("|", "\\|").replace("\r", " ").replace("\n", " ")
