@@ -6,6 +6,7 @@ the process exit code the CLI maps it to (see :mod:`vinecli.cli.console`):
 * 1 - the run finished but a check failed (:class:`ChecksFailed`)
 * 2 - bad input or usage (:class:`InputError` and subclasses)
 * 3 - runtime failure (:class:`RuntimeFailure` and subclasses)
+* 128 + N - stopped by signal N (:class:`Interrupted`: 130 SIGINT, 143 SIGTERM)
 
 Messages are one line and name the file (or endpoint) and the problem.
 """
@@ -62,3 +63,13 @@ class ChecksFailed(VinecliError):
     """The work finished but at least one check failed (exit 1)."""
 
     exit_code = 1
+
+
+class Interrupted(VinecliError):
+    """The work was stopped by a signal; exit code 128 + the signal number (130 SIGINT, 143 SIGTERM)."""
+
+    exit_code = 130
+
+    def __init__(self, message: str, *, path: str | Path | None = None, signum: int = 2) -> None:
+        super().__init__(message, path=path)
+        self.exit_code = 128 + signum

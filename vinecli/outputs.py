@@ -126,6 +126,29 @@ def contained_path(root: Path, *parts: str) -> Path:
     return target
 
 
+def manifest_problem(root: Path) -> str | None:
+    """Why the directory ``root`` does not hold exactly what its ``manifest.json`` lists, or None.
+
+    Every listed output must exist inside ``root`` with the recorded size and sha256 (a truncated or
+    rewritten file is caught); a missing or unreadable manifest is a problem too.
+    """
+    root = Path(root)
+    try:
+        outputs = json.loads((root / "manifest.json").read_text(encoding="utf-8"))["outputs"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return f"no readable manifest.json ({type(exc).__name__})"
+    for entry in outputs:
+        try:
+            p = contained_path(root, entry["path"])
+            if not p.is_file():
+                return f"{entry['path']} is missing"
+            if p.stat().st_size != int(entry["bytes"]) or sha256_file(p) != entry["sha256"]:
+                return f"{entry['path']} does not match its manifest hash"
+        except (OutputError, OSError, KeyError, TypeError, ValueError) as exc:
+            return f"bad manifest entry {entry!r} ({type(exc).__name__})"
+    return None
+
+
 def check_output_target(out: Path, *, overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> None:
     """Fail early (OutputError, exit 2), before any heavy work, if ``out`` cannot or must not be written.
 

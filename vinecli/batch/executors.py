@@ -15,6 +15,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import Any
 
+from vinecli.batch.signals import worker_init
 from vinecli.errors import InputError, RuntimeFailure
 
 log = logging.getLogger(__name__)
@@ -23,9 +24,10 @@ EXECUTORS = ("local", "dask")
 
 
 def make_local_executor(jobs: int, max_tasks_per_child: int = 4) -> ProcessPoolExecutor:
-    """Process pool, spawn start method, workers recycled every ``max_tasks_per_child`` cases."""
+    """Process pool, spawn start method, workers recycled every ``max_tasks_per_child`` cases, stop signals
+    handled as :func:`vinecli.batch.signals.worker_init` sets up."""
     return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                               max_tasks_per_child=max_tasks_per_child)
+                               max_tasks_per_child=max_tasks_per_child, initializer=worker_init)
 
 
 @contextmanager

@@ -2,7 +2,8 @@
 
 ``run_one`` is a top-level, picklable function executed in worker processes (local process
 pool or Dask workers). It opens its own PyBullet client (through the simulation loop), never
-raises, and returns a small :class:`CaseResult`.
+raises, and returns a small :class:`CaseResult`. A SIGTERM to a local-pool worker
+(:mod:`vinecli.batch.signals`) ends its run at the next step, written with status ``interrupted``.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ import time
 import traceback
 from dataclasses import asdict, dataclass, field
 from typing import Any
+
+from vinecli.batch.signals import worker_should_stop
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +60,8 @@ def run_one(spec: RunSpec) -> CaseResult:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
+    if worker_should_stop():
+        return CaseResult(spec.case, spec.run_id, "interrupted", False, "not run: the batch was stopped", seed=spec.seed)
     try:
         from vinecli.runs.mission import run_mission
         from vinecli.specs.mission import MissionSpec
@@ -64,7 +69,7 @@ def run_one(spec: RunSpec) -> CaseResult:
         mission = MissionSpec.model_validate(spec.mission)
         s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
                         mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case,
-                        overwrite=True)
+                        overwrite=True, should_stop=worker_should_stop)
     except BaseException as exc:  # noqa: BLE001 - a worker reports, it never dies with the case
         if isinstance(exc, KeyboardInterrupt):
             raise

@@ -17,12 +17,13 @@ import hashlib
 import json
 import logging
 import os
+import signal
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
-from contextlib import ExitStack
+from contextlib import ExitStack, suppress
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -30,6 +31,7 @@ from typing import Any
 
 from vinecli.batch.executors import EXECUTORS, dask_executor, make_local_executor
 from vinecli.batch.job import CaseResult, RunSpec, run_one
+from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline
 from vinecli.errors import InputError, OutputError, SpecError
 from vinecli.outputs import contained_path, write_json
@@ -39,6 +41,8 @@ log = logging.getLogger(__name__)
 
 BATCH_JSON = "batch.json"
 WORLDS_DIR = "_worlds"
+#: seconds running cases get to write their partial runs after a stop signal
+STOP_GRACE_S = 30.0
 
 
 @dataclass
@@ -49,6 +53,12 @@ class BatchResult:
     runs_dir: str
     cases: list[CaseResult] = field(default_factory=list)
     wall_time_s: float = 0.0
+    #: the signal (SIGTERM 15, SIGINT 2) that stopped the batch, None if it ran to the end
+    signum: int | None = None
+
+    @property
+    def n_interrupted(self) -> int:
+        return sum(c.status == "interrupted" for c in self.cases)
 
     @property
     def n_passed(self) -> int:
@@ -115,12 +125,35 @@ def run_batch(
     except OSError as exc:
         raise OutputError(f"cannot create the runs directory ({exc.strerror})", path=runs_dir) from None
     limit = timeout_s if timeout_s is not None else spec.timeout_s
-    worlds = prepare_worlds(cases, runs_dir)
-    run_specs = [
-        RunSpec(c.name, c.name, c.mission, c.mission_path, worlds[c.world], str(runs_dir), c.seed, limit, mcap)
-        for c in cases
-    ]
     t0 = time.perf_counter()
+    with StopRequest() as stop:
+        worlds: dict[str, str] = {}
+        try:
+            with stop.interruptible():
+                worlds = prepare_worlds(cases, runs_dir)
+        except BatchInterrupted:
+            log.warning("%s: batch stopped while preparing the worlds", stop.name)
+        run_specs = [RunSpec(c.name, c.name, c.mission, c.mission_path, worlds.get(c.world, c.world), str(runs_dir),
+                             c.seed, limit, mcap) for c in cases]
+        hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
+
+        def execute(todo: Sequence[RunSpec], record: Callable[[CaseResult], None]) -> None:
+            _execute(todo, job, jobs, executor, scheduler, dask_processes, max_tasks_per_child, hard, record, stop)
+
+        def write(results: dict[str, CaseResult]) -> None:
+            _write_batch_json(runs_dir, spec, ppath, executor, jobs, run_specs, results, t0)
+
+        results = _run_cases(run_specs, runs_dir, resume, stop, progress, execute, write)
+    return BatchResult(spec.name, str(runs_dir), [results[rs.case] for rs in run_specs],
+                       round(time.perf_counter() - t0, 3), stop.signum)
+
+
+def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: StopRequest,
+               progress: ProgressFn | None,
+               execute: Callable[[Sequence[RunSpec], Callable[[CaseResult], None]], None],
+               write: Callable[[dict[str, CaseResult]], None]) -> dict[str, CaseResult]:
+    """Resume, ``execute`` and record every case, ``write`` batch.json after each; after a stop signal the
+    cases that did not run are recorded as ``interrupted`` so batch.json never keeps a case ``pending``."""
     results: dict[str, CaseResult] = {}
     todo: list[RunSpec] = []
     for rs in run_specs:
@@ -139,24 +172,28 @@ def run_batch(
         done_count += 1
         if progress is not None:
             progress(r, done_count, total)
-        _write_batch_json(runs_dir, spec, ppath, executor, jobs, run_specs, results, t0)
+        write(results)
 
     for r in list(results.values()):
         if progress is not None:
             progress(r, list(results).index(r.case) + 1, total)
     # longest first (LPT): the mission's time limit is the cost estimate, so short cases fill the tail
     todo.sort(key=lambda rs: -float(rs.mission.get("max_duration_s") or 0.0))
-    if todo:
-        hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
-        _execute(todo, job, jobs, executor, scheduler, dask_processes, max_tasks_per_child, hard, record)
-    _write_batch_json(runs_dir, spec, ppath, executor, jobs, run_specs, results, t0)
-    return BatchResult(spec.name, str(runs_dir), [results[rs.case] for rs in run_specs],
-                       round(time.perf_counter() - t0, 3))
+    try:
+        if todo and stop.signum is None:
+            execute(todo, record)
+    finally:  # also on a second signal (KeyboardInterrupt): batch.json stays consistent
+        if stop.signum is not None:
+            for rs in run_specs:
+                if rs.case not in results:
+                    results[rs.case] = _interrupted(rs, f"not run: the batch was stopped by {stop.name}")
+        write(results)
+    return results
 
 
 def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs: int, executor: str,
              scheduler: str | None, dask_processes: bool, max_tasks_per_child: int, hard_limit: float | None,
-             record: Callable[[CaseResult], None]) -> None:
+             record: Callable[[CaseResult], None], stop: StopRequest) -> None:
     pending: deque[RunSpec] = deque(todo)
     suspects: deque[RunSpec] = deque()  # cases in flight when a worker died: rerun one at a time
     inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]] = {}
@@ -167,7 +204,7 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
         else:
             ex = stack.enter_context(dask_executor(jobs, scheduler, processes=dask_processes))
         try:
-            while pending or suspects or inflight:
+            while (pending or suspects or inflight) and stop.signum is None:
                 while suspects and not inflight:
                     s = suspects.popleft()
                     inflight[ex.submit(job, s)] = (s, time.monotonic(), True)
@@ -207,23 +244,40 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                             inflight.pop(f)
                         _kill_pool(ex)
                         ex = make_local_executor(jobs, max_tasks_per_child)
-        except KeyboardInterrupt:
-            # Ctrl-C reached the workers too: their runs stop at the next step and are written as
-            # "interrupted" partial runs; give them a moment to finish writing before stopping the pool.
-            done, _ = wait(list(inflight), timeout=20)
-            for f in done:
-                s, _t, _a = inflight.pop(f)
-                try:
-                    record(f.result())
-                except BaseException:  # noqa: BLE001 - a worker that died on the signal
-                    record(_error(s, "interrupted"))
-            raise
+            if stop.signum is not None and inflight:
+                _drain(inflight, ex if local else None, record, stop.name)
         finally:
             if local:
                 if inflight:
                     _kill_pool(ex)
                 else:
                     ex.shutdown(wait=True)
+
+
+def _drain(inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]], pool: Executor | None,
+           record: Callable[[CaseResult], None], signame: str) -> None:
+    """After a stop signal: ask the workers of a local ``pool`` to stop (SIGTERM: their runs end at the next
+    step and are written as ``interrupted``), wait up to :data:`STOP_GRACE_S` and record what they return."""
+    log.warning("%s: stopping %d running case(s)", signame, len(inflight))
+    for proc in list(getattr(pool, "_processes", {}).values()):  # ProcessPoolExecutor has no public pid list
+        with suppress(ProcessLookupError):
+            os.kill(proc.pid, signal.SIGTERM)
+    done, _ = wait(list(inflight), timeout=STOP_GRACE_S if pool is not None else 0)
+    for f in done:
+        s, _t, _a = inflight.pop(f)
+        try:
+            r = f.result()
+        except BaseException as exc:  # noqa: BLE001 - a worker that died on the signal
+            r = _interrupted(s, f"stopped by {signame}: {type(exc).__name__}")
+        record(r)
+    for f, (s, _t, _a) in list(inflight.items()):
+        f.cancel()
+        inflight.pop(f)
+        record(_interrupted(s, f"stopped by {signame}: no result after {STOP_GRACE_S:g} s (worker killed)"))
+
+
+def _interrupted(s: RunSpec, message: str) -> CaseResult:
+    return CaseResult(s.case, s.run_id, "interrupted", False, message, seed=s.seed)
 
 
 def _kill_pool(ex: Executor) -> None:

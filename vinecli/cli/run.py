@@ -91,7 +91,8 @@ def batch_cmd(
 ) -> None:
     """Run every case of a pipeline (missions and sweeps) and write OUT/batch.json.
 
-    Exit 1 if a check failed, 3 if a case could not run.
+    Exit 1 if a check failed, 3 if a case could not run, 143/130 after SIGTERM/SIGINT (running cases are
+    written as "interrupted" partial runs, the rest marked "interrupted" in batch.json; --resume finishes).
 
     Example: vinecli run batch pipelines/ci.yaml --out runs --jobs 2
     """
@@ -99,7 +100,7 @@ def batch_cmd(
 
     from vinecli.batch import run_batch
     from vinecli.batch.spec import expand_cases, load_pipeline
-    from vinecli.errors import ChecksFailed, RuntimeFailure
+    from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
 
     spec = load_pipeline(pipeline)
     if world is not None:
@@ -122,6 +123,11 @@ def batch_cmd(
     _batch_table(result)
     out_console.print(f"{result.runs_dir}/batch.json  {result.n_passed} passed, {result.n_failed} failed, "
                       f"{result.n_errors} errors in {result.wall_time_s:.1f} s")
+    if result.signum is not None:
+        import signal
+
+        raise Interrupted(f"stopped by {signal.Signals(result.signum).name}: {result.n_interrupted} case(s) "
+                          "interrupted (run again with --resume)", path=result.runs_dir, signum=result.signum)
     if result.n_errors:
         raise RuntimeFailure(f"{result.n_errors} case(s) could not run: "
                              + ", ".join(c.case for c in result.cases if c.error), path=result.runs_dir)

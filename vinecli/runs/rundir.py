@@ -9,6 +9,7 @@ renamed into place (:func:`vinecli.outputs.atomic_output_dir`).
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.outputs import _jsonable, write_json
+from vinecli.outputs import _jsonable, manifest_problem, write_json
 
 SUMMARY = "summary.json"
 TIMESERIES = "timeseries.parquet"
@@ -24,6 +25,8 @@ EVENTS = "events.jsonl"
 MISSION = "mission.yaml"
 PREVIEW = "terrain_preview.npz"
 MCAP = "run.mcap"
+
+log = logging.getLogger(__name__)
 
 #: keys a complete summary.json has (used by batch --resume)
 SUMMARY_KEYS = ("run_id", "status", "passed", "checks", "sim_time_s")
@@ -96,9 +99,16 @@ def read_summary(run_dir: Path) -> dict[str, Any]:
 
 
 def is_complete_run(run_dir: Path) -> bool:
-    """True if ``run_dir`` holds a finished run (summary.json with every key, not interrupted)."""
+    """True if ``run_dir`` holds a finished run: summary.json with every key, not interrupted, and every file
+    the manifest lists (summary.json among them) present with its recorded size and sha256."""
     try:
         s = json.loads((Path(run_dir) / SUMMARY).read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError):
         return False
-    return all(k in s for k in SUMMARY_KEYS) and s.get("status") not in ("interrupted", "running")
+    if not isinstance(s, dict) or not all(k in s for k in SUMMARY_KEYS) or s.get("status") in ("interrupted", "running"):
+        return False
+    problem = manifest_problem(Path(run_dir))
+    if problem is not None:
+        log.info("run %s is incomplete: %s", run_dir, problem)
+        return False
+    return True
