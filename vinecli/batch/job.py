@@ -69,7 +69,8 @@ def run_one(spec: RunSpec) -> CaseResult:
         mission = MissionSpec.model_validate(spec.mission)
         s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
                         mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case,
-                        overwrite=True, should_stop=worker_should_stop)
+                        overwrite=True, should_stop=worker_should_stop,
+                        protect=[spec.mission_path])
     except BaseException as exc:  # noqa: BLE001 - a worker reports, it never dies with the case
         if isinstance(exc, KeyboardInterrupt):
             raise

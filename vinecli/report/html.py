@@ -18,6 +18,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from vinecli.outputs import contained_path
 from vinecli.report.baseline import Comparison, _fmt
 from vinecli.report.loader import Run
 from vinecli.report.markdown import run_order
@@ -158,7 +159,7 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping
         for r in ordered:
             sec = _section(r, figures.get(r.case), comparison, notes.get(r.case, ""), pages_of[r.case])
             html = tpl.render(page="run", root="../", sections=[sec], **common)
-            (out_dir / "runs" / f"{pages_of[r.case]}.html").write_text(html, encoding="utf-8")
+            contained_path(out_dir, "runs", f"{pages_of[r.case]}.html").write_text(html, encoding="utf-8")
     if n_pages > 1:
         (out_dir / "pages").mkdir(exist_ok=True)
     report = out_dir / "report.html"

@@ -13,7 +13,7 @@ import math
 import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -109,6 +109,7 @@ def run_mission(
     case: str | None = None,
     autopilot_options: dict[str, Any] | None = None,
     overwrite: bool = False,
+    protect: Sequence[str | Path] = (),
 ) -> RunSummary:
     """Run one mission and write ``runs_dir/<run_id>/``.
 
@@ -123,6 +124,7 @@ def run_mission(
     progress : called as ``progress(sim_time_s, wall_time_s)`` by the loop
     should_stop : extra stop predicate (polled every step); ``wall_timeout_s``: stop after this wall time
     overwrite : replace an existing ``runs_dir/<run_id>/`` (otherwise OutputError, exit 2, before simulating)
+    protect : more inputs the run directory may not equal or contain (the mission file and world always)
 
     Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
     Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
@@ -147,7 +149,7 @@ def run_mission(
 
     run_id = check_name(run_id or default_run_id(spec, seed), "run id")
     out = contained_path(Path(runs_dir), run_id)
-    inputs = [p for p in (mission_path, Path(world_dir)) if p is not None]
+    inputs = [p for p in (mission_path, Path(world_dir), *map(Path, protect)) if p is not None]
     check_output_target(out, overwrite=overwrite, inputs=inputs)
 
     from vinecli.world import load_world
