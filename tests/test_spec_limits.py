@@ -138,3 +138,14 @@ def test_huge_sweep_is_refused_before_expanding(tmp_path: Path) -> None:
     spec = load_pipeline(tmp_path / "p.yaml")
     with pytest.raises(SpecError, match="200,000 cases"):
         expand_cases(spec, tmp_path / "p.yaml")
+
+
+@pytest.mark.parametrize("timeout", [float("nan"), float("inf"), -1.0, 1e12])
+def test_batch_timeout_option_is_checked(tmp_path: Path, timeout: float) -> None:
+    from vinecli.batch import run_batch
+    from vinecli.errors import InputError
+
+    (tmp_path / "p.yaml").write_text("name: p\nmissions: [m.yaml]\n")
+    with pytest.raises(InputError, match="--timeout"):
+        run_batch(tmp_path / "p.yaml", tmp_path / "runs", timeout_s=timeout)
+    assert not (tmp_path / "runs").exists()

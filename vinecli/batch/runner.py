@@ -6,7 +6,9 @@ crashes its worker process or runs past its limit is recorded as an error and th
 on: the limit is enforced cooperatively inside the worker (the loop stops at ``timeout_s``)
 and, as a last resort, by the parent, which kills a local pool that stops answering
 (``timeout_s`` + grace) and requeues the innocent cases. A case whose worker dies is retried
-alone once, so only the culprit is recorded as ``worker crashed``.
+alone once, so only the culprit is recorded as ``worker crashed``. SIGTERM/SIGINT stop the batch
+(:mod:`vinecli.batch.signals`): running cases end as ``interrupted`` partial runs, the others are
+recorded ``interrupted`` too, and :attr:`BatchResult.signum` tells the CLI to exit 128 + signal.
 
 Writes ``RUNS/batch.json`` (``{pipeline, cases: [{case, run_id, status, passed, error}]}``).
 """
@@ -16,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import os
 import signal
 import time
@@ -36,6 +39,7 @@ from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline
 from vinecli.errors import InputError, OutputError, SpecError
 from vinecli.outputs import contained_path, write_json
 from vinecli.runs import rundir
+from vinecli.specs.limits import MAX_DURATION_S
 
 log = logging.getLogger(__name__)
 
@@ -109,6 +113,8 @@ def run_batch(
         raise InputError(f"unknown executor {executor!r} (choose from {', '.join(EXECUTORS)})")
     if scheduler and executor != "dask":
         raise InputError("--scheduler needs --executor dask")
+    if timeout_s is not None and not (math.isfinite(timeout_s) and 0 < timeout_s <= MAX_DURATION_S):
+        raise InputError(f"--timeout must be a number of seconds in (0, {MAX_DURATION_S:g}], got {timeout_s}")
     if isinstance(pipeline, PipelineSpec):
         spec, ppath = pipeline, Path.cwd() / "pipeline.yaml"
     else:

@@ -76,7 +76,7 @@ class OriginSpec(StrictModel):
 
     lat: float = Field(ge=-90, le=90)
     lon: float = Field(ge=-180, le=180)
-    alt: float = 0.0
+    alt: Coord = 0.0
 
 
 class SpawnSpec(StrictModel):
@@ -98,8 +98,8 @@ class WorldSpec(StrictModel):
     spawn: SpawnSpec = SpawnSpec()
     wind: WindSpec = WindSpec()
     physics_rate_hz: float = Field(250.0, gt=0, le=10000)
-    gravity_mps2: float = Field(9.80665, gt=0)
-    air_density_kgm3: float = Field(1.225, gt=0)
+    gravity_mps2: float = Field(9.80665, gt=0, le=100.0)
+    air_density_kgm3: float = Field(1.225, gt=0, le=100.0)
     rows: list[list[Vec2L]] | Literal["auto"] | None = Field(
         None, description="vine rows as ENU polylines [[x, y], ...], or 'auto' (detected by the missions tools)"
     )
