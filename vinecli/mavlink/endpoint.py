@@ -35,6 +35,7 @@ from vinecli.mavlink.link import Link, UdpLink, is_loopback, parse_endpoint
 from vinecli.mavlink.mission_items import MissionItem, PlanContext, items_to_phases, phases_to_items
 from vinecli.mavlink.vehicle import DEFAULT_PARAMS, Telemetry, VehicleEndpoint
 from vinecli.sim.types import ActuatorCommand, Event, Observation
+from vinecli.specs.limits import MAX_DURATION_S  # phase timeout = none: max_duration_s ends the run
 from vinecli.specs.mission import GotoPhase, LandPhase, RtlPhase, TakeoffPhase
 
 log = logging.getLogger(__name__)
@@ -209,13 +210,15 @@ class MavlinkControlledAutopilot:
     def on_land(self) -> int:
         if not self.ap.armed:
             return M.MAV_RESULT_DENIED
-        self._run_phases([LandPhase(descent_speed_mps=self._param("MPC_LAND_SPEED"), timeout_s=1e6)], "land")
+        land = LandPhase(descent_speed_mps=self._param("MPC_LAND_SPEED"), timeout_s=MAX_DURATION_S)
+        self._run_phases([land], "land")
         return M.MAV_RESULT_ACCEPTED
 
     def on_rtl(self) -> int:
         if not self.ap.armed:
             return M.MAV_RESULT_DENIED
-        self._run_phases([RtlPhase(return_altitude_agl_m=max(0.5, self._param("RTL_RETURN_ALT")), timeout_s=1e6)], "rtl")
+        rtl = RtlPhase(return_altitude_agl_m=max(0.5, self._param("RTL_RETURN_ALT")), timeout_s=MAX_DURATION_S)
+        self._run_phases([rtl], "rtl")
         return M.MAV_RESULT_ACCEPTED
 
     def on_mission_start(self) -> int:
@@ -233,7 +236,8 @@ class MavlinkControlledAutopilot:
         x, y = (lon - o.lon) * m_lon, (lat - o.lat) * m_lat
         alt = None if not math.isfinite(alt_amsl) else alt_amsl - self.home_geo[2]
         sp = speed if math.isfinite(speed) and speed > 0 else self._param("MPC_XY_CRUISE")
-        self._run_phases([GotoPhase(position_enu=(x, y), altitude_agl_m=alt, speed_mps=sp, timeout_s=1e6)], "hold")
+        goto = GotoPhase(position_enu=(x, y), altitude_agl_m=alt, speed_mps=sp, timeout_s=MAX_DURATION_S)
+        self._run_phases([goto], "hold")
         return M.MAV_RESULT_ACCEPTED
 
     def on_set_actuator(self, u: float) -> int:
