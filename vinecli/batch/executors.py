@@ -15,7 +15,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import Any
 
-from vinecli.batch.signals import worker_init
+from vinecli.batch.signals import make_stop_flag, worker_init
 from vinecli.errors import InputError, RuntimeFailure
 
 log = logging.getLogger(__name__)
@@ -23,11 +23,17 @@ log = logging.getLogger(__name__)
 EXECUTORS = ("local", "dask")
 
 
-def make_local_executor(jobs: int, max_tasks_per_child: int = 4) -> ProcessPoolExecutor:
-    """Process pool, spawn start method, workers recycled every ``max_tasks_per_child`` cases, stop signals
-    handled as :func:`vinecli.batch.signals.worker_init` sets up."""
+def make_local_executor(jobs: int, max_tasks_per_child: int = 4, stop_flag: Any = None) -> ProcessPoolExecutor:
+    """Process pool, spawn start method, workers recycled every ``max_tasks_per_child`` cases, stops handled as
+    :func:`vinecli.batch.signals.worker_init` sets up (``stop_flag``: from :func:`local_stop_flag`)."""
     return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                               max_tasks_per_child=max_tasks_per_child, initializer=worker_init)
+                               max_tasks_per_child=max_tasks_per_child, initializer=worker_init,
+                               initargs=(stop_flag,))
+
+
+def local_stop_flag() -> Any:
+    """The shared stop flag for :func:`make_local_executor` pools (set ``.value = 1`` to stop their runs)."""
+    return make_stop_flag(mp.get_context("spawn"))
 
 
 @contextmanager

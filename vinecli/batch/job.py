@@ -2,8 +2,8 @@
 
 ``run_one`` is a top-level, picklable function executed in worker processes (local process
 pool or Dask workers). It opens its own PyBullet client (through the simulation loop), never
-raises, and returns a small :class:`CaseResult`. A SIGTERM to a local-pool worker
-(:mod:`vinecli.batch.signals`) ends its run at the next step, written with status ``interrupted``.
+raises, and returns a small :class:`CaseResult`. A stop of a local pool (its shared flag or a SIGTERM to the
+worker, :mod:`vinecli.batch.signals`) ends the run at the next step, written with status ``interrupted``.
 """
 
 from __future__ import annotations

@@ -20,19 +20,18 @@ import json
 import logging
 import math
 import os
-import signal
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
-from contextlib import ExitStack, suppress
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from vinecli.batch.executors import EXECUTORS, dask_executor, make_local_executor
+from vinecli.batch.executors import EXECUTORS, dask_executor, local_stop_flag, make_local_executor
 from vinecli.batch.job import CaseResult, RunSpec, run_one
 from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline
@@ -204,9 +203,10 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
     suspects: deque[RunSpec] = deque()  # cases in flight when a worker died: rerun one at a time
     inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]] = {}
     local = executor == "local"
+    flag = local_stop_flag() if local else None
     with ExitStack() as stack:
         if local:
-            ex: Executor = make_local_executor(jobs, max_tasks_per_child)
+            ex: Executor = make_local_executor(jobs, max_tasks_per_child, flag)
         else:
             ex = stack.enter_context(dask_executor(jobs, scheduler, processes=dask_processes))
         try:
@@ -236,7 +236,7 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                         suspects.append(s)
                         inflight.pop(f)
                     ex.shutdown(wait=False, cancel_futures=True)
-                    ex = make_local_executor(jobs, max_tasks_per_child)
+                    ex = make_local_executor(jobs, max_tasks_per_child, flag)
                 if hard_limit is not None:
                     now = time.monotonic()
                     expired = [f for f, (_s, t, _a) in inflight.items() if now - t > hard_limit]
@@ -249,26 +249,26 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                             pending.appendleft(s)
                             inflight.pop(f)
                         _kill_pool(ex)
-                        ex = make_local_executor(jobs, max_tasks_per_child)
+                        ex = make_local_executor(jobs, max_tasks_per_child, flag)
             if stop.signum is not None and inflight:
-                _drain(inflight, ex if local else None, record, stop.name)
+                _drain(inflight, flag, record, stop.name)
         finally:
             if local:
-                if inflight:
+                if inflight or stop.signum is not None:  # stuck, or stopping: idle workers have nothing to save
                     _kill_pool(ex)
                 else:
                     ex.shutdown(wait=True)
 
 
-def _drain(inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]], pool: Executor | None,
+def _drain(inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]], flag: Any,
            record: Callable[[CaseResult], None], signame: str) -> None:
-    """After a stop signal: ask the workers of a local ``pool`` to stop (SIGTERM: their runs end at the next
-    step and are written as ``interrupted``), wait up to :data:`STOP_GRACE_S` and record what they return."""
-    log.warning("%s: stopping %d running case(s)", signame, len(inflight))
-    for proc in list(getattr(pool, "_processes", {}).values()):  # ProcessPoolExecutor has no public pid list
-        with suppress(ProcessLookupError):
-            os.kill(proc.pid, signal.SIGTERM)
-    done, _ = wait(list(inflight), timeout=STOP_GRACE_S if pool is not None else 0)
+    """After a stop signal: raise a local pool's stop ``flag`` (its runs end at the next step and are written
+    as ``interrupted``), wait up to :data:`STOP_GRACE_S` and record what the cases return (Dask, no flag:
+    the running cases are cancelled)."""
+    log.info("%s: stopping %d running case(s)", signame, len(inflight))
+    if flag is not None:
+        flag.value = 1
+    done, _ = wait(list(inflight), timeout=STOP_GRACE_S if flag is not None else 0)
     for f in done:
         s, _t, _a = inflight.pop(f)
         try:

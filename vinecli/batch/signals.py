@@ -1,14 +1,16 @@
 """SIGTERM / SIGINT for batches: the main process asks, the workers stop at the next step.
 
 * Main process (:class:`StopRequest`): the first SIGTERM or SIGINT records the signal, which the
-  batch loop polls (:attr:`StopRequest.signum`): it stops submitting, forwards SIGTERM to its
-  workers and waits for their partial runs. Inside a :meth:`StopRequest.interruptible` section
+  batch loop polls (:attr:`StopRequest.signum`): it stops submitting, raises the pool's shared stop
+  flag (:func:`make_stop_flag`) and waits for the workers' partial runs. Inside a :meth:`StopRequest.interruptible` section
   (e.g. while a world is being built) the signal also raises :class:`BatchInterrupted`. A second
   signal aborts at once (KeyboardInterrupt).
 * Worker processes (:func:`worker_init`, the local pool's initializer): SIGINT is ignored outside a
   run (a terminal's Ctrl-C reaches the whole process group; the run itself turns it into a stop)
-  and SIGTERM sets a flag that :func:`worker_should_stop` reports to the simulation loop, which
-  ends the run as ``interrupted`` and writes it.
+  and a SIGTERM of their own sets a local flag. :func:`worker_should_stop` reports either flag to the
+  simulation loop (polled every step: a plain read of shared memory), which ends the run as
+  ``interrupted`` and writes it. The shared flag reaches workers still starting up, where a signal
+  would kill them.
 """
 
 from __future__ import annotations
@@ -79,6 +81,12 @@ class StopRequest:
 
 
 _WORKER_STOP = False
+_SHARED_STOP: Any = None
+
+
+def make_stop_flag(ctx: Any) -> Any:
+    """A shared byte (0 = run, 1 = stop) for :func:`worker_init` of a pool made with context ``ctx``."""
+    return ctx.RawValue("b", 0)
 
 
 def _worker_sigterm(signum: int, frame: FrameType | None) -> None:
@@ -86,12 +94,15 @@ def _worker_sigterm(signum: int, frame: FrameType | None) -> None:
     _WORKER_STOP = True
 
 
-def worker_init() -> None:
-    """Process-pool initializer: SIGINT ignored (between runs), SIGTERM -> :func:`worker_should_stop`."""
+def worker_init(stop_flag: Any = None) -> None:
+    """Process-pool initializer: SIGINT ignored (between runs), SIGTERM or ``stop_flag`` set ->
+    :func:`worker_should_stop`."""
+    global _SHARED_STOP
+    _SHARED_STOP = stop_flag
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_sigterm)
 
 
 def worker_should_stop() -> bool:
-    """True once this worker process got SIGTERM (polled every simulation step)."""
-    return _WORKER_STOP
+    """True once this worker got SIGTERM or its pool's stop flag was raised (polled every simulation step)."""
+    return _WORKER_STOP or (_SHARED_STOP is not None and _SHARED_STOP.value != 0)
