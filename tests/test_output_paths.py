@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 
 from vinecli.cli.app import app
 from vinecli.errors import OutputError
-from vinecli.names import check_name, name_problem
+from vinecli.names import check_name, name_from, name_problem
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
 
 runner = CliRunner()
@@ -65,6 +65,12 @@ def test_unsafe_names_are_refused(bad: str) -> None:
 @pytest.mark.parametrize("good", ["takeoff", "gust-strong", "gust-1a2b3c4d-s123", "x500_sprayer", "v1.2+rc"])
 def test_safe_names_pass(good: str) -> None:
     assert check_name(good) == good
+
+
+@pytest.mark.parametrize(("text", "name"), [("my plan", "my_plan"), ("../../x", "_._x"), ("..", "mission"),
+                                           (".hidden", "hidden"), ("", "mission"), ("ok-1.2", "ok-1.2")])
+def test_names_derived_from_file_names_are_safe(text: str, name: str) -> None:
+    assert name_from(text) == name and name_problem(name_from(text)) is None
 
 
 def test_contained_path_refuses_escapes(tmp_path: Path) -> None:

@@ -42,6 +42,14 @@ def check_name(name: str, what: str = "name", *, path: str | Path | None = None)
     return name
 
 
+def name_from(text: str, fallback: str = "mission") -> str:
+    """A safe name derived from free text (a file stem): unsafe runs of characters become ``_``; ``fallback``
+    if nothing usable is left."""
+    s = re.sub(r"[^A-Za-z0-9._+-]+", "_", text)
+    s = re.sub(r"\.{2,}", ".", s).lstrip(".+-")[:MAX_NAME_LEN]
+    return s if name_problem(s) is None else fallback
+
+
 def _validate(name: str) -> str:
     problem = name_problem(name)
     if problem is not None:

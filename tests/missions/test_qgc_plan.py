@@ -147,3 +147,14 @@ def test_round_trip_export_import(tmp_path: Path) -> None:
     a = [x for x in strip(plan["mission"]["items"]) if x[0] != 178]
     b = [x for x in strip(again["mission"]["items"]) if x[0] != 178]
     assert a == b
+
+
+def test_imported_mission_names_are_safe(plan_file: Path, tmp_path: Path) -> None:
+    """The default name comes from the file name made safe; an unsafe --name is exit 2 (InputError)."""
+    from vinecli.errors import InputError
+
+    p = tmp_path / "my survey (v2).plan"
+    p.write_bytes(plan_file.read_bytes())
+    assert import_plan(p, ORIGIN).name == "my_survey_v2_"
+    with pytest.raises(InputError, match="--name"):
+        import_plan(p, ORIGIN, name="../escape")

@@ -31,6 +31,7 @@ def rows_cmd(
     from vinecli.errors import InputError
     from vinecli.missions import patterns
     from vinecli.missions.qgc_plan import export_plan, write_plan
+    from vinecli.names import name_from
 
     nozzle = 0.1
     if source.is_dir():
@@ -55,7 +56,8 @@ def rows_cmd(
         home, rows = (0.0, 0.0, 0.0), det.rows
     if not rows:
         raise InputError("no rows found (try --spacing)", path=source)
-    mission = patterns.spray_mission(rows, name=out.stem, height_m=height, speed_mps=speed, flow_lps=flow)
+    mission = patterns.spray_mission(rows, name=name_from(out.stem, "spray-rows"), height_m=height, speed_mps=speed,
+                                     flow_lps=flow)
     plan = export_plan(mission, origin, home, nozzle_max_flow_lps=nozzle)  # type: ignore[arg-type]
     write_plan(out, plan)
     if mission_out is not None:

@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
+from vinecli.names import check_name, name_from
 from vinecli.specs import format_validation_error
 from vinecli.specs.mission import (
     GeofenceSpec,
@@ -164,8 +165,19 @@ def import_plan(
     ``nozzle_max_flow_lps`` scales DO_SET_ACTUATOR / DO_SET_SERVO values to L/s;
     ``spray_flow_lps`` is the flow of DO_SPRAYER "on" (default: half the maximum).
     ``home_alt_m`` (AMSL) for frame-0 altitudes: default the plan's planned home altitude.
+    ``name``: the mission name (checked, InputError), default derived from the file name.
+    A plan whose values the mission spec refuses (NaN, beyond :mod:`vinecli.specs.limits`) is a SpecError.
     """
     path = Path(path)
+    name = check_name(name, "--name", path=path) if name is not None else name_from(path.stem)
+    try:
+        return _import_plan(path, origin, nozzle_max_flow_lps, spray_flow_lps, name, home_alt_m)
+    except ValidationError as exc:
+        raise SpecError(format_validation_error(exc), path=path) from None
+
+
+def _import_plan(path: Path, origin: GeoOrigin, nozzle_max_flow_lps: float, spray_flow_lps: float | None,
+                 name: str, home_alt_m: float | None) -> MissionSpec:
     plan = read_plan(path)
     home = plan.mission.plannedHomePosition
     h_alt = float(home[2]) if home_alt_m is None else home_alt_m
@@ -278,7 +290,7 @@ def import_plan(
                                                         for p in phases)
     geofence = _import_fence(plan.geoFence, origin, path) if plan.geoFence else None
     return MissionSpec(
-        name=name or path.stem,
+        name=name,
         description=f"imported from {path.name}",
         phases=phases,
         geofence=geofence,
