@@ -149,3 +149,14 @@ def test_batch_timeout_option_is_checked(tmp_path: Path, timeout: float) -> None
     with pytest.raises(InputError, match="--timeout"):
         run_batch(tmp_path / "p.yaml", tmp_path / "runs", timeout_s=timeout)
     assert not (tmp_path / "runs").exists()
+
+
+def test_generated_missions_respect_the_limits() -> None:
+    """`plan rows` options beyond the limits are exit 2; a huge field's time limit is capped, not refused."""
+    from vinecli.errors import InputError
+    from vinecli.missions.patterns import spray_mission
+    from vinecli.specs.limits import MAX_DURATION_S
+
+    with pytest.raises(InputError, match="speed_mps"):
+        spray_mission([[(0.0, 0.0), (10.0, 0.0)]], speed_mps=1e9)
+    assert spray_mission([[(0.0, 0.0), (90_000.0, 0.0)]] * 30, speed_mps=0.1).max_duration_s == MAX_DURATION_S

@@ -22,9 +22,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import ValidationError
 
-from vinecli.errors import TerrainError
+from vinecli.errors import InputError, TerrainError
 from vinecli.geo import GeoOrigin
+from vinecli.specs import format_validation_error
+from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import LandPhase, MissionSpec, SprayPhase, TakeoffPhase
 
 Polyline = list[tuple[float, float]]
@@ -86,17 +89,23 @@ def boustrophedon(rows: Sequence[Sequence[tuple[float, float]]], start_xy: tuple
 
 def spray_mission(rows: Sequence[Sequence[tuple[float, float]]], *, name: str = "spray-rows", height_m: float = 2.0,
                   speed_mps: float = 1.5, flow_lps: float = 0.05, takeoff_m: float = 3.0) -> MissionSpec:
-    """Takeoff, one boustrophedon spray phase over ``rows`` (explicit polylines), land."""
+    """Takeoff, one boustrophedon spray phase over ``rows`` (explicit polylines), land.
+
+    InputError (exit 2) for values the mission spec refuses (e.g. a speed beyond :mod:`vinecli.specs.limits`).
+    """
     rows_l = [[(round(float(x), 3), round(float(y), 3)) for x, y in r] for r in rows]
     length = sum(math.dist(a, b) for r in rows_l for a, b in zip(r[:-1], r[1:], strict=True))
-    return MissionSpec(
-        name=name,
-        description=f"boustrophedon spray over {len(rows_l)} rows at {height_m:g} m, {flow_lps:g} L/s",
-        phases=[TakeoffPhase(altitude_agl_m=takeoff_m),
-                SprayPhase(rows=rows_l, height_agl_m=height_m, speed_mps=speed_mps, flow_lps=flow_lps),
-                LandPhase()],
-        max_duration_s=round(2.0 * length / speed_mps + 20.0 * len(rows_l) + 120.0, 1),
-    )
+    try:
+        return MissionSpec(
+            name=name,
+            description=f"boustrophedon spray over {len(rows_l)} rows at {height_m:g} m, {flow_lps:g} L/s",
+            phases=[TakeoffPhase(altitude_agl_m=takeoff_m),
+                    SprayPhase(rows=rows_l, height_agl_m=height_m, speed_mps=speed_mps, flow_lps=flow_lps),
+                    LandPhase()],
+            max_duration_s=min(MAX_DURATION_S, round(2.0 * length / speed_mps + 20.0 * len(rows_l) + 120.0, 1)),
+        )
+    except ValidationError as exc:
+        raise InputError(f"spray mission: {format_validation_error(exc)}") from None
 
 
 # ---------------------------------------------------------------- row detection

@@ -42,6 +42,7 @@ from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
 from vinecli.names import check_name, name_from
 from vinecli.specs import format_validation_error
+from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import (
     GeofenceSpec,
     GotoPhase,
@@ -294,7 +295,7 @@ def _import_plan(path: Path, origin: GeoOrigin, nozzle_max_flow_lps: float, spra
         description=f"imported from {path.name}",
         phases=phases,
         geofence=geofence,
-        max_duration_s=round(max(60.0, 1.5 * est + 60.0), 1),
+        max_duration_s=min(MAX_DURATION_S, round(max(60.0, 1.5 * est + 60.0), 1)),
     )
 
 
