@@ -86,7 +86,7 @@ class Recorder:
                 self._fill = 0
             chunk = self._chunks[-1]
             k = min(len(rows) - i, chunk.shape[0] - self._fill)
-            chunk[self._fill : self._fill + k] = rows[i : i + k]
+            chunk[self._fill : self._fill + k] = rows if k == len(rows) else rows[i : i + k]
             self._fill += k
             i += k
         self.n += len(rows)
