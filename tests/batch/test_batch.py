@@ -151,7 +151,7 @@ def test_shipped_pipelines_expand() -> None:
 
     ci = REPO / "pipelines" / "ci.yaml"
     cases = expand_cases(load_pipeline(ci), ci)
-    assert [c.name for c in cases] == ["takeoff", "overload", "spray", "gust"]
+    assert [c.name for c in cases] == ["takeoff", "overload", "spray", "gust", "job"]
     assert all(c.world.endswith("vineyard-sample.yaml") for c in cases)
     sw = REPO / "pipelines" / "sweep-wind-fill.yaml"
     cases = expand_cases(load_pipeline(sw), sw)
