@@ -242,8 +242,10 @@ class _Spray(_Phase):
 
     @staticmethod
     def accel(ap: BuiltinAutopilot) -> float:
-        """Acceleration of the spray path (m/s²): the path follower's, within the vehicle's limit."""
-        return min(1.5, ap.vehicle.control.max_acc_xy)
+        """Acceleration of the spray path (m/s², the one the plans assume)."""
+        from vinecli.missions.rowplan import plan_accel
+
+        return plan_accel(ap.vehicle)
 
     def start(self, ap: BuiltinAutopilot) -> None:
         self.announced = False

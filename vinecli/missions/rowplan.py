@@ -22,9 +22,17 @@ from dataclasses import dataclass, field
 
 from vinecli.missions.rowdetect import Polyline
 
-__all__ = ["Leg", "RowPlan", "plan_rows", "split_sorties"]
+__all__ = ["PATH_ACCEL_MPS2", "Leg", "RowPlan", "plan_accel", "plan_rows", "split_sorties"]
 
 Point = tuple[float, float]
+
+#: acceleration of the built-in autopilot's spray path follower, m/s²
+PATH_ACCEL_MPS2 = 1.5
+
+
+def plan_accel(vehicle: object) -> float:
+    """Acceleration the plans assume (m/s²): the spray path follower's, within the vehicle's MPC limit."""
+    return min(PATH_ACCEL_MPS2, float(vehicle.control.max_acc_xy))  # type: ignore[attr-defined]
 
 
 @dataclass
@@ -120,7 +128,7 @@ def _clip(rows: list[Polyline], region: object, what: str, warnings: list[str]) 
             cut += line.length
             continue
         best = max(parts, key=lambda g: g.length)
-        if line.length - best.length > 0.01:
+        if line.length - best.length > 0.05:
             n_out += 1
             cut = max(cut, line.length - best.length)
         pts = [(float(x), float(y)) for x, y in best.coords]
@@ -145,7 +153,8 @@ def _headland_fits(line: object, inner: object, d: float, inward: float, head: f
     return bool(inner.contains(Point(p.x + dx / n * head, p.y + dy / n * head)))  # type: ignore[attr-defined]
 
 
-def _fit_headlands(rows: list[Polyline], inner: object, head: float, warnings: list[str]) -> list[Polyline]:
+def _fit_headlands(rows: list[Polyline], inner: object, head: float, what: str, warnings: list[str]
+                   ) -> list[Polyline]:
     """Shorten row ends (0.1 m steps) whose headland, ``head`` m straight on past the end, would leave ``inner``."""
     from shapely.geometry import LineString
     from shapely.ops import substring
@@ -165,7 +174,7 @@ def _fit_headlands(rows: list[Polyline], inner: object, head: float, warnings: l
         cut = max(cut, a + (line.length - b))
         out.append([(float(x), float(y)) for x, y in substring(line, a, b).coords])
     if cut > 0.05:
-        warnings.append(f"rows end too close to the geofence for a {head:.1f} m headland: shortened (up to "
+        warnings.append(f"rows end too close to the {what} for a {head:.1f} m headland: shortened (up to "
                         f"{cut:.1f} m)")
     return out
 
@@ -230,6 +239,7 @@ def plan_rows(
     accel_mps2: float,
     fence_enu: Sequence[tuple[float, float]] | None = None,
     fence_margin_m: float = 1.0,
+    fence_name: str = "geofence",
     terrain_bounds: tuple[float, float, float, float] | None = None,
     transit_speed_mps: float | None = None,
     climb: tuple[float, float, float] | None = None,
@@ -252,8 +262,8 @@ def plan_rows(
         work = _clip(work, box(xmin, ymin, xmax, ymax), "terrain", warnings)
     if fence_enu is not None and len(fence_enu) >= 3:
         inner = Polygon(fence_enu).buffer(-fence_margin_m)
-        work = _clip(work, inner, f"geofence (margin {fence_margin_m:g} m)", warnings)
-        work = _fit_headlands(work, inner, head, warnings)
+        work = _clip(work, inner, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
+        work = _fit_headlands(work, inner, head, fence_name, warnings)
     keep = [(i, r) for i, r in zip(idx, work, strict=True) if len(r) >= 2 and LineString(r).length > 0.05]
     if not keep:
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
