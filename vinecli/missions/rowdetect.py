@@ -188,14 +188,6 @@ def _gradients(relief: np.ndarray, valid: np.ndarray, sigma_cells: float) -> tup
     return gx, gy, m
 
 
-def _tensor_normal(gx: np.ndarray, gy: np.ndarray) -> np.ndarray:
-    """Mean unit normal to the rows from the gradient structure tensor (doubled-angle average: curved
-    rows bending both ways average to their mean direction)."""
-    jxx, jyy, jxy = float((gx**2).sum()), float((gy**2).sum()), float((gx * gy).sum())
-    th = 0.5 * math.atan2(2 * jxy, jxx - jyy)
-    return np.array([math.cos(th), math.sin(th)])
-
-
 # ---------------------------------------------------------------- strips, peaks, tracking
 @dataclass
 class _Strips:
@@ -352,39 +344,97 @@ def _tensor_skew(gx: np.ndarray, gy: np.ndarray, m: np.ndarray, st: _Strips, n: 
 
 
 # ---------------------------------------------------------------- rows as polylines
-def _chain_line(c: list[tuple[int, float, float]], st: _Strips, step: float) -> tuple[np.ndarray, np.ndarray]:
-    """(t, s) of a chain's centre line every ``step`` m: the strip peaks joined by a cubic spline, from a
-    strip before the first to a strip after the last peak (trimmed later)."""
+def _line(t: np.ndarray, s: np.ndarray, extend: float, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """(t, s) every ``step`` m through knots (t, s): a cubic spline, extended ``extend`` m at both ends
+    straight on along the end slope of a quadratic fit of the last five knots (trimmed later)."""
     from scipy.interpolate import CubicSpline
 
-    t = np.array([q[1] for q in c])
-    s = np.array([q[2] for q in c])
+    order = np.argsort(t)
+    t, s = t[order], s[order]
     keep = np.concatenate([[True], np.diff(t) > 1e-6])
     t, s = t[keep], s[keep]
-    tt = np.arange(t[0] - st.length, t[-1] + st.length + step / 2, step)
-    if s.size >= 4:  # spline inside, straight on along its end tangents outside
+    tt = np.arange(t[0] - extend, t[-1] + extend + step / 2, step)
+    if s.size >= 4:
         cs = CubicSpline(t, s)
         inner = np.clip(tt, t[0], t[-1])
-        ds = cs(inner, 1)
-        return tt, cs(inner) + ds * (tt - inner)
-    g = np.polyfit(t, s, 1) if s.size >= 2 else np.array([0.0, s[0]])  # two or three peaks: a straight line
+        deg = 2 if s.size >= 5 else 1
+        g0 = np.polyval(np.polyder(np.polyfit(t[:5], s[:5], deg)), t[0])
+        g1 = np.polyval(np.polyder(np.polyfit(t[-5:], s[-5:], deg)), t[-1])
+        return tt, cs(inner) + np.where(tt < t[0], g0, g1) * (tt - inner)
+    g = np.polyfit(t, s, 1) if s.size >= 2 else np.array([0.0, s[0]])  # two or three knots: a straight line
     return tt, np.polyval(g, tt)
+
+
+@dataclass
+class _Cells:
+    """Field cells sorted along the rows: ``t`` (m, ascending), ``s`` (m), relief ``h`` (m)."""
+
+    t: np.ndarray
+    s: np.ndarray
+    h: np.ndarray
+
+
+def _end_knot(cells: _Cells, tl: np.ndarray, sl: np.ndarray, t0: float, t1: float, spacing: float
+              ) -> tuple[float, float] | None:
+    """A knot for a row end beyond the last strip peak: relief-weighted centroid of the cells within
+    ``[t0, t1]`` and half a spacing of the line (tl, sl)."""
+    i0, i1 = np.searchsorted(cells.t, [min(t0, t1), max(t0, t1)])
+    t, s, h = cells.t[i0:i1], cells.s[i0:i1], cells.h[i0:i1]
+    if t.size == 0:
+        return None
+    d = s - np.interp(t, tl, sl)
+    w = np.where(np.abs(d) < spacing / 2, np.maximum(h, 0.0), 0.0) ** 2
+    if w.sum() <= 0:
+        return None
+    tm = float((w * t).sum() / w.sum())
+    return tm, float(np.interp(tm, tl, sl) + (w * d).sum() / w.sum())
+
+
+def _row_line(c: list[tuple[int, float, float]], cells: _Cells, st: _Strips, to_xy: Any, relief: np.ndarray,
+              x: np.ndarray, y: np.ndarray, spacing: float, step: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Centre line (t, s) of a chain of strip peaks, ends where the row ends; an end more than a quarter
+    strip beyond the last peak gets one more knot from the cells there (partial strips at the row ends)."""
+    kt = np.array([q[1] for q in c])
+    ks = np.array([q[2] for q in c])
+    tl, sl = _line(kt, ks, st.length, step)
+    trimmed = _trim_ends(tl, sl, to_xy, relief, x, y, spacing)
+    if trimmed is None:
+        return None
+    ta, tb = float(trimmed[0][0]), float(trimmed[0][-1])
+    extra = []
+    if kt.min() - ta > st.length / 4:
+        extra.append(_end_knot(cells, tl, sl, ta, kt.min() - st.length / 4, spacing))
+    if tb - kt.max() > st.length / 4:
+        extra.append(_end_knot(cells, tl, sl, kt.max() + st.length / 4, tb, spacing))
+    extra = [e for e in extra if e is not None]
+    if extra:
+        kt = np.concatenate([kt, [e[0] for e in extra]])
+        ks = np.concatenate([ks, [e[1] for e in extra]])
+        tl, sl = _line(kt, ks, st.length, step)
+    keep = (tl >= ta - step / 2) & (tl <= tb + step / 2)
+    return tl[keep], sl[keep]
 
 
 def _trim_ends(t: np.ndarray, s: np.ndarray, to_xy: Any, relief: np.ndarray, x: np.ndarray, y: np.ndarray,
                spacing: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """Trim the line's ends to where the row is: the grid has data and the relief along the line, averaged
+    """Trim the line's ends to where the row is: the grid has data on the line and 0.3 spacing either side
+    of it (a row cut lengthwise by the data's edge is not centred), and the relief along the line, averaged
     over half a spacing, is at least half its median over the line. None if nothing is left."""
     from scipy.ndimage import uniform_filter1d
 
-    px, py = to_xy(s, t)
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
-    ii = np.round((px - x[0]) / dx).astype(int)
-    jj = np.round((py - y[0]) / dy).astype(int)
-    inside = (ii >= 0) & (ii < x.size) & (jj >= 0) & (jj < y.size)
-    h = np.full(t.size, np.nan)
-    h[inside] = relief[jj[inside], ii[inside]]
-    ok = np.isfinite(h)
+
+    def sample(ds: float) -> np.ndarray:
+        px, py = to_xy(s + ds, t)
+        ii = np.round((px - x[0]) / dx).astype(int)
+        jj = np.round((py - y[0]) / dy).astype(int)
+        inside = (ii >= 0) & (ii < x.size) & (jj >= 0) & (jj < y.size)
+        out = np.full(t.size, np.nan)
+        out[inside] = relief[jj[inside], ii[inside]]
+        return out
+
+    h = sample(0.0)
+    ok = np.isfinite(h) & np.isfinite(sample(-0.3 * spacing)) & np.isfinite(sample(0.3 * spacing))
     if ok.sum() < 2:
         return None
     n = max(1, int(round(0.5 * spacing / max(float(t[1] - t[0]), 1e-9))))
@@ -439,9 +489,6 @@ def detect_rows_grid(
     cell = min(abs(float(x[1] - x[0])), abs(float(y[1] - y[0])))
     relief = _relief(np.where(valid, z, np.nan), valid, spacing / cell)
     gx, gy, gmask = _gradients(relief, valid, spacing / 6 / cell)
-    n_tensor = _tensor_normal(gx[gmask], gy[gmask])
-    if abs(float(n_tensor @ nvec)) < math.cos(math.radians(1.5)):  # curved rows: the spectral peak is one bend
-        nvec = n_tensor
     u = np.array([-nvec[1], nvec[0]])
     if math.atan2(u[1], u[0]) < -1e-9 or math.atan2(u[1], u[0]) >= math.pi - 1e-9:
         u = -u
@@ -463,15 +510,16 @@ def detect_rows_grid(
     def to_xy(ss: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return ss * n[0] + tt * u[0], ss * n[1] + tt * u[1]
 
+    order = np.argsort(t, kind="stable")
+    cells = _Cells(t[order], s[order], h[order])
     found: list[tuple[float, Polyline, float, np.ndarray, np.ndarray]] = []
     for c in chains:
         if len(c) < 2:
             continue
-        tl, sl = _chain_line(c, st, max(cell, 0.05))
-        clipped = _trim_ends(tl, sl, to_xy, relief, x, y, spacing)
-        if clipped is None or clipped[0][-1] - clipped[0][0] < min_len:
+        line_ts = _row_line(c, cells, st, to_xy, relief, x, y, spacing, max(cell, 0.05))
+        if line_ts is None or line_ts[0][-1] - line_ts[0][0] < min_len:
             continue
-        tl, sl = clipped
+        tl, sl = line_ts
         px, py = to_xy(sl, tl)
         pts = _simplify(np.column_stack([px, py]), 0.02)
         line = [(round(float(a), 3), round(float(b), 3)) for a, b in pts]
@@ -480,6 +528,12 @@ def detect_rows_grid(
     order_sign = 1.0 if n[0] + n[1] >= 0 else -1.0  # number rows from west / south
     found.sort(key=lambda f: order_sign * f[0])
     rows = [f[1] for f in found]
+    if rows:  # the rows' mean direction (length-weighted end-to-end, doubled angles): curved rows' mean
+        ends = np.array([[r[-1][0] - r[0][0], r[-1][1] - r[0][1]] for r in rows])
+        ang = np.arctan2(ends[:, 1], ends[:, 0])
+        ln = np.hypot(ends[:, 0], ends[:, 1])
+        direction = math.degrees(0.5 * math.atan2(float((ln * np.sin(2 * ang)).sum()),
+                                                  float((ln * np.cos(2 * ang)).sum()))) % 180.0
     det = RowDetection(round(direction, 3), round(spacing, 4), rows, round(strength, 2))
     det.support = [round(f[2], 3) for f in found]
     det.confidence = _confidence(found, spacing, strength, det.lengths_m)
