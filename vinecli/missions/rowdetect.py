@@ -475,7 +475,7 @@ def detect_rows_grid(
     (default: 3 spacings or two strips) are dropped; gaps in a row up to ``max_gap_m`` are bridged. Grids
     larger than ``max_cells`` are block-averaged first. ``confidence`` = support (length-weighted fraction
     of strips where each row was seen) x regularity (1 - 2 x mean deviation of neighbour distances from a
-    whole number of spacings) x min(1, log10(strength) / 2).
+    whole number of spacings) x min(1, log10(strength) / 4) (clear rows: strength > 10^4).
     """
     z = np.asarray(z, dtype=float)
     x = np.asarray(x, dtype=float)
@@ -554,5 +554,5 @@ def _confidence(found: list[tuple[float, Polyline, float, np.ndarray, np.ndarray
         d = abs(float(np.interp(tm, tb, sb) - np.interp(tm, ta, sa))) / spacing
         devs.append(abs(d - round(d)) if round(d) >= 1 else 0.5)
     regularity = 1.0 - 2.0 * float(np.mean(devs)) if devs else 0.5
-    strength_f = min(1.0, math.log10(max(strength, 1.0)) / 2.0)
+    strength_f = min(1.0, math.log10(max(strength, 1.0)) / 4.0)
     return round(max(0.0, support * regularity * strength_f), 3)
