@@ -326,8 +326,10 @@ def split_sorties(plan: RowPlan, flow_lps: float, tank_l: float) -> list[list[Le
             sorties[-1].append(Leg([(float(x), float(y)) for x, y in piece.coords], True, leg.row, "row"))
             left -= (end - done) * per_m
             done = end
-    # a sortie starts with its first row: drop trailing transits/turns of the previous one
+    # a sortie is its rows and the turns between them (the flights from and to home are the export's)
     for s in sorties:
         while s and not s[-1].spray:
             s.pop()
+        while s and not s[0].spray:
+            s.pop(0)
     return [s for s in sorties if s]
