@@ -124,3 +124,16 @@ def test_terrain_following_heights() -> None:
         assert alt >= surface(x, y) + 2.0 - surface(0.0, -1.0) - 0.21
     assert any(alt > 0.1 * y + 2.0 + 0.1 + 0.4 for x, y, alt in wps if 9.0 <= y <= 13.0)  # lifted over the canopy
     assert len(wps) < 20  # not one waypoint per sample
+
+
+def test_world_build_warns_once_when_detected_rows_leave_the_fence(caplog: pytest.LogCaptureFixture) -> None:
+    import logging
+
+    from vinecli.specs.mission import GeofenceSpec
+    from vinecli.world.build import _warn_rows_outside
+
+    fence = GeofenceSpec(polygon_enu=[(-3.0, -3.0), (15.0, -3.0), (15.0, 25.0), (-3.0, 25.0)])
+    with caplog.at_level(logging.WARNING):
+        _warn_rows_outside(block(), [-10.0, -10.0, 40.0, 40.0], fence, "w")
+    lines = [r.getMessage() for r in caplog.records]
+    assert lines == ["world w: 6 of 6 detected rows leave the geofence (up to 5.0 m outside); plans clip them"]

@@ -77,7 +77,7 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
         rows_detection = None
         if spec.rows == "auto":
             with man.stage("rows"):
-                rows, rows_detection = _auto_rows(t, base, terrain_json, tdir, grid, spec.name)
+                rows, rows_detection = _auto_rows(t, base, terrain_json, tdir, grid, spec.name, spec.geofence)
         doc = {
             "schema": SCHEMA,
             "name": spec.name,
@@ -108,8 +108,24 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
     return out
 
 
-def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, grid: TerrainGrid | None, name: str
-               ) -> tuple[list[list[list[float]]], dict[str, Any] | None]:
+def _warn_rows_outside(rows: list[Any], bounds: list[float], fence: Any, name: str) -> None:
+    """One warning line each when detected rows leave the terrain or the geofence polygon."""
+    from shapely.geometry import LineString, Polygon, box
+
+    lines = [LineString(r) for r in rows if len(r) >= 2]
+    areas = [("terrain", box(*bounds))]
+    if fence is not None and fence.polygon_enu:
+        areas.append(("geofence", Polygon(fence.polygon_enu)))
+    for what, area in areas:
+        out = [ln.length - ln.intersection(area).length for ln in lines]
+        n = sum(o > 0.05 for o in out)
+        if n:
+            log.warning("world %s: %d of %d detected rows leave the %s (up to %.1f m outside); plans clip them",
+                        name, n, len(lines), what, max(out))
+
+
+def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, grid: TerrainGrid | None, name: str,
+               fence: Any = None) -> tuple[list[list[list[float]]], dict[str, Any] | None]:
     """``rows: auto``: rows detected on the source DSM (the same rows ``plan rows DSM`` finds, mapped into
     the world through the terrain's CRS frame), or on the height grid for a terrain directory."""
     from vinecli.missions.rowsource import detect_rows_in_dsm, detect_rows_on_grid, dsm_rows_in_frame, terrain_frame
@@ -127,6 +143,7 @@ def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, gri
     log.info("world %s: %s", name, det.summary())
     if det.confidence < 0.5:
         log.warning("world %s: rows: auto found no clear rows (confidence %.2f)", name, det.confidence)
+    _warn_rows_outside(rows, terrain_json["bounds_enu"], fence, name)
     info = {k: v for k, v in det.to_dict().items() if k != "rows_enu"}
     info.update(source=source, frame=frame.to_dict() if frame is not None else None)
     return [[list(p) for p in r] for r in rows], info
