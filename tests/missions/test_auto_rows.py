@@ -76,3 +76,25 @@ def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
         (x0, y0), (x1, y1) = row[0], row[-1]
         d = math.degrees(math.atan2(y1 - y0, x1 - x0)) % 180
         assert min(abs(d - 20.0), 180 - abs(d - 20.0)) < 2.5
+
+
+def test_old_rows_auto_worlds_get_the_same_rows_at_run_time(tmp_path: Path) -> None:
+    """A world built before rows were detected at build time (rows_auto, no rows): the run detects them on the
+    world's height grid with the same detector, and finds the rows world build finds on the DSM."""
+    from shapely.geometry import LineString
+
+    from vinecli.runs.mission import _auto_rows
+    from vinecli.world import build_world, load_world
+
+    vineyard_tif(tmp_path / "v.tif")
+    (tmp_path / "w.yaml").write_text(yaml.safe_dump({
+        "name": "auto-rows", "terrain": {"type": "dsm", "path": "v.tif", "format": "heightmap", "size": 257},
+        "vehicle": "x500-sprayer", "spawn": {"x_m": 0.0, "y_m": 1.33}, "rows": "auto"}))
+    w = load_world(build_world(tmp_path / "w.yaml", tmp_path / "world"))
+    built = [list(map(tuple, r)) for r in w.vine_rows_enu]
+    w.vine_rows_enu = []
+    _auto_rows(w)
+    assert len(w.vine_rows_enu) == len(built)
+    for a, b in zip(w.vine_rows_enu, built, strict=True):  # the heightmap grid (0.16 m) vs the DSM (0.1 m)
+        la, lb = LineString(a), LineString(b)
+        assert la.hausdorff_distance(lb) < 0.5 and lb.interpolate(0.5, normalized=True).distance(la) < 0.05
