@@ -3,23 +3,24 @@
 The one row detector of vinecli (``world build`` with ``rows: auto``, ``plan rows`` and the run-time
 detection all call :func:`detect_rows_grid`). Deterministic; steps:
 
-1. dominant row direction and spacing from the 2-D spectrum of the plane-detrended heights (peak in
-   the band of plausible spacings), refined on zero-padded 1-D profiles across the rows;
+1. dominant row direction and spacing from the 2-D spectrum of the plane-detrended heights
+   (:mod:`~vinecli.missions.rowspectrum`);
 2. canopy relief = heights minus a NaN-aware Gaussian background (sigma = one spacing): slopes and
    terrain undulations drop out, rows stand out;
 3. the field is cut into strips along the rows (about 1.5 spacings long); each strip's mean relief
    profile across the rows gives row peaks (:func:`scipy.signal.find_peaks`, prominence at least
-   ``min_prominence`` x the field's typical row prominence);
-4. peaks are linked strip to strip into rows (linear prediction, within 0.3 spacing; canopy gaps up
-   to ``max_gap_m`` bridged). A second pass de-skews every strip by the local row slope, so curved
-   rows stay sharp in the profiles;
-5. each row's centre line follows the strip peaks (Savitzky-Golay smoothing, unbiased for curves),
-   extends half a strip beyond the first and last strips where the row is seen (clipped to the grid's
-   data) and is simplified to 2 cm (Douglas-Peucker).
+   ``min_prominence`` x the field's 90th percentile), each placed where along the strip its relief is;
+4. peaks are linked strip to strip into rows along the local row slope (first from each strip's
+   gradient structure tensor, then from the rows found), within 0.3 spacing, canopy gaps up to
+   ``max_gap_m`` bridged; later passes de-skew every strip by that slope so curved rows stay sharp
+   (:mod:`~vinecli.missions.rowtrack`);
+5. each row's centre line is a cubic spline through its peaks, extended straight on and trimmed to
+   where the canopy ends (relief at least half the row's median, data on both sides of the line), an
+   end beyond the last strip peak located from the cells there, simplified to 2 cm (Douglas-Peucker).
 
-Directions are angles in degrees from east (x), counter-clockwise, folded to [0, 180); every row
-polyline runs along that direction; rows are numbered from west (rows running north-south) or from
-south (rows running east-west).
+Directions are angles in degrees from east (x), counter-clockwise, folded to [0, 180) (the rows' mean
+direction); every row polyline runs along it; rows are numbered from west (rows running north-south)
+or from south (rows running east-west).
 """
 
 from __future__ import annotations
@@ -31,6 +32,16 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import TerrainError
+from vinecli.missions.rowspectrum import decimate, direction_and_spacing, fill_and_detrend, gradients, relief_of
+from vinecli.missions.rowtrack import (
+    Strips,
+    chain_skew,
+    make_strips,
+    strip_peaks,
+    strip_profiles,
+    tensor_skew,
+    track_peaks,
+)
 
 Polyline = list[tuple[float, float]]
 
@@ -69,278 +80,6 @@ class RowDetection:
                 "strength": self.strength, "confidence": self.confidence,
                 "lengths_m": [round(v, 3) for v in self.lengths_m], "support": self.support,
                 "rows_enu": [[list(p) for p in r] for r in self.rows]}
-
-
-# ---------------------------------------------------------------- grid preparation
-def _decimate(z: np.ndarray, x: np.ndarray, y: np.ndarray, max_cells: int
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Block means (NaN-aware) by an integer factor so that the grid has at most ``max_cells`` cells."""
-    f = math.ceil(math.sqrt(z.size / max_cells)) if z.size > max_cells else 1
-    if f <= 1:
-        return z, x, y
-    ny, nx = (z.shape[0] // f) * f, (z.shape[1] // f) * f
-    blocks = z[:ny, :nx].reshape(ny // f, f, nx // f, f)
-    with np.errstate(invalid="ignore"):
-        cnt = np.isfinite(blocks).sum(axis=(1, 3))
-        zs = np.where(cnt > 0, np.nansum(blocks, axis=(1, 3)) / np.maximum(cnt, 1), np.nan)
-    return zs, x[:nx].reshape(-1, f).mean(axis=1), y[:ny].reshape(-1, f).mean(axis=1)
-
-
-def _fill_and_detrend(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Heights minus their least-squares plane (0 where no data) and the data mask."""
-    valid = np.isfinite(z)
-    if valid.sum() < 16:
-        raise TerrainError("too few valid heights to detect rows")
-    zz = np.where(valid, z, np.nanmedian(z))
-    ny, nx = zz.shape
-    jj, ii = np.mgrid[0:ny, 0:nx]
-    A = np.column_stack([np.ones(valid.sum()), ii[valid], jj[valid]])
-    coef, *_ = np.linalg.lstsq(A, zz[valid], rcond=None)
-    zz = zz - (coef[0] + coef[1] * ii + coef[2] * jj)
-    zz[~valid] = 0.0
-    return zz, valid
-
-
-def _relief(z: np.ndarray, valid: np.ndarray, sigma_cells: float) -> np.ndarray:
-    """Heights above a NaN-aware Gaussian background (normalised convolution), m; NaN where no data."""
-    from scipy.ndimage import gaussian_filter
-
-    w = valid.astype(float)
-    num = gaussian_filter(np.where(valid, z, 0.0), sigma_cells, mode="constant")
-    den = gaussian_filter(w, sigma_cells, mode="constant")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        bg = num / den
-    return np.where(valid, z - bg, np.nan)
-
-
-# ---------------------------------------------------------------- direction and spacing (spectrum)
-def _profile(s: np.ndarray, h: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
-    """Mean height in bins of ``step`` along ``s``, interpolated onto a regular axis (bin mean positions)."""
-    bins = np.floor((s - s.min()) / step).astype(int)
-    cnt = np.bincount(bins)
-    have = cnt > 0
-    prof = np.bincount(bins, weights=h)[have] / cnt[have]
-    pos = np.bincount(bins, weights=s)[have] / cnt[have]
-    axis = s.min() + (np.arange(cnt.size) + 0.5) * step
-    return axis, np.interp(axis, pos, prof)
-
-
-def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float) -> tuple[float, float]:
-    """(frequency of the fundamental near ``k_guess``, its amplitude) of the profile along ``s``."""
-    axis, prof = _profile(s, h, step)
-    pw = prof * np.hanning(prof.size)
-    nfft = 1 << int(math.ceil(math.log2(prof.size * 16)))
-    ps = np.abs(np.fft.rfft(pw - pw.mean(), nfft))
-    fr = np.fft.rfftfreq(nfft, step)
-    idx = np.flatnonzero((fr >= 0.8 * k_guess) & (fr <= 1.25 * k_guess))
-    k = int(idx[int(np.argmax(ps[idx]))])
-    amp = float(ps[k])
-    kk = float(k)
-    if 0 < k < ps.size - 1:
-        a, b, c = ps[k - 1], ps[k], ps[k + 1]
-        den = a - 2 * b + c
-        kk = k + (0.5 * (a - c) / den if den != 0 else 0.0)
-    return kk * float(fr[1] - fr[0]), amp
-
-
-def _direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, lo: float, hi: float
-                           ) -> tuple[np.ndarray, float, float]:
-    """(unit normal to the rows, spacing m, spectral strength) of the detrended grid ``zz``."""
-    dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
-    ny, nx = zz.shape
-    win = np.outer(np.hanning(ny), np.hanning(nx))
-    pad = (int(2 ** math.ceil(math.log2(ny * 2))), int(2 ** math.ceil(math.log2(nx * 2))))
-    spec = np.abs(np.fft.rfft2(zz * win, s=pad)) ** 2
-    ky = np.fft.fftfreq(pad[0], d=dy)[:, None]
-    kx = np.fft.rfftfreq(pad[1], d=dx)[None, :]
-    kmag = np.hypot(kx, ky)
-    band = (kmag >= 1.0 / hi) & (kmag <= 1.0 / lo)
-    if not band.any():
-        raise TerrainError("the spacing band is outside what the grid resolves")
-    masked = np.where(band, spec, 0.0)
-    j, i = np.unravel_index(int(np.argmax(masked)), masked.shape)
-    k = np.array([float(kx[0, i]), float(ky[j, 0])])
-    strength = float(masked[j, i] / max(np.median(spec[band]), 1e-30))
-    knorm = float(np.hypot(*k))
-    nvec = k / knorm
-    X, Y = np.meshgrid(x, y)
-    Xv, Yv, h = X[valid], Y[valid], zz[valid]
-    step = min(abs(dx), abs(dy))
-    theta0 = math.atan2(nvec[1], nvec[0])
-    best: tuple[float, float, float] | None = None
-    for dth in np.radians(np.arange(-1.5, 1.55, 0.1)):
-        nv = np.array([math.cos(theta0 + dth), math.sin(theta0 + dth)])
-        f_, amp = _profile_peak(Xv * nv[0] + Yv * nv[1], h, step, knorm)
-        if best is None or amp > best[2]:
-            best = (float(dth), f_, amp)
-    assert best is not None
-    nvec = np.array([math.cos(theta0 + best[0]), math.sin(theta0 + best[0])])
-    return nvec, 1.0 / best[1], strength
-
-
-def _gradients(relief: np.ndarray, valid: np.ndarray, sigma_cells: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Gradients (per cell) of the lightly smoothed relief and the mask of cells where they are meaningful."""
-    from scipy.ndimage import binary_erosion, gaussian_filter
-
-    r = gaussian_filter(np.where(valid, relief, 0.0), max(sigma_cells, 0.5))
-    gy, gx = np.gradient(r)
-    m = binary_erosion(valid, iterations=max(1, int(math.ceil(2 * sigma_cells))), border_value=0)
-    return gx, gy, m
-
-
-# ---------------------------------------------------------------- strips, peaks, tracking
-@dataclass
-class _Strips:
-    """Cells of the field in row coordinates: ``s`` across (m, along the normal), ``t`` along (m)."""
-
-    s: np.ndarray
-    t: np.ndarray
-    h: np.ndarray
-    k: np.ndarray  # strip index of each cell
-    t_centre: np.ndarray  # (K,) strip centres along the rows, m
-    length: float  # strip length, m
-    s0: float  # first profile bin edge, m
-    bin_m: float  # profile bin width, m
-    nbins: int
-
-
-def _strips(s: np.ndarray, t: np.ndarray, h: np.ndarray, length: float, bin_m: float) -> _Strips:
-    t0 = float(t.min())
-    n_k = max(1, int(math.ceil((float(t.max()) - t0) / length)))
-    length = (float(t.max()) - t0) / n_k if n_k > 1 else max(length, float(t.max()) - t0)
-    k = np.minimum(((t - t0) / max(length, 1e-9)).astype(int), n_k - 1)
-    s0 = float(s.min()) - 2.5 * bin_m  # cells of an axis-aligned grid fall on bin centres
-    nbins = int(math.ceil((float(s.max()) + 2 * bin_m - s0) / bin_m)) + 1
-    return _Strips(s, t, h, k, t0 + (np.arange(n_k) + 0.5) * length, length, s0, bin_m, nbins)
-
-
-def _profiles(st: _Strips, skew: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(K, nbins) mean relief per strip and lateral bin, de-skewed by ``skew[k]`` (ds/dt; 0 where empty),
-    and per bin the sums of (positive relief x t) and of positive relief (where along the strip the row is)."""
-    from scipy.ndimage import gaussian_filter1d
-
-    s_eff = st.s - skew[st.k] * (st.t - st.t_centre[st.k])
-    b = np.clip(((s_eff - st.s0) / st.bin_m).astype(int), 0, st.nbins - 1)
-    idx = st.k * st.nbins + b
-    n = st.t_centre.size * st.nbins
-    cnt = np.bincount(idx, minlength=n).reshape(-1, st.nbins)
-    tot = np.bincount(idx, weights=st.h, minlength=n).reshape(-1, st.nbins)
-    pos = np.bincount(idx, weights=s_eff, minlength=n).reshape(-1, st.nbins)
-    axis = st.s0 + (np.arange(st.nbins) + 0.5) * st.bin_m
-    prof = np.zeros(cnt.shape)
-    for k in range(cnt.shape[0]):  # bin means at the cells' mean positions, onto the regular axis
-        have = cnt[k] > 0
-        if have.sum() >= 2:
-            prof[k] = np.interp(axis, pos[k, have] / cnt[k, have], tot[k, have] / cnt[k, have], left=0.0, right=0.0)
-    wt = np.maximum(st.h, 0.0)
-    tw = np.bincount(idx, weights=wt * st.t, minlength=n).reshape(-1, st.nbins)
-    w = np.bincount(idx, weights=wt, minlength=n).reshape(-1, st.nbins)
-    return gaussian_filter1d(prof, max(0.5, spacing / 12 / st.bin_m), axis=1, mode="nearest"), tw, w
-
-
-def _peaks(profs: tuple[np.ndarray, np.ndarray, np.ndarray], st: _Strips, skew: np.ndarray, spacing: float,
-           min_prominence: float) -> list[list[tuple[float, float]]]:
-    """Per strip: [(t, s) of the peak] with prominence >= min_prominence x the field's 90th percentile; t is
-    where along the strip the row's relief is (a row ending inside the strip), s the row's offset there."""
-    prof, tw, w = profs
-    from scipy.signal import find_peaks
-
-    dist = max(1, int(0.6 * spacing / st.bin_m))
-    raw: list[tuple[np.ndarray, np.ndarray]] = []
-    for p in prof:
-        idx, props = find_peaks(p, distance=dist, prominence=0.0)
-        raw.append((idx, props["prominences"]))
-    allp = np.concatenate([pr for _, pr in raw]) if raw else np.array([])
-    if allp.size == 0:
-        return [[] for _ in raw]
-    thr = min_prominence * float(np.percentile(allp, 90))
-    out: list[list[tuple[float, float]]] = []
-    for k, (p, (idx, pr)) in enumerate(zip(prof, raw, strict=True)):
-        row = []
-        for i, prom in zip(idx, pr, strict=True):
-            if prom < thr or prom <= 0:
-                continue
-            shift = 0.0
-            if 0 < i < p.size - 1:
-                a, b, c = p[i - 1], p[i], p[i + 1]
-                den = a - 2 * b + c
-                shift = 0.5 * (a - c) / den if den != 0 else 0.0
-            s_c = st.s0 + (i + 0.5 + shift) * st.bin_m  # offset at the strip centre (de-skewed profile)
-            lo, hi = max(0, i - 1), min(p.size, i + 2)
-            wsum = float(w[k, lo:hi].sum())
-            t = float(tw[k, lo:hi].sum()) / wsum if wsum > 0 else float(st.t_centre[k])
-            row.append((t, s_c + float(skew[k]) * (t - float(st.t_centre[k]))))
-        out.append(row)
-    return out
-
-
-def _track(peaks: list[list[tuple[float, float]]], spacing: float, gap_strips: int, skew: np.ndarray
-           ) -> list[list[tuple[int, float, float]]]:
-    """Link peaks strip to strip into chains [(strip, t, s)]: each chain's next position is predicted along
-    the local row slope ``skew`` (ds/dt per strip), nearest first within 0.3 spacing; a chain stays open
-    across up to ``gap_strips`` strips without a peak."""
-    chains: list[list[tuple[int, float, float]]] = []
-    tol = 0.3 * spacing
-    for k, pk in enumerate(peaks):
-        active = [c for c in chains if k - c[-1][0] <= gap_strips + 1]
-        pairs = []
-        for ci, c in enumerate(active):
-            kl, tl, sl = c[-1]
-            for pi, (t, s) in enumerate(pk):
-                d = abs(s - (sl + 0.5 * (skew[kl] + skew[k]) * (t - tl)))
-                if d <= tol:
-                    pairs.append((d, ci, pi))
-        pairs.sort()
-        used_c: set[int] = set()
-        used_p: set[int] = set()
-        for _, ci, pi in pairs:
-            if ci in used_c or pi in used_p:
-                continue
-            used_c.add(ci)
-            used_p.add(pi)
-            active[ci].append((k, *pk[pi]))
-        for pi, p in enumerate(pk):
-            if pi not in used_p:
-                chains.append([(k, *p)])
-    return chains
-
-
-def _skew(chains: list[list[tuple[int, float, float]]], st: _Strips) -> np.ndarray:
-    """Local row slope ds/dt per strip: median over the chains present there (interpolated elsewhere)."""
-    n_k = st.t_centre.size
-    per: list[list[float]] = [[] for _ in range(n_k)]
-    for c in chains:
-        if len(c) < 3:
-            continue
-        t = np.array([q[1] for q in c])
-        s = np.array([q[2] for q in c])
-        if np.any(np.diff(t) <= 1e-6):
-            continue
-        g = np.gradient(s, t)
-        for (k, *_), gk in zip(c, g, strict=True):
-            per[k].append(float(gk))
-    have = np.array([bool(p) for p in per])
-    if not have.any():
-        return np.zeros(n_k)
-    med = np.array([float(np.median(p)) if p else 0.0 for p in per])
-    return np.interp(np.arange(n_k), np.flatnonzero(have), med[have])
-
-
-def _tensor_skew(gx: np.ndarray, gy: np.ndarray, m: np.ndarray, st: _Strips, n: np.ndarray, u: np.ndarray
-                 ) -> np.ndarray:
-    """First guess of the local row slope ds/dt per strip, from each strip's structure tensor."""
-    k = st.k[m]
-    size = st.t_centre.size
-    jxx = np.bincount(k, weights=gx[m] ** 2, minlength=size)
-    jyy = np.bincount(k, weights=gy[m] ** 2, minlength=size)
-    jxy = np.bincount(k, weights=gx[m] * gy[m], minlength=size)
-    th = 0.5 * np.arctan2(2 * jxy, jxx - jyy)
-    nk = np.column_stack([np.cos(th), np.sin(th)])
-    uk = np.column_stack([-nk[:, 1], nk[:, 0]])
-    along = uk @ u
-    uk[along < 0] *= -1
-    skew = (uk @ n) / np.maximum(np.abs(uk @ u), 0.5)
-    return np.where(jxx + jyy > 0, skew, 0.0)
 
 
 # ---------------------------------------------------------------- rows as polylines
@@ -390,7 +129,7 @@ def _end_knot(cells: _Cells, tl: np.ndarray, sl: np.ndarray, t0: float, t1: floa
     return tm, float(np.interp(tm, tl, sl) + (w * d).sum() / w.sum())
 
 
-def _row_line(c: list[tuple[int, float, float]], cells: _Cells, st: _Strips, to_xy: Any, relief: np.ndarray,
+def _row_line(c: list[tuple[int, float, float]], cells: _Cells, st: Strips, to_xy: Any, relief: np.ndarray,
               x: np.ndarray, y: np.ndarray, spacing: float, step: float) -> tuple[np.ndarray, np.ndarray] | None:
     """Centre line (t, s) of a chain of strip peaks, ends where the row ends; an end more than a quarter
     strip beyond the last peak gets one more knot from the cells there (partial strips at the row ends)."""
@@ -482,13 +221,13 @@ def detect_rows_grid(
     y = np.asarray(y, dtype=float)
     if z.shape != (y.size, x.size) or x.size < 8 or y.size < 8:
         raise TerrainError(f"height grid must be at least 8x8 and match x, y (got {z.shape})")
-    z, x, y = _decimate(z, x, y, max_cells)
-    zz, valid = _fill_and_detrend(z)
+    z, x, y = decimate(z, x, y, max_cells)
+    zz, valid = fill_and_detrend(z)
     lo, hi = (spacing_m * 0.75, spacing_m * 1.25) if spacing_m else (min_spacing_m, max_spacing_m)
-    nvec, spacing, strength = _direction_and_spacing(zz, valid, x, y, lo, hi)
+    nvec, spacing, strength = direction_and_spacing(zz, valid, x, y, lo, hi)
     cell = min(abs(float(x[1] - x[0])), abs(float(y[1] - y[0])))
-    relief = _relief(np.where(valid, z, np.nan), valid, spacing / cell)
-    gx, gy, gmask = _gradients(relief, valid, spacing / 6 / cell)
+    relief = relief_of(np.where(valid, z, np.nan), valid, spacing / cell)
+    gx, gy, gmask = gradients(relief, valid, spacing / 6 / cell)
     u = np.array([-nvec[1], nvec[0]])
     if math.atan2(u[1], u[0]) < -1e-9 or math.atan2(u[1], u[0]) >= math.pi - 1e-9:
         u = -u
@@ -498,13 +237,13 @@ def detect_rows_grid(
     h = relief[valid]
     s = X[valid] * n[0] + Y[valid] * n[1]
     t = X[valid] * u[0] + Y[valid] * u[1]
-    st = _strips(s, t, h, max(1.5 * spacing, 4 * cell), min(cell, spacing / 8))
+    st = make_strips(s, t, h, max(1.5 * spacing, 4 * cell), min(cell, spacing / 8))
     gap_strips = int(math.floor(max_gap_m / st.length))
-    skew = _tensor_skew(gx[valid], gy[valid], gmask[valid], st, n, u)
+    skew = tensor_skew(gx[valid], gy[valid], gmask[valid], st, n, u)
     for _ in range(3):  # later passes: strips de-skewed along the local row slope
-        peaks = _peaks(_profiles(st, skew, spacing), st, skew, spacing, min_prominence)
-        chains = _track(peaks, spacing, gap_strips, skew)
-        skew = _skew(chains, st)
+        peaks = strip_peaks(strip_profiles(st, skew, spacing), st, skew, spacing, min_prominence)
+        chains = track_peaks(peaks, spacing, gap_strips, skew)
+        skew = chain_skew(chains, st)
     min_len = min_length_m if min_length_m is not None else max(3 * spacing, 2 * st.length)
 
     def to_xy(ss: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
