@@ -78,6 +78,13 @@ def test_rows_clipped_to_the_fence_with_a_margin_and_one_warning_each() -> None:
     assert inside.warnings == []
 
 
+def test_rows_wholly_outside_the_fence_are_dropped_and_the_indices_kept() -> None:
+    fence = [(4.0, -3.0), (15.0, -3.0), (15.0, 35.0), (4.0, 35.0)]  # rows 0 and 1 (x = 0, 2.5) are outside
+    plan = plan_rows(block(), (14.0, -2.0), speed_mps=1.0, accel_mps2=1.5, fence_enu=fence, fence_margin_m=0.5)
+    assert plan.order == [5, 4, 3, 2]
+    assert "2 of 6 rows leave the geofence" in plan.warnings[0] or "6 of 6 rows" in plan.warnings[0]
+
+
 def test_rows_leaving_the_terrain_warn() -> None:
     plan = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5, terrain_bounds=(-5.0, -5.0, 20.0, 20.0))
     assert len(plan.warnings) == 1 and "terrain" in plan.warnings[0]

@@ -26,7 +26,7 @@ def rows_cmd(
     detect: Annotated[bool, typer.Option("--detect", help="World source: detect rows on its height grid instead.")] = False,
     vehicle: Annotated[str | None, typer.Option("--vehicle", help="Vehicle (speed/acceleration limits, tank); default: the world's, else x500-sprayer.")] = None,
     tank: Annotated[float | None, typer.Option("--tank", help="Litres per sortie (default: the vehicle's tank; 0: one sortie).")] = None,
-    fence_margin: Annotated[float, typer.Option("--fence-margin", help="Keep the path this far inside the geofence (DSM: its data extent), m.")] = 1.0,
+    fence_margin: Annotated[float | None, typer.Option("--fence-margin", help="Keep the path this far inside the geofence, m (default 1; DSM source: inside its data extent, default 0).")] = None,
     home: Annotated[tuple[float, float] | None, typer.Option("--home", help="Take-off point X Y (ENU m of the source; default: the world's spawn / a corner row end).")] = None,
     mission_out: Annotated[Path | None, typer.Option("--mission", help="Also write the plan as a mission YAML.")] = None,
 ) -> None:

@@ -68,9 +68,10 @@ class RowDetection:
 
     def summary(self) -> str:
         """One line: count, spacing, orientation (ENU angle and compass bearing), confidence."""
-        bearing = (90.0 - self.direction_deg) % 180.0
+        d = 0.0 if self.direction_deg >= 179.95 else self.direction_deg  # as printed with one decimal
+        bearing = (90.0 - d) % 180.0
         total = sum(self.lengths_m)
-        return (f"{len(self.rows)} rows, spacing {self.spacing_m:.3f} m, direction {self.direction_deg:.1f} deg from "
+        return (f"{len(self.rows)} rows, spacing {self.spacing_m:.3f} m, direction {d:.1f} deg from "
                 f"east (bearing {bearing:.1f}/{bearing + 180:.1f} deg), {total:.1f} m of rows, "
                 f"confidence {self.confidence:.2f}")
 
@@ -273,7 +274,8 @@ def detect_rows_grid(
         ln = np.hypot(ends[:, 0], ends[:, 1])
         direction = math.degrees(0.5 * math.atan2(float((ln * np.sin(2 * ang)).sum()),
                                                   float((ln * np.cos(2 * ang)).sum()))) % 180.0
-    det = RowDetection(round(direction, 3), round(spacing, 4), rows, round(strength, 2))
+    direction = round(direction, 3) % 180.0  # 179.9996 -> 0.0
+    det = RowDetection(direction, round(spacing, 4), rows, round(strength, 2))
     det.support = [round(f[2], 3) for f in found]
     det.confidence = _confidence(found, spacing, strength, det.lengths_m)
     return det

@@ -60,9 +60,11 @@ def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple
 
 def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = 2.0, speed: float = 1.5,
                   flow: float = 0.05, takeoff: float = 3.0, detect: bool = False, world_rows: bool = False,
-                  vehicle: str | None = None, tank_l: float | None = None, fence_margin: float = 1.0,
+                  vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
                   home: tuple[float, float] | None = None, mission_out: Path | None = None) -> RowsJob:
-    """Detect or load rows, plan them and write the plan files (see the module docstring)."""
+    """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
+    (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
+    rows are flown, only the headland turns are kept over the surveyed ground)."""
     from vinecli.missions.patterns import spray_mission
     from vinecli.missions.qgc_plan import export_plan, write_plan
     from vinecli.missions.qgc_spray import sortie_plan
@@ -91,6 +93,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
         fence = list(w.geofence.polygon_enu) if w.geofence is not None and w.geofence.polygon_enu else None
         xmin, ymin, xmax, ymax = w.terrain.bounds
         fence_name = "geofence" if fence else "terrain"
+        margin = 1.0 if fence_margin is None else fence_margin
         fence = fence or [(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)]
         bounds: tuple[float, float, float, float] | None = w.terrain.bounds
         surface = w.terrain_height
@@ -108,6 +111,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
         veh = load_vehicle(vehicle or "x500-sprayer")
         fence = _bbox_polygon(dsm.grid["x"], dsm.grid["y"], np.isfinite(dsm.grid["z"]))
         fence_name = "DSM's data extent"
+        margin = 0.0 if fence_margin is None else fence_margin
         bounds = None
         if home is not None:
             start = home
@@ -125,7 +129,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     if not rows:
         raise InputError("no rows found (try --spacing)", path=source)
     accel = plan_accel(veh)
-    plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=fence_margin,
+    plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
                      fence_name=fence_name, terrain_bounds=bounds, climb=(takeoff, veh.control.max_vel_up, veh.control.max_vel_down))
     if not plan.legs:
         raise InputError(f"no rows left to plan ({'; '.join(plan.warnings)})", path=source)

@@ -113,19 +113,24 @@ def _direction(rows: Sequence[Polyline]) -> tuple[float, float]:
 
 
 def _clip(rows: list[Polyline], region: object, what: str, warnings: list[str]) -> list[Polyline]:
-    """Rows clipped to a shapely polygon (longest piece kept); one warning line when any row leaves it."""
+    """Rows clipped to a shapely polygon (longest piece kept, [] when none: the list stays aligned with the
+    input); one warning line when any row leaves it."""
     from shapely.geometry import LineString
 
     out: list[Polyline] = []
     cut = 0.0
     n_out = 0
     for r in rows:
+        if len(r) < 2:
+            out.append([])
+            continue
         line = LineString(r)
         piece = line.intersection(region)  # type: ignore[arg-type]
         parts = [g for g in getattr(piece, "geoms", [piece]) if g.geom_type == "LineString" and not g.is_empty]
-        if not parts:
+        if not parts:  # wholly outside: kept as an empty row so the indices stay aligned
             n_out += 1
-            cut += line.length
+            cut = max(cut, line.length)
+            out.append([])
             continue
         best = max(parts, key=lambda g: g.length)
         if line.length - best.length > 0.05:
@@ -162,6 +167,9 @@ def _fit_headlands(rows: list[Polyline], inner: object, head: float, what: str, 
     out: list[Polyline] = []
     cut = 0.0
     for r in rows:
+        if len(r) < 2:
+            out.append([])
+            continue
         line = LineString(r)
         a, b = 0.0, line.length
         while a < b and not _headland_fits(line, inner, a, 1.0, head):
@@ -170,12 +178,13 @@ def _fit_headlands(rows: list[Polyline], inner: object, head: float, what: str, 
             b -= 0.1
         if b - a < 0.1:
             cut = max(cut, line.length)
+            out.append([])
             continue
         cut = max(cut, a + (line.length - b))
         out.append([(float(x), float(y)) for x, y in substring(line, a, b).coords])
     if cut > 0.05:
         warnings.append(f"rows end too close to the {what} for a {head:.1f} m headland: shortened (up to "
-                        f"{cut:.1f} m)")
+                        f"{cut:.1f} m per row)")
     return out
 
 
