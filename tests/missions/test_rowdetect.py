@@ -155,3 +155,35 @@ def test_detection_is_deterministic() -> None:
     z, x, y = FIELDS["curved"].heights()
     a, b = detect_rows_grid(z, x, y), detect_rows_grid(z, x, y)
     assert a.rows == b.rows and a.confidence == b.confidence and not math.isnan(a.confidence)
+
+
+def test_plan_rows_cli_on_the_unseen_drone_dsm(tmp_path: Path) -> None:
+    """`plan rows DSM`: every row planned (edge rows too), rows.geojson beside the plan in the DSM's CRS, one
+    .plan per sortie, count / spacing / orientation / confidence printed."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from vinecli.cli.app import app
+
+    f = Field(width_m=9.0, height_m=6.0, res_m=0.01, spacing_m=0.75, n_rows=8, t_range=(-4.5, 4.5), canopy_m=0.35,
+              plants_m=0.3, noise_m=0.01, gaps=[(-1.0, -0.4), (2.0, 2.5)])
+    cx, cy = write_field_tif(tmp_path / "drone.tif", f)
+    out = tmp_path / "plan" / "rows.plan"
+    out.parent.mkdir()
+    r = CliRunner().invoke(app, ["plan", "rows", str(tmp_path / "drone.tif"), "--out", str(out), "--speed", "1.0",
+                                 "--tank", "0.5"])
+    assert r.exit_code == 0, r.output
+    assert "8 rows, spacing 0.750 m, direction 0.0 deg from east" in r.output and "confidence 1.00" in r.output
+    assert "plan: 8 rows from row 0" in r.output
+    gj = json.loads((out.parent / "rows.geojson").read_text())
+    assert gj["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::32633"
+    assert [ft["properties"]["index"] for ft in gj["features"]] == list(range(8))
+    for ft in gj["features"]:
+        xs = [c[0] - cx for c in ft["geometry"]["coordinates"]]
+        assert ft["properties"]["length_m"] >= 8.5 and min(xs) < -4.0 and max(xs) > 4.0
+    sorties = sorted(out.parent.glob("rows.sortie-*.plan"))
+    assert len(sorties) >= 2
+    for p in sorties:
+        cmds = [it["command"] for it in json.loads(p.read_text())["mission"]["items"]]
+        assert cmds[0] == 22 and cmds[-1] == 20 and 187 in cmds
