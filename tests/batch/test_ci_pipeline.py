@@ -91,5 +91,19 @@ def test_plan_rows_on_the_built_sample_world(ci_runs: Path, tmp_path: Path) -> N
     assert r.exit_code == 0, r.output
     items = json.loads(out.read_text())["mission"]["items"]
     assert sum(i["command"] == 187 for i in items) == 2 * 16
-    r = CliRunner().invoke(app, ["plan", "rows", str(world), "--out", str(tmp_path / "det.plan")])
+    r = CliRunner().invoke(app, ["plan", "rows", str(world), "--out", str(tmp_path / "det.plan"), "--detect"])
     assert r.exit_code == 0 and "16 rows" in r.output and "spacing 0.9" in r.output
+
+
+def test_spray_starts_at_the_row_nearest_the_spawn(ci_runs: Path) -> None:
+    """The spawn is west of row 1 (index 0): the spray plan starts there, not 15 m away at row 16."""
+    batch = json.loads((ci_runs / "batch.json").read_text())
+    run = next(c["run_id"] for c in batch["cases"] if c["case"] == "spray")
+    events = [json.loads(line) for line in (ci_runs / run / "events.jsonl").read_text().splitlines()]
+    plan = next(e for e in events if e["kind"] == "spray_plan")
+    assert plan["data"]["rows"][0] == 0 and plan["data"]["warnings"] == []
+    import pyarrow.parquet as pq
+
+    ts = pq.read_table(ci_runs / run / "timeseries.parquet", columns=["tank_flow_lps", "pos_enu_x_m"]).to_pydict()
+    first = next(i for i, f in enumerate(ts["tank_flow_lps"]) if f > 0)
+    assert ts["pos_enu_x_m"][first] < -7.0  # spraying starts over row 1 (x = -8.0 .. -5.6)

@@ -1,4 +1,5 @@
-"""``rows: auto`` worlds: rows detected on the height grid, then sprayed in the real loop."""
+"""``rows: auto`` worlds: rows detected at ``world build`` (on the source DSM), the same rows in ``plan rows``
+(on the DSM and on the world) and in the run, sprayed in the real loop."""
 
 from __future__ import annotations
 
@@ -37,6 +38,26 @@ def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
         "vehicle": "x500-sprayer", "spawn": {"x_m": 0.0, "y_m": 1.33}, "rows": "auto",  # in a furrow
     }))
     world = build_world(tmp_path / "w.yaml", tmp_path / "world")
+    wj = json.loads((world / "world.json").read_text())
+    assert wj["rows_auto"] and len(wj["vine_rows_enu"]) == wj["rows_detection"]["count"] >= 14
+    assert wj["rows_detection"]["source"] == "dsm" and wj["rows_detection"]["confidence"] >= 0.8
+    assert abs(wj["rows_detection"]["direction_deg"] - 20.0) < 0.5
+    # plan rows on the DSM and on the world: the same rows (rows.geojson in the DSM's CRS)
+    from typer.testing import CliRunner
+
+    from vinecli.cli.app import app
+
+    for name, src in (("plan-dsm", tmp_path / "v.tif"), ("plan-world", world)):
+        (tmp_path / name).mkdir()
+        r = CliRunner().invoke(app, ["plan", "rows", str(src), "--out", str(tmp_path / name / "rows.plan")])
+        assert r.exit_code == 0, r.output
+    a = json.loads((tmp_path / "plan-dsm" / "rows.geojson").read_text())
+    b = json.loads((tmp_path / "plan-world" / "rows.geojson").read_text())
+    assert a["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::32632" == b["crs"]["properties"]["name"]
+    assert len(a["features"]) == len(b["features"]) == len(wj["vine_rows_enu"])
+    for fa, fb in zip(a["features"], b["features"], strict=True):
+        assert fa["properties"] == fb["properties"]
+        assert np.allclose(fa["geometry"]["coordinates"], fb["geometry"]["coordinates"], atol=2e-3)
     (tmp_path / "m.yaml").write_text(yaml.safe_dump({
         "name": "auto-spray", "vehicle": "x500-sprayer", "tank_fill_l": 0.3, "max_duration_s": 60,
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
@@ -50,8 +71,30 @@ def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
     assert s.passed, s.checks
     summ = json.loads((Path(s.run_dir) / "summary.json").read_text())
     rows = summ["world"]["rows_enu"]
-    assert len(rows) >= 10
+    assert rows == wj["vine_rows_enu"]  # the run flies the rows world build found
     for row in rows:  # every detected row runs at ~20 deg
         (x0, y0), (x1, y1) = row[0], row[-1]
         d = math.degrees(math.atan2(y1 - y0, x1 - x0)) % 180
         assert min(abs(d - 20.0), 180 - abs(d - 20.0)) < 2.5
+
+
+def test_old_rows_auto_worlds_get_the_same_rows_at_run_time(tmp_path: Path) -> None:
+    """A world built before rows were detected at build time (rows_auto, no rows): the run detects them on the
+    world's height grid with the same detector, and finds the rows world build finds on the DSM."""
+    from shapely.geometry import LineString
+
+    from vinecli.runs.mission import _auto_rows
+    from vinecli.world import build_world, load_world
+
+    vineyard_tif(tmp_path / "v.tif")
+    (tmp_path / "w.yaml").write_text(yaml.safe_dump({
+        "name": "auto-rows", "terrain": {"type": "dsm", "path": "v.tif", "format": "heightmap", "size": 257},
+        "vehicle": "x500-sprayer", "spawn": {"x_m": 0.0, "y_m": 1.33}, "rows": "auto"}))
+    w = load_world(build_world(tmp_path / "w.yaml", tmp_path / "world"))
+    built = [list(map(tuple, r)) for r in w.vine_rows_enu]
+    w.vine_rows_enu = []
+    _auto_rows(w)
+    assert len(w.vine_rows_enu) == len(built)
+    for a, b in zip(w.vine_rows_enu, built, strict=True):  # the heightmap grid (0.16 m) vs the DSM (0.1 m)
+        la, lb = LineString(a), LineString(b)
+        assert la.hausdorff_distance(lb) < 0.5 and lb.interpolate(0.5, normalized=True).distance(la) < 0.05

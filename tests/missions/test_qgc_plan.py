@@ -131,12 +131,23 @@ def test_round_trip_export_import(tmp_path: Path) -> None:
     wps = [w for ph in back.phases if isinstance(ph, WaypointsPhase) for w in ph.waypoints]
     flows = [ph.flow_lps for ph in back.phases if isinstance(ph, SprayerPhase)]
     assert flows == pytest.approx([0.05, 0.0] * 3)
-    row_pts = [(round(x, 2), round(y, 2)) for x, y, h in wps if h == pytest.approx(2.0)]
+    assert all(h == pytest.approx(2.0) for x, y, h in wps if y >= -0.01)  # flat: the spray height throughout
+    # the row ends: the waypoint where the sprayer goes on, the last one before it goes off
+    row_pts, last = [], None
+    for ph in back.phases:
+        if isinstance(ph, WaypointsPhase):
+            last = ph.waypoints[-1]
+        elif isinstance(ph, SprayerPhase) and last is not None:
+            row_pts.append((round(last[0], 2), round(last[1], 2)))
     assert set(row_pts) == {(0.0, 0.0), (20.0, 0.0), (0.0, 2.5), (20.0, 2.5), (0.0, 5.0), (20.0, 5.0)}
-    # boustrophedon: consecutive rows flown in opposite directions
+    # the row nearest the goto point (-2, -1) first, then boustrophedon: rows flown in alternate directions
     legs = [row_pts[i:i + 2] for i in range(0, 6, 2)]
+    assert legs[0][0] == (0.0, 0.0)
     dirs = [math.copysign(1, b[0] - a[0]) for a, b in legs]
     assert dirs[0] == -dirs[1] == dirs[2]
+    # headland turns past the row ends (stop turns: 1.5 m/s at 1.5 m/s² run out 0.75 m)
+    xs = [x for x, y, h in wps if y >= -0.01]
+    assert min(xs) == pytest.approx(-0.75, abs=1e-3) and max(xs) == pytest.approx(20.75, abs=1e-3)
     assert isinstance(back.phases[0], TakeoffPhase) and back.phases[0].altitude_agl_m == 3.0
     assert isinstance(back.phases[-1], LandPhase)
     assert back.geofence is not None and back.geofence.max_horizontal_distance_m == 80

@@ -220,35 +220,35 @@ class _Spray(_Phase):
         """The sortie step's mode while one runs, else AUTO.MISSION."""
         return self.sub.mode if self.sub is not None else "AUTO.MISSION"
 
-    def _passes(self, start_xy: tuple[float, float], reverse: bool) -> tuple[list[Vec3], list[float]]:
-        """Boustrophedon: rows sorted across their direction, alternate directions, flow on rows only."""
-        r0 = self.rows[0]
-        dx, dy = r0[-1][0] - r0[0][0], r0[-1][1] - r0[0][1]
-        n = math.hypot(dx, dy) or 1.0
-        ux, uy = dx / n, dy / n
-        order = sorted(self.rows, key=lambda r: -uy * (r[0][0] + r[-1][0]) + ux * (r[0][1] + r[-1][1]))
-        if reverse:
-            order = order[::-1]
-        # start at the end of the first row closest to the vehicle
-        first = order[0]
-        d0 = math.hypot(first[0][0] - start_xy[0], first[0][1] - start_xy[1])
-        d1 = math.hypot(first[-1][0] - start_xy[0], first[-1][1] - start_xy[1])
-        forward = d0 <= d1
+    def _passes(self, ap: BuiltinAutopilot, start_xy: tuple[float, float]) -> tuple[list[Vec3], list[float]]:
+        """The operator plan from ``start_xy`` (:func:`~vinecli.missions.rowplan.plan_rows`: nearest row
+        first, boustrophedon, headland turns from the speed and acceleration, rows clipped to the geofence
+        with a 1 m margin); flow on over the rows only. ``until: empty`` replans from the last row's end,
+        so the rows are flown back."""
+        from vinecli.missions.rowplan import plan_rows
+
+        fence = ap.geofence.spec.polygon_enu if ap.geofence is not None and ap.geofence.spec.polygon_enu else None
+        plan = plan_rows(self.rows, start_xy, speed_mps=self.spec.speed_mps, accel_mps2=self.accel(ap),
+                         fence_enu=fence)
+        if not plan.legs:
+            raise InputError("spray phase: no rows left inside the geofence")
+        if not self.announced:
+            ap.emit("spray_plan", plan.summary(), {"rows": plan.order, "length_m": round(plan.length_m, 2),
+                                                   "time_s": plan.time_s, "warnings": plan.warnings})
+            self.announced = True
+        pts2, flows = plan.path(self.spec.flow_lps)
         h = self.spec.height_agl_m
-        pts: list[Vec3] = [(start_xy[0], start_xy[1], h)]
-        flows: list[float] = []
-        for row in order:
-            seq = row if forward else row[::-1]
-            pts.append((seq[0][0], seq[0][1], h))
-            flows.append(0.0)  # transit / turn
-            for p in seq[1:]:
-                pts.append((p[0], p[1], h))
-                flows.append(self.spec.flow_lps)
-            forward = not forward
-        return pts, flows
+        return [(x, y, h) for x, y in pts2], flows
+
+    @staticmethod
+    def accel(ap: BuiltinAutopilot) -> float:
+        """Acceleration of the spray path (m/s², the one the plans assume)."""
+        from vinecli.missions.rowplan import plan_accel
+
+        return plan_accel(ap.vehicle)
 
     def start(self, ap: BuiltinAutopilot) -> None:
-        self.reverse = False
+        self.announced = False
         self._new_path(ap)
 
     # ---- sorties (refill jobs)
@@ -288,8 +288,7 @@ class _Spray(_Phase):
 
     def _new_path(self, ap: BuiltinAutopilot, resume: tuple[list[Vec3], list[float]] | None = None) -> None:
         if resume is None:
-            pts, flows = self._passes((ap.hold_sp()[0], ap.hold_sp()[1]), self.reverse)
-            self.reverse = not self.reverse
+            pts, flows = self._passes(ap, (ap.hold_sp()[0], ap.hold_sp()[1]))
         else:  # from where the vehicle is to the breakpoint (flow off), then the rest of the rows
             h = self.spec.height_agl_m
             pts = [(ap.hold_sp()[0], ap.hold_sp()[1], h), *resume[0]]
@@ -299,7 +298,8 @@ class _Spray(_Phase):
         def skids_above_terrain(x: float, y: float) -> float:
             return terrain(x, y) + lgh  # the height is the skids' (as the recorded height_agl_m)
 
-        self.path = PathFollower(pts, self.spec.speed_mps, flows=flows, terrain=skids_above_terrain, acceptance_m=0.7,
+        self.path = PathFollower(pts, self.spec.speed_mps, accel=self.accel(ap), flows=flows, terrain=skids_above_terrain,
+                                 acceptance_m=0.7,
                                  max_lead_m=2.0, max_vz=min(ap.vehicle.control.max_vel_up, ap.vehicle.control.max_vel_down))
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:

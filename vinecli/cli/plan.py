@@ -16,59 +16,47 @@ app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> miss
 @handles_errors
 def rows_cmd(
     source: Annotated[Path, typer.Argument(help="A DSM GeoTIFF or a built world directory.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The .plan file to write.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The .plan file to write (rows.geojson goes beside it).")],
     spacing: Annotated[float | None, typer.Option("--spacing", help="Expected row spacing, m (default: search 0.5-6 m).")] = None,
-    height: Annotated[float, typer.Option("--height", help="Spray height above the terrain, m.")] = 2.0,
+    height: Annotated[float, typer.Option("--height", help="Spray height above the canopy surface, m.")] = 2.0,
     speed: Annotated[float, typer.Option("--speed", help="Ground speed along the rows, m/s.")] = 1.5,
     flow: Annotated[float, typer.Option("--flow", help="Nozzle flow on the rows, L/s.")] = 0.05,
-    use_world_rows: Annotated[bool, typer.Option("--world-rows", help="World source: use its rows, do not detect.")] = False,
+    takeoff: Annotated[float, typer.Option("--takeoff", help="Take-off altitude above home, m.")] = 3.0,
+    use_world_rows: Annotated[bool, typer.Option("--world-rows", help="World source: its rows (the default; error if none).")] = False,
+    detect: Annotated[bool, typer.Option("--detect", help="World source: detect rows on its height grid instead.")] = False,
+    vehicle: Annotated[str | None, typer.Option("--vehicle", help="Vehicle (speed/acceleration limits, tank); default: the world's, else x500-sprayer.")] = None,
+    tank: Annotated[float | None, typer.Option("--tank", help="Litres per sortie (default: the vehicle's tank; 0: one sortie).")] = None,
+    fence_margin: Annotated[float | None, typer.Option("--fence-margin", help="Keep the path this far inside the geofence, m (default 1; DSM source: inside its data extent, default 0).")] = None,
+    home: Annotated[tuple[float, float] | None, typer.Option("--home", help="Take-off point X Y (ENU m of the source; default: the world's spawn / a corner row end).")] = None,
     mission_out: Annotated[Path | None, typer.Option("--mission", help="Also write the plan as a mission YAML.")] = None,
 ) -> None:
-    """Detect vine rows (direction, spacing, centre lines) and write a boustrophedon spray .plan.
+    """Detect vine rows (count, spacing, direction, confidence) and write an operator-style spray .plan:
+    nearest row first, boustrophedon with headland turns sized from the vehicle's speed and acceleration,
+    spray on over the rows only, terrain-following heights, one extra .plan per sortie when it needs
+    more than one tank.
 
-    Example: vinecli plan rows worlds/sample/vineyard.tif --out spray.plan --spacing 2.5
+    Example: vinecli plan rows worlds/sample/fieldimager_potato_plots_dsm_3cm_utm16n.tif --out rows.plan
     """
-    from vinecli.errors import InputError
-    from vinecli.missions import patterns
-    from vinecli.missions.qgc_plan import export_plan, write_plan
-    from vinecli.names import name_from
+    from vinecli.cli.console import err_console
+    from vinecli.missions.rowjob import plan_rows_job
 
-    nozzle = 0.1
-    if source.is_dir():
-        from vinecli.world import load_world
-
-        world = load_world(source)
-        origin, home = world.origin, tuple(world.spawn_enu)
-        if world.vehicle.tank is not None:
-            nozzle = world.vehicle.tank.nozzle_max_flow_lps
-        if use_world_rows:
-            if not world.vine_rows_enu:
-                raise InputError("the world has no rows", path=source)
-            rows = [list(map(tuple, r)) for r in world.vine_rows_enu]
-            det = None
-        else:
-            det, origin, home = patterns.detect_rows_in_world(source, spacing_m=spacing)
-            rows = det.rows
+    job = plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
+                        detect=detect, world_rows=use_world_rows, vehicle=vehicle, tank_l=tank,
+                        fence_margin=fence_margin, home=home, mission_out=mission_out)
+    if job.detection is not None:
+        out_console.print(f"rows: {job.detection.summary()}")
+        if job.detection.confidence < 0.5:
+            err_console.print(f"warning: no clear rows (confidence {job.detection.confidence:.2f})")
     else:
-        if use_world_rows:
-            raise InputError("--world-rows needs a world directory", path=source)
-        det, origin = patterns.detect_rows_in_dsm(source, spacing_m=spacing)
-        home, rows = (0.0, 0.0, 0.0), det.rows
-    if not rows:
-        raise InputError("no rows found (try --spacing)", path=source)
-    mission = patterns.spray_mission(rows, name=name_from(out.stem, "spray-rows"), height_m=height, speed_mps=speed,
-                                     flow_lps=flow)
-    plan = export_plan(mission, origin, home, nozzle_max_flow_lps=nozzle)  # type: ignore[arg-type]
-    write_plan(out, plan)
-    if mission_out is not None:
-        from vinecli.missions.spec_io import write_mission
-
-        write_mission(mission_out, mission)
-    if det is not None:
-        out_console.print(f"rows: direction {det.direction_deg:.1f} deg (ENU, from east), spacing {det.spacing_m:.3f} m, "
-                          f"{len(det.rows)} rows, peak strength {det.strength:.0f}")
-    n_items = len(plan["mission"]["items"])
-    out_console.print(f"{out}: {n_items} mission items over {len(rows)} rows")
+        out_console.print(f"rows: {len(job.rows)} rows of the world")
+    for w in job.warnings:
+        err_console.print(f"warning: {w}")
+    out_console.print(job.plan.summary())
+    sorties = f", {job.sorties} sorties (one .plan each)" if job.sorties > 1 else ""
+    names = [p.name for p in job.files if ".sortie-" not in p.name]
+    if job.sorties > 1:
+        names.append(f"{out.stem}.sortie-{{1..{job.sorties}}}.plan")
+    out_console.print(f"{out}: {len(job.plan.order)} rows{sorties}; wrote {', '.join(names)}")
 
 
 @app.command("import")

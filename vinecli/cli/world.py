@@ -36,3 +36,7 @@ def build(
         f"origin {w.origin.lat:.6f}, {w.origin.lon:.6f}, {w.origin.alt:.1f} m, {len(w.vine_rows_enu)} rows",
         markup=True,
     )
+    if w.rows_detection:
+        d = w.rows_detection
+        out_console.print(f"rows (auto, from the {d['source']}): {d['count']} rows, spacing {d['spacing_m']:.3f} m, "
+                          f"direction {d['direction_deg']:.1f} deg from east, confidence {d['confidence']:.2f}")

@@ -23,8 +23,9 @@ cmd    MAVLink                 phase
 20     NAV_RETURN_TO_LAUNCH    rtl
 =====  ======================  ====================================================
 
-Export (:func:`export_plan`) writes the inverse mapping (spray phases are expanded into
-boustrophedon waypoints with DO_SET_ACTUATOR on/off around each row).
+Export (:func:`export_plan`) writes the inverse mapping (spray phases are expanded into the
+operator plan of :mod:`vinecli.missions.rowplan` with DO_SET_ACTUATOR on/off around each row;
+one ``.plan`` per sortie: :func:`vinecli.missions.qgc_spray.sortie_plan`).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -329,10 +330,47 @@ def _import_fence(fence: GeoFence, origin: GeoOrigin, path: Path) -> GeofenceSpe
 
 
 # ---------------------------------------------------------------- export
-def _item(command: int, frame: int, params: Sequence[float | None], seq: int) -> dict[str, Any]:
+def plan_item(command: int, frame: int, params: Sequence[float | None], seq: int) -> dict[str, Any]:
+    """One QGC SimpleItem (NaN parameters become null)."""
     ps = [None if (p is None or (isinstance(p, float) and math.isnan(p))) else p for p in params]
     return {"type": "SimpleItem", "command": command, "frame": frame, "params": ps, "autoContinue": True,
             "doJumpId": seq}
+
+
+
+def plan_document(items: list[dict[str, Any]], origin: GeoOrigin, home_enu: tuple[float, float, float], *,
+                  fence_enu: Sequence[tuple[float, float]] | None = None,
+                  fence_radius_m: float | None = None) -> dict[str, Any]:
+    """The ``.plan`` JSON around mission items: planned home, geofence polygon / circle about home."""
+    def ll(x: float, y: float) -> tuple[float, float]:
+        lat, lon, _ = origin.enu_to_geodetic(x, y, 0.0)
+        return round(lat, 8), round(lon, 8)
+
+    hlat, hlon = ll(home_enu[0], home_enu[1])
+    plan: dict[str, Any] = {
+        "fileType": "Plan",
+        "version": 1,
+        "groundStation": "QGroundControl",
+        "mission": {
+            "version": 2,
+            "firmwareType": 12,
+            "vehicleType": 2,
+            "cruiseSpeed": 15,
+            "hoverSpeed": 2,
+            "globalPlanAltitudeMode": 1,
+            "plannedHomePosition": [hlat, hlon, round(origin.alt + home_enu[2], 3)],
+            "items": items,
+        },
+        "geoFence": {"version": 2, "polygons": [], "circles": []},
+        "rallyPoints": {"version": 2, "points": []},
+    }
+    if fence_enu:
+        plan["geoFence"]["polygons"].append(
+            {"polygon": [list(ll(x, y)) for x, y in fence_enu], "inclusion": True, "version": 1})
+    if fence_radius_m:
+        plan["geoFence"]["circles"].append(
+            {"circle": {"center": [hlat, hlon], "radius": fence_radius_m}, "inclusion": True, "version": 1})
+    return plan
 
 
 def export_plan(
@@ -342,20 +380,27 @@ def export_plan(
     *,
     rows_enu: Sequence[Sequence[tuple[float, float]]] = (),
     nozzle_max_flow_lps: float = 0.1,
+    accel_mps2: float = 1.5,
+    surface: Callable[[float, float], float] | None = None,
 ) -> dict[str, Any]:
-    """A MissionSpec -> .plan JSON (dict). Spray phases become boustrophedon passes over ``rows_enu``
-    (or the phase's explicit rows) with DO_SET_ACTUATOR (p1 = flow / nozzle_max_flow_lps) on/off."""
-    from vinecli.missions.patterns import boustrophedon
+    """A MissionSpec -> .plan JSON (dict). Spray phases become the operator plan of
+    :func:`~vinecli.missions.rowplan.plan_rows` over ``rows_enu`` (or the phase's explicit rows): nearest
+    row first, headland turns for ``accel_mps2``, rows clipped to the mission's geofence with a 1 m margin,
+    DO_SET_ACTUATOR (p1 = flow / nozzle_max_flow_lps) on over each row and off after it. With ``surface``
+    (ENU z of the DSM surface) the spray waypoints follow it (see :mod:`vinecli.missions.qgc_spray`)."""
+    from vinecli.missions.qgc_spray import leg_actions
+    from vinecli.missions.rowplan import plan_rows
 
     items: list[dict[str, Any]] = []
     cur = [home_enu[0], home_enu[1], 0.0]
+    home_z = surface(home_enu[0], home_enu[1]) if surface is not None else 0.0
 
     def ll(x: float, y: float) -> tuple[float, float]:
         lat, lon, _ = origin.enu_to_geodetic(x, y, 0.0)
         return round(lat, 8), round(lon, 8)
 
     def add(command: int, frame: int, params: Sequence[float | None]) -> None:
-        items.append(_item(command, frame, params, len(items) + 1))
+        items.append(plan_item(command, frame, params, len(items) + 1))
 
     def wp(x: float, y: float, h: float) -> None:
         lat, lon = ll(x, y)
@@ -365,6 +410,8 @@ def export_plan(
     def actuator(flow: float) -> None:
         add(DO_SET_ACTUATOR, FRAME_MISSION, [round(flow / nozzle_max_flow_lps, 6), None, None, None, None, None, 1])
 
+    gf = mission.geofence
+    fence = gf.polygon_enu if gf is not None and gf.polygon_enu else None
     for i, ph in enumerate(mission.phases):
         if isinstance(ph, TakeoffPhase):
             lat, lon = ll(cur[0], cur[1])
@@ -394,13 +441,16 @@ def export_plan(
                 rows = [[tuple(p) for p in r] for r in ph.rows]  # type: ignore[union-attr]
             if not rows:
                 raise SpecError(f"phases.{i}: spray phase has no rows to export", path=mission.name)
+            plan = plan_rows(rows, (cur[0], cur[1]), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=fence)
+            if not plan.legs:
+                raise SpecError(f"phases.{i}: no rows left inside the geofence", path=mission.name)
             add(DO_CHANGE_SPEED, FRAME_MISSION, [1, ph.speed_mps, -1, 0, 0, 0, 0])
-            for leg in boustrophedon(rows, start_xy=(cur[0], cur[1])):
-                wp(leg[0][0], leg[0][1], ph.height_agl_m)
-                actuator(ph.flow_lps)
-                for x, y in leg[1:]:
-                    wp(x, y, ph.height_agl_m)
-                actuator(0.0)
+            for kind, a, b, c in leg_actions(plan.legs, height_m=ph.height_agl_m, flow_lps=ph.flow_lps,
+                                             surface=surface, home_z=home_z):
+                if kind == "wp":
+                    wp(a, b, c)
+                else:
+                    actuator(a)
         elif isinstance(ph, LandPhase):
             lat, lon = ll(cur[0], cur[1])
             add(NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, [0, 0, 0, None, lat, lon, 0])
@@ -408,33 +458,8 @@ def export_plan(
             add(NAV_RTL, FRAME_MISSION, [0, 0, 0, 0, 0, 0, 0])
         else:
             raise SpecError(f"phases.{i}: {ph.type!r} phases have no .plan equivalent", path=mission.name)
-    hlat, hlon = ll(home_enu[0], home_enu[1])
-    plan: dict[str, Any] = {
-        "fileType": "Plan",
-        "version": 1,
-        "groundStation": "QGroundControl",
-        "mission": {
-            "version": 2,
-            "firmwareType": 12,
-            "vehicleType": 2,
-            "cruiseSpeed": 15,
-            "hoverSpeed": 2,
-            "globalPlanAltitudeMode": 1,
-            "plannedHomePosition": [hlat, hlon, round(origin.alt + home_enu[2], 3)],
-            "items": items,
-        },
-        "geoFence": {"version": 2, "polygons": [], "circles": []},
-        "rallyPoints": {"version": 2, "points": []},
-    }
-    gf = mission.geofence
-    if gf is not None and gf.polygon_enu:
-        plan["geoFence"]["polygons"].append(
-            {"polygon": [list(ll(x, y)) for x, y in gf.polygon_enu], "inclusion": True, "version": 1})
-    if gf is not None and gf.max_horizontal_distance_m:
-        plan["geoFence"]["circles"].append(
-            {"circle": {"center": [hlat, hlon], "radius": gf.max_horizontal_distance_m}, "inclusion": True,
-             "version": 1})
-    return plan
+    return plan_document(items, origin, home_enu, fence_enu=fence,
+                         fence_radius_m=gf.max_horizontal_distance_m if gf is not None else None)
 
 
 def write_plan(path: Path | str, plan: dict[str, Any]) -> None:

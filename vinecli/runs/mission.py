@@ -277,18 +277,18 @@ def run_mission(
 
 
 def _auto_rows(world: Any) -> None:
-    """``rows: auto`` worlds: detect the vine rows on the world's height grid (in memory, before the run)."""
+    """``rows: auto`` worlds built before the rows were detected at build time: detect them on the world's
+    height grid with the same detector (in memory, before the run). Worlds built now carry the rows."""
     if not getattr(world, "rows_auto", False) or world.vine_rows_enu:
         return
-    from vinecli.missions.patterns import _world_grid, detect_rows_grid
-
-    grid = _world_grid(world)
+    grid = getattr(world.terrain, "grid", None)
     if grid is None:
         return
-    det = detect_rows_grid(grid[2], grid[0], grid[1])
+    from vinecli.missions.rowsource import detect_rows_on_grid
+
+    det = detect_rows_on_grid(grid)
     world.vine_rows_enu = det.rows
-    log.info("world %s: %d rows detected (direction %.1f deg, spacing %.2f m)", world.name, len(det.rows),
-             det.direction_deg, det.spacing_m)
+    log.info("world %s: %s", world.name, det.summary())
 
 
 def _rows_for_metrics(spec: MissionSpec, world: Any) -> list[list[tuple[float, float]]]:

@@ -77,6 +77,10 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
                         "move the spawn to a flat spot", spec.name, rest["tilt_deg"], sx, sy, MAX_REST_TILT_DEG)
 
         rows = [] if spec.rows in (None, "auto") else [[list(p) for p in row] for row in spec.rows]
+        rows_detection = None
+        if spec.rows == "auto":
+            with man.stage("rows"):
+                rows, rows_detection = _auto_rows(t, base, terrain_json, tdir, grid, spec.name, spec.geofence)
         doc = {
             "schema": SCHEMA,
             "name": spec.name,
@@ -92,6 +96,7 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
             "wind": json.loads(spec.wind.model_dump_json()),
             "vine_rows_enu": rows,
             "rows_auto": spec.rows == "auto",
+            "rows_detection": rows_detection,
             "geofence": json.loads(spec.geofence.model_dump_json()) if spec.geofence else None,
             "sdf": "world.sdf",
         }
@@ -104,6 +109,47 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
                               "vehicle": vehicle.name}
     log.info("world %s built in %s", spec.name, out)
     return out
+
+
+def _warn_rows_outside(rows: list[Any], bounds: list[float], fence: Any, name: str) -> None:
+    """One warning line each when detected rows leave the terrain or the geofence polygon."""
+    from shapely.geometry import LineString, Polygon, box
+
+    lines = [LineString(r) for r in rows if len(r) >= 2]
+    areas = [("terrain", box(*bounds))]
+    if fence is not None and fence.polygon_enu:
+        areas.append(("geofence", Polygon(fence.polygon_enu)))
+    for what, area in areas:
+        out = [ln.length - ln.intersection(area).length for ln in lines]
+        n = sum(o > 0.05 for o in out)
+        if n:
+            log.warning("world %s: %d of %d detected rows leave the %s (up to %.1f m outside); plans clip them",
+                        name, n, len(lines), what, max(out))
+
+
+def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, grid: TerrainGrid | None, name: str,
+               fence: Any = None) -> tuple[list[list[list[float]]], dict[str, Any] | None]:
+    """``rows: auto``: rows detected on the source DSM (the same rows ``plan rows DSM`` finds, mapped into
+    the world through the terrain's CRS frame), or on the height grid for a terrain directory."""
+    from vinecli.missions.rowsource import detect_rows_in_dsm, detect_rows_on_grid, dsm_rows_in_frame, terrain_frame
+
+    frame = terrain_frame(terrain_json, tdir)
+    if isinstance(t, DsmTerrain) and frame is not None:
+        dsm = detect_rows_in_dsm(_resolve(base, t.path))
+        det, rows, source = dsm.detection, dsm_rows_in_frame(dsm, frame), "dsm"
+    elif grid is not None:
+        det = detect_rows_on_grid(grid)
+        rows, source = det.rows, "grid"
+    else:
+        log.warning("world %s: rows: auto on flat terrain: no rows", name)
+        return [], None
+    log.info("world %s: %s", name, det.summary())
+    if det.confidence < 0.5:
+        log.warning("world %s: rows: auto found no clear rows (confidence %.2f)", name, det.confidence)
+    _warn_rows_outside(rows, terrain_json["bounds_enu"], fence, name)
+    info = {k: v for k, v in det.to_dict().items() if k != "rows_enu"}
+    info.update(source=source, frame=frame.to_dict() if frame is not None else None)
+    return [[list(p) for p in r] for r in rows], info
 
 
 #: a rest attitude tilted more than this at the spawn is reported (log warning), deg

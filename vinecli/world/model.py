@@ -20,6 +20,9 @@
                                                          # build warns when tilt_deg > 10 (not a take-off spot)
      "wind": {WindSpec as JSON},
      "vine_rows_enu": [[[x, y], ...], ...], "rows_auto": bool,
+     "rows_detection": {"count", "direction_deg", "spacing_m", "strength", "confidence", "lengths_m", "support",
+                        "source": "dsm"|"grid", "frame": {"crs", "centre_crs", "m_per_crs_unit", "offset_enu"}}
+                       | null,                           # rows: auto: how vine_rows_enu were detected (at build)
      "geofence": {GeofenceSpec as JSON} | null,
      "sdf": "world.sdf"}
 """
@@ -85,6 +88,7 @@ class World:
     geofence: GeofenceSpec | None = None
     rows_auto: bool = False
     description: str = ""
+    rows_detection: dict[str, Any] | None = None  # rows: auto: detection figures (see world.json)
 
     def __post_init__(self) -> None:
         # bind the fast lookup directly (no extra call layer in the 250 Hz loop)
@@ -163,6 +167,7 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         vine_rows_enu=[[(float(p[0]), float(p[1])) for p in row] for row in d.get("vine_rows_enu", [])],
         geofence=geofence,
         rows_auto=bool(d.get("rows_auto", False)),
+        rows_detection=d.get("rows_detection"),
         description=d.get("description", ""),
     )
 

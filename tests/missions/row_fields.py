@@ -1,0 +1,118 @@
+"""Synthetic fields with known rows for the row-detection tests (importable helper, not a test module).
+
+A field is a height grid (x east, y north, m) of ground (slope, undulation, noise) with canopy ridges
+of height ``canopy_m`` and half-width ``0.3 x spacing`` along known centre lines. Row ``i`` runs along
+direction ``direction_deg`` at lateral offset ``offset + i x spacing`` plus ``amp x sin(2 pi t / wavelength)``
+(curved rows), over ``t_range`` (m along the rows), with canopy gaps ``gaps`` ([t0, t1] intervals).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Field:
+    """Parameters of a synthetic row field (see the module docstring); distances m, angles deg from east."""
+
+    width_m: float = 60.0
+    height_m: float = 40.0
+    res_m: float = 0.1
+    direction_deg: float = 0.0
+    spacing_m: float = 2.5
+    n_rows: int = 12
+    offset_m: float = 0.0
+    t_range: tuple[float, float] = (-25.0, 25.0)
+    amp_m: float = 0.0
+    wavelength_m: float = 40.0
+    gaps: list[tuple[float, float]] = field(default_factory=list)
+    canopy_m: float = 1.2
+    slope: tuple[float, float] = (0.0, 0.0)  # dz/dx, dz/dy
+    undulation_m: float = 0.0
+    noise_m: float = 0.03
+    plants_m: float = 0.0  # > 0: canopy made of plants this far apart (with small random gaps)
+    seed: int = 0
+
+    def axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cell-centre coordinates x (east), y (north) of the grid, m, centred on 0."""
+        x = (np.arange(int(round(self.width_m / self.res_m))) + 0.5) * self.res_m - self.width_m / 2
+        y = (np.arange(int(round(self.height_m / self.res_m))) + 0.5) * self.res_m - self.height_m / 2
+        return x, y
+
+    def _uv(self) -> tuple[np.ndarray, np.ndarray]:
+        th = math.radians(self.direction_deg)
+        return np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
+
+    def row_offset(self, i: int) -> float:
+        """Lateral offset (m, along the left normal) of row ``i`` at t = 0."""
+        return self.offset_m + (i - (self.n_rows - 1) / 2) * self.spacing_m
+
+    def centre(self, i: int, t: np.ndarray) -> np.ndarray:
+        """Lateral offset of row ``i`` at positions ``t`` along the rows, m."""
+        return self.row_offset(i) + self.amp_m * np.sin(2 * np.pi * t / self.wavelength_m)
+
+    def truth(self, step: float = 0.1) -> list[np.ndarray]:
+        """True centre lines, (n, 2) arrays of x, y (m), over ``t_range``."""
+        u, n = self._uv()
+        t = np.arange(self.t_range[0], self.t_range[1] + step / 2, step)
+        return [np.column_stack([t * u[0] + self.centre(i, t) * n[0], t * u[1] + self.centre(i, t) * n[1]])
+                for i in range(self.n_rows)]
+
+    def heights(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z[j, i], x[i], y[j]): the field's heights, m."""
+        x, y = self.axes()
+        X, Y = np.meshgrid(x, y)
+        u, n = self._uv()
+        t = X * u[0] + Y * u[1]
+        s = X * n[0] + Y * n[1]
+        rng = np.random.default_rng(self.seed)
+        z = 100.0 + self.slope[0] * X + self.slope[1] * Y + self.undulation_m * np.sin(X / 7.0) * np.cos(Y / 9.0)
+        half = 0.3 * self.spacing_m
+        along = (t >= self.t_range[0]) & (t <= self.t_range[1])
+        for a, b in self.gaps:
+            along &= ~((t >= a) & (t <= b))
+        canopy = np.zeros_like(z)
+        for i in range(self.n_rows):
+            d = s - self.centre(i, t)
+            c = self.canopy_m * np.clip(1.0 - (d / half) ** 2, 0.0, None)
+            if self.plants_m > 0:
+                phase = rng.uniform(0, self.plants_m)
+                pos = np.mod(t - phase, self.plants_m) - self.plants_m / 2
+                size = self.plants_m * 0.45
+                c = c * np.clip(1.0 - (pos / size) ** 2, 0.0, None) ** 0.5
+            canopy = np.maximum(canopy, c)
+        z = z + np.where(along, canopy, 0.0) + rng.normal(0.0, self.noise_m, z.shape)
+        return z, x, y
+
+
+def lateral_errors(row: list[tuple[float, float]], truth: np.ndarray, end_margin_m: float = 0.3) -> np.ndarray:
+    """Distances (m) from points along a detected row (every 5 cm) to the true centre line, for the points
+    whose projection falls inside the true line (``end_margin_m`` from its ends)."""
+    from shapely.geometry import LineString, Point
+
+    line = LineString(truth)
+    det = LineString(row)
+    out = []
+    for d in np.arange(0.0, det.length + 1e-9, 0.05):
+        p = det.interpolate(d)
+        proj = line.project(p)
+        if end_margin_m <= proj <= line.length - end_margin_m:
+            out.append(line.distance(Point(p.x, p.y)))
+    return np.array(out)
+
+
+def match_rows(rows: list[list[tuple[float, float]]], truth: list[np.ndarray]) -> list[tuple[int, float, float]]:
+    """For each true row, (index of the nearest detected row, its max lateral error m, its length / true length)."""
+    from shapely.geometry import LineString
+
+    out = []
+    for tr in truth:
+        tl = LineString(tr)
+        mid = tl.interpolate(0.5, normalized=True)
+        k = int(np.argmin([LineString(r).distance(mid) for r in rows]))
+        err = lateral_errors(rows[k], tr)
+        out.append((k, float(err.max()) if err.size else math.inf, LineString(rows[k]).length / tl.length))
+    return out

@@ -1,0 +1,146 @@
+"""Operator plans over rows: nearest row first, boustrophedon, headland turns from speed and acceleration,
+spray only over the rows, fence clipping with warnings, time estimates, sorties and their .plan files."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from vinecli.geo import GeoOrigin
+from vinecli.missions.qgc_spray import leg_actions, sortie_plan
+from vinecli.missions.rowplan import plan_rows, split_sorties
+
+ORIGIN = GeoOrigin(44.70, 8.03, 250.0)
+
+
+def block(n: int = 6, spacing: float = 2.5, length: float = 30.0, x0: float = 0.0) -> list[list[tuple[float, float]]]:
+    """``n`` rows running north, ``spacing`` apart from x = x0, y = 0 .. length."""
+    return [[(x0 + i * spacing, 0.0), (x0 + i * spacing, length)] for i in range(n)]
+
+
+def test_starts_at_the_row_nearest_take_off_and_alternates() -> None:
+    rows = block()
+    plan = plan_rows(rows, (14.0, -3.0), speed_mps=2.0, accel_mps2=1.5)  # east of the block, south end
+    assert plan.order == [5, 4, 3, 2, 1, 0]
+    legs = [leg for leg in plan.legs if leg.spray]
+    assert legs[0].points[0] == (12.5, 0.0)  # entered at the nearer end
+    dirs = [math.copysign(1.0, leg.points[-1][1] - leg.points[0][1]) for leg in legs]
+    assert dirs == [1, -1, 1, -1, 1, -1]
+    assert plan.legs[0].kind == "transit" and plan.legs[0].length_m == pytest.approx(math.hypot(1.5, 3.0))
+
+
+def test_start_in_the_middle_does_the_near_side_first_then_jumps() -> None:
+    plan = plan_rows(block(), (5.2, -2.0), speed_mps=2.0, accel_mps2=1.5)
+    assert plan.order[0] == 2 and sorted(plan.order) == list(range(6))
+    assert plan.order == [2, 1, 0, 3, 4, 5]
+    assert [leg.kind for leg in plan.legs].count("transit") == 2
+
+
+@pytest.mark.parametrize(("speed", "accel", "spacing", "kind"), [(2.0, 1.5, 2.5, "turn-stop"), (1.0, 2.0, 2.5, "turn-arc"),
+                                                                  (3.0, 1.5, 0.9, "turn-stop")])
+def test_headland_turns_sized_from_speed_and_acceleration(speed: float, accel: float, spacing: float,
+                                                          kind: str) -> None:
+    plan = plan_rows(block(3, spacing), (0.0, -1.0), speed_mps=speed, accel_mps2=accel)
+    turns = [leg for leg in plan.legs if leg.kind.startswith("turn")]
+    assert [t.kind for t in turns] == [kind, kind]
+    top = max(p[1] for p in turns[0].points)
+    if kind == "turn-stop":  # run out v^2 / (2 a) past the row end: the vehicle brakes after the last sprayed metre
+        assert top - 30.0 == pytest.approx(speed**2 / (2 * accel))
+    else:  # a semicircle of radius spacing / 2 at cruise speed: v^2 / r <= a
+        assert top - 30.0 == pytest.approx(spacing / 2, abs=0.01)
+        assert speed**2 / (spacing / 2) <= accel
+    assert not any(t.spray for t in turns)
+
+
+def test_time_estimate_from_trapezoids() -> None:
+    v, a = 2.0, 1.5
+    plan = plan_rows(block(2, 2.5, 30.0), (0.0, 0.0), speed_mps=v, accel_mps2=a)
+    # rows at cruise speed; stop turn: brake (v/a), cross 2.5 m rest to rest, run in (v/a)
+    cross = 2.5 / v + v / a if 2.5 >= v * v / a else 2 * math.sqrt(2.5 / a)
+    assert plan.time_s == pytest.approx(60.0 / v + 2 * v / a + cross, abs=0.1)
+    assert plan.spray_length_m == pytest.approx(60.0)
+    assert plan.length_m == pytest.approx(60.0 + 2.5 + 2 * v * v / (2 * a))
+    climb = plan_rows(block(2, 2.5, 30.0), (0.0, 0.0), speed_mps=v, accel_mps2=a, climb=(3.0, 3.0, 1.5))
+    assert climb.time_s == pytest.approx(plan.time_s + 1.0 + 2.0, abs=0.1)
+
+
+def test_rows_clipped_to_the_fence_with_a_margin_and_one_warning_each() -> None:
+    fence = [(-3.0, -3.0), (15.0, -3.0), (15.0, 25.0), (-3.0, 25.0)]  # rows run to y = 30: past the fence
+    plan = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5, fence_enu=fence, fence_margin_m=1.0)
+    head = 2.0**2 / (2 * 1.5)
+    ys = [p[1] for leg in plan.legs for p in leg.points]
+    assert max(ys) <= 25.0 - 1.0 + 1e-6  # the headland turns too stay inside the fence - margin
+    assert max(p[1] for leg in plan.legs if leg.spray for p in leg.points) == pytest.approx(24.0 - head, abs=0.11)
+    assert len(plan.warnings) == 2 and "geofence" in plan.warnings[0] and "headland" in plan.warnings[1]
+    inside = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5,
+                       fence_enu=[(-5.0, -5.0), (20.0, -5.0), (20.0, 40.0), (-5.0, 40.0)])
+    assert inside.warnings == []
+
+
+def test_rows_wholly_outside_the_fence_are_dropped_and_the_indices_kept() -> None:
+    fence = [(4.0, -3.0), (15.0, -3.0), (15.0, 35.0), (4.0, 35.0)]  # rows 0 and 1 (x = 0, 2.5) are outside
+    plan = plan_rows(block(), (14.0, -2.0), speed_mps=1.0, accel_mps2=1.5, fence_enu=fence, fence_margin_m=0.5)
+    assert plan.order == [5, 4, 3, 2]
+    assert "2 of 6 rows leave the geofence" in plan.warnings[0] or "6 of 6 rows" in plan.warnings[0]
+
+
+def test_rows_leaving_the_terrain_warn() -> None:
+    plan = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5, terrain_bounds=(-5.0, -5.0, 20.0, 20.0))
+    assert len(plan.warnings) == 1 and "terrain" in plan.warnings[0]
+    assert max(p[1] for leg in plan.legs if leg.spray for p in leg.points) == pytest.approx(20.0)
+
+
+def test_sorties_split_by_tank_volume() -> None:
+    plan = plan_rows(block(4, 2.5, 30.0), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5)
+    flow, tank = 0.05, 1.0  # 0.025 L/m: a tank sprays 40 m
+    sorties = split_sorties(plan, flow, tank)
+    litres = [sum(leg.length_m for leg in s if leg.spray) * flow / 2.0 for s in sorties]
+    assert len(sorties) == 3 and all(v <= tank + 1e-9 for v in litres)
+    assert sum(litres) == pytest.approx(120.0 * flow / 2.0)
+    assert all(s[0].spray for s in sorties)  # a sortie starts on its first row (the transit is added at export)
+    # the breakpoint: the second sortie resumes where the first one stopped spraying
+    end1 = [leg for leg in sorties[0] if leg.spray][-1].points[-1]
+    assert sorties[1][0].points[0] == pytest.approx(end1)
+
+
+def test_sortie_plan_items() -> None:
+    plan = plan_rows(block(4, 2.5, 30.0), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5)
+    sorties = split_sorties(plan, 0.05, 1.0)
+    doc = sortie_plan(sorties[1], ORIGIN, (0.0, -2.0, 0.0), height_m=2.0, speed_mps=2.0, flow_lps=0.05,
+                      nozzle_max_flow_lps=0.1, takeoff_m=3.0, fence_enu=[(-5, -5), (20, -5), (20, 40), (-5, 40)])
+    items = doc["mission"]["items"]
+    cmds = [it["command"] for it in items]
+    assert cmds[0] == 22 and cmds[1] == 178 and cmds[-1] == 20  # take-off, speed, ..., return to launch
+    on = [it["params"][0] for it in items if it["command"] == 187]
+    assert on == [0.5, 0.0] * (len(on) // 2) and len(on) >= 2
+    assert [it["doJumpId"] for it in items] == list(range(1, len(items) + 1))
+    assert len(doc["geoFence"]["polygons"]) == 1
+
+
+def test_terrain_following_heights() -> None:
+    """On a 10 % slope, the waypoints along a row keep the set height above the surface (relative to home)."""
+    plan = plan_rows([[(0.0, 0.0), (0.0, 30.0)]], (0.0, -1.0), speed_mps=2.0, accel_mps2=1.5)
+
+    def surface(x: float, y: float) -> float:
+        return 0.1 * y + (0.5 if 10.0 <= y <= 12.0 else 0.0)  # slope plus a 0.5 m tall block of canopy
+
+    acts = leg_actions(plan.legs, height_m=2.0, flow_lps=0.05, surface=surface, home_z=surface(0.0, -1.0))
+    wps = [(a[1], a[2], a[3]) for a in acts if a[0] == "wp"]
+    for x, y, alt in wps:
+        assert alt >= surface(x, y) + 2.0 - surface(0.0, -1.0) - 0.21
+    assert any(alt > 0.1 * y + 2.0 + 0.1 + 0.4 for x, y, alt in wps if 9.0 <= y <= 13.0)  # lifted over the canopy
+    assert len(wps) < 20  # not one waypoint per sample
+
+
+def test_world_build_warns_once_when_detected_rows_leave_the_fence(caplog: pytest.LogCaptureFixture) -> None:
+    import logging
+
+    from vinecli.specs.mission import GeofenceSpec
+    from vinecli.world.build import _warn_rows_outside
+
+    fence = GeofenceSpec(polygon_enu=[(-3.0, -3.0), (15.0, -3.0), (15.0, 25.0), (-3.0, 25.0)])
+    with caplog.at_level(logging.WARNING):
+        _warn_rows_outside(block(), [-10.0, -10.0, 40.0, 40.0], fence, "w")
+    lines = [r.getMessage() for r in caplog.records]
+    assert lines == ["world w: 6 of 6 detected rows leave the geofence (up to 5.0 m outside); plans clip them"]

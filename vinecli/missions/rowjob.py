@@ -1,0 +1,162 @@
+"""``vinecli plan rows``: rows of a DSM or a built world -> spray plan files (library side of the command).
+
+Writes ``OUT`` (the whole field as one QGroundControl ``.plan``: take-off, the operator plan of
+:func:`~vinecli.missions.rowplan.plan_rows`, land), ``rows.geojson`` beside it (one LineString per row in
+the source's CRS, or local metres x east / y north without one; properties ``index``, ``length_m``), and
+when the rows need more than one tank ``OUT-stem.sortie-N.plan`` (take-off, that sortie's rows, RTL).
+
+Sources: a DSM GeoTIFF (rows detected on it; frame: local metres along the CRS axes about the raster
+centre; the plan keeps its headland turns on the raster's data extent) or a world directory (its rows:
+the rows ``world build`` detected or the world file lists, i.e. the rows the runs fly; ``detect`` re-runs
+the detector on the world's height grid; fence: the world's geofence, else its terrain bounds).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vinecli.errors import InputError, OutputError
+from vinecli.missions.rowdetect import Polyline, RowDetection
+from vinecli.missions.rowplan import RowPlan, plan_accel, plan_rows, split_sorties
+from vinecli.missions.rowsource import RowFrame, rows_geojson
+
+__all__ = ["RowsJob", "plan_rows_job"]
+
+
+@dataclass
+class RowsJob:
+    """What ``plan rows`` found and wrote."""
+
+    rows: list[Polyline]
+    detection: RowDetection | None
+    plan: RowPlan
+    sorties: int
+    files: list[Path] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+
+
+def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple[float, float]]:
+    """Rectangle (ENU m) around the cells with data."""
+    jj, ii = np.nonzero(valid)
+    x0, x1 = float(x[ii.min()]), float(x[ii.max()])
+    y0, y1 = float(y[jj.min()]), float(y[jj.max()])
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = 2.0, speed: float = 1.5,
+                  flow: float = 0.05, takeoff: float = 3.0, detect: bool = False, world_rows: bool = False,
+                  vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
+                  home: tuple[float, float] | None = None, mission_out: Path | None = None) -> RowsJob:
+    """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
+    (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
+    rows are flown, only the headland turns are kept over the surveyed ground)."""
+    from vinecli.missions.patterns import spray_mission
+    from vinecli.missions.qgc_plan import export_plan, write_plan
+    from vinecli.missions.qgc_spray import sortie_plan
+    from vinecli.names import name_from
+    from vinecli.vehicle import load_vehicle
+
+    det: RowDetection | None = None
+    frame: RowFrame | None
+    if source.is_dir():
+        from vinecli.missions.rowsource import detect_rows_on_grid, world_frame
+        from vinecli.world import load_world
+
+        w = load_world(source)
+        veh = w.vehicle if vehicle is None else load_vehicle(vehicle)
+        origin, frame = w.origin, world_frame(source)
+        start = home or (w.spawn_enu[0], w.spawn_enu[1])
+        home3 = (start[0], start[1], w.terrain_height(*start))
+        if world_rows and not w.vine_rows_enu:
+            raise InputError("the world has no rows", path=source)
+        if w.vine_rows_enu and not detect:
+            rows = [list(map(tuple, r)) for r in w.vine_rows_enu]
+        elif w.terrain.grid is None:
+            raise InputError("the world has flat terrain: no rows to detect", path=source)
+        else:
+            det = detect_rows_on_grid(w.terrain.grid, spacing_m=spacing)
+            rows = det.rows
+        fence = list(w.geofence.polygon_enu) if w.geofence is not None and w.geofence.polygon_enu else None
+        xmin, ymin, xmax, ymax = w.terrain.bounds
+        fence_name = "geofence" if fence else "terrain"
+        margin = 1.0 if fence_margin is None else fence_margin
+        fence = fence or [(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)]
+        bounds: tuple[float, float, float, float] | None = w.terrain.bounds
+        surface = w.terrain_height
+    else:
+        if world_rows:
+            raise InputError("--world-rows needs a world directory", path=source)
+        from vinecli.missions.rowsource import detect_rows_in_dsm
+
+        dsm = detect_rows_in_dsm(source, spacing_m=spacing)
+        det, frame, rows = dsm.detection, dsm.frame, dsm.detection.rows
+        if dsm.origin is None:
+            raise InputError("the DSM has no CRS: a .plan needs latitude/longitude (build a world with origin: "
+                             "and plan on it)", path=source)
+        origin = dsm.origin
+        veh = load_vehicle(vehicle or "x500-sprayer")
+        fence = _bbox_polygon(dsm.grid["x"], dsm.grid["y"], np.isfinite(dsm.grid["z"]))
+        fence_name = "DSM's data extent"
+        margin = 0.0 if fence_margin is None else fence_margin
+        bounds = None
+        if home is not None:
+            start = home
+        elif rows:  # the end of the first row nearest the raster's south-west corner
+            corner = fence[0]
+            start = min((rows[0][0], rows[0][-1]), key=lambda p: (p[0] - corner[0]) ** 2 + (p[1] - corner[1]) ** 2)
+        else:
+            start = (0.0, 0.0)
+
+        def surface(x: float, y: float) -> float:
+            z = float(dsm.height(np.array([x]), np.array([y]))[0])
+            return (z if np.isfinite(z) else float(np.nanmedian(dsm.grid["z"]))) - origin.alt
+
+        home3 = (start[0], start[1], surface(*start))
+    if not rows:
+        raise InputError("no rows found (try --spacing)", path=source)
+    accel = plan_accel(veh)
+    plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
+                     fence_name=fence_name, terrain_bounds=bounds, climb=(takeoff, veh.control.max_vel_up, veh.control.max_vel_down))
+    if not plan.legs:
+        raise InputError(f"no rows left to plan ({'; '.join(plan.warnings)})", path=source)
+    planned = [leg.points for leg in plan.legs if leg.spray]
+    mission = spray_mission(planned, name=name_from(out.stem, "spray-rows"), height_m=height, speed_mps=speed, flow_lps=flow,
+                            takeoff_m=takeoff, estimated_s=plan.time_s)
+    nozzle = veh.tank.nozzle_max_flow_lps if veh.tank is not None else 0.1
+    tank = tank_l if tank_l is not None else (veh.tank.capacity_l if veh.tank is not None else 0.0)
+    job = RowsJob(rows, det, plan, 1, warnings=list(plan.warnings))
+    write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
+    job.files.append(out)
+    gj = out.with_name("rows.geojson")
+    _write_text(gj, json.dumps(rows_geojson(rows, frame)) + "\n")
+    job.files.append(gj)
+    sorties = split_sorties(plan, flow, tank) if tank > 0 else [plan.legs]
+    job.sorties = len(sorties)
+    if len(sorties) > 1:
+        for k, legs in enumerate(sorties, 1):
+            p = out.with_name(f"{out.stem}.sortie-{k}.plan")
+            write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
+                                      nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface,
+                                      fence_enu=fence))
+            job.files.append(p)
+    if mission_out is not None:
+        from vinecli.missions.spec_io import write_mission
+
+        write_mission(mission_out, mission)
+        job.files.append(mission_out)
+    return job

@@ -1,0 +1,133 @@
+"""Row detection, part 1: grid preparation and the dominant row direction and spacing (2-D spectrum).
+
+Grids are regular, ``z[j, i]`` at ``x[i]``, ``y[j]`` (local metres: x east, y north; heights m; NaN = no
+data). Used by :func:`vinecli.missions.rowdetect.detect_rows_grid`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vinecli.errors import TerrainError
+
+__all__ = ["decimate", "direction_and_spacing", "fill_and_detrend", "gradients", "relief_of"]
+
+
+def decimate(z: np.ndarray, x: np.ndarray, y: np.ndarray, max_cells: int
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Block means (NaN-aware) by an integer factor so that the grid has at most ``max_cells`` cells."""
+    f = math.ceil(math.sqrt(z.size / max_cells)) if z.size > max_cells else 1
+    if f <= 1:
+        return z, x, y
+    ny, nx = (z.shape[0] // f) * f, (z.shape[1] // f) * f
+    blocks = z[:ny, :nx].reshape(ny // f, f, nx // f, f)
+    with np.errstate(invalid="ignore"):
+        cnt = np.isfinite(blocks).sum(axis=(1, 3))
+        zs = np.where(cnt > 0, np.nansum(blocks, axis=(1, 3)) / np.maximum(cnt, 1), np.nan)
+    return zs, x[:nx].reshape(-1, f).mean(axis=1), y[:ny].reshape(-1, f).mean(axis=1)
+
+
+def fill_and_detrend(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Heights minus their least-squares plane (0 where no data) and the data mask."""
+    valid = np.isfinite(z)
+    if valid.sum() < 16:
+        raise TerrainError("too few valid heights to detect rows")
+    zz = np.where(valid, z, np.nanmedian(z))
+    ny, nx = zz.shape
+    jj, ii = np.mgrid[0:ny, 0:nx]
+    A = np.column_stack([np.ones(valid.sum()), ii[valid], jj[valid]])
+    coef, *_ = np.linalg.lstsq(A, zz[valid], rcond=None)
+    zz = zz - (coef[0] + coef[1] * ii + coef[2] * jj)
+    zz[~valid] = 0.0
+    return zz, valid
+
+
+def relief_of(z: np.ndarray, valid: np.ndarray, sigma_cells: float) -> np.ndarray:
+    """Heights above a NaN-aware Gaussian background (normalised convolution), m; NaN where no data."""
+    from scipy.ndimage import gaussian_filter
+
+    w = valid.astype(float)
+    num = gaussian_filter(np.where(valid, z, 0.0), sigma_cells, mode="constant")
+    den = gaussian_filter(w, sigma_cells, mode="constant")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        bg = num / den
+    return np.where(valid, z - bg, np.nan)
+
+
+# ---------------------------------------------------------------- direction and spacing (spectrum)
+def _profile(s: np.ndarray, h: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mean height in bins of ``step`` along ``s``, interpolated onto a regular axis (bin mean positions)."""
+    bins = np.floor((s - s.min()) / step).astype(int)
+    cnt = np.bincount(bins)
+    have = cnt > 0
+    prof = np.bincount(bins, weights=h)[have] / cnt[have]
+    pos = np.bincount(bins, weights=s)[have] / cnt[have]
+    axis = s.min() + (np.arange(cnt.size) + 0.5) * step
+    return axis, np.interp(axis, pos, prof)
+
+
+def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float) -> tuple[float, float]:
+    """(frequency of the fundamental near ``k_guess``, its amplitude) of the profile along ``s``."""
+    axis, prof = _profile(s, h, step)
+    pw = prof * np.hanning(prof.size)
+    nfft = 1 << int(math.ceil(math.log2(prof.size * 16)))
+    ps = np.abs(np.fft.rfft(pw - pw.mean(), nfft))
+    fr = np.fft.rfftfreq(nfft, step)
+    idx = np.flatnonzero((fr >= 0.8 * k_guess) & (fr <= 1.25 * k_guess))
+    k = int(idx[int(np.argmax(ps[idx]))])
+    amp = float(ps[k])
+    kk = float(k)
+    if 0 < k < ps.size - 1:
+        a, b, c = ps[k - 1], ps[k], ps[k + 1]
+        den = a - 2 * b + c
+        kk = k + (0.5 * (a - c) / den if den != 0 else 0.0)
+    return kk * float(fr[1] - fr[0]), amp
+
+
+def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, lo: float, hi: float
+                           ) -> tuple[np.ndarray, float, float]:
+    """(unit normal to the rows, spacing m, spectral strength) of the detrended grid ``zz``."""
+    dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
+    ny, nx = zz.shape
+    win = np.outer(np.hanning(ny), np.hanning(nx))
+    pad = (int(2 ** math.ceil(math.log2(ny * 2))), int(2 ** math.ceil(math.log2(nx * 2))))
+    spec = np.abs(np.fft.rfft2(zz * win, s=pad)) ** 2
+    ky = np.fft.fftfreq(pad[0], d=dy)[:, None]
+    kx = np.fft.rfftfreq(pad[1], d=dx)[None, :]
+    kmag = np.hypot(kx, ky)
+    band = (kmag >= 1.0 / hi) & (kmag <= 1.0 / lo)
+    if not band.any():
+        raise TerrainError("the spacing band is outside what the grid resolves")
+    masked = np.where(band, spec, 0.0)
+    j, i = np.unravel_index(int(np.argmax(masked)), masked.shape)
+    k = np.array([float(kx[0, i]), float(ky[j, 0])])
+    strength = float(masked[j, i] / max(np.median(spec[band]), 1e-30))
+    knorm = float(np.hypot(*k))
+    nvec = k / knorm
+    X, Y = np.meshgrid(x, y)
+    Xv, Yv, h = X[valid], Y[valid], zz[valid]
+    step = min(abs(dx), abs(dy))
+    theta0 = math.atan2(nvec[1], nvec[0])
+    best: tuple[float, float, float] | None = None
+    for dth in np.radians(np.arange(-1.5, 1.55, 0.1)):
+        nv = np.array([math.cos(theta0 + dth), math.sin(theta0 + dth)])
+        f_, amp = _profile_peak(Xv * nv[0] + Yv * nv[1], h, step, knorm)
+        if best is None or amp > best[2]:
+            best = (float(dth), f_, amp)
+    assert best is not None
+    nvec = np.array([math.cos(theta0 + best[0]), math.sin(theta0 + best[0])])
+    return nvec, 1.0 / best[1], strength
+
+
+def gradients(relief: np.ndarray, valid: np.ndarray, sigma_cells: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gradients (per cell) of the lightly smoothed relief and the mask of cells where they are meaningful."""
+    from scipy.ndimage import binary_erosion, gaussian_filter
+
+    r = gaussian_filter(np.where(valid, relief, 0.0), max(sigma_cells, 0.5))
+    gy, gx = np.gradient(r)
+    m = binary_erosion(valid, iterations=max(1, int(math.ceil(2 * sigma_cells))), border_value=0)
+    return gx, gy, m
+
+
