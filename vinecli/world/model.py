@@ -85,6 +85,7 @@ class World:
     geofence: GeofenceSpec | None = None
     rows_auto: bool = False
     description: str = ""
+    canopy_width_m: float = 0.6  # m, row band width for the spray metrics
 
     def __post_init__(self) -> None:
         # bind the fast lookup directly (no extra call layer in the 250 Hz loop)
@@ -164,6 +165,7 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         geofence=geofence,
         rows_auto=bool(d.get("rows_auto", False)),
         description=d.get("description", ""),
+        canopy_width_m=float(d.get("canopy_width_m", 0.6)),
     )
 
 
