@@ -29,7 +29,7 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
     "deposit_on_grid_l": ("L", "Emitted volume that landed on the deposition grid, L"),
     "deposit_off_grid_l": ("L", "Emitted volume that landed beyond the deposition grid, L"),
     "deposit_balance_error": ("1", "|emitted - on grid - off grid| / emitted (volume balance, <= 1e-6 by construction)"),
-    "deposit_on_rows_fraction": ("1", "Share of the emitted volume landing within the row bands (row ± canopy width / 2)"),
+    "deposit_on_rows_fraction": ("1", "Share of the emitted volume landing on the canopy: within a row band (row ± canopy width / 2) of any row"),
     "row_coverage_fraction": ("1", "Share of the targeted rows' length that received >= 50 % of the nominal rate"),
     "mean_rate_lpha_on_rows": ("L/ha", "Mean application rate along the sprayed stretches of the rows, L/ha"),
     "deposit_cv_on_rows": ("1", "Coefficient of variation of the rate along the sprayed stretches of the rows"),
@@ -110,8 +110,13 @@ def row_profiles(grid: GridSpec, volume_l: np.ndarray, rows: Sequence[Polyline],
 
 def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float,
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
-                       segment_m: float = 0.5) -> tuple[dict[str, float], list[dict[str, Any]]]:
-    """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`."""
+                       segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
+                       ) -> tuple[dict[str, float], list[dict[str, Any]]]:
+    """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`.
+
+    ``rows``: the rows the mission targeted (coverage, mean rate, CV, per-row figures);
+    ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``.
+    """
     p = dep.parcels
     em = float(dep.emitted_l)
     nan = math.nan
@@ -128,16 +133,17 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     hw = 0.5 * canopy_width_m
     xc, yc = dep.grid.centres()
     gx, gy = np.meshgrid(xc, yc)
-    if rows and em > 0:
+    canopy = list(canopy_rows) if canopy_rows else list(rows)
+    if canopy and em > 0:
         from vinecli.missions.metrics import point_polyline_distance
 
-        band = point_polyline_distance(gx, gy, rows) <= hw
+        band = point_polyline_distance(gx, gy, canopy) <= hw
         m["deposit_on_rows_fraction"] = float(dep.volume_l[band].sum() / em)
     else:
         m["deposit_on_rows_fraction"] = nan
     poly = list(fence) if fence else None
-    if poly is None and rows:  # no fence: the field = the rows' bounding box grown by half the canopy width
-        allp = np.asarray([q for r in rows for q in r], dtype=np.float64)
+    if poly is None and canopy:  # no fence: the field = the rows' bounding box grown by half the canopy width
+        allp = np.asarray([q for r in canopy for q in r], dtype=np.float64)
         x0, y0 = allp.min(axis=0) - hw
         x1, y1 = allp.max(axis=0) + hw
         poly = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]

@@ -142,13 +142,23 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
     radii = [float(np.dot(rc[bins == b], v[bins == b]) / max(v[bins == b].sum(), 1e-300)) for b in ubins]
     kers = [disc_kernel(rb) for rb in radii]
     k = max(ker.shape[0] // 2 for ker in kers)  # one padded grid for all bins
-    pg = GridSpec(grid.x0 - k * grid.cell, grid.y0 - k * grid.cell, grid.cell, grid.nx + 2 * k, grid.ny + 2 * k)
-    sy, sx = _fft_len(pg.ny + 2 * k), _fft_len(pg.nx + 2 * k)
+    # convolve only the window the parcels reach: their bounding box (inside the grid + k) grown by 2k
+    cx = (x - grid.x0) / grid.cell
+    cy = (y - grid.y0) / grid.cell
+    near = (cx > -k - 1) & (cx < grid.nx + k + 1) & (cy > -k - 1) & (cy < grid.ny + k + 1)
+    off = float(v[~near].sum())  # too far to reach the grid at all
+    if not near.any():
+        return np.zeros((grid.ny, grid.nx)), off
+    ix0 = max(int(np.floor(cx[near].min())) - 1, -k)
+    ix1 = min(int(np.ceil(cx[near].max())) + 2, grid.nx + k)
+    iy0 = max(int(np.floor(cy[near].min())) - 1, -k)
+    iy1 = min(int(np.ceil(cy[near].max())) + 2, grid.ny + k)
+    win = GridSpec(grid.x0 + ix0 * grid.cell, grid.y0 + iy0 * grid.cell, grid.cell, ix1 - ix0, iy1 - iy0)
+    sy, sx = _fft_len(win.ny + 2 * k), _fft_len(win.nx + 2 * k)
     spec = None
-    off = 0.0
     for b, ker in zip(ubins, kers, strict=True):
-        sel = bins == b
-        acc, o = rasterise(pg, x[sel], y[sel], v[sel])
+        sel = near & (bins == b)
+        acc, o = rasterise(win, x[sel], y[sel], v[sel])
         off += o
         kb = ker.shape[0] // 2
         kpad = np.zeros((2 * k + 1, 2 * k + 1))
@@ -156,9 +166,13 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
         term = np.fft.rfft2(acc, (sy, sx)) * np.fft.rfft2(kpad, (sy, sx))
         spec = term if spec is None else spec + term
     full = np.fft.irfft2(spec, (sy, sx))
-    # linear convolution: full[i, j] = sum acc[i - a, j - b] ker[a, b]; grid cell (iy, ix) is full[iy + 2k, ix + 2k]
-    conv = full[: pg.ny + 2 * k, : pg.nx + 2 * k]
-    out = conv[2 * k: 2 * k + grid.ny, 2 * k: 2 * k + grid.nx].copy()
+    # linear convolution: full[i, j] = sum acc[i - a, j - b] ker[a, b]: window cell (i, j) is full[i + k, j + k]
+    conv = full[: win.ny + 2 * k, : win.nx + 2 * k]
+    out = np.zeros((grid.ny, grid.nx))
+    # grid cell (iy, ix) = window cell (iy - iy0, ix - ix0) -> full[iy - iy0 + k, ix - ix0 + k]
+    gy0, gy1 = max(0, iy0 - k), min(grid.ny, iy1 + k)
+    gx0, gx1 = max(0, ix0 - k), min(grid.nx, ix1 + k)
+    out[gy0:gy1, gx0:gx1] = conv[gy0 - iy0 + k: gy1 - iy0 + k, gx0 - ix0 + k: gx1 - ix0 + k]
     off += float(conv.sum() - out.sum())
     np.maximum(out, 0.0, out=out)  # FFT round-off leaves ~1e-20 negatives in empty cells
     return out, off

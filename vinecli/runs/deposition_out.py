@@ -122,7 +122,8 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
     polygon = getattr(fence, "polygon_enu", None) if fence is not None else None
     canopy = float(getattr(world, "canopy_width_m", 0.6))
-    metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal)
+    all_rows = [[tuple(q) for q in r] for r in getattr(world, "vine_rows_enu", []) or []] or rows
+    metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows)
     metrics["spray_swath_m"] = swath
     flow = float(phase.flow_lps) if phase is not None and phase.flow_lps is not None else (
         nominal * swath * phase.speed_mps / 1e4 if phase is not None else math.nan)
