@@ -130,16 +130,26 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
                     rel_bin: float = 0.1) -> tuple[np.ndarray, float]:
     """Volume per cell (ny, nx) with each parcel spread over its disc (radius m), and the off-grid volume.
 
-    Radii are binned geometrically (bins ``rel_bin`` wide in log radius, at least one cell below 10
-    cells); each bin uses its volume-weighted mean radius (the disc edge moves < rel_bin / 2 · r).
+    Radii are interpolated between log-spaced nodes ``rel_bin`` apart: each parcel's volume is shared
+    linearly between the discs of the two nodes around its radius (one FFT convolution per node).
     """
     x, y, v, r = (np.asarray(a, dtype=np.float64).ravel() for a in (x, y, vol, radius))
     if v.size == 0:
         return np.zeros((grid.ny, grid.nx)), 0.0
     rc = np.maximum(r, 0.0) / grid.cell
-    bins = np.round(np.log(np.maximum(rc, 10.0 * rel_bin) / (10.0 * rel_bin)) / rel_bin).astype(np.int64)
+    # log-spaced radius nodes r_b = r0 e^(b rel); a parcel is shared linearly between its two nodes,
+    # so the footprint edge moves smoothly with the radius (no steps where a bin changes)
+    r0 = max(float(rc.min()), 0.5)
+    f = np.log(np.maximum(rc, r0) / r0) / rel_bin
+    b0 = np.floor(f).astype(np.int64)
+    w1 = f - b0
+    bidx = np.concatenate([b0, b0 + 1])
+    vv = np.concatenate([v * (1.0 - w1), v * w1])
+    x, y = np.concatenate([x, x]), np.concatenate([y, y])
+    keep = vv > 0.0
+    bins, v, x, y = bidx[keep], vv[keep], x[keep], y[keep]
     ubins = np.unique(bins)
-    radii = [float(np.dot(rc[bins == b], v[bins == b]) / max(v[bins == b].sum(), 1e-300)) for b in ubins]
+    radii = [r0 * math.exp(float(b) * rel_bin) for b in ubins]
     kers = [disc_kernel(rb) for rb in radii]
     k = max(ker.shape[0] // 2 for ker in kers)  # one padded grid for all bins
     # convolve only the window the parcels reach: their bounding box (inside the grid + k) grown by 2k
