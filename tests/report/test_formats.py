@@ -65,6 +65,8 @@ def test_junit_validates_and_has_one_testcase_per_check(ci_report, ci_runs: Path
     n_checks = sum(len(json.loads((ci_runs / m / "summary.json").read_text())["checks"]) for m in MISSIONS)
     assert len(doc.getroot().findall(".//testcase")) == n_checks
     assert doc.getroot().get("failures") == "0" and doc.getroot().get("errors") == "0"
+    props = {p.get("name"): p.get("value") for p in doc.getroot().iter("property")}
+    assert float(props["spray:deposit_balance_error"]) <= 1e-6 and "gust:deposit_emitted_l" not in props
 
 
 def test_summary_json_and_markdown(ci_report) -> None:
@@ -79,6 +81,8 @@ def test_summary_json_and_markdown(ci_report) -> None:
     assert gust["metrics"]["max_tilt_deg"] > 3.0  # the gust tilts the vehicle ~5°
     md = ci_report.files["md"].read_text()
     assert md.startswith("## ✅") and "| gust | gust |" in md and "Failed checks" not in md
+    dep = md.split("### Spray deposition", 1)[1]
+    assert "| spray |" in dep and "| gust |" not in dep and "L/ha" in dep
 
 
 def test_a_failing_check_appears_in_every_format(failing_runs: Path, tmp_path: Path) -> None:
