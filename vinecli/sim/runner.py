@@ -670,8 +670,11 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     if emitter is not None:
         from vinecli.sim.deposition import deposit
 
+        cpu_dep0 = time.process_time()
         dep = deposit(emitter, world, veh, kw["wind_spec"], seed)
         metrics["deposition_transport_s"] = dep.transport_s
+        metrics["deposition_transport_cpu_s"] = time.process_time() - cpu_dep0
+        metrics["deposition_records"] = float(len(emitter.rows))
     events.sort(key=lambda e: e.t_us)
     log.info("run ended at %.3f s: %s (%s); %.1f µs/step", sim_time, status.value, detail, metrics["wall_per_step_us"])
     return SimResult(
