@@ -149,3 +149,18 @@ def test_transport_is_deterministic_per_seed_with_diffusion() -> None:
     c = transport(rec, geo, FLAT, WindSpec(), RHO, 8, DepositionConfig())
     assert np.array_equal(a.x, b.x) and np.array_equal(a.y, b.y)
     assert not np.array_equal(a.x, c.x)
+
+
+def test_records_summed_over_steps_land_where_the_single_steps_do() -> None:
+    # the loop sums up to 10 steps per record and stamps it with the last step's state and the mean lag
+    geo = one_nozzle()
+    step = records(10.0, 2.1, 0.02, speed=2.0)
+    grouped = step[9::10].copy()
+    grouped[:, 15] = 10 * 0.02 * DT
+    grouped[:, 16] = 4.5 * DT
+    a = transport(step, geo, FLAT, WindSpec(), RHO, 0, NO_DW)
+    b = transport(grouped, geo, FLAT, WindSpec(), RHO, 0, NO_DW)
+    assert a.emitted_l == pytest.approx(b.emitted_l, rel=1e-12)
+    ca = float(np.dot(a.x, a.vol) / a.vol.sum())
+    cb = float(np.dot(b.x, b.vol) / b.vol.sum())
+    assert abs(ca - cb) < 0.005

@@ -550,7 +550,7 @@ def _write_deposition(out: Path, cols: dict[str, np.ndarray], rate_hz: float) ->
     names = ("t_s", "pos_enu_x_m", "pos_enu_y_m", "pos_enu_z_m", "quat_x", "quat_y", "quat_z", "quat_w", "vel_enu_x_mps",
              "vel_enu_y_mps", "vel_enu_z_mps", "wind_enu_x_mps", "wind_enu_y_mps", "wind_enu_z_mps", "thrust_total_n")
     for i in np.flatnonzero(cols["tank_flow_lps"] > 0):
-        em.emit((*(float(cols[n][i]) for n in names), float(cols["tank_flow_lps"][i]) * dt))
+        em.emit((*(float(cols[n][i]) for n in names), float(cols["tank_flow_lps"][i]) * dt, 0.0))
     cfg = DepositionConfig()
     par = transport(em.array(), SprayerGeometry.from_vehicle(veh, 1.225), terrain_height, WindSpec(), 1.225, 0, cfg)
     rows = [[tuple(p) for p in r] for r in vine_rows()]

@@ -1,7 +1,7 @@
 """Spray transport: where the emitted liquid lands (docs/deposition.md). Plain numpy, no PyBullet.
 
-The loop calls :meth:`SprayEmitter.emit` once per physics step with the sprayer on (one tuple
-append, ~0.3 µs). :func:`transport` then moves everything in bulk, vectorised:
+The loop sums the emitted volume over up to 0.04 s of spraying steps and calls
+:meth:`SprayEmitter.emit` once per such group (one tuple append). :func:`transport` then moves everything in bulk, vectorised:
 
 1. steps are grouped into bins of ``group_s`` (volume summed, state volume-weighted);
 2. each group's volume is split over the nozzles (``flow_share``) and the equal-volume droplet size
@@ -35,9 +35,11 @@ from vinecli.specs.wind import WindSpec
 
 __all__ = ["EMIT_COLUMNS", "DepositionConfig", "Parcels", "SprayEmitter", "SprayerGeometry", "transport"]
 
-#: one emitted step: time s, CoM position m ENU, attitude quaternion xyzw (FLU -> ENU), velocity m/s ENU,
-#: wind m/s ENU at the CoM, total rotor thrust N, emitted volume L
-EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz", "thrust_n", "vol_l")
+#: one record: time s, CoM position m ENU, attitude quaternion xyzw (FLU -> ENU), velocity m/s ENU,
+#: wind m/s ENU at the CoM, total rotor thrust N, emitted volume L, and how long before ``t_s`` the
+#: volume left the nozzles on average, s (0 for one step; the loop sums up to 0.04 s per record)
+EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz", "thrust_n", "vol_l",
+                "lag_s")
 KARMAN = 0.41
 
 
@@ -84,22 +86,22 @@ class SprayerGeometry:
 
 
 class SprayEmitter:
-    """Per-step record of the sprayer state (the loop's only cost); ``emit`` is a bound list append."""
+    """Records of the sprayer state (the loop's only cost); ``emit`` is a bound list append."""
 
     def __init__(self) -> None:
         self.rows: list[tuple[float, ...]] = []
-        #: emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wx, wy, wz, thrust_n, vol_l)) -- see EMIT_COLUMNS
+        #: emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wx, wy, wz, thrust_n, vol_l, lag_s)) -- see EMIT_COLUMNS
         self.emit: Callable[[tuple[float, ...]], None] = self.rows.append
 
     def array(self) -> np.ndarray:
-        """(N, 16) float64 records."""
+        """(N, 17) float64 records."""
         n = len(EMIT_COLUMNS)
         flat = np.fromiter(itertools.chain.from_iterable(self.rows), dtype=np.float64, count=len(self.rows) * n)
         return flat.reshape(-1, n)
 
     @property
     def emitted_l(self) -> float:
-        return float(sum(r[-1] for r in self.rows))
+        return float(sum(r[15] for r in self.rows))
 
 
 @dataclass
@@ -119,16 +121,23 @@ class Parcels:
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
-    """Volume-weighted means per time bin; returns (G, 16) with the summed volume in the last column."""
+    """Volume-weighted means per time bin of the release time; (G, 17) with the summed volume in column 15.
+
+    The release positions are moved back along the velocity by each record's lag first.
+    """
+    rec = rec.copy()
+    rec[:, 1:4] -= rec[:, 8:11] * rec[:, 16:17]
+    rec[:, 0] -= rec[:, 16]
+    rec[:, 16] = 0.0
     gid = np.floor(rec[:, 0] / group_s + 1e-9).astype(np.int64)  # records are in time order
     inv = np.concatenate([[0], np.cumsum(gid[1:] != gid[:-1])])
-    vol = rec[:, -1]
+    vol = rec[:, 15]
     vsum = np.bincount(inv, weights=vol)
     wsum = np.where(vsum > 0, vsum, 1.0)
     out = np.empty((vsum.size, rec.shape[1]))
-    for j in range(rec.shape[1] - 1):
+    for j in range(rec.shape[1]):
         out[:, j] = np.bincount(inv, weights=rec[:, j] * vol) / wsum
-    out[:, -1] = vsum
+    out[:, 15] = vsum
     q = out[:, 4:8]
     out[:, 4:8] = q / np.linalg.norm(q, axis=1, keepdims=True)
     return out
@@ -137,12 +146,12 @@ def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
 def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
               wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
               g: float = 9.80665) -> Parcels:
-    """Landing points of everything in ``records`` ((N, 16), :data:`EMIT_COLUMNS`). Deterministic per seed."""
+    """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed."""
     from vinecli.physics.wind import height_factor
 
     rec = np.asarray(records, dtype=np.float64).reshape(-1, len(EMIT_COLUMNS))
-    rec = rec[rec[:, -1] > 0.0]
-    emitted = float(rec[:, -1].sum())
+    rec = rec[rec[:, 15] > 0.0]
+    emitted = float(rec[:, 15].sum())
     if rec.shape[0] == 0:
         z = np.zeros(0)
         return Parcels(z, z, z, z.astype(np.int64), np.zeros((0, 2)), 0.0, z)

@@ -316,6 +316,9 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
 
         emitter = SprayEmitter()
     emit = emitter.emit if emitter is not None else None
+    dep_every = max(1, int(round(0.04 / (dt_us * 1e-6))))  # spraying steps summed per deposition record
+    dep_vol = 0.0
+    dep_n = 0
     cam_period_us = int(round(1e6 / cam_spec.rate_hz))
     next_cam_us = 0
 
@@ -554,8 +557,17 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         if tank is not None:
             flow_cmd = cmd.spray_flow_lps
             tank.update(flow_cmd, dt)
-            if emit is not None and tank.flow_lps > 0.0:  # one record per spraying step (deposition model)
-                emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, tank.flow_lps * dt))
+            if emit is not None:  # deposition model: volume summed over <= 0.04 s, one record per group
+                f_ = tank.flow_lps
+                if f_ > 0.0:
+                    dep_vol += f_ * dt
+                    dep_n += 1
+                if dep_n and (dep_n >= dep_every or f_ <= 0.0):
+                    # state now; the volume left the nozzles on average (n - 1) / 2 steps earlier
+                    emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, dep_vol,
+                          0.5 * (dep_n - 1) * dt))
+                    dep_vol = 0.0
+                    dep_n = 0
             # contact force of the last step from the finite-difference acceleration:
             # F_c = M (a - g) - F_ext,prev - F_tank,prev (M = rigid PyBullet mass)
             if first_step:
@@ -668,6 +680,9 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     events.append(Event(t_us, "status", detail, {"status": status.value}))
     dep = None
     if emitter is not None:
+        if dep_n:  # the last group of a run that ended spraying
+            emitter.emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, dep_vol,
+                          0.5 * (dep_n - 1) * dt))
         from vinecli.sim.deposition import deposit
 
         cpu_dep0 = time.process_time()
