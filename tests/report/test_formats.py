@@ -73,7 +73,7 @@ def test_summary_json_and_markdown(ci_report) -> None:
     s = json.loads(ci_report.files["json"].read_text())
     assert s["passed"] is True and s["exit_code"] == 0 and s["totals"]["runs"] == 4
     gust = next(r for r in s["runs"] if r["case"] == "gust")
-    assert gust["figures"] == {fid: "rendered" if fid not in ("fig22", "fig23") else
+    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24") else
                                "skipped: no deposition in this run (no sprayer used)" for fid in FIGURES}
     spray = next(r for r in s["runs"] if r["case"] == "spray")
     assert spray["figures"] == {fid: "rendered" for fid in FIGURES}
@@ -192,4 +192,4 @@ def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None
     calls: list[tuple[int, int]] = []
     figs = render_all(runs, jobs=2, progress=lambda i, n: calls.append((i, n)))
     assert sorted(figs) == ["overload", "takeoff"] and calls[-1] == (2, 2)
-    assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig22", "fig23"))
+    assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig23", "fig24"))

@@ -24,7 +24,7 @@ from vinecli.report.plots import (
 
 from .synth_runs import MISSIONS
 
-SPRAY_FIGURES = ("fig22", "fig23")  # vinecli/report/deposition_plots.py
+SPRAY_FIGURES = ("fig23", "fig24")  # vinecli/report/deposition_plots.py
 
 
 @pytest.fixture(scope="module")

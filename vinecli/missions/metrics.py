@@ -638,6 +638,7 @@ def litres_per_sortie(data: RunData, window: Window) -> float:
     flow = np.nan_to_num(data.column("tank_flow_lps"))
     return float(np.sum(flow[:-1] * np.diff(t))) / n if t.size > 1 else _nan()
 
+
 # ---------------------------------------------------------------- spray deposition (docs/deposition.md)
 def _reported(name: str) -> Callable[[RunData, Window], float]:
     def fn(data: RunData, window: Window) -> float:

@@ -126,6 +126,7 @@ class BatterySpec(StrictModel):
                 raise ValueError("ocv_table needs >= 2 points, ascending soc, covering 0..1")
         return self
 
+
 class NozzleSpec(StrictModel):
     """One spray nozzle: where it sits, its share of the flow and its cone (full cone, axis along -z FLU)."""
 
