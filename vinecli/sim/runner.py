@@ -87,7 +87,7 @@ class SimResult:
     terrain_preview: dict[str, np.ndarray]
     #: depth-camera point clouds (t_s, (N, 3) float32 world ENU m), empty when the camera is off
     point_clouds: list[tuple[float, np.ndarray]] = field(default_factory=list)
-    #: where the spray landed (vinecli.sim.deposition.DepositionResult); None without a tank or when off
+    #: where the spray landed (vinecli.sim.deposition.DepositionResult); None when nothing was sprayed or when off
     deposition: Any = None
 
     @property
@@ -679,10 +679,10 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
     events.append(Event(t_us, "status", detail, {"status": status.value}))
     dep = None
-    if emitter is not None:
-        if dep_n:  # the last group of a run that ended spraying
-            emitter.emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, dep_vol,
-                          0.5 * (dep_n - 1) * dt))
+    if emitter is not None and dep_n:  # the last group of a run that ended spraying
+        emitter.emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, dep_vol,
+                      0.5 * (dep_n - 1) * dt))
+    if emitter is not None and emitter.rows:  # the sprayer was used
         from vinecli.sim.deposition import deposit
 
         cpu_dep0 = time.process_time()
