@@ -70,7 +70,11 @@ def fig23_deposition(data: Any) -> bytes:
     finite = rate[np.isfinite(rate)]
     vmax = float(np.max(finite)) if finite.size else 1.0
     if isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal > 0:
-        vmax = min(vmax, 3.0 * nominal)  # colour range: 0-3x the asked rate (more is shown as the top colour)
+        # colour range: up to 3x the asked rate, or further when most of the wet area is above that (overdosed
+        # field: keep its pattern visible); a few hot spots beyond are shown as the top colour
+        wet = finite[finite > 0.02 * nominal]
+        p98 = float(np.percentile(wet, 98)) if wet.size else 0.0
+        vmax = min(vmax, max(3.0 * nominal, p98))
     vmax = max(vmax, 1e-9)
     shown = np.where(rate > 0.02 * vmax, rate, np.nan)  # dry cells stay transparent over the terrain
     cmap = colormaps["viridis_r"].copy()
