@@ -92,3 +92,26 @@ def test_stopping_over_one_spot_with_the_sprayer_on_fails_the_spray_checks(flat_
     if s.metrics["deposit_emitted_l"] > 0.3:  # the sprayer stayed on in the hold: the tank went onto one spot
         assert "spray_rate_on_rows" in failed or "spray_drift" in failed
         assert np.isfinite(s.metrics["mean_rate_lpha_on_rows"])
+
+
+def test_the_deposition_grid_is_configurable(flat_world: Path, tmp_path: Path) -> None:
+    from vinecli.autopilot.px4_options import make_run_autopilot
+    from vinecli.missions.spec_io import load_mission
+    from vinecli.physics.deposition import DepositionConfig
+    from vinecli.sim.runner import run_simulation
+    from vinecli.world import load_world
+
+    spec = load_mission(mission(tmp_path, "cells"))
+    ap = make_run_autopilot("builtin", truth=True)
+    try:
+        res = run_simulation(load_world(flat_world), spec, ap, seed=1, deposition=DepositionConfig(cell_m=0.05))
+    finally:
+        ap.close()
+    dep = res.deposition
+    assert dep.grid.cell == 0.05 and dep.balance_error <= 1e-6 and dep.emitted_l > 0.1
+    ap = make_run_autopilot("builtin", truth=True)
+    try:
+        off = run_simulation(load_world(flat_world), spec, ap, seed=1, deposition=False)
+    finally:
+        ap.close()
+    assert off.deposition is None

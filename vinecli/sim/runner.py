@@ -150,7 +150,7 @@ def run_simulation(
     should_stop: Callable[[], bool] | None = None,
     end_on_crash: bool = True,
     crash_speed_mps: float = 3.0,
-    deposition: bool = True,
+    deposition: bool | Any = True,
 ) -> SimResult:
     """Fly ``mission`` with ``autopilot`` in ``world`` and return the recorded run.
 
@@ -166,7 +166,8 @@ def run_simulation(
     should_stop : polled every 0.1 s simulated; True ends the run as INTERRUPTED.
     end_on_crash : end the run with CRASHED on a hard impact (else only the event is logged).
     crash_speed_mps : vertical speed at first contact above which an impact is a crash, m/s.
-    deposition : run the spray transport model (vehicles with a tank): ``SimResult.deposition``.
+    deposition : run the spray transport model (vehicles with a tank): ``SimResult.deposition``; a
+        :class:`~vinecli.physics.deposition.DepositionConfig` sets its options (cell size, margin, ...).
     """
     from vinecli.physics.battery import Battery
     from vinecli.physics.motor import MotorBank
@@ -264,7 +265,8 @@ def run_simulation(
             dt_us=dt_us, dt=dt, inv_dt=inv_dt, lgh=lgh, airborne_start=airborne_start, init_phase=first if init else None,
             on_progress=on_progress, should_stop=should_stop, end_on_crash=end_on_crash,
             crash_speed=crash_speed_mps, wall0=wall0, MotorBank=MotorBank, make_sensors=make_sensors,
-            settle_s=settle_s, deposition=deposition and tank is not None, wind_spec=wind_spec,
+            settle_s=settle_s, deposition=bool(deposition) and tank is not None, wind_spec=wind_spec,
+            deposition_config=None if isinstance(deposition, bool) else deposition,
         )
     finally:
         engine.close()
@@ -686,7 +688,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         from vinecli.sim.deposition import deposit
 
         cpu_dep0 = time.process_time()
-        dep = deposit(emitter, world, veh, kw["wind_spec"], seed)
+        dep = deposit(emitter, world, veh, kw["wind_spec"], seed, kw["deposition_config"])
         metrics["deposition_transport_s"] = dep.transport_s
         metrics["deposition_transport_cpu_s"] = time.process_time() - cpu_dep0
         metrics["deposition_records"] = float(len(emitter.rows))
