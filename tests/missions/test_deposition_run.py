@@ -115,3 +115,32 @@ def test_the_deposition_grid_is_configurable(flat_world: Path, tmp_path: Path) -
     finally:
         ap.close()
     assert off.deposition is None
+
+
+def test_deposition_map_of_a_dsm_world_is_in_the_dsm_crs(tmp_path: Path) -> None:
+    from pyproj import Transformer
+
+    from vinecli.geo import GeoOrigin
+    from vinecli.world import build_world
+
+    world = tmp_path / "sample"
+    build_world(REPO / "worlds" / "vineyard-sample.yaml", world)
+    m = tmp_path / "short.yaml"
+    m.write_text(SPRAY.format(name="short", fence="", maxdur=60.0).replace(
+        "[[[0.0, 2.0], [0.0, 14.0]], [[3.6, 14.0], [3.6, 2.0]]]", "[[[-3.0, -10.0], [-3.0, 0.0]]]"))
+    s = run_mission(m, world, tmp_path / "runs", seed=2)
+    doc = json.loads((Path(s.run_dir) / "deposition.json").read_text())
+    origin = GeoOrigin.from_dict(json.loads((world / "world.json").read_text())["origin"])
+    dsm = REPO / "worlds" / "sample" / "fieldimager_potato_plots_dsm_3cm_utm16n.tif"
+    with rasterio.open(dsm) as d, rasterio.open(Path(s.run_dir) / "deposition.tif") as dep:
+        assert dep.crs == d.crs
+        # the ENU point (e, n) of a grid cell lands where pyproj puts its latitude/longitude in the DSM's CRS
+        g = doc["grid"]
+        e, n = g["x0_m"] + 10.5 * g["cell_m"], g["y0_m"] + (g["ny"] - 20.5) * g["cell_m"]
+        x, y = dep.transform * (10.5, 20.5)
+        lat, lon, _ = origin.enu_to_geodetic(e, n, 0.0)
+        xe, ye = Transformer.from_crs("EPSG:4326", d.crs, always_xy=True).transform(lon, lat)
+        assert abs(x - xe) < 0.005 and abs(y - ye) < 0.005
+        # the map lies on the DSM (the grid is clipped to the terrain)
+        b, bd = dep.bounds, d.bounds
+        assert bd.left - 1 < b.left and b.right < bd.right + 1 and bd.bottom - 1 < b.bottom and b.top < bd.top + 1
