@@ -16,6 +16,10 @@ numpy call on a 3-vector costs 10× a few float operations (design.md §8).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
 
 Vec3 = tuple[float, float, float]
 QuatXYZW = tuple[float, float, float, float]
@@ -89,6 +93,20 @@ def quat_rotate(q: QuatXYZW, v: Vec3) -> Vec3:
         vy + qw * ty + (qz * tx - qx * tz),
         vz + qw * tz + (qx * ty - qy * tx),
     )
+
+
+def quat_rotate_many(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`quat_rotate`: quaternions ``q`` (N, 4) xyzw rotate vectors ``v`` (3,) or (N, 3).
+
+    Body FLU -> world ENU when ``q`` is the body attitude. Returns (N, 3).
+    """
+    import numpy as np
+
+    q = np.asarray(q, dtype=np.float64)
+    v = np.broadcast_to(np.asarray(v, dtype=np.float64), (q.shape[0], 3))
+    qv, qw = q[:, :3], q[:, 3:4]
+    t = 2.0 * np.cross(qv, v)
+    return v + qw * t + np.cross(qv, t)
 
 
 def quat_rotate_inv(q: QuatXYZW, v: Vec3) -> Vec3:

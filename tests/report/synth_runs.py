@@ -524,9 +524,48 @@ def write_run(runs_dir: Path, mission: str, *, run_id: str | None = None, case: 
             f.write(json.dumps(e) + "\n")
     (out / rundir.MISSION).write_text(f"name: {mission}\ndescription: synthetic\n", encoding="utf-8")
     rundir.write_preview(out / rundir.PREVIEW, terrain_preview())
+    if mission == "spray":  # the real deposition model on the synthetic flight
+        summary["metrics"].update(_write_deposition(out, cols, r.rate))
     rundir.write_summary(out / rundir.SUMMARY, summary)
     (out / "manifest.json").write_text(json.dumps({"tool": "vinecli", "command": "synthetic"}) + "\n")
     return out
+
+
+def _write_deposition(out: Path, cols: dict[str, np.ndarray], rate_hz: float) -> dict[str, float]:
+    """deposition.tif/.json of the synthetic spray flight (vinecli.physics.deposition on its columns)."""
+    from types import SimpleNamespace
+
+    from vinecli.geo import GeoOrigin
+    from vinecli.physics.deposit_grid import grid_for, rasterise_discs
+    from vinecli.physics.deposition import DepositionConfig, SprayEmitter, SprayerGeometry, transport
+    from vinecli.runs.deposition_out import evaluate_deposition, write_deposition
+    from vinecli.sim.deposition import DepositionResult
+    from vinecli.specs.mission import MissionSpec
+    from vinecli.specs.wind import WindSpec
+    from vinecli.vehicle import load_vehicle
+
+    veh = load_vehicle("x500-sprayer")
+    dt = 1.0 / rate_hz
+    em = SprayEmitter()
+    names = ("t_s", "pos_enu_x_m", "pos_enu_y_m", "pos_enu_z_m", "quat_x", "quat_y", "quat_z", "quat_w", "vel_enu_x_mps",
+             "vel_enu_y_mps", "vel_enu_z_mps", "wind_enu_x_mps", "wind_enu_y_mps", "wind_enu_z_mps", "thrust_total_n")
+    for i in np.flatnonzero(cols["tank_flow_lps"] > 0):
+        em.emit((*(float(cols[n][i]) for n in names), float(cols["tank_flow_lps"][i]) * dt, 0.0))
+    cfg = DepositionConfig()
+    par = transport(em.array(), SprayerGeometry.from_vehicle(veh, 1.225), terrain_height, WindSpec(), 1.225, 0, cfg)
+    rows = [[tuple(p) for p in r] for r in vine_rows()]
+    grid = grid_for(par.path_xy, [p for r in rows for p in r], (-20.0, -30.0, 20.0, 30.0), 0.1, 15.0, 6_000_000)
+    vol, off = rasterise_discs(grid, par.x, par.y, par.vol, par.radius)
+    dep = DepositionResult(grid=grid, volume_l=vol, valid=np.ones(vol.shape, bool), parcels=par, emitted_l=par.emitted_l,
+                           on_grid_l=float(vol.sum()), off_grid_l=off, config=cfg, transport_s=0.0, sprayer={})
+    spec = MissionSpec.model_validate({"name": "spray", "phases": [
+        {"type": "spray", "rows": [list(map(list, r)) for r in rows], "height_agl_m": 2.0, "speed_mps": 2.0,
+         "flow_lps": float(np.max(cols["tank_flow_lps"]))}]})
+    world = SimpleNamespace(origin=GeoOrigin.from_dict(ORIGIN), canopy_width_m=0.6, vine_rows_enu=rows)
+    fence = SimpleNamespace(polygon_enu=GEOFENCE["polygon_enu"])
+    metrics, doc = evaluate_deposition(dep, spec, veh, world, rows, fence)
+    write_deposition(out, dep, world, None, doc)
+    return metrics
 
 
 def write_batch(runs_dir: Path, cases: Sequence[dict[str, Any]], pipeline: str = "synthetic") -> Path:

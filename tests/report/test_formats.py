@@ -42,7 +42,8 @@ def test_html_is_self_contained_with_every_figure_and_check(ci_report, ci_runs: 
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
     assert "<script" not in html.lower() and "<link" not in html.lower() and "@import" not in html
     imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
-    assert len(imgs) == len(MISSIONS) * len(FIGURES)
+    # every figure of every run; the two deposition figures only for the run that sprayed
+    assert len(imgs) == len(MISSIONS) * (len(FIGURES) - 2) + 2
     import base64
 
     assert all(base64.b64decode(b)[:8] == b"\x89PNG\r\n\x1a\n" for b in imgs)
@@ -64,16 +65,24 @@ def test_junit_validates_and_has_one_testcase_per_check(ci_report, ci_runs: Path
     n_checks = sum(len(json.loads((ci_runs / m / "summary.json").read_text())["checks"]) for m in MISSIONS)
     assert len(doc.getroot().findall(".//testcase")) == n_checks
     assert doc.getroot().get("failures") == "0" and doc.getroot().get("errors") == "0"
+    props = {p.get("name"): p.get("value") for p in doc.getroot().iter("property")}
+    assert float(props["spray:deposit_balance_error"]) <= 1e-6 and "gust:deposit_emitted_l" not in props
 
 
 def test_summary_json_and_markdown(ci_report) -> None:
     s = json.loads(ci_report.files["json"].read_text())
     assert s["passed"] is True and s["exit_code"] == 0 and s["totals"]["runs"] == 4
     gust = next(r for r in s["runs"] if r["case"] == "gust")
-    assert gust["figures"] == {fid: "rendered" for fid in FIGURES}
+    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24") else
+                               "skipped: no deposition in this run (no sprayer used)" for fid in FIGURES}
+    spray = next(r for r in s["runs"] if r["case"] == "spray")
+    assert spray["figures"] == {fid: "rendered" for fid in FIGURES}
+    assert spray["metrics"]["deposit_balance_error"] <= 1e-6 and spray["metrics"]["deposit_emitted_l"] > 0.5
     assert gust["metrics"]["max_tilt_deg"] > 3.0  # the gust tilts the vehicle ~5°
     md = ci_report.files["md"].read_text()
     assert md.startswith("## ✅") and "| gust | gust |" in md and "Failed checks" not in md
+    dep = md.split("### Spray deposition", 1)[1]
+    assert "| spray |" in dep and "| gust |" not in dep and "L/ha" in dep
 
 
 def test_a_failing_check_appears_in_every_format(failing_runs: Path, tmp_path: Path) -> None:
@@ -183,4 +192,4 @@ def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None
     calls: list[tuple[int, int]] = []
     figs = render_all(runs, jobs=2, progress=lambda i, n: calls.append((i, n)))
     assert sorted(figs) == ["overload", "takeoff"] and calls[-1] == (2, 2)
-    assert all(png_size(f["png"]) for run in figs.values() for f in run.values())
+    assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig23", "fig24"))

@@ -24,6 +24,8 @@ from vinecli.report.plots import (
 
 from .synth_runs import MISSIONS
 
+SPRAY_FIGURES = ("fig23", "fig24")  # vinecli/report/deposition_plots.py
+
 
 @pytest.fixture(scope="module")
 def rendered(ci_runs: Path) -> dict[str, dict]:
@@ -41,6 +43,9 @@ def test_every_figure_is_drawn_with_its_size(rendered: dict, mission: str) -> No
     figs = rendered[mission]
     assert set(figs) == set(FIGURES)
     for fid, f in figs.items():
+        if fid in SPRAY_FIGURES and mission != "spray":  # only a run that sprayed has a deposition
+            assert f["png"] is None and "no deposition" in f["note"]
+            continue
         assert f["png"], f"{mission} {fid}: {f['note']}"
         assert len(f["png"]) > 10_000
         assert png_size(f["png"]) == expected_size(fid)

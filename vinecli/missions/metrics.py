@@ -637,3 +637,23 @@ def litres_per_sortie(data: RunData, window: Window) -> float:
     t = data.t
     flow = np.nan_to_num(data.column("tank_flow_lps"))
     return float(np.sum(flow[:-1] * np.diff(t))) / n if t.size > 1 else _nan()
+
+
+# ---------------------------------------------------------------- spray deposition (docs/deposition.md)
+def _reported(name: str) -> Callable[[RunData, Window], float]:
+    def fn(data: RunData, window: Window) -> float:
+        v = data.metrics.get(name)
+        return float(v) if isinstance(v, (int, float)) else _nan()
+
+    return fn
+
+
+def _register_deposition() -> None:
+    """The deposition metrics are computed once per run by the model (whole run; the window is ignored)."""
+    from vinecli.missions.deposition_metrics import DEPOSIT_METRICS
+
+    for name, (unit, doc) in DEPOSIT_METRICS.items():
+        METRICS[name] = Metric(_reported(name), unit, f"{doc} (whole run; window ignored)")
+
+
+_register_deposition()

@@ -37,7 +37,7 @@ from vinecli.specs.wind import (
     WindSpec,
 )
 
-__all__ = ["WindField", "heading_unit_enu", "make_wind"]
+__all__ = ["WindField", "heading_unit_enu", "height_factor", "make_wind"]
 
 _TWO_PI = 2.0 * math.pi
 _Z_MIN = 0.1  # m, lower clamp of the height in the shear law
@@ -170,6 +170,18 @@ class WindField:
             f *= 1.0 + g[0] * p_enu[0] + g[1] * p_enu[1] + g[2] * p_enu[2]
             return (f * x, f * y, f * z)
         return (x, y, z)
+
+
+def height_factor(spec: WindSpec, z_enu: np.ndarray) -> np.ndarray:
+    """Vectorised power-law shear factor ``(max(z, z_min) / h_ref)^α`` of ``spec`` (1 without shear), ENU z in m.
+
+    The same height law :meth:`WindField.velocity` applies (the horizontal gradient is not included).
+    """
+    z = np.asarray(z_enu, dtype=np.float64)
+    sp = spec.spatial
+    if sp is None or sp.shear_exponent == 0.0:
+        return np.ones_like(z)
+    return (np.maximum(z, _Z_MIN) / sp.reference_height_m) ** sp.shear_exponent
 
 
 def make_wind(spec: WindSpec, seed: int, dt: float = 1.0 / 250.0) -> WindField:

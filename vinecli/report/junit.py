@@ -38,6 +38,10 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
             suite.add_property("mission", x(run.mission))
             cases[run.mission] = []
         add = cases[run.mission].append
+        from vinecli.report.deposition_tables import deposition_properties
+
+        for k, v in deposition_properties(run):  # spray deposition metrics of the run
+            suite.add_property(x(k), x(v))
         classname = x(f"{run.mission}.{run.case}")
         wall = float(run.summary.get("wall_time_s") or 0.0)
         if run.errored:

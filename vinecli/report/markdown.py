@@ -74,6 +74,9 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
                 c.get("message") or "")) + " |")
         if len(failed) > max_rows * 2:
             lines.append(f"\n… and {len(failed) - max_rows * 2} more failed checks.")
+    from vinecli.report.deposition_tables import deposition_markdown
+
+    lines += deposition_markdown(ordered, _cell, max_rows)
     if comparison is not None:
         lines += ["", f"### Regressions vs baseline {_cell(comparison.baseline_dir)}", ""]
         if regs:

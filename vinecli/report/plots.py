@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 DPI = 100
 #: figure sizes in inches (pixels = inches * DPI)
 SIZES = {"fig16": (12.0, 5.2), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
-         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6)}
+         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6), "fig23": (11.0, 8.0), "fig24": (9.0, 6.0)}
 C_OK, C_FAIL = "#2ca02c", "#d62728"
 
 
@@ -39,6 +39,7 @@ class PlotData:
     events: list[dict[str, Any]] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
     preview: dict[str, np.ndarray] | None = None
+    run_dir: Path | None = None  # for the per-run files (deposition.json / .tif)
 
     def has(self, *names: str) -> bool:
         return all(n in self.cols and np.isfinite(self.cols[n]).any() for n in names)
@@ -583,13 +584,25 @@ FIGURES: dict[str, tuple[str, Callable[[PlotData], bytes]]] = {
 }
 
 
+def _add_deposition_figures() -> None:
+    from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
+
+    FIGURES["fig23"] = ("Spray deposition (L/ha) over the terrain with the rows, the flown path and the fence",
+                        fig23_deposition)
+    FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and the share covered",
+                        fig24_row_coverage)
+
+
+_add_deposition_figures()
+
+
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:
     """Read what the figures need from a (validated) run directory."""
     from vinecli.report.loader import _load_run
 
     run = _load_run(Path(run_dir), None)
     return PlotData(cols=run.read_columns(columns or columns_needed()), events=run.events(), summary=run.summary,
-                    preview=run.preview())
+                    preview=run.preview(), run_dir=Path(run_dir))
 
 
 def render_figures(run_dir: str, only: Sequence[str] | None = None) -> dict[str, dict[str, Any]]:

@@ -195,16 +195,23 @@ def run_mission(
         status_message = f"stopped: wall-clock limit of {wall_timeout_s:g} s reached"
 
     rows = _rows_for_metrics(spec, world)
+    dep_metrics: dict[str, float] = {}
+    dep_doc: dict[str, Any] | None = None
+    if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
+        from vinecli.runs.deposition_out import evaluate_deposition
+
+        dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle or world.vehicle, world, rows,
+                                                   spec.geofence or getattr(world, "geofence", None))
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
         status=status,
-        metrics=dict(result.metrics),
+        metrics={**result.metrics, **dep_metrics},
         context=MetricContext(gravity=float(world.gravity), rows_enu=rows),
     )
     checks = evaluate_checks(spec.checks, data)
     passed = all(c.passed for c in checks)
-    metrics: dict[str, float | None] = {k: _num(v) for k, v in result.metrics.items()}
+    metrics: dict[str, float | None] = {k: _num(v) for k, v in {**result.metrics, **dep_metrics}.items()}
     for kind in ("liftoff", "tank_empty"):  # as the checks see them (first event, else the simulator metric)
         try:
             metrics[f"{kind}_s"] = data.event_time(kind)
@@ -266,6 +273,10 @@ def run_mission(
             from vinecli.runs.mcap_out import write_mcap
 
             write_mcap(tmp / rundir.MCAP, result.timeseries, result.events)
+        if dep_doc is not None:
+            from vinecli.runs.deposition_out import dsm_crs, write_deposition
+
+            write_deposition(tmp, result.deposition, world, dsm_crs(Path(world_dir)), dep_doc)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))

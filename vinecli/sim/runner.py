@@ -87,6 +87,8 @@ class SimResult:
     terrain_preview: dict[str, np.ndarray]
     #: depth-camera point clouds (t_s, (N, 3) float32 world ENU m), empty when the camera is off
     point_clouds: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    #: where the spray landed (vinecli.sim.deposition.DepositionResult); None when nothing was sprayed or when off
+    deposition: Any = None
 
     @property
     def real_time_factor(self) -> float:
@@ -148,6 +150,7 @@ def run_simulation(
     should_stop: Callable[[], bool] | None = None,
     end_on_crash: bool = True,
     crash_speed_mps: float = 3.0,
+    deposition: bool | Any = True,
 ) -> SimResult:
     """Fly ``mission`` with ``autopilot`` in ``world`` and return the recorded run.
 
@@ -163,6 +166,8 @@ def run_simulation(
     should_stop : polled every 0.1 s simulated; True ends the run as INTERRUPTED.
     end_on_crash : end the run with CRASHED on a hard impact (else only the event is logged).
     crash_speed_mps : vertical speed at first contact above which an impact is a crash, m/s.
+    deposition : run the spray transport model (vehicles with a tank): ``SimResult.deposition``; a
+        :class:`~vinecli.physics.deposition.DepositionConfig` sets its options (cell size, margin, ...).
     """
     from vinecli.physics.battery import Battery
     from vinecli.physics.motor import MotorBank
@@ -174,6 +179,9 @@ def run_simulation(
 
     wall0 = time.perf_counter()
     veh = resolve_vehicle(world, mission, vehicle)
+    from vinecli.missions.spray_rate import resolve_spray_rates
+
+    mission = resolve_spray_rates(mission, veh)  # spray phases given in L/ha fly the equivalent flow
     rate = float(world.physics_rate_hz)
     dt_us = int(round(1e6 / rate))
     dt = dt_us * 1e-6
@@ -257,7 +265,8 @@ def run_simulation(
             dt_us=dt_us, dt=dt, inv_dt=inv_dt, lgh=lgh, airborne_start=airborne_start, init_phase=first if init else None,
             on_progress=on_progress, should_stop=should_stop, end_on_crash=end_on_crash,
             crash_speed=crash_speed_mps, wall0=wall0, MotorBank=MotorBank, make_sensors=make_sensors,
-            settle_s=settle_s,
+            settle_s=settle_s, deposition=bool(deposition) and tank is not None, wind_spec=wind_spec,
+            deposition_config=None if isinstance(deposition, bool) else deposition,
         )
     finally:
         engine.close()
@@ -303,6 +312,15 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         camera = DepthCamera(engine.client, cam_spec, rng=np.random.default_rng(np.random.SeedSequence(seed).spawn(8)[7]),
                              hide_body=body)
     point_clouds: list[tuple[float, np.ndarray]] = []
+    emitter = None
+    if kw["deposition"]:
+        from vinecli.physics.deposition import SprayEmitter
+
+        emitter = SprayEmitter()
+    emit = emitter.emit if emitter is not None else None
+    dep_every = max(1, int(round(0.04 / (dt_us * 1e-6))))  # spraying steps summed per deposition record
+    dep_vol = 0.0
+    dep_n = 0
     cam_period_us = int(round(1e6 / cam_spec.rate_hz))
     next_cam_us = 0
 
@@ -541,6 +559,17 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         if tank is not None:
             flow_cmd = cmd.spray_flow_lps
             tank.update(flow_cmd, dt)
+            if emit is not None:  # deposition model: volume summed over <= 0.04 s, one record per group
+                f_ = tank.flow_lps
+                if f_ > 0.0:
+                    dep_vol += f_ * dt
+                    dep_n += 1
+                if dep_n and (dep_n >= dep_every or f_ <= 0.0):
+                    # state now; the volume left the nozzles on average (n - 1) / 2 steps earlier
+                    emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, dep_vol,
+                          0.5 * (dep_n - 1) * dt))
+                    dep_vol = 0.0
+                    dep_n = 0
             # contact force of the last step from the finite-difference acceleration:
             # F_c = M (a - g) - F_ext,prev - F_tank,prev (M = rigid PyBullet mass)
             if first_step:
@@ -651,6 +680,18 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     metrics["energy_wh"] = energy_j / 3600.0 if battery is not None else math.nan
     metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
     events.append(Event(t_us, "status", detail, {"status": status.value}))
+    dep = None
+    if emitter is not None and dep_n:  # the last group of a run that ended spraying
+        emitter.emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wdx, wdy, wdz, motors.thrust_total, dep_vol,
+                      0.5 * (dep_n - 1) * dt))
+    if emitter is not None and emitter.rows:  # the sprayer was used
+        from vinecli.sim.deposition import deposit
+
+        cpu_dep0 = time.process_time()
+        dep = deposit(emitter, world, veh, kw["wind_spec"], seed, kw["deposition_config"])
+        metrics["deposition_transport_s"] = dep.transport_s
+        metrics["deposition_transport_cpu_s"] = time.process_time() - cpu_dep0
+        metrics["deposition_records"] = float(len(emitter.rows))
     events.sort(key=lambda e: e.t_us)
     log.info("run ended at %.3f s: %s (%s); %.1f µs/step", sim_time, status.value, detail, metrics["wall_per_step_us"])
     return SimResult(
@@ -663,4 +704,5 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         metrics=metrics,
         terrain_preview=world.terrain_preview(129),
         point_clouds=point_clouds,
+        deposition=dep,
     )

@@ -87,7 +87,11 @@ class SprayPhase(StrictModel):
     )
     height_agl_m: float = Field(2.0, gt=0, le=MAX_DISTANCE_M, description="height above the terrain under the drone, m")
     speed_mps: float = Field(1.5, gt=0, le=MAX_SPEED_MPS)
-    flow_lps: float = Field(gt=0, description="nozzle flow while over a row, L/s")
+    flow_lps: float | None = Field(None, gt=0, description="nozzle flow while over a row, L/s (or give rate_lpha)")
+    rate_lpha: float | None = Field(
+        None, gt=0, le=10_000.0,
+        description="application rate, L/ha: flow = rate x swath x speed / 10 000 (swath from the nozzles and height)",
+    )
     until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
     timeout_s: float = Field(900.0, gt=0, le=MAX_DURATION_S)
     refill: RefillSpec | None = Field(None, description="refill sorties until every row is sprayed (until: rows_done)")
@@ -96,6 +100,12 @@ class SprayPhase(StrictModel):
     def _refill_needs_rows_done(self) -> SprayPhase:
         if self.refill is not None and self.until != "rows_done":
             raise ValueError("refill sorties need until: rows_done (until: empty ends at the first empty tank)")
+        return self
+
+    @model_validator(mode="after")
+    def _flow_or_rate(self) -> SprayPhase:
+        if (self.flow_lps is None) == (self.rate_lpha is None):
+            raise ValueError("give exactly one of flow_lps or rate_lpha")
         return self
 
 

@@ -97,6 +97,7 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
             "vine_rows_enu": rows,
             "rows_auto": spec.rows == "auto",
             "rows_detection": rows_detection,
+            "canopy_width_m": spec.canopy_width_m,
             "geofence": json.loads(spec.geofence.model_dump_json()) if spec.geofence else None,
             "sdf": "world.sdf",
         }

@@ -89,6 +89,7 @@ class World:
     rows_auto: bool = False
     description: str = ""
     rows_detection: dict[str, Any] | None = None  # rows: auto: detection figures (see world.json)
+    canopy_width_m: float = 0.6  # m, row band width for the spray metrics
 
     def __post_init__(self) -> None:
         # bind the fast lookup directly (no extra call layer in the 250 Hz loop)
@@ -169,6 +170,7 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         rows_auto=bool(d.get("rows_auto", False)),
         rows_detection=d.get("rows_detection"),
         description=d.get("description", ""),
+        canopy_width_m=float(d.get("canopy_width_m", 0.6)),
     )
 
 

@@ -100,6 +100,7 @@ class WorldSpec(StrictModel):
     physics_rate_hz: float = Field(250.0, gt=0, le=10000)
     gravity_mps2: float = Field(9.80665, gt=0, le=100.0)
     air_density_kgm3: float = Field(1.225, gt=0, le=100.0)
+    canopy_width_m: float = Field(0.6, gt=0, le=10.0, description="width of the vine canopy band along each row, m (spray metrics)")
     rows: list[list[Vec2L]] | Literal["auto"] | None = Field(
         None, description="vine rows as ENU polylines [[x, y], ...], or 'auto' (detected by the missions tools)"
     )
