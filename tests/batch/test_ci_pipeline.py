@@ -96,7 +96,8 @@ def test_plan_rows_on_the_built_sample_world(ci_runs: Path, tmp_path: Path) -> N
 
 
 def test_spray_starts_at_the_row_nearest_the_spawn(ci_runs: Path) -> None:
-    """The spawn is west of row 1 (index 0): the spray plan starts there, not 15 m away at row 16."""
+    """The spawn is west of the rows: the spray mission targets rows 1 and 5 (indices into the world's
+    rows) and the plan starts with the nearer one, row 1, not with row 5 further east."""
     batch = json.loads((ci_runs / "batch.json").read_text())
     run = next(c["run_id"] for c in batch["cases"] if c["case"] == "spray")
     events = [json.loads(line) for line in (ci_runs / run / "events.jsonl").read_text().splitlines()]
@@ -106,4 +107,4 @@ def test_spray_starts_at_the_row_nearest_the_spawn(ci_runs: Path) -> None:
 
     ts = pq.read_table(ci_runs / run / "timeseries.parquet", columns=["tank_flow_lps", "pos_enu_x_m"]).to_pydict()
     first = next(i for i, f in enumerate(ts["tank_flow_lps"]) if f > 0)
-    assert ts["pos_enu_x_m"][first] < -7.0  # spraying starts over row 1 (x = -8.0 .. -5.6)
+    assert ts["pos_enu_x_m"][first] < -6.0  # spraying starts over row 1 (x = -7.1 .. -4.7), row 5 is at -3.5 .. -1.1

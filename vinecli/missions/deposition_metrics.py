@@ -34,8 +34,9 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
     "mean_rate_lpha_on_rows": ("L/ha", "Mean application rate along the sprayed stretches of the rows, L/ha"),
     "deposit_cv_on_rows": ("1", "Coefficient of variation of the rate along the sprayed stretches of the rows"),
     "drift_outside_fence_fraction": ("1", "Share of the emitted volume landing outside the geofence (or the field)"),
-    "nominal_rate_lpha": ("L/ha", "Rate the spray phase asked for (rate_lpha, or 10 000 q / (v swath)), L/ha"),
+    "nominal_rate_lpha": ("L/ha", "Rate the spray phase asked for (rate_lpha, or 10 000 q / (v track width)), L/ha"),
     "spray_swath_m": ("m", "Geometric swath of the nozzles at the spray height, m"),
+    "spray_track_width_m": ("m", "Width one pass doses: the swath, or the row spacing when the rows are closer, m"),
     "deposit_centroid_offset_east_m": ("m", "Deposit centroid minus the volume-weighted nozzle path centroid, east, m"),
     "deposit_centroid_offset_north_m": ("m", "Deposit centroid minus the volume-weighted nozzle path centroid, north, m"),
 }

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.missions.deposition_metrics import deposition_metrics
-from vinecli.missions.spray_rate import nominal_rate_lpha, spray_swath_m
+from vinecli.missions.spray_rate import nominal_rate_lpha, spray_swath_m, track_width_m
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
 
@@ -118,15 +118,17 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
                         rows: list[list[tuple[float, float]]], fence: Any) -> tuple[dict[str, float], dict[str, Any]]:
     """(summary metrics, deposition.json document) of one run's deposition."""
     phase = next((p for p in spec.phases if isinstance(p, SprayPhase)), None)
-    nominal = nominal_rate_lpha(phase, vehicle) if phase is not None else math.nan
+    nominal = nominal_rate_lpha(phase, vehicle, rows) if phase is not None else math.nan
     swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
+    track = track_width_m(vehicle, phase, rows) if phase is not None else math.nan
     polygon = getattr(fence, "polygon_enu", None) if fence is not None else None
     canopy = float(getattr(world, "canopy_width_m", 0.6))
     all_rows = [[tuple(q) for q in r] for r in getattr(world, "vine_rows_enu", []) or []] or rows
     metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows)
     metrics["spray_swath_m"] = swath
+    metrics["spray_track_width_m"] = track
     flow = float(phase.flow_lps) if phase is not None and phase.flow_lps is not None else (
-        nominal * swath * phase.speed_mps / 1e4 if phase is not None else math.nan)
+        nominal * track * phase.speed_mps / 1e4 if phase is not None else math.nan)
     doc = {
         "schema": "vinecli.deposition/1",
         "units": {"rate": "L/ha", "volume": "L", "length": "m", "frame": "world ENU"},

@@ -181,7 +181,7 @@ def run_simulation(
     veh = resolve_vehicle(world, mission, vehicle)
     from vinecli.missions.spray_rate import resolve_spray_rates
 
-    mission = resolve_spray_rates(mission, veh)  # spray phases given in L/ha fly the equivalent flow
+    mission = resolve_spray_rates(mission, veh, world.vine_rows_enu)  # phases in L/ha fly the equivalent flow
     rate = float(world.physics_rate_hz)
     dt_us = int(round(1e6 / rate))
     dt = dt_us * 1e-6
