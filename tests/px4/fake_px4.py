@@ -53,6 +53,8 @@ class FakeStats:
     hil_sensor: int = 0
     hil_gps: int = 0
     hil_state: int = 0
+    mag_updates: int = 0  # HIL_SENSOR with the mag bits set
+    baro_updates: int = 0
     answered: int = 0
     armed_answers: int = 0
     max_alt_rel: float = 0.0
@@ -218,8 +220,12 @@ class FakePx4:
         st.hil_sensor += 1
         s = m  # type: ignore[assignment]
         t = s.time_usec  # type: ignore[attr-defined]
-        if s.fields_updated != 7167:  # type: ignore[attr-defined]
-            self._violation(f"HIL_SENSOR fields_updated {s.fields_updated} != 7167")  # type: ignore[attr-defined]
+        f = s.fields_updated  # type: ignore[attr-defined]
+        # accel|gyro every step; mag / baro as complete groups (PX4 ignores partial ones), only with new samples
+        if f & 63 != 63 or f & 448 not in (0, 448) or f & 6656 not in (0, 6656) or f & ~7167:
+            self._violation(f"HIL_SENSOR fields_updated {f}: accel|gyro every step, complete mag/baro groups")
+        st.mag_updates += bool(f & 448)
+        st.baro_updates += bool(f & 6656)
         if s.id != 0:  # type: ignore[attr-defined]
             self._violation(f"HIL_SENSOR id {s.id} != 0")  # type: ignore[attr-defined]
         if t <= 0:

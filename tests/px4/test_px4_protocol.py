@@ -112,7 +112,12 @@ def test_hil_messages_carry_px4_units_and_frames(ports):
         ap.step(obs_at(DT, gnss=False))
         got2 = by_type(peer)
         assert "HIL_GPS" not in got2 and got2["HIL_SENSOR"][0].time_usec == 2 * DT
-        assert ap.stalls == 1  # nobody answered
+        # no new mag/baro sample at this step: only accel|gyro are flagged, the values are held
+        held = obs_at(DT, gnss=False)
+        ap.step(Observation(2 * DT, held.truth, held.imu, None, None, None))
+        s3 = by_type(peer)["HIL_SENSOR"][0]
+        assert s3.fields_updated == 63 and s3.xmag == pytest.approx(0.2) and s3.abs_pressure == pytest.approx(980.0)
+        assert ap.stalls == 2  # nobody answered
     finally:
         peer.close()
         ap.close()

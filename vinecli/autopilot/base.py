@@ -27,6 +27,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
     CRASHED = "crashed"
     TIMEOUT = "timeout"
     GEOFENCE_TERMINATED = "geofence_terminated"
+    FAILSAFE = "failsafe"
     INTERRUPTED = "interrupted"
     ERROR = "error"
 
@@ -40,6 +41,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
             "crashed": "crashed into the terrain",
             "timeout": "mission exceeded its time limit",
             "geofence_terminated": "geofence breach: motors terminated",
+            "failsafe": "the autopilot left the mission (failsafe or mode change)",
             "interrupted": "interrupted by the user",
             "error": "the run failed",
         }[self.value]

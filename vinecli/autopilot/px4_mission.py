@@ -17,6 +17,9 @@ state (mode, current item, events, error, finished). Sequence, each with a wall-
 6. follow HEARTBEAT (mode, armed), MISSION_CURRENT, MISSION_ITEM_REACHED and
    EXTENDED_SYS_STATE (landed state): the run is complete when the last item was reached (or
    the mission state is COMPLETE) and, if the mission lands, PX4 reports on-ground and disarmed.
+   Once PX4 has flown in Mission mode, a switch to any other mode before the mission is done
+   (a failsafe: geofence Hold, RTL, Land...) is a ``failsafe`` event whose cause is PX4's latest
+   warning STATUSTEXT, and ends the run with status ``failsafe``.
 
 The client sends a GCS HEARTBEAT every second of wall time *or* of sim time, whichever comes
 first, so PX4's data-link-loss check (sim time) is satisfied at any speed-up.
@@ -38,6 +41,7 @@ from vinecli.mavlink.mission_items import MissionItem, PlanContext, Px4Plan, pha
 log = logging.getLogger(__name__)
 
 INT_PARAMS = frozenset({"GF_ACTION", "NAV_DLL_ACT", "COM_RC_IN_MODE"})
+SEVERITY_WARNING = 4  # MAV_SEVERITY: 0 EMERGENCY ... 4 WARNING
 
 
 def plan_for(ctx: AutopilotContext) -> Px4Plan:
@@ -90,6 +94,9 @@ class Px4MissionClient:
         self._hb_sim = -10**12
         self.was_airborne = False
         self.started = False
+        self.in_mission = False
+        self.warnings: list[tuple[float, str]] = []  # (wall time, text) of STATUSTEXT <= WARNING
+        self._chunks: dict[int, str] = {}
 
     # ------------------------------------------------------------------ thread control
     def start(self) -> None:
@@ -138,14 +145,20 @@ class Px4MissionClient:
             if name != self.mode_name:
                 self._event("mode", name, {"mode": name, "previous": self.mode_name})
                 self.mode_name = name
+                self._check_mode(name)
             if armed != self.armed:
                 self.armed = armed
                 self._event("arming", "armed" if armed else "disarmed", {"armed": armed})
         elif typ == "STATUSTEXT":
-            text = m.text.rstrip("\x00") if isinstance(m.text, str) else str(m.text)
+            text = self._statustext(m)
+            if text is None:
+                return
             self.statustext.append(text)
             del self.statustext[:-10]
             self._event("px4_statustext", text, {"severity": int(m.severity)})
+            if int(m.severity) <= SEVERITY_WARNING:
+                self.warnings.append((time.monotonic(), text))
+                del self.warnings[:-10]
         elif typ == "SYS_STATUS":
             self.sys_status = m
         elif typ == "MISSION_CURRENT":
@@ -164,6 +177,45 @@ class Px4MissionClient:
                 self._event("landed_state", names.get(m.landed_state, "undefined"), {"landed_state": int(m.landed_state)})
                 if m.landed_state == M.LANDED_IN_AIR:
                     self.was_airborne = True
+
+    def _statustext(self, m: Any) -> str | None:
+        """The text of a STATUSTEXT, chunks (same non-zero ``id``, 50 characters each) joined; None mid-message."""
+        raw = m.text if isinstance(m.text, str) else m.text.decode(errors="replace")
+        raw = raw.split("\x00", 1)[0]
+        sid = int(getattr(m, "id", 0) or 0)
+        if sid:
+            raw = self._chunks.pop(sid, "") + raw
+            if len(raw) % 50 == 0 and raw:  # a full chunk: more follow
+                self._chunks[sid] = raw
+                return None
+        return raw.strip()
+
+    def _check_mode(self, name: str) -> None:
+        """Once the mission runs, PX4 leaving Mission mode is a failsafe (or an operator): end the run."""
+        if not self.started or self.finished is not None:
+            return
+        if name == "mission":
+            self.in_mission = True
+            return
+        if not self.in_mission or (self.mission_done() and name in ("hold", "ready")):
+            return
+        cause = self.failsafe_cause()
+        data: dict[str, object] = {"cause": cause, "action": name, "mode": name, "seq": self.current_seq}
+        self._event("failsafe", f"PX4 left the mission: {cause} -> {name}", data)
+        self.finished = (RunStatus.FAILSAFE, f"PX4 failsafe: {cause} -> {name} (mission item {self.current_seq})")
+
+    def failsafe_cause(self) -> str:
+        """PX4's latest warning (STATUSTEXT severity <= WARNING) of the last 5 s, else a plain mode change."""
+        recent: list[str] = []
+        for w, t in self.warnings:
+            if time.monotonic() - w < 5.0 and t not in recent:
+                recent.append(t)
+        return "; ".join(recent) if recent else f"mode changed from mission to {self.mode_name}"
+
+    def mission_done(self) -> bool:
+        """The last item was reached (or PX4 reports the mission complete)."""
+        n = len(self.plan.items) if self.plan is not None else 0
+        return (n - 1) in self.reached or self.mission_state == M.MISSION_STATE_COMPLETE
 
     def _set_phase(self, seq: int) -> None:
         if self.plan is not None and 0 <= seq < len(self.plan.phase_of_item):
@@ -239,7 +291,8 @@ class Px4MissionClient:
         raise AutopilotTimeout(f"PX4 {what} upload timed out" + self._px4_says())
 
     def _px4_says(self) -> str:
-        return f" (PX4: {self.statustext[-1]!r})" if self.statustext else ""
+        said = self.warnings[-1][1] if self.warnings else (self.statustext[-1] if self.statustext else "")
+        return f" (PX4: {said!r})" if said else ""
 
     # ------------------------------------------------------------------ the sequence
     def _sequence(self) -> None:
@@ -290,11 +343,12 @@ class Px4MissionClient:
     def _monitor(self) -> None:
         plan = self.plan
         assert plan is not None
-        n = len(plan.items)
         lands = bool(plan.items) and plan.items[-1].command in (M.CMD_NAV_LAND, M.CMD_NAV_RETURN_TO_LAUNCH)
-        while not self._stop.is_set():
+        while not self._stop.is_set() and self.finished is None:
             self._wait(set(), 0.2)
-            done_items = (n - 1) in self.reached or self.mission_state == M.MISSION_STATE_COMPLETE
+            done_items = self.mission_done()
+            if self.finished is not None:
+                return
             if lands:
                 if (done_items or self.was_airborne) and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND \
                         and not self.armed:

@@ -1,6 +1,7 @@
 """One factory for the autopilot of a run, covering the PX4 and MAVLink options of
-``vinecli run mission`` (``--autopilot px4 --px4-instance N --px4-host H --px4-connect-timeout S``,
-``--mavlink udp:HOST:PORT [--realtime] [--mavlink-allow-remote]``)."""
+``vinecli run mission`` (``--autopilot px4 [--px4-bin PATH] --px4-instance N --px4-host H
+--px4-connect-timeout S --px4-lockstep-timeout S``, ``--mavlink URL [--mavlink-port P] [--realtime]
+[--mavlink-allow-remote]``)."""
 
 from __future__ import annotations
 
@@ -17,18 +18,21 @@ def make_run_autopilot(
     mavlink: str | None = None,
     realtime: bool = False,
     mavlink_allow_remote: bool = False,
-    px4_instance: int = 0,
+    px4_instance: int | None = None,
     px4_host: str = "127.0.0.1",
     px4_connect_timeout_s: float = 30.0,
-    px4_step_timeout_s: float = 0.1,
+    px4_step_timeout_s: float = 1.0,
     px4_allow_remote: bool = False,
+    px4_bin: str | None = None,
+    mavlink_local_port: int | None = None,
 ) -> Autopilot:
     """The backend for one run.
 
     * ``mavlink`` set: the built-in autopilot behind a MAVLink vehicle endpoint
       (:class:`vinecli.mavlink.endpoint.MavlinkControlledAutopilot`), lockstep or ``realtime``;
     * ``name == "px4"``: :class:`vinecli.autopilot.px4_sitl.Px4SitlAutopilot` on TCP
-      ``px4_host:4560+px4_instance``;
+      ``px4_host:4560+px4_instance``; with ``px4_bin`` vinecli starts PX4 itself (on a free
+      instance unless ``px4_instance`` is given) and stops it after the run;
     * otherwise ``vinecli.autopilot.registry.make_autopilot(name)`` (``truth`` for the builtin).
     """
     if mavlink is not None:
@@ -37,14 +41,19 @@ def make_run_autopilot(
                              "ground station to that autopilot directly (PX4: UDP 14550 / 14540+i)")
         from vinecli.mavlink.endpoint import serve_mavlink
 
-        return serve_mavlink(mavlink, realtime=realtime, allow_remote=mavlink_allow_remote, truth=truth)  # type: ignore[return-value]
+        return serve_mavlink(mavlink, realtime=realtime, allow_remote=mavlink_allow_remote, truth=truth,  # type: ignore[return-value]
+                             local_port=mavlink_local_port)
     if realtime:
         raise InputError("--realtime applies to --mavlink runs (PX4 runs pace themselves in lockstep)")
     if name == "px4":
         from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
 
+        if px4_instance is None and px4_bin is None:
+            px4_instance = 0  # an external PX4 started by hand: instance 0 unless told
         return Px4SitlAutopilot(host=px4_host, instance=px4_instance, connect_timeout_s=px4_connect_timeout_s,  # type: ignore[return-value]
-                                step_timeout_s=px4_step_timeout_s, allow_remote=px4_allow_remote)
+                                step_timeout_s=px4_step_timeout_s, allow_remote=px4_allow_remote, px4_bin=px4_bin)
+    if px4_bin is not None:
+        raise InputError(f"--px4-bin needs --autopilot px4 (this run uses {name!r})")
     from vinecli.autopilot.registry import make_autopilot
 
     opts: dict[str, Any] = {"truth": truth} if name == "builtin" and truth is not None else {}

@@ -6,15 +6,16 @@ connects, sends one HEARTBEAT and SET_MESSAGE_INTERVAL(115). Each physics step v
 * HIL_STATE_QUATERNION (optional ground truth, sent *first* so a peer answering on
   HIL_SENSOR sees the state of the same step; PX4 only logs it),
 * HIL_SENSOR: specific force and rates in body FRD, magnetic field in gauss (FRD), pressure in
-  hPa, temperature °C, pressure altitude m, ``fields_updated`` 7167, ``id`` 0 -- mag and baro
-  are sample-and-hold from the sensor models,
+  hPa, temperature °C, pressure altitude m, ``id`` 0; ``fields_updated`` has accel|gyro every
+  step and the mag (448) / baro (6656) bits only on steps where that sensor model produced a new
+  sample (as Gazebo does; the values in between are sample-and-hold),
 * HIL_GPS whenever the GNSS model has a new sample (10 Hz by default; noise is the vehicle's
   ``sensors.gnss`` spec), with ``time_usec`` in UNIX-epoch µs, eph/epv in cm.
 
 HIL time = sim time + one step (never 0), strictly increasing by exactly the physics step.
 **Boot phase** (until the first HIL_ACTUATOR_CONTROLS): motors off, steps paced at wall-clock
 rate, so PX4 boots in real time. **Lockstep phase**: after sending HIL_SENSOR(t) the step
-waits up to ``step_timeout_s`` for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``; on timeout it
+waits up to ``step_timeout_s`` (default 1 s, PX4's Gazebo bridge) for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``; on timeout it
 reuses the last controls and counts a stall; ``max_stalls`` consecutive stalls raise
 AutopilotError (PX4 stopped answering). Outputs map to rotor speeds with the vehicle's
 ``px4.motor_channels``: w = w_min + u (w_max - w_min) while armed (mode bit 128), 0 disarmed;
@@ -40,6 +41,7 @@ from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, 
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sim.types import ActuatorCommand, Event, Observation
+from vinecli.specs.mission import TakeoffPhase
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +49,7 @@ SIM_PORT_BASE = 4560
 API_PORT_BASE = 14540  # vinecli binds (PX4 sends here)
 PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
 G0 = 9.80665
+SATURATED_U = 0.9  # mean motor output counted as "full thrust" (PX4 rarely holds 1.0 on the ground)
 
 
 def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
@@ -75,43 +78,60 @@ class Px4SitlAutopilot:
     HIL_STATE_QUATERNION, default True), ``api_port`` (UDP port vinecli binds for PX4's API link,
     default 14540+instance), ``px4_api_port`` (PX4's API port, default 14580+instance),
     ``mission`` (False: no mission control, just the sensor/actuator link), ``health_timeout_s``,
-    ``px4_bin`` (only used in error hints).
+    ``px4_bin`` (a PX4 SITL binary: vinecli starts PX4 itself for this run on a free instance,
+    unless ``instance`` is given, with a fresh working directory, and stops it in :meth:`close`),
+    ``px4_workdir`` (keep PX4's working directory and log there instead of a temporary one),
+    ``cannot_takeoff_s`` (armed, motors saturated and not climbing for this long ->
+    ``cannot_take_off``, default the vehicle's ``control.cannot_takeoff_s``).
     """
 
     name = "px4"
 
-    def __init__(self, *, host: str = "127.0.0.1", instance: int = 0, port: int | None = None,
-                 connect_timeout_s: float = 30.0, step_timeout_s: float = 0.1, max_stalls: int = 50,
+    def __init__(self, *, host: str = "127.0.0.1", instance: int | None = None, port: int | None = None,
+                 connect_timeout_s: float = 30.0, step_timeout_s: float = 1.0, max_stalls: int = 10,
                  boot_timeout_s: float = 60.0, hil_state: bool = True, api_port: int | None = None,
                  px4_api_port: int | None = None, mission: bool = True, health_timeout_s: float = 120.0,
-                 allow_remote: bool = False, px4_bin: str = "px4", **opts: Any) -> None:
+                 allow_remote: bool = False, px4_bin: str | None = None, px4_workdir: str | None = None,
+                 cannot_takeoff_s: float | None = None, **opts: Any) -> None:
         if opts:
             raise InputError(f"px4 autopilot: unknown option(s) {', '.join(sorted(opts))}")
-        if not (0 <= instance <= 99):
+        if instance is not None and not (0 <= instance <= 99):
             raise InputError(f"px4 autopilot: instance {instance} out of range 0..99")
+        if not (step_timeout_s > 0 and max_stalls >= 1):
+            raise InputError("px4 autopilot: step_timeout_s must be > 0 and max_stalls >= 1")
         from vinecli.mavlink.link import is_loopback
 
         if not is_loopback(host) and not allow_remote:
             raise InputError(f"px4 autopilot: refusing to listen on non-loopback address {host} (add --px4-allow-remote)")
-        self.host, self.instance = host, instance
-        self.port = SIM_PORT_BASE + instance if port is None else port
+        self.host = host
         self.connect_timeout_s, self.step_timeout_s = connect_timeout_s, step_timeout_s
         self.max_stalls, self.boot_timeout_s = max_stalls, boot_timeout_s
         self.hil_state = hil_state
-        self.api_port = (API_PORT_BASE + instance if instance <= 9 else 14549) if api_port is None else api_port
-        self.px4_api_port = PX4_API_LOCAL_BASE + instance if px4_api_port is None else px4_api_port
+        self._port_opt, self._api_port_opt, self._px4_api_port_opt = port, api_port, px4_api_port
+        self._set_instance(0 if instance is None else instance)
+        self._auto_instance = px4_bin is not None and instance is None
         self.use_mission, self.health_timeout_s = mission, health_timeout_s
-        self.px4_bin = px4_bin
+        self.px4_bin, self.px4_workdir = px4_bin, px4_workdir
+        self.cannot_takeoff_s = cannot_takeoff_s
+        self.process: Any = None
+        self._instance_lock: Any = None
         self.link: TcpServerLink | None = None
         self.mission_client: Any = None
         self._events: list[Event] = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0)
         self._closed = False
 
+    def _set_instance(self, instance: int) -> None:
+        self.instance = instance
+        self.port = SIM_PORT_BASE + instance if self._port_opt is None else self._port_opt
+        default_api = (API_PORT_BASE + instance if instance <= 9 else 14549)
+        self.api_port = default_api if self._api_port_opt is None else self._api_port_opt
+        self.px4_api_port = PX4_API_LOCAL_BASE + instance if self._px4_api_port_opt is None else self._px4_api_port_opt
+
     # ------------------------------------------------------------------ protocol
     def start_command(self) -> str:
         """How to start PX4 against this backend."""
-        return px4_start_command(self.instance, self.host, self.px4_bin)
+        return px4_start_command(self.instance, self.host, self.px4_bin or "px4")
 
     def reset(self, ctx: AutopilotContext) -> None:
         """Convert the mission, listen on TCP, wait for PX4 to connect (AutopilotTimeout otherwise)."""
@@ -144,6 +164,13 @@ class Px4SitlAutopilot:
         self.lockstep_steps = 0
         self.hil_gps_sent = 0
         self.px4_heartbeat: Any = None
+        self._z_armed: float | None = None
+        self._sat_s = 0.0
+        self._cannot_takeoff_s = self.cannot_takeoff_s or v.control.cannot_takeoff_s
+        self._t_armed_us = 0
+        self._max_rise = 0.0
+        first = ctx.mission.phases[0] if ctx.mission.phases else None
+        self._takeoff_timeout_s: float | None = first.timeout_s if isinstance(first, TakeoffPhase) else None
         self.requested_state_interval_us: float | None = None
         self._events = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0, extra={})
@@ -157,12 +184,20 @@ class Px4SitlAutopilot:
     def _connect(self, ctx: AutopilotContext) -> None:
         from vinecli.autopilot.px4_mission import Px4MissionClient
 
+        if self.px4_bin is not None:
+            self._prepare_process()
         self.link = TcpServerLink(self.host, self.port)
         if self.use_mission:
             self.mission_client = Px4MissionClient(
                 self.plan, ctx, host=self.host, api_port=self.api_port, px4_port=self.px4_api_port,
                 target_system=self.instance + 1, health_timeout_s=self.health_timeout_s)
-        self.link.accept(self.connect_timeout_s, hint=self.start_command())
+        if self.process is not None:
+            self.process.start()
+            self._emit(0, "px4_process", f"PX4 started: instance {self.instance}, pid {self.process.proc.pid}",
+                       {"instance": self.instance, "pid": self.process.proc.pid, "workdir": str(self.process.workdir)})
+            self._accept_launched()
+        else:
+            self.link.accept(self.connect_timeout_s, hint=self.start_command())
         self._emit(0, "px4", f"PX4 connected on TCP {self.host}:{self.port}", {"peer": str(self.link.peer)})
         hb = self.link.recv_match("HEARTBEAT", timeout=min(5.0, self.connect_timeout_s))
         if hb is None:
@@ -171,6 +206,42 @@ class Px4SitlAutopilot:
         self._boot_wall0: float | None = None
         if self.mission_client is not None:
             self.mission_client.start()
+
+    def _prepare_process(self) -> None:
+        """Reserve an instance (auto) and create the PX4 process object (not started yet)."""
+        from vinecli.autopilot.px4_process import Px4Process, reserve_instance
+
+        if self._auto_instance:
+            self._instance_lock = reserve_instance()
+            self._set_instance(self._instance_lock.instance)
+        if self._api_port_opt is None:
+            self.api_port = 0  # PX4 answers whoever talks to its API port: no shared 14549 for instances > 9
+        self.process = Px4Process(self.px4_bin, self.instance, workdir=self.px4_workdir)  # type: ignore[arg-type]
+
+    def _accept_launched(self) -> None:
+        """Accept the PX4 we started; fail early (with its log) if it exits first."""
+        from vinecli.errors import AutopilotTimeout
+
+        assert self.link is not None and self.process is not None
+        deadline = time.monotonic() + self.connect_timeout_s
+        while True:
+            try:
+                self.link.accept(min(0.5, max(0.01, deadline - time.monotonic())))
+                return
+            except AutopilotTimeout:
+                if not self.process.alive():
+                    raise AutopilotError(f"PX4 exited (code {self.process.proc.returncode}) before connecting to TCP "
+                                         f"{self.host}:{self.port}" + self._px4_log()) from None
+                if time.monotonic() >= deadline:
+                    raise AutopilotTimeout(f"PX4 (instance {self.instance}) did not connect to TCP {self.host}:{self.port} "
+                                           f"within {self.connect_timeout_s:g} s" + self._px4_log()) from None
+
+    def _px4_log(self) -> str:
+        """The tail of the log of the PX4 we started ('' for an external PX4)."""
+        if self.process is None:
+            return ""
+        tail = self.process.log_tail(8).strip()
+        return f"; PX4 log ({self.process.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
 
     def _emit(self, t_us: int, kind: str, message: str, data: dict[str, object] | None = None) -> None:
         self._events.append(Event(t_us, kind, message, data or {}))
@@ -192,7 +263,7 @@ class Px4SitlAutopilot:
         if link is None:
             raise AutopilotError("px4 autopilot: step() before reset()")
         if link.closed_by_peer.is_set():
-            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})")
+            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})" + self._px4_log())
         t = obs.t_us + self.dt_us
         if self._t_last is not None and t <= self._t_last:
             raise AutopilotError(f"px4 autopilot: sim time went backwards ({t} <= {self._t_last} µs)")
@@ -207,7 +278,42 @@ class Px4SitlAutopilot:
         if mc is not None:
             mc.sim_time_us = obs.t_us
             self._poll_mission(obs.t_us)
-        return self._command()
+        cmd = self._command()
+        self._watch_saturation(obs)
+        return cmd
+
+    def _watch_saturation(self, obs: Observation) -> None:
+        """``cannot_take_off`` when armed and not climbing (< 0.5 m above the start) while either PX4's motor
+        outputs stay near full (mean >= SATURATED_U) for ``cannot_takeoff_s``, or the first takeoff phase's
+        ``timeout_s`` has passed since arming (PX4 backs off from full thrust on the ground)."""
+        if not self.armed or self._status.status is not RunStatus.RUNNING:
+            self._z_armed = None
+            return
+        z, vz = obs.truth.pos[2], obs.truth.vel[2]
+        if self._z_armed is None:
+            self._z_armed, self._t_armed_us = z, obs.t_us
+        u = [min(max(self.controls[ch], 0.0), 1.0) if self.controls[ch] == self.controls[ch] else 0.0 for ch in self.channels]
+        rise = z - self._z_armed
+        low = rise < 0.5 and vz < 0.3
+        if sum(u) >= SATURATED_U * len(u) and low:
+            self._sat_s += self.dt_us * 1e-6
+        else:
+            self._sat_s = 0.0
+        if self._max_rise < rise:
+            self._max_rise = rise
+        waited = (obs.t_us - self._t_armed_us) * 1e-6
+        why = ""
+        if self._sat_s >= self._cannot_takeoff_s:
+            why = f"PX4 motor outputs saturated (mean {sum(u) / len(u):.2f}) for {self._sat_s:.1f} s"
+        elif self._takeoff_timeout_s is not None and waited > self._takeoff_timeout_s and self._max_rise < 0.5:
+            why = f"no lift-off {waited:.1f} s after arming (takeoff timeout_s {self._takeoff_timeout_s:g} s)"
+        if why:
+            v = self.ctx.vehicle
+            st = self._status
+            st.status = RunStatus.CANNOT_TAKE_OFF
+            st.detail = (f"{why} at {rise:.2f} m above the start "
+                         f"(weight {self.ctx.total_mass_kg * G0:.1f} N, max thrust {v.max_thrust():.1f} N)")
+            self._emit(obs.t_us, "status", f"{st.status.value}: {st.detail}", {"status": st.status.value, "detail": st.detail})
 
     def _boot_step(self, t: int, obs: Observation) -> None:
         now = time.monotonic()
@@ -249,11 +355,12 @@ class Px4SitlAutopilot:
         if self.consecutive_stalls == 1 or self.stalls % 100 == 0:
             log.debug("lockstep stall at t=%d µs (%d total)", t, self.stalls)
         if link.closed_by_peer.is_set():
-            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})")
+            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})" + self._px4_log())
         if self.consecutive_stalls >= self.max_stalls:
             raise AutopilotError(
                 f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
-                f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * self.step_timeout_s:.1f} s)")
+                f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * self.step_timeout_s:.1f} s)"
+                + self._px4_log())
 
     def _command(self) -> ActuatorCommand:
         c = self.controls
@@ -288,23 +395,28 @@ class Px4SitlAutopilot:
         imu = obs.imu
         ax, ay, az = flu_to_frd(imu.accel_flu)
         gx, gy, gz = flu_to_frd(imu.gyro_flu)
+        fields = M.FIELDS_ACCEL | M.FIELDS_GYRO  # mag and baro only when they have a new sample (as Gazebo)
         if obs.mag is not None:
             self._mag_frd = flu_to_frd(obs.mag.field_flu_gauss)
+            fields |= M.FIELDS_MAG
         elif self._mag_frd is None:  # before the first magnetometer sample: the WMM field rotated into the body
             from vinecli.frames import ned_to_enu
 
             self._mag_frd = flu_to_frd(quat_rotate_inv(tr.quat, ned_to_enu(self.mag_ned)))
+            fields |= M.FIELDS_MAG
         if obs.baro is not None:
             b = obs.baro
             self._baro = (b.pressure_pa / 100.0, b.temperature_c, b.altitude_m)
+            fields |= M.FIELDS_BARO
         elif self._baro is None:
             from vinecli.physics.atmosphere import pressure_at, temperature_at
 
             alt = self.ctx.origin.alt + tr.pos[2]
             self._baro = (pressure_at(alt) / 100.0, temperature_at(alt) - 273.15, alt)
+            fields |= M.FIELDS_BARO
         mx, my, mz = self._mag_frd
         p_hpa, temp_c, p_alt = self._baro
-        link.send(mav.hil_sensor_encode(t, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, 0.0, p_alt, temp_c, M.FIELDS_ALL, 0))
+        link.send(mav.hil_sensor_encode(t, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, 0.0, p_alt, temp_c, fields, 0))
         g = obs.gnss
         if g is not None:
             vn, ve, vd = enu_to_ned(g.vel_enu)
@@ -346,7 +458,7 @@ class Px4SitlAutopilot:
         return ev
 
     def close(self) -> None:
-        """Stop the mission thread and close the sockets. Idempotent."""
+        """Stop the mission thread, close the sockets, stop the PX4 we started. Idempotent."""
         if self._closed:
             return
         self._closed = True
@@ -355,6 +467,11 @@ class Px4SitlAutopilot:
             self.mission_client = None
         if self.link is not None:
             self.link.close()
+        if self.process is not None:
+            self.process.stop()
+        if self._instance_lock is not None:
+            self._instance_lock.release()
+            self._instance_lock = None
 
 
 def _i16(x: float) -> int:

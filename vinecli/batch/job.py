@@ -33,6 +33,7 @@ class RunSpec:
     seed: int
     timeout_s: float | None = None
     mcap: bool = False
+    autopilot_options: dict[str, Any] = field(default_factory=dict)  # PX4 options (px4_bin...)
 
 
 @dataclass
@@ -70,7 +71,7 @@ def run_one(spec: RunSpec) -> CaseResult:
         s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
                         mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case,
                         overwrite=True, should_stop=worker_should_stop,
-                        protect=[spec.mission_path])
+                        protect=[spec.mission_path], autopilot_options=spec.autopilot_options or None)
     except BaseException as exc:  # noqa: BLE001 - a worker reports, it never dies with the case
         if isinstance(exc, KeyboardInterrupt):
             raise

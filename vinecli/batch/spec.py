@@ -86,6 +86,8 @@ class PipelineSpec(StrictModel):
     world: str | None = Field(None, description="default world: a world spec (worlds/*.yaml) or a built world dir")
     seed: int = Field(0, ge=0, description="root seed")
     autopilot: str | None = Field(None, description="override every mission's autopilot")
+    px4_bin: str | None = Field(None, description="PX4 SITL binary (relative to the pipeline file): every PX4 case "
+                                "starts its own PX4 process on a free instance")
     truth: bool | None = None
     record_rate_hz: float | None = Field(None, gt=0, le=MAX_RATE_HZ)
     timeout_s: float | None = Field(900.0, gt=0, le=MAX_DURATION_S, description="wall-clock limit per case, s")

@@ -24,12 +24,21 @@ def mission_cmd(
     rate: Annotated[float | None, typer.Option("--rate", help="Recording rate, Hz (default: the mission's).")] = None,
     mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap for Foxglove.")] = False,
     run_id: Annotated[str | None, typer.Option("--run-id", help="Run directory name (default <mission>-s<seed>).")] = None,
-    px4_instance: Annotated[int, typer.Option("--px4-instance", help="PX4 SITL instance (px4 -i N): TCP 4560+N.")] = 0,
+    px4_bin: Annotated[Path | None, typer.Option("--px4-bin", help="PX4 SITL binary: vinecli starts PX4 for this run "
+                                                 "(fresh process and working directory, free instance) and stops it.")] = None,
+    px4_instance: Annotated[int | None, typer.Option("--px4-instance", help="PX4 SITL instance (px4 -i N): TCP 4560+N "
+                                                     "(default 0, or a free one with --px4-bin).")] = None,
     px4_host: Annotated[str, typer.Option("--px4-host", help="Address to listen on for PX4 (loopback).")] = "127.0.0.1",
     px4_connect_timeout: Annotated[float, typer.Option("--px4-connect-timeout", help="Seconds to wait for PX4.")] = 30.0,
+    px4_lockstep_timeout: Annotated[float, typer.Option("--px4-lockstep-timeout", help="Seconds each physics step waits "
+                                                        "for PX4's actuator controls (PX4's Gazebo bridge: 1).")] = 1.0,
     px4_allow_remote: Annotated[bool, typer.Option("--px4-allow-remote", help="Allow a non-loopback --px4-host.")] = False,
-    mavlink: Annotated[str | None, typer.Option("--mavlink", help="Serve the built-in autopilot over MAVLink, "
-                                                "e.g. udp:127.0.0.1:14540 (where the GCS listens).")] = None,
+    mavlink: Annotated[str | None, typer.Option("--mavlink", help="Serve the built-in autopilot over MAVLink: "
+                                                "udp:HOST:PORT / udpout: send to a GCS listening there (14540); "
+                                                "udpin:HOST:PORT listen there; tcpin:HOST:PORT accept a TCP client; "
+                                                "tcp:HOST:PORT connect to a TCP server.")] = None,
+    mavlink_port: Annotated[int | None, typer.Option("--mavlink-port", help="vinecli's own UDP port with udp:/udpout: "
+                                                     "(default 14580; 0 = any free port).")] = None,
     realtime: Annotated[bool, typer.Option("--realtime", help="With --mavlink: pace the run at wall-clock speed.")] = False,
     mavlink_allow_remote: Annotated[bool, typer.Option("--mavlink-allow-remote",
                                                        help="Allow a non-loopback --mavlink address.")] = False,
@@ -61,8 +70,10 @@ def mission_cmd(
 
         summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
                               record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
-                              autopilot_options=_autopilot_options(px4_instance, px4_host, px4_connect_timeout, mavlink,
-                                                                   realtime, mavlink_allow_remote, px4_allow_remote))
+                              autopilot_options=_autopilot_options(
+                                  px4_instance, px4_host, px4_connect_timeout, mavlink, realtime, mavlink_allow_remote,
+                                  px4_allow_remote, px4_bin=px4_bin, px4_lockstep_timeout=px4_lockstep_timeout,
+                                  mavlink_port=mavlink_port))
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")
     out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
                       f"{summary.real_time_factor:.1f}x real time")
@@ -88,6 +99,8 @@ def batch_cmd(
     mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap per case.")] = False,
     world: Annotated[Path | None, typer.Option("--world", "-w", help="Built world dir or world spec replacing "
                                                "the pipeline's default world.")] = None,
+    px4_bin: Annotated[Path | None, typer.Option("--px4-bin", help="PX4 SITL binary: each PX4 case starts its own PX4 "
+                                                 "(one process and instance per case, so --jobs runs them in parallel).")] = None,
 ) -> None:
     """Run every case of a pipeline (missions and sweeps) and write OUT/batch.json.
 
@@ -119,7 +132,7 @@ def batch_cmd(
             bar.update(task, completed=done, info=f"{r.case}: {mark}")
 
         result = run_batch(pipeline, out, jobs=jobs, executor=executor, scheduler=scheduler, resume=resume,
-                           timeout_s=timeout, progress=on_case, mcap=mcap, world=world)
+                           timeout_s=timeout, progress=on_case, mcap=mcap, world=world, px4_bin=px4_bin)
     _batch_table(result)
     out_console.print(f"{result.runs_dir}/batch.json  {result.n_passed} passed, {result.n_failed} failed, "
                       f"{result.n_errors} errors in {result.wall_time_s:.1f} s")
@@ -190,12 +203,24 @@ def _batch_table(result: Any) -> None:
     out_console.print(t)
 
 
-def _autopilot_options(px4_instance: int, px4_host: str, px4_connect_timeout: float, mavlink: str | None,
-                       realtime: bool, mavlink_allow_remote: bool, px4_allow_remote: bool = False) -> dict[str, Any]:
+def _autopilot_options(px4_instance: int | None, px4_host: str, px4_connect_timeout: float, mavlink: str | None,
+                       realtime: bool, mavlink_allow_remote: bool, px4_allow_remote: bool = False, *,
+                       px4_bin: Path | None = None, px4_lockstep_timeout: float = 1.0,
+                       mavlink_port: int | None = None) -> dict[str, Any]:
     """Only the PX4/MAVLink options that differ from the defaults (see vinecli.autopilot.px4_options)."""
     opts: dict[str, Any] = {}
-    if px4_instance:
+    if px4_instance is not None:
         opts["px4_instance"] = px4_instance
+    if px4_bin is not None:
+        if not px4_bin.is_file():
+            from vinecli.errors import InputError
+
+            raise InputError("PX4 binary not found (--px4-bin)", path=px4_bin)
+        opts["px4_bin"] = str(px4_bin.resolve())
+    if px4_lockstep_timeout != 1.0:
+        opts["px4_step_timeout_s"] = px4_lockstep_timeout
+    if mavlink_port is not None:
+        opts["mavlink_local_port"] = mavlink_port
     if px4_host != "127.0.0.1":
         opts["px4_host"] = px4_host
     if px4_connect_timeout != 30.0:

@@ -383,6 +383,7 @@ class MavlinkControlledAutopilot:
 
 
 def serve_mavlink(url: str = "udp:127.0.0.1:14540", *, realtime: bool = False, allow_remote: bool = False,
-                  instance: int = 0, truth: bool | None = None) -> MavlinkControlledAutopilot:
+                  instance: int = 0, truth: bool | None = None, local_port: int | None = None) -> MavlinkControlledAutopilot:
     """The autopilot to pass to ``run_simulation`` for ``vinecli run mission ... --mavlink URL [--realtime]``."""
-    return MavlinkControlledAutopilot(url=url, realtime=realtime, allow_remote=allow_remote, instance=instance, truth=truth)
+    return MavlinkControlledAutopilot(url=url, realtime=realtime, allow_remote=allow_remote, instance=instance, truth=truth,
+                                      local_port=local_port)

@@ -49,11 +49,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vinecli.autopilot.base import Autopilot, AutopilotContext, RunStatus
-from vinecli.errors import SpecError
+from vinecli.autopilot.base import Autopilot, AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.errors import AutopilotError, SpecError
 from vinecli.frames import Vec3, quat_from_euler, quat_to_euler, tilt_angle
 from vinecli.sim.recorder import Recorder, timeseries_columns
-from vinecli.sim.types import Event, Observation, RigidState, ServiceRequest
+from vinecli.sim.types import ActuatorCommand, Event, Observation, RigidState, ServiceRequest
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.world.model import World, rest_position
@@ -274,6 +274,13 @@ def run_simulation(
             tmpdir.cleanup()
 
 
+def _raiser(exc: AutopilotError) -> Callable[[Observation], ActuatorCommand]:
+    """A step function that re-raises the backend's failure at the first step."""
+    def step(_obs: Observation) -> ActuatorCommand:
+        raise exc
+    return step
+
+
 def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one flat function
     world: World = kw["world"]
     mission: MissionSpec = kw["mission"]
@@ -336,10 +343,14 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         terrain_height=world.terrain_height,
         seed=seed,
     )
-    autopilot.reset(ctx)
     ap_step = autopilot.step
     ap_status = autopilot.status
     ap_drain = autopilot.drain_events
+    try:
+        autopilot.reset(ctx)
+    except AutopilotError as exc:  # e.g. PX4 never connected: the run ends at t = 0 with status error
+        ap_step = _raiser(exc)
+    idle_cmd = ActuatorCommand((0.0,) * n_rot, 0.0, False)
 
     # drag links: (c kg/m, r FLU)
     rho = world.air_density
@@ -501,10 +512,15 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         imu, baro, mag, gnss = sample_all(truth)
         obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0,
                           *((battery.soc, battery.voltage_v) if battery is not None else (math.nan, math.nan)))
-        cmd = ap_step(obs)
+        try:
+            cmd = ap_step(obs)
+            st = ap_status()
+        except AutopilotError as exc:  # the backend failed (PX4 gone, rejected arming...): keep the run so far
+            cmd = idle_cmd
+            st = AutopilotStatus(mode="error", phase_index=st.phase_index if k else 0, status=RunStatus.ERROR, detail=str(exc))
+            events.append(Event(t_us, "autopilot_error", str(exc), {}))
         if cmd.service is not None:
             tank_was_empty = _serve(cmd.service, cmd.armed, on_ground, tank, battery, t_us, events, tank_was_empty)
-        st = ap_status()
         new_events = ap_drain()
         if new_events:
             events.extend(new_events)
@@ -679,6 +695,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     metrics["final_mass_kg"] = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
     metrics["energy_wh"] = energy_j / 3600.0 if battery is not None else math.nan
     metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
+    # backend counters (PX4: px4_stalls, px4_lockstep_steps...) into the run's metrics
+    metrics.update({name: float(v) for name, v in ap_status().extra.items() if name.startswith("px4_")})
     events.append(Event(t_us, "status", detail, {"status": status.value}))
     dep = None
     if emitter is not None and dep_n:  # the last group of a run that ended spraying

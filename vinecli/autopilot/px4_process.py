@@ -1,0 +1,158 @@
+"""Start and stop a PX4 SITL process for one run (``--px4-bin``): one process, one instance.
+
+PX4 v1.15 ``px4_sitl_default`` serves ONE simulator connection per process, so every run gets
+a fresh process with a fresh working directory (parameters from defaults). The instance number
+is reserved with an exclusive lock file (``$TMPDIR/vinecli-px4/instance-N.lock``) held for the
+life of the run, and only taken when PX4's UDP ports for it are free, so parallel batch workers
+(``run batch --jobs 2``) never share an instance. Command (PX4's own README)::
+
+    PX4_SIM_MODEL=none_iris <bin>/px4 -d -i N -w WORKDIR <bin>/../etc
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+from typing import IO
+
+from vinecli.errors import AutopilotError, InputError
+
+SIM_PORT_BASE = 4560
+#: UDP ports PX4 binds for instance i (GCS, API/offboard, payload, gimbal links)
+PX4_UDP_BASES = (18570, 14580, 14280, 13030)
+AUTO_INSTANCES = range(10, 100)  # 0..9 are left to people running PX4 by hand
+
+
+def etc_dir_for(px4_bin: Path) -> Path:
+    """The SITL ``etc`` directory of a PX4 binary (``.../bin/px4`` -> ``.../etc``); InputError if missing."""
+    etc = px4_bin.resolve().parent.parent / "etc"
+    if not (etc / "init.d-posix" / "rcS").is_file():
+        raise InputError(f"--px4-bin {px4_bin}: no SITL start-up files at {etc}/init.d-posix/rcS "
+                         "(expected the build/px4_sitl_default/{bin,etc} layout)")
+    return etc
+
+
+def _port_free(port: int, kind: int) -> bool:
+    s = socket.socket(socket.AF_INET, kind)
+    try:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        s.bind(("127.0.0.1", port))
+    except OSError:
+        return False
+    finally:
+        s.close()
+    return True
+
+
+class InstanceLock:
+    """An exclusive claim on one PX4 instance number (released by :meth:`release`)."""
+
+    def __init__(self, instance: int, fh: IO[str]) -> None:
+        self.instance = instance
+        self._fh: IO[str] | None = fh
+
+    def release(self) -> None:
+        """Drop the lock. Idempotent."""
+        if self._fh is not None:
+            with contextlib.suppress(OSError):
+                fcntl.flock(self._fh, fcntl.LOCK_UN)
+            self._fh.close()
+            self._fh = None
+
+
+def reserve_instance(candidates: range | list[int] = AUTO_INSTANCES) -> InstanceLock:
+    """Lock the first instance whose lock file is free and whose PX4 ports are unused."""
+    lock_dir = Path(tempfile.gettempdir()) / "vinecli-px4"
+    lock_dir.mkdir(exist_ok=True)
+    for i in candidates:
+        fh = (lock_dir / f"instance-{i}.lock").open("w")
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.close()
+            continue
+        if _port_free(SIM_PORT_BASE + i, socket.SOCK_STREAM) and all(
+                _port_free(b + i, socket.SOCK_DGRAM) for b in PX4_UDP_BASES):
+            return InstanceLock(i, fh)
+        fcntl.flock(fh, fcntl.LOCK_UN)
+        fh.close()
+    raise AutopilotError(f"no free PX4 instance in {candidates[0]}..{candidates[-1]} (all locked or ports in use)")
+
+
+class Px4Process:
+    """One PX4 SITL daemon: :meth:`start`, :meth:`alive`, :meth:`log_tail`, :meth:`stop`.
+
+    ``workdir`` None: a fresh temporary directory, deleted by :meth:`stop` (the log is read first).
+    """
+
+    def __init__(self, px4_bin: str | Path, instance: int, *, workdir: str | Path | None = None,
+                 airframe: str = "none_iris", sim_host: str = "127.0.0.1") -> None:
+        self.bin = Path(px4_bin).expanduser()
+        if not self.bin.is_file() or not os.access(self.bin, os.X_OK):
+            raise InputError(f"--px4-bin {px4_bin}: not an executable file")
+        self.etc = etc_dir_for(self.bin)
+        self.instance, self.airframe, self.sim_host = instance, airframe, sim_host
+        self._own_dir = workdir is None
+        self.workdir = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix=f"vinecli-px4-{instance}-"))
+        self.log_path = self.workdir / "px4.log"
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.returncode: int | None = None
+        self._log_text = ""
+
+    def command(self) -> list[str]:
+        """argv of the PX4 daemon (the environment adds PX4_SIM_MODEL)."""
+        return [str(self.bin.resolve()), "-d", "-i", str(self.instance), "-w", str(self.workdir / "rootfs"), str(self.etc)]
+
+    def start(self) -> None:
+        """Start PX4 in its own process group; it connects to TCP sim_host:4560+instance."""
+        (self.workdir / "rootfs").mkdir(parents=True, exist_ok=True)
+        env = dict(os.environ, PX4_SIM_MODEL=self.airframe)
+        if self.sim_host not in ("127.0.0.1", "localhost"):
+            env["PX4_SIM_HOST_ADDR"] = self.sim_host
+        with self.log_path.open("wb") as log:
+            try:
+                self.proc = subprocess.Popen(self.command(), cwd=self.workdir / "rootfs", env=env, stdin=subprocess.DEVNULL,
+                                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            except OSError as exc:
+                raise AutopilotError(f"cannot start PX4 {self.bin}: {exc.strerror or exc}") from None
+
+    def alive(self) -> bool:
+        """True while the process runs."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def log_tail(self, lines: int = 12) -> str:
+        """The last lines PX4 printed (for error messages)."""
+        text = self._log_text
+        if not text and self.log_path.is_file():
+            text = self.log_path.read_text(errors="replace")
+        return "\n".join(text.splitlines()[-lines:])
+
+    def stop(self, timeout_s: float = 5.0) -> int | None:
+        """SIGTERM the process group, SIGKILL after ``timeout_s``; remove a temporary workdir. Idempotent."""
+        p = self.proc
+        if p is not None and self.returncode is None:
+            for sig, wait in ((signal.SIGTERM, timeout_s), (signal.SIGKILL, 5.0)):
+                if p.poll() is not None:
+                    break
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(p.pid, sig)
+                deadline = time.monotonic() + wait
+                while p.poll() is None and time.monotonic() < deadline:
+                    time.sleep(0.02)
+            self.returncode = p.poll()
+        if self.log_path.is_file():
+            self._log_text = self.log_path.read_text(errors="replace")
+        if self._own_dir and self.workdir.exists():
+            shutil.rmtree(self.workdir, ignore_errors=True)
+        return self.returncode
+
+
+__all__ = ["InstanceLock", "Px4Process", "etc_dir_for", "reserve_instance"]
