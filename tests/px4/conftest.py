@@ -1,34 +1,23 @@
-"""Fixtures for the PX4 SITL / MAVLink tests: free loopback ports, a flat world, the real-PX4 gate.
+"""Fixtures for the PX4 SITL / MAVLink tests: free loopback ports, a flat world, real PX4.
 
-Tests marked ``@pytest.mark.px4`` need a real PX4 SITL binary: they are *deselected* at
-collection time unless ``PX4_SITL_BIN`` points to one (no skip markers).
+``px4_bin`` / ``real_px4`` (tests/px4/real_px4.py): the real PX4 v1.15 SITL build from
+``../shared/px4`` (or ``PX4_SITL_BIN``); tests using them skip only when neither exists.
 """
 
 from __future__ import annotations
 
-import os
 import socket
 from pathlib import Path
 
 import pytest
 
+from tests.px4.real_px4 import px4_bin, real_px4  # noqa: F401 - fixtures
 from vinecli.geo import GeoOrigin
 from vinecli.vehicle import load_vehicle
 from vinecli.vehicle.urdf import write_urdf
 from vinecli.world import TerrainInfo, World, rest_position
 
 ORIGIN = GeoOrigin(46.0705, 11.1204, 210.0)  # Trentino vineyard latitude/longitude, m AMSL
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if os.environ.get("PX4_SITL_BIN"):
-        return
-    keep, drop = [], []
-    for it in items:
-        (drop if it.get_closest_marker("px4") else keep).append(it)
-    if drop:
-        config.hook.pytest_deselected(items=drop)
-        items[:] = keep
 
 
 def free_port(kind: int = socket.SOCK_STREAM) -> int:
