@@ -1,62 +1,164 @@
-"""Against a real PX4 SITL binary: only collected when ``PX4_SITL_BIN`` is set (see conftest.py,
-which deselects ``@pytest.mark.px4`` tests otherwise).
+"""The CI gate flown by real PX4 v1.15 SITL (``../shared/px4``, extracted once per session).
 
-``PX4_SITL_BIN`` = ``.../PX4-Autopilot/build/px4_sitl_default/bin/px4``. The test starts PX4 with
-the command ``vinecli px4 doctor`` prints (airframe none_iris, instance 7, its own working
-directory), flies takeoff - hover - land through Px4SitlAutopilot, and stops the PX4 process it
-started.
+Every PX4 here is a real process that vinecli starts (``--px4-bin``) on a free instance with a
+fresh working directory, and stops after the run; tests skip only without ``../shared``.
 """
 
 from __future__ import annotations
 
+import json
 import os
-import shlex
-import subprocess
+import signal
+import threading
+import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from tests.px4.conftest import flat_world
+from tests.repo_paths import REPO
 from vinecli.autopilot.base import RunStatus
-from vinecli.autopilot.px4_sitl import Px4SitlAutopilot, px4_start_command
 from vinecli.sim.runner import run_simulation
 from vinecli.specs.mission import MissionSpec
 
-INSTANCE = 7
+pytestmark = [pytest.mark.px4, pytest.mark.timeout(300)]
 
 
-@pytest.mark.px4
-@pytest.mark.timeout(600)
-def test_real_px4_takeoff_hover_land(world, tmp_path: Path):
-    px4_bin = os.environ["PX4_SITL_BIN"]
-    cmd = px4_start_command(INSTANCE, px4_bin=px4_bin, workdir=str(tmp_path / "px4"))
-    parts = shlex.split(cmd)
-    env = dict(os.environ)
-    while "=" in parts[0]:
-        k, v = parts.pop(0).split("=", 1)
-        env[k] = v
-    (tmp_path / "px4").mkdir()
-    ap = Px4SitlAutopilot(instance=INSTANCE, connect_timeout_s=60, step_timeout_s=0.5, max_stalls=200,
-                          boot_timeout_s=120, health_timeout_s=180)
-    log = (tmp_path / "px4.log").open("w")
-    proc = subprocess.Popen(parts, cwd=tmp_path / "px4", env=env, stdin=subprocess.DEVNULL, stdout=log,
-                            stderr=subprocess.STDOUT)
+@pytest.fixture(scope="module")
+def ci_px4(px4_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+    """pipelines/ci-px4.yaml run once with --jobs 2 (four PX4 processes, two at a time)."""
+    from vinecli.batch import run_batch
+
+    out = tmp_path_factory.mktemp("ci-px4")
+    return run_batch(REPO / "pipelines" / "ci-px4.yaml", out, jobs=2, px4_bin=px4_bin), out
+
+
+def _events(run_dir: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in (run_dir / "events.jsonl").read_text().splitlines()]
+
+
+def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4):
+    result, out = ci_px4
+    by_case = {c.case: c for c in result.cases}
+    assert set(by_case) == {"takeoff", "overload", "spray-rows", "gust"}
+    for c in result.cases:
+        assert c.passed and c.error is None, (c.case, c.status, c.failed_checks, c.error)
+    assert by_case["overload"].status == "cannot_take_off"
+    spans = []
+    for case in by_case:
+        summary = json.loads((out / case / "summary.json").read_text())
+        assert summary["metrics"]["px4_stalls"] == 0 and summary["metrics"]["px4_lockstep_steps"] > 1000
+        started = [e for e in _events(out / case) if e["kind"] == "px4_process"]
+        assert len(started) == 1  # one PX4 process per case
+        spans.append((started[0]["data"]["instance"], summary["started_utc"]))
+    assert len({i for i, _ in spans}) >= 2  # two cases flew at the same time on different instances
+    alt = next(c for c in json.loads((out / "takeoff" / "summary.json").read_text())["checks"]
+               if c["name"] == "altitude_reached")
+    assert abs(alt["value"] - 8.0) <= 0.2  # NAV_MC_ALT_RAD = the phase's tolerance_m (PX4 default 0.8 m)
+
+
+def test_geofence_failsafe_ends_the_run_with_px4s_cause(real_px4, tmp_path):
+    """A U-shaped fence: both waypoints inside (PX4 accepts the mission), the straight path between
+    them crosses the notch -> PX4's geofence Hold mid-mission."""
     mission = MissionSpec.model_validate({
-        "name": "real-px4-hover", "autopilot": "px4", "max_duration_s": 240.0,
-        "phases": [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 5.0}, {"type": "land"}]})
-    try:
-        res = run_simulation(world, mission, ap, seed=1)
-    finally:
-        ap.close()
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
-        log.close()
-    text = (tmp_path / "px4.log").read_text(errors="replace")
-    assert res.status is RunStatus.COMPLETED, (res.status, res.detail, text[-2000:])
-    z = res.timeseries["pos_enu_z_m"] - world.spawn_enu[2]
-    assert 2.3 < z.max() < 4.0 and abs(z[-1]) < 0.2
-    assert ap.lockstep_steps > 1000
-    assert "Simulator connected" in text or "simulator" in text.lower()
+        "name": "fence-notch", "autopilot": "px4", "max_duration_s": 90.0,
+        "geofence": {"polygon_enu": [[-5, -5], [20, -5], [20, 20], [12, 20], [12, 3], [8, 3], [8, 20], [-5, 20]],
+                     "action": "hold"},
+        "phases": [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "goto", "position_enu": [0.0, 10.0]},
+                   {"type": "goto", "position_enu": [16.0, 10.0]}, {"type": "land"}]})
+    ap = real_px4()
+    t0 = time.monotonic()
+    res = run_simulation(flat_world(tmp_path), mission, ap, seed=2)
+    assert res.status is RunStatus.FAILSAFE, (res.status, res.detail)
+    assert "Geofence" in res.detail and "hold" in res.detail
+    fs = [e for e in res.events if e.kind == "failsafe"]
+    assert len(fs) == 1 and "Geofence" in str(fs[0].data["cause"]) and fs[0].data["action"] == "hold"
+    assert res.sim_time_s < 40 and time.monotonic() - t0 < 60  # not the 90 s time limit
+    assert 6.0 < max(res.timeseries["pos_enu_x_m"]) < 12.0  # stopped at the notch, never reached x = 16
+    from vinecli.autopilot.px4_doctor import px4_doctor
+
+    ap.close()  # PX4 stopped, sockets closed
+    rep = px4_doctor(instance=ap.instance, probe_timeout_s=0.2)  # right after the run: ports reusable
+    tcp = next(c for c in rep.checks if c.name.startswith("TCP"))
+    assert tcp.status == "ok", tcp.detail
+
+
+def _short_mission() -> MissionSpec:
+    return MissionSpec.model_validate({
+        "name": "px4-short", "autopilot": "px4", "max_duration_s": 60.0,
+        "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 4.0}, {"type": "land"}]})
+
+
+def _after_liftoff(ap: Any, action: Any, delay_s: float) -> threading.Thread:
+    """Run ``action(pid)`` ``delay_s`` after PX4 armed (wall clock), in a thread."""
+    def go() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not getattr(ap, "armed", False):
+            time.sleep(0.02)
+        time.sleep(delay_s)
+        if ap.process is not None and ap.process.alive():
+            action(ap.process.proc.pid)
+    th = threading.Thread(target=go, daemon=True)
+    th.start()
+    return th
+
+
+def test_px4_paused_for_half_a_second_is_a_lockstep_pause_not_stale_steps(real_px4, tmp_path):
+    def pause(pid: int) -> None:
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(0.5)
+        os.kill(pid, signal.SIGCONT)
+
+    world = flat_world(tmp_path)
+    ap = real_px4()  # default lockstep wait 1 s (PX4's Gazebo bridge)
+    th = _after_liftoff(ap, pause, 0.5)
+    res = run_simulation(world, _short_mission(), ap, seed=4)
+    th.join(5)
+    assert res.status is RunStatus.COMPLETED, res.detail
+    assert res.metrics["px4_stalls"] == 0
+    ap2 = real_px4(step_timeout_s=0.1, px4_workdir=str(tmp_path / "px4-b"))  # the old 0.1 s wait: stale steps
+    th = _after_liftoff(ap2, pause, 0.5)
+    res2 = run_simulation(world, _short_mission(), ap2, seed=4)
+    th.join(5)
+    assert res2.metrics["px4_stalls"] >= 3
+
+
+def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
+    """run_mission with --px4-bin; PX4 is killed in flight: status error, the run so far on disk."""
+    from vinecli.runs.mission import run_mission
+    from vinecli.world import build_world
+
+    world = tmp_path / "flat"
+    build_world(REPO / "worlds" / "flat.yaml", world)
+    mission = MissionSpec.model_validate({**_short_mission().model_dump(), "phases": [
+        {"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 30.0}, {"type": "land"}]})
+    killed: list[int] = []
+
+    def kill_px4_in_flight() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not killed:
+            for d in Path("/proc").iterdir():
+                if d.name.isdigit() and d.name != str(os.getpid()):
+                    try:
+                        cmd = (d / "cmdline").read_bytes().split(b"\0")
+                    except OSError:
+                        continue
+                    if cmd and cmd[0] == str(px4_bin.resolve()).encode():  # this session's extracted PX4
+                        time.sleep(2.5)  # booted, armed, in the air (8-10x real time)
+                        os.kill(int(d.name), signal.SIGKILL)
+                        killed.append(int(d.name))
+                        return
+            time.sleep(0.05)
+
+    th = threading.Thread(target=kill_px4_in_flight, daemon=True)
+    th.start()
+    s = run_mission(mission, world, tmp_path / "runs", seed=1,
+                    autopilot_options={"px4_bin": str(px4_bin)}, run_id="killed")
+    th.join(5)
+    assert killed
+    assert s.status == "error" and "PX4 closed the simulator connection" in s.status_message
+    summary = json.loads((tmp_path / "runs" / "killed" / "summary.json").read_text())
+    assert summary["status"] == "error" and summary["sim_time_s"] > 0
+    assert "px4_stalls" in summary["metrics"]
+    assert (tmp_path / "runs" / "killed" / "timeseries.parquet").is_file()

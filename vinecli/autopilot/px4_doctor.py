@@ -46,7 +46,11 @@ class DoctorReport:
 
 
 def _port_free(host: str, port: int, kind: int) -> tuple[bool, str]:
+    """Can vinecli bind ``port`` now? TCP with SO_REUSEADDR, as vinecli's server binds: a connection of
+    the last run in TIME_WAIT does not count, a listener does. UDP without it (it would share a port)."""
     s = socket.socket(socket.AF_INET, kind)
+    if kind == socket.SOCK_STREAM:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         s.bind((host, port))
     except OSError as exc:

@@ -69,7 +69,6 @@ class Px4MissionClient:
                  health_timeout_s: float = 120.0, command_timeout_s: float = 1.0) -> None:
         self.plan = plan
         self.ctx = ctx
-        self.link = UdpLink((host, api_port), (host, px4_port), reply_to_sender=True, src_system=255, src_component=190)
         self.target = target_system
         self.heartbeat_timeout_s = heartbeat_timeout_s
         self.health_timeout_s = health_timeout_s
@@ -97,6 +96,10 @@ class Px4MissionClient:
         self.in_mission = False
         self.warnings: list[tuple[float, str]] = []  # (wall time, text) of STATUSTEXT <= WARNING
         self._chunks: dict[int, str] = {}
+        # state messages are handled in the link's reader thread as they arrive, so the run sees a
+        # mission item change within a few ms of wall time (not when this client's thread is next scheduled)
+        self.link = UdpLink((host, api_port), (host, px4_port), reply_to_sender=True, src_system=255, src_component=190,
+                            on_message=self._handle)
 
     # ------------------------------------------------------------------ thread control
     def start(self) -> None:
@@ -234,7 +237,6 @@ class Px4MissionClient:
             m = self.link.recv(min(left, 0.1))
             if m is None:
                 continue
-            self._handle(m)
             if m.get_type() in types and m.get_srcSystem() == self.target and (cond is None or cond(m)):
                 return m
         return None

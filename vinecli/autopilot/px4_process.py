@@ -43,7 +43,8 @@ def etc_dir_for(px4_bin: Path) -> Path:
 def _port_free(port: int, kind: int) -> bool:
     s = socket.socket(socket.AF_INET, kind)
     try:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if kind == socket.SOCK_STREAM:  # TIME_WAIT of the last run is fine (vinecli's server sets SO_REUSEADDR)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         s.bind(("127.0.0.1", port))
     except OSError:
         return False

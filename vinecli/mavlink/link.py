@@ -49,6 +49,9 @@ class Link:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.closed_by_peer = threading.Event()
+        #: called in the reader thread with every decoded message before it is queued (state tracking
+        #: that must not wait for a consumer thread to be scheduled)
+        self.on_message: Any = None
         self.rx_count = 0
         self.tx_count = 0
 
@@ -66,6 +69,11 @@ class Link:
             if m.get_type() == "BAD_DATA":
                 continue
             self.rx_count += 1
+            if self.on_message is not None:
+                try:
+                    self.on_message(m)
+                except Exception:  # noqa: BLE001 - a handler bug must not kill the reader thread
+                    log.exception("%s: message handler failed on %s", self.name, m.get_type())
             self.inbox.put(m)
 
     def _start_reader(self) -> None:
@@ -269,8 +277,10 @@ class UdpLink(Link):
         reply_to_sender: bool = True,
         src_system: int = 1,
         src_component: int = 1,
+        on_message: Any = None,
     ) -> None:
         super().__init__(src_system, src_component, name=f"udp-{bind[1]}")
+        self.on_message = on_message
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:

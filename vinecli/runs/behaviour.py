@@ -1,0 +1,93 @@
+"""Behaviour figures of a finished run, to compare autopilots flying the same mission.
+
+From a run directory (``timeseries.parquet``, ``events.jsonl``, ``summary.json``):
+
+* ``takeoff_time_s``: lift-off to the first sample within ``tolerance_m`` of the first takeoff
+  phase's altitude above the start;
+* ``hover_error_max_m`` / ``hover_error_rms_m``: horizontal distance from the mean hold position
+  over the first hold phase (from 8 s into it, as the gust mission's checks);
+* ``spray_path_p95_m``: 95th percentile of the distance to the nearest row while the flow is on;
+* ``landing_time_s``: start of the last phase (land) to the last touchdown.
+
+A figure that does not apply to the run is None.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vinecli.runs import rundir
+
+
+def _first_event(events: list[dict[str, Any]], kind: str) -> float | None:
+    times = [float(e["t_s"]) for e in events if e["kind"] == kind]
+    return min(times) if times else None
+
+
+def _phase_span(t: np.ndarray, phase: np.ndarray, index: int) -> tuple[float, float] | None:
+    sel = np.nonzero(phase == index)[0]
+    return (float(t[sel[0]]), float(t[sel[-1]])) if sel.size else None
+
+
+def _row_distance(x: np.ndarray, y: np.ndarray, rows: list[list[list[float]]]) -> np.ndarray:
+    best = np.full(x.shape, np.inf)
+    for row in rows:
+        for (ax, ay), (bx, by) in zip(row[:-1], row[1:], strict=False):
+            dx, dy = bx - ax, by - ay
+            seg2 = dx * dx + dy * dy
+            u = np.clip(((x - ax) * dx + (y - ay) * dy) / seg2, 0.0, 1.0) if seg2 > 0 else np.zeros_like(x)
+            best = np.minimum(best, np.hypot(x - (ax + u * dx), y - (ay + u * dy)))
+    return best
+
+
+def behaviour_figures(run_dir: str | Path, *, hold_settle_s: float = 8.0) -> dict[str, float | None]:
+    """The figures of the module docstring for one run directory."""
+    run_dir = Path(run_dir)
+    ts = rundir.read_timeseries(run_dir / rundir.TIMESERIES)
+    events = rundir.read_events(run_dir / rundir.EVENTS)
+    summary = rundir.read_summary(run_dir)
+    from vinecli.missions.spec_io import load_mission
+
+    mission = load_mission(run_dir / rundir.MISSION, check_vehicle=False)
+    t, phase = ts["t_s"], ts["phase_index"]
+    x, y, z = ts["pos_enu_x_m"], ts["pos_enu_y_m"], ts["pos_enu_z_m"]
+    out: dict[str, float | None] = {"takeoff_time_s": None, "hover_error_max_m": None, "hover_error_rms_m": None,
+                                    "spray_path_p95_m": None, "landing_time_s": None}
+    types = [p.type for p in mission.phases]
+    liftoff = _first_event(events, "liftoff")
+    if types and types[0] == "takeoff" and liftoff is not None:
+        first = mission.phases[0]
+        target = z[0] + first.altitude_agl_m  # type: ignore[union-attr]
+        reached = np.nonzero((t >= liftoff) & (np.abs(z - target) <= first.tolerance_m))[0]  # type: ignore[union-attr]
+        out["takeoff_time_s"] = float(t[reached[0]] - liftoff) if reached.size else None
+    if "hold" in types:
+        span = _phase_span(t, phase, types.index("hold"))
+        if span is not None:
+            sel = (t >= span[0] + hold_settle_s) & (t <= span[1])
+            if sel.sum() > 1:
+                ex, ey = x[sel] - x[sel].mean(), y[sel] - y[sel].mean()
+                d = np.hypot(ex, ey)
+                out["hover_error_max_m"] = float(d.max())
+                out["hover_error_rms_m"] = float(math.sqrt(float(np.mean(d * d))))
+    rows = (summary.get("world") or {}).get("rows_enu") or []
+    flow = ts.get("tank_flow_cmd_lps")
+    if "spray" in types and flow is not None and rows:
+        spec = mission.phases[types.index("spray")]
+        if isinstance(spec.rows, list) and spec.rows and isinstance(spec.rows[0], int):  # type: ignore[union-attr]
+            rows = [rows[i] for i in spec.rows]  # type: ignore[union-attr,index]
+        on = flow > 0
+        if on.any():
+            out["spray_path_p95_m"] = float(np.percentile(_row_distance(x[on], y[on], rows), 95))
+    if types and types[-1] == "land":
+        span = _phase_span(t, phase, len(types) - 1)
+        downs = [float(e["t_s"]) for e in events if e["kind"] == "touchdown"]
+        if span is not None and downs and downs[-1] >= span[0]:
+            out["landing_time_s"] = downs[-1] - span[0]
+    return out
+
+
+__all__ = ["behaviour_figures"]
