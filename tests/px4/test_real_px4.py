@@ -162,3 +162,30 @@ def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
     assert summary["status"] == "error" and summary["sim_time_s"] > 0
     assert "px4_stalls" in summary["metrics"]
     assert (tmp_path / "runs" / "killed" / "timeseries.parquet").is_file()
+
+
+def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
+    """Behaviour comparison (BENCHMARKS.md): the built-in autopilot on the same cases, world and seeds."""
+    from vinecli.runs.behaviour import behaviour_figures
+    from vinecli.runs.mission import run_mission
+
+    _result, out = ci_px4
+    world = next((out / "_worlds").iterdir())
+    pipeline_dir = REPO / "pipelines"
+    missions = {"takeoff": "missions/takeoff.yaml", "gust": "missions/gust.yaml", "spray-rows": "missions/px4/spray-rows.yaml"}
+    fig: dict[str, dict[str, dict[str, float | None]]] = {}
+    for case, rel in missions.items():
+        seed = json.loads((out / case / "summary.json").read_text())["seed"]
+        s = run_mission(pipeline_dir / rel, world, tmp_path, seed=seed, autopilot="builtin", run_id=case)
+        assert s.passed, (case, s.status, s.failed_checks)
+        fig[case] = {"builtin": behaviour_figures(tmp_path / case), "px4": behaviour_figures(out / case)}
+    for who in ("builtin", "px4"):
+        takeoff = fig["takeoff"][who]
+        assert 2.0 < takeoff["takeoff_time_s"] < 12.0  # 8 m at a 2 m/s climb, with the approach
+        assert 2.0 < takeoff["landing_time_s"] < 20.0  # 8 m at 1 m/s, with PX4's slow final descent
+        assert fig["gust"][who]["hover_error_max_m"] < 1.0
+        assert fig["spray-rows"][who]["spray_path_p95_m"] < 0.5
+    # same behaviour class: PX4 within a factor of the built-in autopilot on each figure
+    for case, name in (("takeoff", "takeoff_time_s"), ("takeoff", "landing_time_s"), ("gust", "hover_error_max_m")):
+        b, p = fig[case]["builtin"][name], fig[case]["px4"][name]
+        assert b is not None and p is not None and 0.2 < p / b < 5.0, (case, name, b, p)

@@ -8,9 +8,11 @@ sprayer). The run's mission phases are pre-loaded as the vehicle's onboard missi
 or start it with MISSION_START / DO_SET_MODE AUTO.MISSION). The run ends ``completed`` once the
 vehicle has flown and is landed and disarmed again.
 
-Transport like PX4's API link: the vehicle binds ``host:local_port`` (default 14580 +
-instance) and sends to the given address (default 127.0.0.1:14540, where MAVSDK/pymavlink
-listen with ``udpin``), replying to whoever talks to it. Only loopback unless
+Transport (:mod:`vinecli.mavlink.gcs_link`): ``udp:``/``udpout:`` send to the given address
+(default 127.0.0.1:14540, where MAVSDK/pymavlink listen with ``udpin``) from ``local_port``
+(udp: 14580 + instance, like PX4's API link); ``udpin:`` binds the address; ``tcpin:`` accepts
+TCP clients; ``tcp:`` connects to a TCP server. Telemetry goes to every ground station that sent
+a valid MAVLink message (up to 4). The address is resolved and must be loopback unless
 ``allow_remote=True``.
 
 Pacing: with ``realtime`` the simulation follows the wall clock; otherwise (lockstep) it runs
@@ -31,7 +33,8 @@ from vinecli.autopilot.builtin import BuiltinAutopilot, _Phase
 from vinecli.errors import InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_to_euler, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.link import Link, UdpLink, is_loopback, parse_endpoint
+from vinecli.mavlink.gcs_link import checked_address, open_vehicle_link
+from vinecli.mavlink.link import Link, parse_endpoint
 from vinecli.mavlink.mission_items import MissionItem, PlanContext, items_to_phases, phases_to_items
 from vinecli.mavlink.vehicle import DEFAULT_PARAMS, Telemetry, VehicleEndpoint
 from vinecli.sim.types import ActuatorCommand, Event, Observation
@@ -76,13 +79,16 @@ class MavlinkControlledAutopilot:
     def __init__(self, *, url: str = "udp:127.0.0.1:14540", allow_remote: bool = False, realtime: bool = False,
                  instance: int = 0, local_port: int | None = None, truth: bool | None = None, link: Link | None = None,
                  pace: bool = True) -> None:
-        _scheme, host, port = parse_endpoint(url)
-        if not is_loopback(host) and not allow_remote:
-            raise InputError(f"--mavlink {url}: {host} is not a loopback address; add --mavlink-allow-remote to expose the vehicle")
+        self.scheme, host, port = parse_endpoint(url)
+        if link is None:
+            checked_address(host, allow_remote)  # resolved and checked as an IP now, not at reset
+        if local_port is not None and self.scheme not in ("udp", "udpout"):
+            raise InputError(f"--mavlink {url}: --mavlink-port (vinecli's own port) applies to udp:/udpout: only")
+        self.allow_remote = allow_remote
         self.url, self.host, self.port = url, host, port
         self.realtime, self.pace = realtime, pace
         self.instance = instance
-        self.local_port = 14580 + instance if local_port is None else local_port
+        self.local_port = local_port  # None: the scheme's default (udp: 14580 + instance, udpout: any)
         self._given_link = link
         self.link: Link | None = None
         self.ap = BuiltinAutopilot(truth=truth)
@@ -116,9 +122,8 @@ class MavlinkControlledAutopilot:
         if self._given_link is not None:
             self.link = self._given_link
         else:
-            bind_host = self.host if is_loopback(self.host) else "0.0.0.0"
-            self.link = UdpLink((bind_host, self.local_port), (self.host, self.port), reply_to_sender=True,
-                                src_system=self.instance + 1, src_component=1)
+            self.link = open_vehicle_link(self.url, allow_remote=self.allow_remote, local_port=self.local_port,
+                                          instance=self.instance, src_system=self.instance + 1, src_component=1)
         self.endpoint = VehicleEndpoint(self.link, self, params, sysid=self.instance + 1)
         self.endpoint.missions[0] = list(items)
         self.endpoint.missions[1] = list(fence)
@@ -130,12 +135,13 @@ class MavlinkControlledAutopilot:
         self._sim0 = 0
         self._status = AutopilotStatus(mode="DISARMED", phase_index=0, extra={})
         self._events = []
-        self._emit(0, "mavlink", f"MAVLink vehicle on UDP {self.link_desc()}", {"url": self.url})
+        self._emit(0, "mavlink", f"MAVLink vehicle on {self.scheme} {self.link_desc()}", {"url": self.url})
 
     def link_desc(self) -> str:
-        lk = self.link
-        local = getattr(lk, "local", None)
-        return f"{local[0]}:{local[1]} -> {self.host}:{self.port}" if local else self.url
+        local = getattr(self.link, "local", None)
+        if local is None or self.scheme in ("udpin", "tcpin"):
+            return self.url
+        return f"{local[0]}:{local[1]} -> {self.host}:{self.port}"
 
     def _emit(self, t_us: int, kind: str, message: str, data: dict[str, object] | None = None) -> None:
         self._events.append(Event(t_us, kind, message, data or {}))

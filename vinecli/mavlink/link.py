@@ -31,8 +31,19 @@ Message = mavlink2.MAVLink_message
 
 
 def is_loopback(host: str) -> bool:
-    """True for 127.0.0.0/8, ::1 and 'localhost'."""
-    return host in ("localhost", "::1") or host.startswith("127.")
+    """True when ``host`` resolves to a loopback IP (127.0.0.0/8, ::1); a name like
+    ``127.0.0.1.example.org`` is resolved, not prefix-matched. False if it does not resolve."""
+    import ipaddress
+
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        pass
+    try:
+        infos = socket.getaddrinfo(host, None)
+    except (OSError, UnicodeError):
+        return False
+    return bool(infos) and all(ipaddress.ip_address(i[4][0]).is_loopback for i in infos)
 
 
 class Link:
