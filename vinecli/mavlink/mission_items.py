@@ -173,8 +173,9 @@ def phases_to_items(mission: MissionSpec, ctx: PlanContext) -> Px4Plan:
             params["MIS_TAKEOFF_ALT"] = float(ph.altitude_agl_m)
             # PX4 accepts an item's altitude within NAV_MC_ALT_RAD (default 0.8 m): the phase's tolerance
             params["NAV_MC_ALT_RAD"] = min(float(params.get("NAV_MC_ALT_RAD", math.inf)), float(ph.tolerance_m))
-            if ph.climb_speed_mps is not None:  # the spool-up ramp and the auto climb after it
+            if ph.climb_speed_mps is not None:  # the takeoff ramp's target and the auto climb after it,
                 params["MPC_TKO_SPEED"] = params["MPC_Z_V_AUTO_UP"] = float(ph.climb_speed_mps)
+                params["MPC_TKO_RAMP_T"] = 1.0  # reached in 1 s (PX4 default 3 s: no steady climb in 8 m)
             wp(pos[0], pos[1], alt_rel, pi, cmd=M.CMD_NAV_TAKEOFF)
             items[-1].param2 = 0.0
         elif isinstance(ph, HoldPhase):
