@@ -87,3 +87,29 @@ def test_mavlink_non_loopback_needs_the_flag(built_world: Path, tmp_path: Path) 
     r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out",
                             str(tmp_path / "runs"), "--autopilot", "px4", "--mavlink", "udp:127.0.0.1:14540"])
     assert r.exit_code == 2 and "serves the built-in autopilot" in r.stderr
+
+
+def test_px4_bin_that_fails_leaves_a_run_directory_and_exit_3(built_world: Path, tmp_path: Path) -> None:
+    """--px4-bin starts the process itself; one that exits at once gives status error, its log in the message."""
+    px4 = tmp_path / "px4build" / "bin" / "px4"
+    (tmp_path / "px4build" / "etc" / "init.d-posix").mkdir(parents=True)
+    (tmp_path / "px4build" / "etc" / "init.d-posix" / "rcS").write_text("# empty\n")
+    px4.parent.mkdir(parents=True)
+    px4.write_text("#!/bin/sh\necho 'ERROR [simulator_mavlink] broken build for this test'\nexit 7\n")
+    px4.chmod(0o755)
+    m = tmp_path / "px4-quick.yaml"
+    m.write_text(MISSION)
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+                            "--px4-bin", str(px4), "--px4-connect-timeout", "10"])
+    assert r.exit_code == 3, r.output
+    summary = json.loads((tmp_path / "runs" / "px4-quick-s0" / "summary.json").read_text())
+    assert summary["status"] == "error"
+    assert "PX4 exited (code 7)" in summary["status_message"] and "broken build for this test" in summary["status_message"]
+
+
+def test_px4_bin_needs_the_px4_autopilot(built_world: Path, tmp_path: Path) -> None:
+    m = tmp_path / "builtin.yaml"
+    m.write_text(MISSION.replace("autopilot: px4", "autopilot: builtin"))
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+                            "--px4-bin", "/bin/sh"])
+    assert r.exit_code == 2 and "--px4-bin needs --autopilot px4" in r.output
