@@ -56,6 +56,7 @@ def plan_for(ctx: AutopilotContext) -> Px4Plan:
     if ctx.geofence is not None and mission.geofence is None:
         mission = mission.model_copy(update={"geofence": ctx.geofence})
     plan = phases_to_items(mission, pc)
+    plan.params = {**v.px4.params, **plan.params}  # the airframe's, then the mission's
     if any(it.command == M.CMD_DO_SET_ACTUATOR for it in plan.items):
         plan.params[f"PWM_MAIN_FUNC{v.px4.sprayer_channel + 1}"] = 301
     return plan

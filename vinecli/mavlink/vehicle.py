@@ -423,6 +423,8 @@ DEFAULT_PARAMS: dict[str, float | int] = {
     "NAV_MC_ALT_RAD": 0.8,
     "MPC_Z_V_AUTO_UP": 3.0,
     "MPC_TKO_RAMP_T": 3.0,
+    "EKF2_HGT_REF": 1,
+    "EKF2_GPS_CTRL": 7,
     "GF_ACTION": 2,
     "GF_MAX_HOR_DIST": 0.0,
     "GF_MAX_VER_DIST": 0.0,
