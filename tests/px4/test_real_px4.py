@@ -43,7 +43,9 @@ def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4):
     by_case = {c.case: c for c in result.cases}
     assert set(by_case) == {"takeoff", "overload", "spray-rows", "gust"}
     for c in result.cases:
-        assert c.passed and c.error is None, (c.case, c.status, c.failed_checks, c.error)
+        checks = json.loads((out / c.case / "summary.json").read_text())["checks"] if (out / c.case).is_dir() else []
+        failed = [(k["name"], k["value"], k["bound"]) for k in checks if not k["passed"]]
+        assert c.passed and c.error is None, (c.case, c.status, failed, c.error)
     assert by_case["overload"].status == "cannot_take_off"
     spans = []
     for case in by_case:
@@ -179,6 +181,7 @@ def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
         s = run_mission(pipeline_dir / rel, world, tmp_path, seed=seed, autopilot="builtin", run_id=case)
         assert s.passed, (case, s.status, s.failed_checks)
         fig[case] = {"builtin": behaviour_figures(tmp_path / case), "px4": behaviour_figures(out / case)}
+    print(json.dumps(fig, indent=1))  # shown on failure
     for who in ("builtin", "px4"):
         takeoff = fig["takeoff"][who]
         assert 2.0 < takeoff["takeoff_time_s"] < 12.0  # 8 m at a 2 m/s climb, with the approach

@@ -2,8 +2,8 @@
 
 From a run directory (``timeseries.parquet``, ``events.jsonl``, ``summary.json``):
 
-* ``takeoff_time_s``: lift-off to the first sample within ``tolerance_m`` of the first takeoff
-  phase's altitude above the start;
+* ``takeoff_time_s``: lift-off to the first sample at 95 % of the first takeoff phase's
+  altitude above the start (a rise time: independent of where each autopilot accepts the item);
 * ``hover_error_max_m`` / ``hover_error_rms_m``: horizontal distance from the mean hold position
   over the first hold phase (from 8 s into it, as the gust mission's checks);
 * ``spray_path_p95_m``: 95th percentile of the distance to the nearest row while the flow is on;
@@ -61,8 +61,8 @@ def behaviour_figures(run_dir: str | Path, *, hold_settle_s: float = 8.0) -> dic
     liftoff = _first_event(events, "liftoff")
     if types and types[0] == "takeoff" and liftoff is not None:
         first = mission.phases[0]
-        target = z[0] + first.altitude_agl_m  # type: ignore[union-attr]
-        reached = np.nonzero((t >= liftoff) & (np.abs(z - target) <= first.tolerance_m))[0]  # type: ignore[union-attr]
+        level = z[0] + 0.95 * first.altitude_agl_m  # type: ignore[union-attr]
+        reached = np.nonzero((t >= liftoff) & (z >= level))[0]
         out["takeoff_time_s"] = float(t[reached[0]] - liftoff) if reached.size else None
     if "hold" in types:
         span = _phase_span(t, phase, types.index("hold"))
