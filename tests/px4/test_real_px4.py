@@ -51,7 +51,10 @@ def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4):
     for case in by_case:
         summary = json.loads((out / case / "summary.json").read_text())
         assert summary["metrics"]["px4_stalls"] == 0 and summary["metrics"]["px4_lockstep_steps"] > 1000
-        started = [e for e in _events(out / case) if e["kind"] == "px4_process"]
+        events = _events(out / case)
+        errors = [e["message"] for e in events if e["kind"] == "px4_statustext" and e["data"]["severity"] <= 3]
+        assert errors == [], (case, errors)  # e.g. no "Baro/Mag #0 failed: TIMEOUT" (fields_updated per new sample)
+        started = [e for e in events if e["kind"] == "px4_process"]
         assert len(started) == 1  # one PX4 process per case
         spans.append((started[0]["data"]["instance"], summary["started_utc"]))
     assert len({i for i, _ in spans}) >= 2  # two cases flew at the same time on different instances

@@ -88,6 +88,15 @@ def reserve_instance(candidates: range | list[int] = AUTO_INSTANCES) -> Instance
     raise AutopilotError(f"no free PX4 instance in {candidates[0]}..{candidates[-1]} (all locked or ports in use)")
 
 
+def _die_with_parent() -> None:
+    """In the child before exec: SIGKILL when the process that started PX4 dies (Linux PR_SET_PDEATHSIG),
+    so a killed run or batch worker leaves no PX4 behind."""
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
+
+
 class Px4Process:
     """One PX4 SITL daemon: :meth:`start`, :meth:`alive`, :meth:`log_tail`, :meth:`stop`.
 
@@ -121,7 +130,8 @@ class Px4Process:
         with self.log_path.open("wb") as log:
             try:
                 self.proc = subprocess.Popen(self.command(), cwd=self.workdir / "rootfs", env=env, stdin=subprocess.DEVNULL,
-                                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+                                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+                                             preexec_fn=_die_with_parent if os.name == "posix" else None)
             except OSError as exc:
                 raise AutopilotError(f"cannot start PX4 {self.bin}: {exc.strerror or exc}") from None
 
