@@ -195,3 +195,46 @@ def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
     for case, name in (("takeoff", "takeoff_time_s"), ("takeoff", "landing_time_s"), ("gust", "hover_error_max_m")):
         b, p = fig[case]["builtin"][name], fig[case]["px4"][name]
         assert b is not None and p is not None and 0.2 < p / b < 5.0, (case, name, b, p)
+
+
+def test_operator_mode_change_is_an_event_and_ends_the_run(real_px4, tmp_path):
+    """A ground station switches PX4 to Hold mid-mission (HEARTBEAT custom mode, no warning text)."""
+    from pymavlink import mavutil
+
+    from vinecli.mavlink import px4modes as M
+
+    mission = MissionSpec.model_validate({
+        "name": "px4-hold-cmd", "autopilot": "px4", "max_duration_s": 90.0,
+        "phases": [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 40.0}, {"type": "land"}]})
+    ap = real_px4()
+    sent: list[float] = []
+
+    def operator() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            mc = ap.mission_client
+            if mc is not None and mc.in_mission and mc.was_airborne:
+                break
+            time.sleep(0.05)
+        gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{18570 + ap.instance}", source_system=255,
+                                         source_component=190, dialect="common")
+        try:
+            for _ in range(5):  # PX4's GCS link: heartbeat, then DO_SET_MODE AUTO.LOITER
+                gcs.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, M.MAV_STATE_ACTIVE)
+                gcs.mav.command_long_send(ap.instance + 1, 1, M.CMD_DO_SET_MODE, 0, 1, M.MAIN_AUTO, M.SUB_LOITER, 0, 0, 0, 0)
+                sent.append(time.monotonic())
+                if gcs.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5) is not None:
+                    return
+        finally:
+            gcs.close()
+
+    th = threading.Thread(target=operator, daemon=True)
+    th.start()
+    res = run_simulation(flat_world(tmp_path), mission, ap, seed=5)
+    th.join(10)
+    assert sent
+    assert res.status is RunStatus.FAILSAFE, (res.status, res.detail)
+    fs = [e for e in res.events if e.kind == "failsafe"]
+    assert len(fs) == 1 and fs[0].data["action"] == "hold"
+    assert any(e.kind == "mode" and e.message == "hold" and e.t_us > 0 for e in res.events)
+    assert res.sim_time_s < 50  # not the 40 s hold + landing
