@@ -36,6 +36,7 @@ import time
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.px4_takeoff import TakeoffWatch
 from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
@@ -49,7 +50,6 @@ SIM_PORT_BASE = 4560
 API_PORT_BASE = 14540  # vinecli binds (PX4 sends here)
 PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
 G0 = 9.80665
-SATURATED_U = 0.9  # mean motor output counted as "full thrust" (PX4 rarely holds 1.0 on the ground)
 
 
 def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
@@ -164,13 +164,9 @@ class Px4SitlAutopilot:
         self.lockstep_steps = 0
         self.hil_gps_sent = 0
         self.px4_heartbeat: Any = None
-        self._z_armed: float | None = None
-        self._sat_s = 0.0
-        self._cannot_takeoff_s = self.cannot_takeoff_s or v.control.cannot_takeoff_s
-        self._t_armed_us = 0
-        self._max_rise = 0.0
         first = ctx.mission.phases[0] if ctx.mission.phases else None
-        self._takeoff_timeout_s: float | None = first.timeout_s if isinstance(first, TakeoffPhase) else None
+        self._takeoff = TakeoffWatch(self.cannot_takeoff_s or v.control.cannot_takeoff_s,
+                                     first.timeout_s if isinstance(first, TakeoffPhase) else None)
         self.requested_state_interval_us: float | None = None
         self._events = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0, extra={})
@@ -283,36 +279,16 @@ class Px4SitlAutopilot:
         return cmd
 
     def _watch_saturation(self, obs: Observation) -> None:
-        """``cannot_take_off`` when armed and not climbing (< 0.5 m above the start) while either PX4's motor
-        outputs stay near full (mean >= SATURATED_U) for ``cannot_takeoff_s``, or the first takeoff phase's
-        ``timeout_s`` has passed since arming (PX4 backs off from full thrust on the ground)."""
-        if not self.armed or self._status.status is not RunStatus.RUNNING:
-            self._z_armed = None
+        """``cannot_take_off`` (see :mod:`vinecli.autopilot.px4_takeoff`)."""
+        if self._status.status is not RunStatus.RUNNING:
             return
-        z, vz = obs.truth.pos[2], obs.truth.vel[2]
-        if self._z_armed is None:
-            self._z_armed, self._t_armed_us = z, obs.t_us
         u = [min(max(self.controls[ch], 0.0), 1.0) if self.controls[ch] == self.controls[ch] else 0.0 for ch in self.channels]
-        rise = z - self._z_armed
-        low = rise < 0.5 and vz < 0.3
-        if sum(u) >= SATURATED_U * len(u) and low:
-            self._sat_s += self.dt_us * 1e-6
-        else:
-            self._sat_s = 0.0
-        if self._max_rise < rise:
-            self._max_rise = rise
-        waited = (obs.t_us - self._t_armed_us) * 1e-6
-        why = ""
-        if self._sat_s >= self._cannot_takeoff_s:
-            why = f"PX4 motor outputs saturated (mean {sum(u) / len(u):.2f}) for {self._sat_s:.1f} s"
-        elif self._takeoff_timeout_s is not None and waited > self._takeoff_timeout_s and self._max_rise < 0.5:
-            why = f"no lift-off {waited:.1f} s after arming (takeoff timeout_s {self._takeoff_timeout_s:g} s)"
+        why = self._takeoff.update(obs.t_us, self.dt_us * 1e-6, self.armed, obs.truth.pos[2], obs.truth.vel[2], u)
         if why:
-            v = self.ctx.vehicle
             st = self._status
             st.status = RunStatus.CANNOT_TAKE_OFF
-            st.detail = (f"{why} at {rise:.2f} m above the start "
-                         f"(weight {self.ctx.total_mass_kg * G0:.1f} N, max thrust {v.max_thrust():.1f} N)")
+            st.detail = (f"{why} (weight {self.ctx.total_mass_kg * G0:.1f} N, "
+                         f"max thrust {self.ctx.vehicle.max_thrust():.1f} N)")
             self._emit(obs.t_us, "status", f"{st.status.value}: {st.detail}", {"status": st.status.value, "detail": st.detail})
 
     def _boot_step(self, t: int, obs: Observation) -> None:

@@ -1,0 +1,33 @@
+"""TakeoffWatch: the PX4 backend's cannot_take_off rule on hand-made traces."""
+
+from __future__ import annotations
+
+from vinecli.autopilot.px4_takeoff import TakeoffWatch
+
+DT_US = 4000
+
+
+def run(watch: TakeoffWatch, seconds: float, z_of_t, u: float, armed: bool = True, t0_us: int = 0) -> tuple[str, float]:
+    t_us = t0_us
+    while t_us < t0_us + seconds * 1e6:
+        t = (t_us - t0_us) * 1e-6
+        why = watch.update(t_us, DT_US * 1e-6, armed, z_of_t(t), 0.0, [u] * 4)
+        if why:
+            return why, t
+        t_us += DT_US
+    return "", seconds
+
+
+def test_saturated_on_the_ground_for_the_vehicle_time():
+    why, t = run(TakeoffWatch(2.0, None), 10.0, lambda t: 0.2, 0.95)
+    assert "saturated" in why and abs(t - 2.0) < 0.01
+
+
+def test_below_saturation_the_takeoff_timeout_decides():
+    why, t = run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2, 0.8)
+    assert "no lift-off" in why and 20.0 < t < 20.1
+
+
+def test_a_climb_or_a_disarmed_vehicle_is_fine():
+    assert run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2 + 0.5 * t, 0.95)[0] == ""  # full thrust, climbing
+    assert run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2, 1.0, armed=False)[0] == ""
