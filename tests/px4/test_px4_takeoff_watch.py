@@ -23,8 +23,13 @@ def test_saturated_on_the_ground_for_the_vehicle_time():
     assert "saturated" in why and abs(t - 2.0) < 0.01
 
 
-def test_below_saturation_the_takeoff_timeout_decides():
+def test_trying_below_saturation_without_lifting_off():
     why, t = run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2, 0.8)
+    assert "without lifting off" in why and abs(t - 6.0) < 0.01
+
+
+def test_idling_on_the_ground_the_takeoff_timeout_decides():
+    why, t = run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2, 0.3)
     assert "no lift-off" in why and 20.0 < t < 20.1
 
 
