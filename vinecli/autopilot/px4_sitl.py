@@ -265,7 +265,10 @@ class Px4SitlAutopilot:
             raise AutopilotError(f"px4 autopilot: sim time went backwards ({t} <= {self._t_last} µs)")
         self._t_last = t
         self.steps += 1
-        self._send_sensors(t, obs)
+        try:
+            self._send_sensors(t, obs)
+        except AutopilotError as exc:  # the connection broke while sending (PX4 died): say what PX4 said last
+            raise AutopilotError(str(exc) + self._px4_log()) from None
         if not self.lockstep:
             self._boot_step(t, obs)
         else:
