@@ -11,7 +11,9 @@ state (mode, current item, events, error, finished). Sequence, each with a wall-
    PARAM_VALUE;
 3. upload the mission (mission_type 0) and the geofence (mission_type 1) with MISSION_COUNT /
    MISSION_REQUEST_INT / MISSION_ITEM_INT / MISSION_ACK;
-4. wait for health: SYS_STATUS with the PREARM_CHECK bit and the GPS bit healthy;
+4. wait for health: SYS_STATUS with the PREARM_CHECK bit and the GPS bit healthy, and at least
+   2 s of simulated time since the parameters were set (PX4 picks up a changed output function
+   on a later cycle; arming at once left the sprayer unmapped);
 5. arm (COMMAND_LONG 400; a non-ACCEPTED COMMAND_ACK -> AutopilotError with PX4's result and
    its recent STATUSTEXT), then DO_SET_MODE AUTO.MISSION (176: 1, 4, 4);
 6. follow HEARTBEAT (mode, armed), MISSION_CURRENT, MISSION_ITEM_REACHED and
@@ -42,6 +44,10 @@ log = logging.getLogger(__name__)
 
 INT_PARAMS = frozenset({"GF_ACTION", "NAV_DLL_ACT", "COM_RC_IN_MODE"})
 SEVERITY_WARNING = 4  # MAV_SEVERITY: 0 EMERGENCY ... 4 WARNING
+#: PX4 picks up a changed output function (the sprayer's PWM_MAIN_FUNCn) on a later cycle; arming
+#: ~0.05 s (simulated) after the PARAM_SETs left the sprayer unmapped for the whole flight in 2 of 3
+#: runs (PX4 v1.15.4, seed 606006878), never with this delay. Arm no earlier than this after them.
+PARAM_SETTLE_US = 2_000_000
 
 
 def plan_for(ctx: AutopilotContext) -> Px4Plan:
@@ -314,10 +320,12 @@ class Px4MissionClient:
             return
         for name, value in plan.params.items():
             self.set_param(name, value)
+        params_sim_us = self.sim_time_us
         self.upload(plan.items, M.MAV_MISSION_TYPE_MISSION)
         if plan.fence:
             self.upload(plan.fence, M.MAV_MISSION_TYPE_FENCE)
         self._wait_health()
+        self._wait_sim(params_sim_us + PARAM_SETTLE_US)
         ack = self.command(M.CMD_COMPONENT_ARM_DISARM, 1.0)
         if ack is None:
             raise AutopilotTimeout("PX4 did not acknowledge the arm command" + self._px4_says())
@@ -331,6 +339,12 @@ class Px4MissionClient:
         self.started = True
         self._event("mission_start", "mission started", {})
         self._monitor()
+
+    def _wait_sim(self, until_us: int) -> None:
+        """Let simulated time reach ``until_us`` (the run keeps stepping; wall-clock bounded)."""
+        deadline = time.monotonic() + self.health_timeout_s
+        while self.sim_time_us < until_us and time.monotonic() < deadline and not self._stop.is_set():
+            self._wait(set(), 0.02)
 
     def _wait_health(self) -> None:
         deadline = time.monotonic() + self.health_timeout_s
