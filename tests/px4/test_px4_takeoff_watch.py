@@ -36,3 +36,17 @@ def test_idling_on_the_ground_the_takeoff_timeout_decides():
 def test_a_climb_or_a_disarmed_vehicle_is_fine():
     assert run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2 + 0.5 * t, 0.95)[0] == ""  # full thrust, climbing
     assert run(TakeoffWatch(2.0, 20.0), 30.0, lambda t: 0.2, 1.0, armed=False)[0] == ""
+
+
+def test_boot_parameters_script_is_validated():
+    import pytest
+
+    from vinecli.autopilot.px4_process import boot_params_script
+    from vinecli.errors import InputError
+
+    text = boot_params_script({"EKF2_HGT_REF": 0, "NAV_MC_ALT_RAD": 0.2})
+    assert "param set EKF2_HGT_REF 0\n" in text and "param set NAV_MC_ALT_RAD 0.2\n" in text
+    assert boot_params_script({}) == ""
+    for bad in ({"X; rm -rf /": 1}, {"NAV_MC_ALT_RAD": float("nan")}, {"lower": 1}):
+        with pytest.raises(InputError):
+            boot_params_script(bad)

@@ -7,6 +7,9 @@ life of the run, and only taken when PX4's UDP ports for it are free, so paralle
 (``run batch --jobs 2``) never share an instance. Command (PX4's own README)::
 
     PX4_SIM_MODEL=none_iris <bin>/px4 -d -i N -w WORKDIR <bin>/../etc
+
+The run's PX4 parameters (the vehicle's ``px4.params`` and the mission's) are set at boot through
+a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` (:func:`boot_params_script`).
 """
 
 from __future__ import annotations
@@ -97,6 +100,26 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
 
 
+def boot_params_script(params: dict[str, int | float]) -> str:
+    """``px4-rc.params`` setting ``params`` at boot ('' for none); InputError for a bad name or value.
+
+    PX4 v1.15 has no ``PX4_PARAM_*`` environment, and some parameters only act from boot
+    (``EKF2_HGT_REF`` is reboot-required; an output function set over MAVLink just before arming
+    was picked up too late), so a PX4 that vinecli starts gets them in its start-up script.
+    """
+    import math
+    import re
+
+    lines = []
+    for name, value in params.items():
+        if not re.fullmatch(r"[A-Z][A-Z0-9_]{0,15}", name):
+            raise InputError(f"PX4 parameter name {name!r}: expected up to 16 of A-Z, 0-9, _")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputError(f"PX4 parameter {name}: value {value!r} is not a finite number")
+        lines.append(f"param set {name} {value if isinstance(value, int) else repr(float(value))}")
+    return "#!/bin/sh\n# written by vinecli: this run's parameters\n" + "\n".join(lines) + "\n" if lines else ""
+
+
 class Px4Process:
     """One PX4 SITL daemon: :meth:`start`, :meth:`alive`, :meth:`log_tail`, :meth:`stop`.
 
@@ -104,7 +127,8 @@ class Px4Process:
     """
 
     def __init__(self, px4_bin: str | Path, instance: int, *, workdir: str | Path | None = None,
-                 airframe: str = "none_iris", sim_host: str = "127.0.0.1") -> None:
+                 airframe: str = "none_iris", sim_host: str = "127.0.0.1",
+                 params: dict[str, int | float] | None = None) -> None:
         self.bin = Path(px4_bin).expanduser()
         if not self.bin.is_file() or not os.access(self.bin, os.X_OK):
             raise InputError(f"--px4-bin {px4_bin}: not an executable file")
@@ -113,6 +137,7 @@ class Px4Process:
         self._own_dir = workdir is None
         self.workdir = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix=f"vinecli-px4-{instance}-"))
         self.log_path = self.workdir / "px4.log"
+        self.params = boot_params_script(params or {})  # validated now, before anything starts
         self.proc: subprocess.Popen[bytes] | None = None
         self.returncode: int | None = None
         self._log_text = ""
@@ -125,6 +150,11 @@ class Px4Process:
         """Start PX4 in its own process group; it connects to TCP sim_host:4560+instance."""
         (self.workdir / "rootfs").mkdir(parents=True, exist_ok=True)
         env = dict(os.environ, PX4_SIM_MODEL=self.airframe)
+        if self.params:  # rcS sources px4-rc.params from PATH before EKF2 and the outputs start
+            rc = self.workdir / "rc"
+            rc.mkdir(exist_ok=True)
+            (rc / "px4-rc.params").write_text(self.params, encoding="utf-8")
+            env["PATH"] = f"{rc}{os.pathsep}{env.get('PATH', '')}"
         if self.sim_host not in ("127.0.0.1", "localhost"):
             env["PX4_SIM_HOST_ADDR"] = self.sim_host
         with self.log_path.open("wb") as log:
@@ -166,4 +196,4 @@ class Px4Process:
         return self.returncode
 
 
-__all__ = ["InstanceLock", "Px4Process", "etc_dir_for", "reserve_instance"]
+__all__ = ["InstanceLock", "Px4Process", "boot_params_script", "etc_dir_for", "reserve_instance"]

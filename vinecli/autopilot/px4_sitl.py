@@ -212,7 +212,9 @@ class Px4SitlAutopilot:
             self._set_instance(self._instance_lock.instance)
         if self._api_port_opt is None:
             self.api_port = 0  # PX4 answers whoever talks to its API port: no shared 14549 for instances > 9
-        self.process = Px4Process(self.px4_bin, self.instance, workdir=self.px4_workdir)  # type: ignore[arg-type]
+        params = dict(self.plan.params) if self.plan is not None else dict(self.ctx.vehicle.px4.params)
+        self.process = Px4Process(self.px4_bin, self.instance, workdir=self.px4_workdir,  # type: ignore[arg-type]
+                                  airframe=self.ctx.vehicle.px4.airframe, params=params)
 
     def _accept_launched(self) -> None:
         """Accept the PX4 we started; fail early (with its log) if it exits first."""
