@@ -266,8 +266,9 @@ class Px4MappingSpec(StrictModel):
     w_min_rad_s: float = Field(100.0, ge=0, description="rotor speed at u = 0 while armed (Gazebo: 100), rad/s")
     sprayer_channel: int = Field(8, ge=0, le=15, description="output channel of the sprayer pump (DO_SET_ACTUATOR set 1)")
     airframe: str = Field("none_iris", description="PX4_SIM_MODEL to start PX4 with")
-    params: dict[str, int | float] = Field(default_factory=dict, description="PX4 parameters of this airframe, set over "
-                                           "MAVLink before each mission (integers as INT32, others as REAL32)")
+    params: dict[str, int | float] = Field(default_factory=dict, description="PX4 parameters of this airframe: at boot when "
+                                           "vinecli starts PX4 (--px4-bin), and over MAVLink before each mission "
+                                           "(integers as INT32, others as REAL32)")
 
 
 class VehicleSpec(StrictModel):
