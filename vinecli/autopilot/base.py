@@ -28,6 +28,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
     TIMEOUT = "timeout"
     GEOFENCE_TERMINATED = "geofence_terminated"
     FAILSAFE = "failsafe"
+    PREFLIGHT_FAILED = "preflight_failed"
     INTERRUPTED = "interrupted"
     ERROR = "error"
 
@@ -42,6 +43,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
             "timeout": "mission exceeded its time limit",
             "geofence_terminated": "geofence breach: motors terminated",
             "failsafe": "the autopilot left the mission (failsafe or mode change)",
+            "preflight_failed": "a preflight check failed: not armed",
             "interrupted": "interrupted by the user",
             "error": "the run failed",
         }[self.value]
@@ -61,6 +63,8 @@ class AutopilotContext:
     geofence: GeofenceSpec | None = None
     terrain_height: object = None  # callable (x, y) -> terrain z (ENU, m), or None for flat z = home z
     seed: int = 0
+    #: mapped terrain extent (xmin, ymin, xmax, ymax) ENU m; None = unbounded
+    terrain_bounds: tuple[float, float, float, float] | None = None
 
 
 @dataclass

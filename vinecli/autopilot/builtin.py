@@ -21,8 +21,18 @@ at >= 95 % of w_max) for ``control.cannot_takeoff_s`` while the vehicle has not 
 Geofence breach actions follow PX4 ``GF_ACTION``: none/warn (event only), hold (loiter
 where the breach happened until the run's time limit), rtl / land (then the run ends
 "completed" with the breach in the detail), terminate (motors off, status
-``geofence_terminated``). A phase that exceeds its ``timeout_s`` ends the run with status
-``timeout``.
+``geofence_terminated``). The fence is checked on the estimated position while airborne (on the
+ground a noisy estimate near the fence is no breach; preflight keeps home and the plan a 3 σ
+margin inside). A phase that exceeds its ``timeout_s`` ends the run with status ``timeout``.
+
+Preflight (before arming, :mod:`vinecli.autopilot.preflight`): estimator converged within
+``control.preflight_timeout_s``, tilt at rest, home and every planned point inside the fence
+by the position-uncertainty margin and over the mapped terrain; a failure ends the run
+``preflight_failed`` naming the check and the value.
+
+Failsafes (geofence hold/rtl/land/terminate/warn, lost control) switch the sprayer off for the
+rest of the run and emit a ``failsafe`` event {cause, action, detail, position_est_enu}; the
+runner adds the true ``position_enu``.
 """
 
 from __future__ import annotations
@@ -36,10 +46,18 @@ from typing import Any
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimator import Estimator
 from vinecli.autopilot.geofence import GF_ACTION, Geofence
+from vinecli.autopilot.preflight import (
+    PreflightFailure,
+    check_plan,
+    check_spawn_fence,
+    check_tilt,
+    fence_margins_m,
+    plan_points,
+)
 from vinecli.control.cascade import Cascade, G
 from vinecli.control.path import PathFollower
 from vinecli.errors import AutopilotError, InputError
-from vinecli.frames import Vec3, quat_to_euler
+from vinecli.frames import Vec3, quat_to_euler, tilt_angle
 from vinecli.sim.types import ActuatorCommand, Event, Observation, ServiceRequest
 from vinecli.specs.mission import (
     GotoPhase,
@@ -96,7 +114,7 @@ class _Takeoff(_Phase):
 
     def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
         if not ap.armed:
-            if not ap.est_ready:
+            if not ap.preflight_ok():
                 return False
             ap.arm()
         if self.path is None:
@@ -521,6 +539,7 @@ class BuiltinAutopilot:
         self.cos_lost = math.cos(math.radians(v.control.lost_control_tilt_deg))
         self.spool_s = 0.5
         self.phases = [self._make_phase(p, ctx) for p in ctx.mission.phases]
+        self._plan_failures = self._mission_preflight(ctx)
         # state
         self.t_us = 0
         self.pos: Vec3 = self.home
@@ -547,6 +566,7 @@ class BuiltinAutopilot:
         self._phase_t = 0.0
         self._failsafe = False
         self._failsafe_detail = ""
+        self.sprayer_inhibited = False
         self._countdown = 0
         self._z_armed = self.home[2]
         self._sat_t = 0.0
@@ -685,7 +705,9 @@ class BuiltinAutopilot:
         q = self.quat
         if 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1]) < self.cos_lost:
             tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1])))))
-            self._finish(RunStatus.LOST_CONTROL, f"tilt {tilt:.0f} deg beyond {self.vehicle.control.lost_control_tilt_deg:g} deg")
+            detail = f"tilt {tilt:.0f} deg beyond {self.vehicle.control.lost_control_tilt_deg:g} deg"
+            self.failsafe("lost_control", "disarm", detail)
+            self._finish(RunStatus.LOST_CONTROL, detail)
             return self._off
         if self.idle:
             wi = self.vehicle.motor.w_min_armed
@@ -706,6 +728,52 @@ class BuiltinAutopilot:
 
     def close(self) -> None:
         """Nothing to release (idempotent)."""
+
+    # ------------------------------------------------------------------ preflight
+    def _mission_preflight(self, ctx: AutopilotContext) -> list[PreflightFailure]:
+        """Checks that depend only on the mission and the world (fence margins, plan over the terrain)."""
+        v = ctx.vehicle
+        margins = fence_margins_m(v, truth=self.truth)
+        out: list[PreflightFailure] = []
+        spawn = check_spawn_fence(ctx.geofence, self.home, margins[0])
+        if spawn is not None:
+            out.append(spawn)
+        pts = plan_points(ctx.mission, self.home, ctx.vine_rows_enu, self.terrain, v.frame.landing_gear_height_m)
+        out += check_plan(pts, ctx.geofence, self.home, margins, ctx.terrain_bounds)
+        return out
+
+    def preflight_ok(self) -> bool:
+        """PX4-style arming checks; True when the vehicle may arm now. False while the estimator
+        settles; a failed check ends the run ``preflight_failed`` (event ``preflight``)."""
+        if not self.est_ready:
+            limit = self.vehicle.control.preflight_timeout_s
+            if self.t_us * 1e-6 >= limit:
+                reason = self.estimator.not_ready_reason if self.estimator is not None else ""
+                self._preflight_fail(PreflightFailure(
+                    "estimator", self.t_us * 1e-6, limit,
+                    f"preflight check 'estimator': not converged after {limit:g} s ({reason})"))
+            return False
+        tilt = check_tilt(tilt_angle(self.quat), self.vehicle)
+        failures = ([tilt] if tilt is not None else []) + self._plan_failures
+        if failures:
+            self._preflight_fail(failures[0])
+            return False
+        return True
+
+    def _preflight_fail(self, f: PreflightFailure) -> None:
+        self.emit("preflight", f.message, {"check": f.check, "value": f.value, "limit": f.limit})
+        log.warning("%s", f.message)
+        self._finish(RunStatus.PREFLIGHT_FAILED, f.message)
+
+    # ------------------------------------------------------------------ failsafes
+    def failsafe(self, cause: str, action: str, detail: str) -> None:
+        """Record a failsafe and switch the sprayer off for the rest of the run (event ``failsafe``)."""
+        self.set_flow(0.0)
+        self.sprayer_inhibited = True
+        p = self.pos
+        self.emit("failsafe", f"{cause} at {self.t_us * 1e-6:.2f} s → {action}; sprayer off ({detail})",
+                  {"cause": cause, "action": action, "detail": detail, "position_est_enu": [p[0], p[1], p[2]]})
+        log.warning("failsafe: %s at %.2f s → %s; sprayer off (%s)", cause, self.t_us * 1e-6, action, detail)
 
     # ------------------------------------------------------------------ helpers used by phases
     def emit(self, kind: str, message: str, data: dict[str, object] | None = None) -> None:
@@ -745,6 +813,9 @@ class BuiltinAutopilot:
                   {"fill_l": req.fill_l, "swap_battery": req.swap_battery})
 
     def set_flow(self, flow: float) -> None:
+        """Sprayer flow command, L/s (held at 0 after a failsafe)."""
+        if self.sprayer_inhibited:
+            flow = 0.0
         if flow != self.flow:
             self.flow = flow
             self.emit("sprayer", f"sprayer flow {flow:g} L/s", {"flow_lps": flow})
@@ -843,9 +914,11 @@ class BuiltinAutopilot:
                     return
             else:
                 self._sat_t = 0.0
-        if self.geofence is not None and self.armed:
+        if self.geofence is not None and self.armed and self.airborne:
             viol = self.geofence.check(self.pos)
-            if viol:
+            if viol and self._failsafe:
+                log.debug("geofence breach (%s) during the failsafe: no new action", viol)
+            elif viol:
                 self._on_geofence(viol)
                 if self._status.status is not RunStatus.RUNNING:
                     return
@@ -881,8 +954,11 @@ class BuiltinAutopilot:
         self.emit("geofence", f"geofence breach ({violation}): action {action}",
                   {"action": action, "gf_action": GF_ACTION[action], "violation": violation,
                    "x": p[0], "y": p[1], "z": p[2]})
-        log.warning("geofence breach (%s) at %.1f %.1f %.1f: %s", violation, p[0], p[1], p[2], action)
-        if action in ("none", "warn"):
+        if action == "none":
+            log.info("geofence breach (%s) at %.1f %.1f %.1f: no action", violation, p[0], p[1], p[2])
+            return
+        self.failsafe("geofence", action, f"geofence breach ({violation})")
+        if action == "warn":
             return
         if action == "terminate":
             self._finish(RunStatus.GEOFENCE_TERMINATED, f"geofence breach ({violation}): motors terminated")

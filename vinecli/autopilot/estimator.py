@@ -102,12 +102,33 @@ def _periodic_gains(dt: float, acc_psd: float, bias_psd: float,
     return tuple(tuple(tuple(float(x) for x in row) for row in g) for g in gains)
 
 
+#: PX4 EKF2_REQ_NSATS, EKF2_REQ_EPH (m), EKF2_REQ_EPV (m): GNSS quality needed before the filter is ready
+GNSS_MIN_SATS = 6
+GNSS_MAX_EPH_M = 3.0
+GNSS_MAX_EPV_M = 5.0
+
+
+def gnss_quality_problem(fix_type: int, satellites: int, eph_m: float, epv_m: float) -> str:
+    """'' when a GNSS sample passes the EKF2-style quality checks, else what fails (with the value)."""
+    if fix_type < 3:
+        return f"GNSS fix type {fix_type} < 3"
+    if satellites < GNSS_MIN_SATS:
+        return f"GNSS {satellites} satellites < {GNSS_MIN_SATS}"
+    if not eph_m <= GNSS_MAX_EPH_M:
+        return f"GNSS eph {eph_m:.2f} m > {GNSS_MAX_EPH_M:g} m"
+    if not epv_m <= GNSS_MAX_EPV_M:
+        return f"GNSS epv {epv_m:.2f} m > {GNSS_MAX_EPV_M:g} m"
+    return ""
+
+
 class Estimator:
     """Attitude, position and velocity from IMU, baro, mag and GNSS; see the module docstring.
 
     After :meth:`update`: ``pos`` (m, ENU), ``vel`` (m/s, ENU), ``quat`` (x, y, z, w),
     ``omega`` (bias-corrected gyro, rad/s, FLU), ``acc`` (m/s², ENU, gravity removed),
-    ``ready`` (GNSS and baro fused for ``settle_s``).
+    ``ready`` (GNSS and baro fused for ``settle_s`` while the GNSS passes the PX4 EKF2 quality
+    checks: 3-D fix, at least ``GNSS_MIN_SATS`` satellites, eph <= ``GNSS_MAX_EPH_M``, epv <=
+    ``GNSS_MAX_EPV_M``); ``not_ready_reason`` says what it is waiting for.
     """
 
     def __init__(self, vehicle: VehicleSpec, origin: GeoOrigin, *, kp_acc: float = 0.4, ki_acc: float = 0.02,
@@ -146,6 +167,8 @@ class Estimator:
         self.vel: Vec3 = (0.0, 0.0, 0.0)
         self.acc: Vec3 = (0.0, 0.0, 0.0)
         self.ready = False
+        self.not_ready_reason = "waiting for GNSS and baro"
+        self._gnss_quality_ok = False
         self._att_init = False
         self._gnss_init = False
         self._baro_init = False
@@ -284,6 +307,12 @@ class Estimator:
             v[2] += awz * dt
         gn = obs.gnss
         if gn is not None:
+            if not self.ready:
+                problem = gnss_quality_problem(gn.fix_type, gn.satellites, gn.eph_m, gn.epv_m)
+                self._gnss_quality_ok = not problem
+                if problem:
+                    self.not_ready_reason = problem
+                    self._t_ready_us = None  # the settle time restarts once the quality is good
             gp = self._gnss_prev
             if gp is not None and gn.t_us > gp[0]:
                 tg = (gn.t_us - gp[0]) * 1e-6
@@ -329,8 +358,10 @@ class Estimator:
                 b[2] += k[2][0] * r
         self.pos = (p[0], p[1], p[2])
         self.vel = (v[0], v[1], v[2])
-        if not self.ready and self._gnss_init and self._baro_init:
+        if not self.ready and self._gnss_init and self._baro_init and self._gnss_quality_ok:
             if self._t_ready_us is None:
+                self.not_ready_reason = "settling"
                 self._t_ready_us = t
             elif t - self._t_ready_us >= self.settle_us:
                 self.ready = True
+                self.not_ready_reason = ""

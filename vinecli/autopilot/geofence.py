@@ -4,7 +4,10 @@ Three independent limits, all optional (:class:`~vinecli.specs.mission.GeofenceS
 an inclusion polygon (ENU x, y in m), a maximum altitude above home (m) and a maximum
 horizontal distance from home (``GF_MAX_HOR_DIST``, a cylinder). The fence is breached
 when any limit is violated for ``count`` consecutive checks (PX4 ``GF_COUNT``); the action
-fires once on the transition inside -> outside.
+fires once per episode: a new breach needs ``rearm`` consecutive checks back inside first (a
+position estimate jittering across the fence is one episode, not hundreds).
+
+:meth:`Geofence.clearance` gives how far inside the limits a point is (preflight margins).
 """
 
 from __future__ import annotations
@@ -40,17 +43,48 @@ def point_in_polygon(x: float, y: float, poly: Sequence[tuple[float, float]]) ->
     return inside
 
 
+def distance_to_polygon_edges(x: float, y: float, poly: Sequence[tuple[float, float]]) -> float:
+    """Shortest distance (m) from (x, y) to the polygon's boundary (unsigned)."""
+    best = math.inf
+    n = len(poly)
+    for i in range(n):
+        ax, ay = poly[i - 1]
+        bx, by = poly[i]
+        dx, dy = bx - ax, by - ay
+        ll = dx * dx + dy * dy
+        u = 0.0 if ll == 0.0 else max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / ll))
+        best = min(best, math.hypot(x - (ax + u * dx), y - (ay + u * dy)))
+    return best
+
+
 class Geofence:
     """Checks positions against a :class:`GeofenceSpec` relative to ``home`` (ENU, m)."""
 
-    def __init__(self, spec: GeofenceSpec, home_enu: Vec3, *, count: int = 3) -> None:
+    def __init__(self, spec: GeofenceSpec, home_enu: Vec3, *, count: int = 3, rearm: int = 10) -> None:
         self.spec = spec
         self.home = home_enu
         self.action = spec.action
         self.polygon = [tuple(p) for p in spec.polygon_enu] if spec.polygon_enu else None
         self.count = max(1, count)
+        self.rearm = max(1, rearm)
         self._outside = 0
+        self._inside = 0
         self.breached = False
+
+    def clearance(self, pos: Vec3) -> tuple[float, float]:
+        """(horizontal, vertical) distance in m from ``pos`` (ENU) to the nearest limit: positive
+        inside, negative outside, ``inf`` when the fence has no such limit."""
+        s = self.spec
+        horiz = math.inf
+        if self.polygon is not None:
+            d = distance_to_polygon_edges(pos[0], pos[1], self.polygon)  # type: ignore[arg-type]
+            horiz = d if point_in_polygon(pos[0], pos[1], self.polygon) else -d  # type: ignore[arg-type]
+        if s.max_horizontal_distance_m is not None:
+            horiz = min(horiz, s.max_horizontal_distance_m - math.hypot(pos[0] - self.home[0], pos[1] - self.home[1]))
+        vert = math.inf
+        if s.max_altitude_agl_m is not None:
+            vert = s.max_altitude_agl_m - (pos[2] - self.home[2])
+        return horiz, vert
 
     def violation(self, pos: Vec3) -> str:
         """'' when inside, else which limit is violated ('polygon', 'max_altitude', 'max_distance')."""
@@ -66,12 +100,15 @@ class Geofence:
 
     def check(self, pos: Vec3) -> str:
         """Update with a position; returns the violated limit on the check that triggers the
-        breach (once per excursion), else ''."""
+        breach (once per episode), else ''."""
         v = self.violation(pos)
         if not v:
             self._outside = 0
-            self.breached = False
+            self._inside += 1
+            if self._inside >= self.rearm:
+                self.breached = False
             return ""
+        self._inside = 0
         self._outside += 1
         if self._outside >= self.count and not self.breached:
             self.breached = True

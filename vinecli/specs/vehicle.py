@@ -244,6 +244,10 @@ class ControlSpec(StrictModel):
     max_vel_down: float = Field(1.5, gt=0, description="MPC_Z_VEL_MAX_DN, m/s")
     max_acc_xy: float = Field(5.0, gt=0, description="m/s²")
     lost_control_tilt_deg: float = Field(70.0, gt=0, le=180, description="tilt beyond which the run ends 'lost control'")
+    preflight_max_tilt_deg: float = Field(30.0, gt=0, le=180,
+                                          description="arming refused when tilted more than this at rest, deg")
+    preflight_timeout_s: float = Field(10.0, gt=0, le=600,
+                                       description="arming refused when the estimator has not converged by then, s")
     # --- added for the built-in autopilot (vinecli/control/cascade.py); normalised torque 1.0 =
     # sum|r_y| T_max / 2 about x (sum|r_x| T_max / 2 about y, n k_m T_max / 2 about z), see allocation.py
     yaw_weight: float = Field(0.4, ge=0, le=1, description="MC_YAW_WEIGHT: yaw share of the full attitude error")

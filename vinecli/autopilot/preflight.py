@@ -1,0 +1,160 @@
+"""Preflight (arming) checks, PX4 commander style: the vehicle is not armed when one fails.
+
+Pure functions (no PyBullet, no MAVLink), shared by the built-in autopilot (at arming) and
+``vinecli world build`` (the spawn). World ENU, metres; altitudes relative to home.
+
+* ``tilt``: tilted more than ``control.preflight_max_tilt_deg`` at rest (upside down on a slope).
+* ``geofence_spawn`` / ``geofence_plan``: home or a planned path point outside the geofence or
+  closer to it than the position-estimate uncertainty (:func:`fence_margins_m`: 3 σ of the
+  GNSS noise horizontally and vertically), so that noise alone cannot breach the fence.
+* ``plan_off_terrain``: a planned path point (or a spray row) outside the mapped terrain.
+* ``estimator``: the estimator has not converged by ``control.preflight_timeout_s`` (checked by
+  the autopilot itself, see :class:`~vinecli.autopilot.builtin.BuiltinAutopilot`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from vinecli.autopilot.geofence import Geofence
+from vinecli.frames import Vec3
+from vinecli.specs.mission import (
+    GeofenceSpec,
+    GotoPhase,
+    MissionSpec,
+    RtlPhase,
+    SprayPhase,
+    TakeoffPhase,
+    WaypointsPhase,
+)
+from vinecli.specs.vehicle import VehicleSpec
+
+#: the fence margin covers this many standard deviations of the position noise
+MARGIN_SIGMAS = 3.0
+
+
+@dataclass(frozen=True)
+class PreflightFailure:
+    """One failed check: ``check`` name, the measured ``value`` and its ``limit``, a sentence."""
+
+    check: str
+    value: float
+    limit: float
+    message: str
+
+
+@dataclass(frozen=True)
+class PlanPoint:
+    """A point the mission will fly through: label (``phase 1 (goto)``), ENU x, y (m), z above home (m)."""
+
+    label: str
+    x: float
+    y: float
+    z_rel: float
+
+
+def fence_margins_m(vehicle: VehicleSpec, *, truth: bool = False) -> tuple[float, float]:
+    """(horizontal, vertical) margin from the fence, m: ``MARGIN_SIGMAS`` σ of the GNSS position
+    noise (0 when the controllers fly on ground truth)."""
+    if truth:
+        return 0.0, 0.0
+    g = vehicle.sensors.gnss
+    return MARGIN_SIGMAS * g.horizontal_noise_m, MARGIN_SIGMAS * g.vertical_noise_m
+
+
+def check_tilt(tilt_rad: float, vehicle: VehicleSpec) -> PreflightFailure | None:
+    """Tilt at rest (rad) against ``control.preflight_max_tilt_deg``."""
+    limit = vehicle.control.preflight_max_tilt_deg
+    deg = math.degrees(tilt_rad)
+    if deg <= limit:
+        return None
+    return PreflightFailure("tilt", deg, limit, f"preflight check 'tilt': tilted {deg:.1f} deg at rest "
+                                                f"(limit {limit:g} deg)")
+
+
+def check_spawn_fence(fence: GeofenceSpec | None, home: Vec3, margin_h: float) -> PreflightFailure | None:
+    """Home (ENU m) inside the fence's horizontal limits by at least ``margin_h`` m."""
+    if fence is None or fence.action == "none":
+        return None
+    horiz, _ = Geofence(fence, home).clearance(home)
+    if horiz >= margin_h:
+        return None
+    where = "outside the geofence" if horiz < 0 else "too close to the geofence"
+    return PreflightFailure("geofence_spawn", horiz, margin_h,
+                            f"preflight check 'geofence_spawn': spawn ({home[0]:.2f}, {home[1]:.2f}) is {where}: "
+                            f"{horiz:.2f} m inside, needs {margin_h:.2f} m (position uncertainty)")
+
+
+def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[float, float]]],
+                terrain_height: Callable[[float, float], float] | None, landing_gear_m: float) -> list[PlanPoint]:
+    """The points the mission's phases fly to (z above home); spray rows at their height over the terrain."""
+    pts: list[PlanPoint] = []
+    x, y, z = home[0], home[1], 0.0
+    world_rows = [[(float(a), float(b)) for a, b in r] for r in rows]
+    for i, ph in enumerate(mission.phases):
+        label = f"phase {i} ({ph.type})"
+        if isinstance(ph, TakeoffPhase):
+            z = ph.altitude_agl_m
+            pts.append(PlanPoint(label, x, y, z))
+        elif isinstance(ph, GotoPhase):
+            x, y = float(ph.position_enu[0]), float(ph.position_enu[1])
+            z = ph.altitude_agl_m if ph.altitude_agl_m is not None else z
+            pts.append(PlanPoint(label, x, y, z))
+        elif isinstance(ph, WaypointsPhase):
+            for j, (wx, wy, wa) in enumerate(ph.waypoints):
+                x, y, z = float(wx), float(wy), float(wa)
+                pts.append(PlanPoint(f"{label} waypoint {j}", x, y, z))
+        elif isinstance(ph, RtlPhase):
+            z = max(z, ph.return_altitude_agl_m)
+            pts.append(PlanPoint(label, x, y, z))
+            x, y = home[0], home[1]
+            pts.append(PlanPoint(label, x, y, z))
+        elif isinstance(ph, SprayPhase):
+            if ph.rows == "world":
+                sel = world_rows
+            elif ph.rows and all(isinstance(r, int) for r in ph.rows):
+                sel = [world_rows[int(k)] for k in ph.rows if 0 <= int(k) < len(world_rows)]  # type: ignore[arg-type]
+            else:
+                sel = [[(float(a), float(b)) for a, b in r] for r in ph.rows]  # type: ignore[union-attr, misc]
+            for r in sel:
+                for px, py in r:
+                    ground = terrain_height(px, py) + landing_gear_m if terrain_height is not None else home[2]
+                    pts.append(PlanPoint(f"{label} row point", px, py, ground + ph.height_agl_m - home[2]))
+            if sel and sel[-1]:
+                x, y = sel[-1][-1]
+    return pts
+
+
+def check_plan(points: Sequence[PlanPoint], fence: GeofenceSpec | None, home: Vec3, margins: tuple[float, float],
+               terrain_bounds: tuple[float, float, float, float] | None) -> list[PreflightFailure]:
+    """Every planned point inside the fence by the margins and over the mapped terrain (first failure of each kind)."""
+    out: list[PreflightFailure] = []
+    if terrain_bounds is not None:
+        xmin, ymin, xmax, ymax = terrain_bounds
+        for p in points:
+            if not (xmin <= p.x <= xmax and ymin <= p.y <= ymax):
+                out.append(PreflightFailure(
+                    "plan_off_terrain", 0.0, 0.0,
+                    f"preflight check 'plan_off_terrain': {p.label} at ({p.x:.2f}, {p.y:.2f}) is outside the terrain "
+                    f"[{xmin:.2f}, {ymin:.2f}, {xmax:.2f}, {ymax:.2f}]"))
+                break
+    if fence is not None and fence.action != "none":
+        gf = Geofence(fence, home)
+        mh, mv = margins
+        for p in points:
+            horiz, vert = gf.clearance((p.x, p.y, home[2] + p.z_rel))
+            if horiz < mh:
+                out.append(PreflightFailure(
+                    "geofence_plan", horiz, mh,
+                    f"preflight check 'geofence_plan': {p.label} at ({p.x:.2f}, {p.y:.2f}) is "
+                    f"{horiz:.2f} m inside the geofence, needs {mh:.2f} m"))
+                break
+            if vert < mv:
+                out.append(PreflightFailure(
+                    "geofence_plan", vert, mv,
+                    f"preflight check 'geofence_plan': {p.label} at {p.z_rel:.2f} m above home is {vert:.2f} m "
+                    f"below the geofence ceiling, needs {mv:.2f} m"))
+                break
+    return out
