@@ -7,7 +7,7 @@ the whole run (takeoff, spraying, turns, landing):
 
 * extra process CPU time and wall time of ``run_simulation`` with the model on (the per-step
   record in the loop + the bulk transport and rasterising after it), µs/step; budget 3 µs/step;
-* the bulk part alone (``metrics.deposition_transport_cpu_s``), the rest being the in-loop record;
+* the bulk part alone (``timing.deposition_transport_cpu_s``), the rest being the in-loop record;
 * pairs: each run with the model against the run without it right after it, median over pairs;
 * the record line alone (timeit, CPU) weighted by the share of spraying steps; the model's cost
   from its parts = bulk + record line (the on - off difference carries the loop's run-to-run
@@ -51,8 +51,8 @@ def _run(world, mission, deposition: bool) -> dict[str, float]:  # noqa: ANN001 
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     steps = res.metrics["steps"]
     flow = res.timeseries["tank_flow_lps"]
-    return {"cpu_s": cpu, "wall_s": wall, "steps": steps, "transport_s": res.metrics.get("deposition_transport_s", 0.0),
-            "transport_cpu_s": res.metrics.get("deposition_transport_cpu_s", 0.0),
+    return {"cpu_s": cpu, "wall_s": wall, "steps": steps, "transport_s": res.timing.get("deposition_transport_s", 0.0),
+            "transport_cpu_s": res.timing.get("deposition_transport_cpu_s", 0.0),
             "spray_share": float((flow > 0).mean()) if flow.size else 0.0, "status": res.status.value}
 
 

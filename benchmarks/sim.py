@@ -123,9 +123,9 @@ def main(argv: list[str] | None = None) -> int:
     for i in range(repeats):
         r = run_simulation(world, mission, HoverPD(z_hover), seed=i)
         assert r.status.value == "timeout", r.detail  # flew the whole duration
-        loop_us.append(r.metrics["wall_per_step_us"])
-        loop_cpu_us.append(r.metrics["cpu_per_step_us"])
-        rtf.append(r.metrics["real_time_factor"])
+        loop_us.append(r.timing["wall_per_step_us"])
+        loop_cpu_us.append(r.timing["cpu_per_step_us"])
+        rtf.append(r.timing["real_time_factor"])
     steps = int(r.metrics["steps"])
 
     # bare stepSimulation: same tiles, same body, same height, gravity off (no contact)

@@ -320,15 +320,22 @@ def _flight_window(data: RunData, window: Window, after_liftoff_s: float = 3.0) 
     return _mask(data, window, (t0, t1)) & _airborne(data)
 
 
+#: below this mass change (kg) over the window the mass counts as constant (no correlation to speak of)
+MIN_MASS_CHANGE_KG = 1e-3
+#: below this mean horizontal wind speed (m/s) over the window there is no wind to tilt into
+MIN_WIND_MPS = 0.5
+
+
 @metric("rotor_mass_correlation", "1")
 def rotor_mass_correlation(data: RunData, window: Window) -> float:
-    """Pearson correlation of the mean rotor speed (5 s moving average: manoeuvres out) with total mass, airborne. Default: lift-off +3 s .. touchdown."""
+    """Pearson correlation of the mean rotor speed (5 s moving average: manoeuvres out) with total mass,
+    airborne; NaN (null) when the mass changes by less than 1 g. Default: lift-off +3 s .. touchdown."""
     sel = _flight_window(data, window)
     if np.count_nonzero(sel) < 10:
         return _nan()
     w = _smooth(_mean_rotor_speed(data)[sel], data.t[sel], 5.0)
     m = data.column("total_mass_kg")[sel]
-    if np.std(w) == 0 or np.std(m) == 0:
+    if np.std(w) == 0 or not np.ptp(m) >= MIN_MASS_CHANGE_KG:
         return _nan()
     return float(np.corrcoef(w, m)[0, 1])
 
@@ -547,7 +554,14 @@ def _tilt_terms(data: RunData, window: Window) -> tuple[np.ndarray, np.ndarray, 
 @metric("tilt_into_wind_ratio", "1")
 def tilt_into_wind_ratio(data: RunData, window: Window) -> float:
     """Mean tilt towards the upwind side / mean atan(F_h / (m g)); F_h = horizontal wind drag of the
-    links plus the rotors' H-force (1 = the thesis' steady tilt; negative = leaning downwind)."""
+    links plus the rotors' H-force (1 = the thesis' steady tilt; negative = leaning downwind). NaN
+    (null) when the mean horizontal wind is below 0.5 m/s: no wind, nothing to tilt into."""
+    sel = _flight_window(data, window, after_liftoff_s=5.0)
+    if not sel.any():
+        return _nan()
+    wind = np.hypot(data.column("wind_enu_x_mps")[sel], data.column("wind_enu_y_mps")[sel])
+    if not float(np.mean(wind)) >= MIN_WIND_MPS:
+        return _nan()
     along, pred, _ = _tilt_terms(data, window)
     if along.size == 0 or np.mean(pred) <= 0:
         return _nan()

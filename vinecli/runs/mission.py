@@ -28,6 +28,7 @@ from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
 from vinecli.runs import rundir
+from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase
 
 log = logging.getLogger(__name__)
@@ -193,6 +194,9 @@ def run_mission(
     status_message = result.detail or _status_message(result.status)
     if stop.timed_out and status == "interrupted":
         status_message = f"stopped: wall-clock limit of {wall_timeout_s:g} s reached"
+    failsafes = failsafes_from_events(result.events)
+    if failsafes:
+        status_message = f"{status_message} (failsafe: {describe_failsafes(failsafes)})"
 
     rows = _rows_for_metrics(spec, world)
     dep_metrics: dict[str, float] = {}
@@ -225,6 +229,10 @@ def run_mission(
                 metrics[name] = None
     sim_time = float(result.sim_time_s)
     rtf = sim_time / wall if wall > 0 else 0.0
+    loop = result.timing  # machine-dependent: kept out of the (deterministic) metrics
+    timing = {"wall_time_s": round(wall, 4), "real_time_factor": round(rtf, 3),
+              **{k: _num(v) for k, v in loop.items() if k != "real_time_factor"},
+              "loop_real_time_factor": _num(loop.get("real_time_factor"))}
     geofence = spec.geofence or getattr(world, "geofence", None)
     summary = {
         "run_id": run_id,
@@ -246,12 +254,12 @@ def run_mission(
         "status_message": status_message,
         "passed": passed,
         "sim_time_s": sim_time,
-        "wall_time_s": round(wall, 4),
-        "real_time_factor": round(rtf, 3),
         "record_rate_hz": spec.record_rate_hz,
+        "failsafes": failsafes,
         "checks": [c.to_dict() for c in checks],
         "metrics": metrics,
         "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
+        "timing": timing,
         "started_utc": started,
     }
     manifest = Manifest(

@@ -89,6 +89,8 @@ class SimResult:
     point_clouds: list[tuple[float, np.ndarray]] = field(default_factory=list)
     #: where the spray landed (vinecli.sim.deposition.DepositionResult); None when nothing was sprayed or when off
     deposition: Any = None
+    #: machine-dependent figures, not metrics: loop_wall_s, wall_per_step_us, cpu_per_step_us, real_time_factor
+    timing: dict[str, float] = field(default_factory=dict)
 
     @property
     def real_time_factor(self) -> float:
@@ -108,6 +110,14 @@ def resolve_vehicle(world: World, mission: MissionSpec, vehicle: VehicleSpec | N
     if mission.payload_kg is not None:
         vehicle = vehicle.model_copy(update={"payload": vehicle.payload.model_copy(update={"mass_kg": mission.payload_kg})})
     return vehicle
+
+
+def _bounds(world: World) -> tuple[float, float, float, float] | None:
+    """The mapped terrain extent (xmin, ymin, xmax, ymax), ENU m, or None when unknown."""
+    b = getattr(world.terrain, "bounds", None)
+    if b is None or len(b) != 4:
+        return None
+    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
 
 
 def _first_commands(phase: OpenLoopPhase, n: int) -> list[float]:
@@ -342,6 +352,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         geofence=kw["geofence"],
         terrain_height=world.terrain_height,
         seed=seed,
+        terrain_bounds=_bounds(world),
     )
     ap_step = autopilot.step
     ap_status = autopilot.status
@@ -523,6 +534,9 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
             tank_was_empty = _serve(cmd.service, cmd.armed, on_ground, tank, battery, t_us, events, tank_was_empty)
         new_events = ap_drain()
         if new_events:
+            for ev in new_events:
+                if ev.kind == "failsafe":  # where the vehicle really was (the autopilot knows its estimate)
+                    ev.data["position_enu"] = [px, py, pz]
             events.extend(new_events)
         if camera is not None and t_us >= next_cam_us:
             next_cam_us += cam_period_us
@@ -688,10 +702,12 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     cpu_end = time.process_time()
     sim_time = t_us * 1e-6
     metrics["steps"] = float(k)
-    metrics["loop_wall_s"] = wall_end - wall_loop0
-    metrics["wall_per_step_us"] = (wall_end - wall_loop0) / max(k, 1) * 1e6
-    metrics["cpu_per_step_us"] = (cpu_end - cpu_loop0) / max(k, 1) * 1e6  # process CPU time (robust to load)
-    metrics["real_time_factor"] = sim_time / (wall_end - wall_loop0) if wall_end > wall_loop0 else math.inf
+    timing = {
+        "loop_wall_s": wall_end - wall_loop0,
+        "wall_per_step_us": (wall_end - wall_loop0) / max(k, 1) * 1e6,
+        "cpu_per_step_us": (cpu_end - cpu_loop0) / max(k, 1) * 1e6,  # process CPU time (robust to load)
+        "real_time_factor": sim_time / (wall_end - wall_loop0) if wall_end > wall_loop0 else math.inf,
+    }
     metrics["final_mass_kg"] = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
     metrics["energy_wh"] = energy_j / 3600.0 if battery is not None else math.nan
     metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
@@ -707,11 +723,11 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
 
         cpu_dep0 = time.process_time()
         dep = deposit(emitter, world, veh, kw["wind_spec"], seed, kw["deposition_config"])
-        metrics["deposition_transport_s"] = dep.transport_s
-        metrics["deposition_transport_cpu_s"] = time.process_time() - cpu_dep0
+        timing["deposition_transport_s"] = dep.transport_s
+        timing["deposition_transport_cpu_s"] = time.process_time() - cpu_dep0
         metrics["deposition_records"] = float(len(emitter.rows))
     events.sort(key=lambda e: e.t_us)
-    log.info("run ended at %.3f s: %s (%s); %.1f µs/step", sim_time, status.value, detail, metrics["wall_per_step_us"])
+    log.info("run ended at %.3f s: %s (%s); %.1f µs/step", sim_time, status.value, detail, timing["wall_per_step_us"])
     return SimResult(
         status=status,
         detail=detail,
@@ -723,4 +739,5 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         terrain_preview=world.terrain_preview(129),
         point_clouds=point_clouds,
         deposition=dep,
+        timing=timing,
     )
