@@ -18,6 +18,8 @@ def build(
     spec: Annotated[Path, typer.Argument(help="World file (worlds/*.yaml).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output world directory.")],
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing output directory.")] = False,
+    allow_unsafe_spawn: Annotated[bool, typer.Option(
+        "--allow-unsafe-spawn", help="Build even when the spawn cannot pass preflight (near the geofence, tilted).")] = False,
 ) -> None:
     """Build a world directory: world.json, terrain, vehicle URDF and a Gazebo world.sdf.
 
@@ -25,7 +27,7 @@ def build(
     """
     from vinecli.world import build_world, load_world
 
-    path = build_world(spec, out, overwrite=overwrite)
+    path = build_world(spec, out, overwrite=overwrite, allow_unsafe_spawn=allow_unsafe_spawn)
     w = load_world(path)
     xmin, ymin, xmax, ymax = w.terrain.bounds
     n_tiles = sum(f.suffix.lower() in (".obj", ".stl") for f in w.terrain.files)

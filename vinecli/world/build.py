@@ -10,9 +10,11 @@ import json
 import logging
 import math
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from vinecli.autopilot.preflight import PreflightFailure, check_spawn_fence, check_tilt, fence_margins_m
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
 from vinecli.outputs import Manifest, atomic_output_dir, contained_path, write_json
@@ -30,8 +32,15 @@ def _resolve(base: Path, p: Path) -> Path:
     return p if p.is_absolute() else (base / p)
 
 
-def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = False) -> Path:
-    """Build the world described by ``spec_path`` into ``out``; returns ``out``."""
+def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = False,
+                allow_unsafe_spawn: bool = False) -> Path:
+    """Build the world described by ``spec_path`` into ``out``; returns ``out``.
+
+    A spawn that cannot pass the autopilot's preflight (:mod:`vinecli.autopilot.preflight`:
+    within the position-uncertainty margin of the geofence, or tilted beyond
+    ``control.preflight_max_tilt_deg`` at rest) raises SpecError (nothing is written) unless
+    ``allow_unsafe_spawn`` (then a warning).
+    """
     from vinecli.vehicle import load_vehicle
     from vinecli.vehicle.urdf import write_urdf
     from vinecli.world.sdf import world_sdf
@@ -49,6 +58,9 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
     man.inputs += [_resolve(base, Path(src)) for src in _terrain_sources(spec.terrain)]
     if isinstance(veh_arg, Path):
         man.inputs.append(veh_arg)
+    unsafe = _refuse_unsafe(spec_path, allow_unsafe_spawn)
+    if spec.geofence is not None:  # horizontal check only: no terrain needed, nothing written yet
+        unsafe(check_spawn_fence(spec.geofence, (spec.spawn.x_m, spec.spawn.y_m, 0.0), fence_margins_m(vehicle)[0]))
 
     with atomic_output_dir(out, man, overwrite=overwrite) as tmp:
         tdir = tmp / "terrain"
@@ -72,6 +84,7 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
 
         with man.stage("spawn"):
             rest = _rest_at_spawn(terrain_json, tmp, grid, vehicle, urdf, sx, sy, yaw, spawn, spec)
+        unsafe(check_tilt(math.radians(rest["tilt_deg"]), vehicle))
         if rest["tilt_deg"] > MAX_REST_TILT_DEG:
             log.warning("world %s: the vehicle rests %.1f deg tilted at the spawn (%.2f, %.2f) (more than %.0f deg): "
                         "move the spawn to a flat spot", spec.name, rest["tilt_deg"], sx, sy, MAX_REST_TILT_DEG)
@@ -155,6 +168,19 @@ def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, gri
 
 #: a rest attitude tilted more than this at the spawn is reported (log warning), deg
 MAX_REST_TILT_DEG = 10.0
+
+
+def _refuse_unsafe(spec_path: Path, allow: bool) -> Callable[[PreflightFailure | None], None]:
+    """A function that raises SpecError for a failed spawn preflight check (or only warns when ``allow``)."""
+    def unsafe(failure: PreflightFailure | None) -> None:
+        if failure is None:
+            return
+        if allow:
+            log.warning("%s (allowed by --allow-unsafe-spawn)", failure.message)
+            return
+        raise SpecError(f"unsafe spawn: {failure.message}; move the spawn or pass --allow-unsafe-spawn",
+                        path=spec_path)
+    return unsafe
 
 
 def _rest_at_spawn(terrain_json: dict[str, Any], tmp: Path, grid: TerrainGrid | None, vehicle: Any, urdf: Path,
