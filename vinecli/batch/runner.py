@@ -308,12 +308,18 @@ def _error(s: RunSpec, message: str) -> CaseResult:
     return CaseResult(s.case, s.run_id, "error", False, message, seed=s.seed)
 
 
+def _timing(summary: dict[str, Any]) -> dict[str, Any]:
+    """summary.json ``timing`` (older runs: wall_time_s / real_time_factor at the top level)."""
+    t = summary.get("timing")
+    return t if isinstance(t, dict) else summary
+
+
 def _result_from_summary(s: RunSpec, run_dir: Path) -> CaseResult:
     d = rundir.read_summary(run_dir)
     return CaseResult(
         s.case, s.run_id, str(d.get("status")), bool(d.get("passed")), None, seed=int(d.get("seed", s.seed)),
-        sim_time_s=float(d.get("sim_time_s") or 0.0), wall_time_s=float(d.get("wall_time_s") or 0.0),
-        real_time_factor=float(d.get("real_time_factor") or 0.0),
+        sim_time_s=float(d.get("sim_time_s") or 0.0), wall_time_s=float(_timing(d).get("wall_time_s") or 0.0),
+        real_time_factor=float(_timing(d).get("real_time_factor") or 0.0),
         failed_checks=[c["name"] for c in d.get("checks", []) if not c.get("passed")], skipped=True,
     )
 

@@ -143,7 +143,7 @@ def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: P
             else r.summary.get("world"),
             "seed": r.summary.get("seed"), "status": r.status, "status_message": r.summary.get("status_message"),
             "passed": r.passed, "error": r.error, "sim_time_s": r.summary.get("sim_time_s"),
-            "wall_time_s": r.summary.get("wall_time_s"), "real_time_factor": r.summary.get("real_time_factor"),
+            "failsafes": r.failsafes, "timing": r.timing,
             "checks": r.checks, "failed_checks": [c["name"] for c in r.failed_checks], "metrics": r.metrics(),
             "regressions": [g.to_dict() for g in (comparison.for_case(r.case) if comparison else [])],
             "figures": {fid: ("rendered" if f.get("png") else f"skipped: {f.get('note')}")

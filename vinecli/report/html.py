@@ -24,6 +24,7 @@ from vinecli.report.loader import Run
 from vinecli.report.markdown import run_order
 from vinecli.report.plots import FIGURES, check_spans
 from vinecli.report.text import printable
+from vinecli.runs.failsafes import describe_failsafe
 
 TEMPLATE = "report.html.j2"
 
@@ -103,7 +104,9 @@ def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison:
         "description": s.get("description") or "", "vehicle": s.get("vehicle", "-"), "world": _world(run),
         "autopilot": s.get("autopilot", "-"), "seed": s.get("seed", "-"), "status": run.status,
         "status_message": s.get("status_message") or "", "sim_time": _secs(s.get("sim_time_s")),
-        "wall_time": _secs(s.get("wall_time_s")), "rtf": _rtf(s.get("real_time_factor")), "error": run.error,
+        "wall_time": _secs(run.timing.get("wall_time_s")), "rtf": _rtf(run.timing.get("real_time_factor")),
+        "error": run.error, "failsafes": [{"text": describe_failsafe(f), "detail": f.get("detail") or "",
+                                           "position": _fmt(f.get("position_enu"))} for f in run.failsafes],
         "result": _result(run, bool(regs)), "checks": checks, "n_passed": sum(c["passed"] for c in checks),
         "regressions": [{**g.to_dict(), "baseline": _fmt(g.baseline), "current": _fmt(g.current)} for g in regs],
         "metrics": metrics, "figures": figures, "figure_note": figure_note,
@@ -117,7 +120,7 @@ def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
     out = []
     for m, rs in sorted(by.items(), key=lambda kv: (-sum(not r.passed for r in kv[1]), kv[0])):
         sims = [float(r.summary.get("sim_time_s") or 0) for r in rs if not r.errored]
-        rtfs = [float(r.summary.get("real_time_factor") or 0) for r in rs if not r.errored]
+        rtfs = [float(r.timing.get("real_time_factor") or 0) for r in rs if not r.errored]
         top = Counter(c["name"] for r in rs for c in r.failed_checks).most_common(3)
         out.append({"mission": m, "n": len(rs), "passed": sum(r.passed for r in rs),
                     "failed": sum((not r.passed) and not r.errored for r in rs), "errors": sum(r.errored for r in rs),
@@ -176,7 +179,7 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping
                 "seed": s.get("seed", "-"), "status": r.status, "result": res,
                 "result_text": {"pass": "pass", "fail": "FAIL", "error": "ERROR", "regressed": "regressed"}[res],
                 "checks": f"{sum(bool(c.get('passed')) for c in r.checks)}/{len(r.checks)}",
-                "duration": _secs(s.get("sim_time_s")), "rtf": _rtf(s.get("real_time_factor")),
+                "duration": _secs(s.get("sim_time_s")), "rtf": _rtf(r.timing.get("real_time_factor")),
                 "failed": ", ".join(c["name"] for c in r.failed_checks) or (r.error or "" if r.errored else ""),
                 "href": f"#run-{pages_of[r.case]}" if inline else f"{root}runs/{pages_of[r.case]}.html",
             })

@@ -18,9 +18,11 @@ from vinecli.report.loader import Run
 from vinecli.report.text import printable
 
 
-def check_message(c: dict[str, Any]) -> str:
-    """One line: ``name: value V, expected OP BOUND`` (control characters escaped)."""
-    return printable(f"{c['name']}: value {_fmt(c.get('value'))}, expected {c.get('op')} {_fmt(c.get('bound'))}")
+def check_message(c: dict[str, Any], failsafe: str = "") -> str:
+    """One line: ``name: value V, expected OP BOUND`` (``; failsafe: ...`` when the run had one; control
+    characters escaped)."""
+    msg = f"{c['name']}: value {_fmt(c.get('value'))}, expected {c.get('op')} {_fmt(c.get('bound'))}"
+    return printable(f"{msg}; failsafe: {failsafe}" if failsafe else msg)
 
 
 def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None = None, name: str = "vinecli") -> None:
@@ -43,7 +45,7 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
         for k, v in deposition_properties(run):  # spray deposition metrics of the run
             suite.add_property(x(k), x(v))
         classname = x(f"{run.mission}.{run.case}")
-        wall = float(run.summary.get("wall_time_s") or 0.0)
+        wall = float(run.timing.get("wall_time_s") or 0.0)
         if run.errored:
             tc = TestCase("run", classname, 0.0)
             err = Error(x(f"the case could not run: {run.error}"), "error")
@@ -54,9 +56,10 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
         for c in checks:
             tc = TestCase(x(c["name"]), classname, round(wall / max(1, len(checks)), 4))
             if not c.get("passed"):
-                f = Failure(check_message(c), "check")
+                f = Failure(check_message(c, run.failsafe_text), "check")
                 f.text = x(f"{c.get('message') or ''}\nquantity: {c.get('quantity')}, reduce: {c.get('reduce')}, "
-                           f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status})")
+                           f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status}: "
+                           f"{run.summary.get('status_message') or ''})")
                 tc.result = [f]
             add(tc)
         for r in comparison.for_case(run.case) if comparison else []:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
+from vinecli.runs.failsafes import describe_failsafes
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +34,9 @@ BATCH = "batch.json"
 REQUIRED_KEYS = ("run_id", "mission", "status", "passed", "checks", "sim_time_s")
 #: check keys the report shows
 CHECK_KEYS = ("name", "op", "bound", "value", "passed")
+#: machine-dependent figures: summary.json ``timing`` (older runs had them in ``metrics`` / at the top level)
+TIMING_KEYS = ("wall_time_s", "real_time_factor", "loop_wall_s", "wall_per_step_us", "cpu_per_step_us",
+               "loop_real_time_factor", "deposition_transport_s", "deposition_transport_cpu_s")
 
 
 @dataclass
@@ -76,8 +80,29 @@ class Run:
         return self.error is not None
 
     def metrics(self) -> dict[str, float | None]:
-        """summary.json metrics plus the ones the report derives (``max_tilt_deg``)."""
-        return {**(self.summary.get("metrics") or {}), **self.report_metrics}
+        """summary.json metrics plus the ones the report derives (``max_tilt_deg``); timing figures excluded."""
+        m = {k: v for k, v in (self.summary.get("metrics") or {}).items() if k not in TIMING_KEYS}
+        return {**m, **self.report_metrics}
+
+    @property
+    def timing(self) -> dict[str, Any]:
+        """summary.json ``timing`` (wall_time_s, real_time_factor, µs per step); older runs: top-level keys."""
+        out: dict[str, Any] = {k: self.summary[k] for k in ("wall_time_s", "real_time_factor") if k in self.summary}
+        t = self.summary.get("timing")
+        if isinstance(t, dict):
+            out.update(t)
+        return out
+
+    @property
+    def failsafes(self) -> list[dict[str, Any]]:
+        """summary.json ``failsafes`` ([{t_s, cause, action, detail, position_enu}], [] when none)."""
+        fs = self.summary.get("failsafes")
+        return [f for f in fs if isinstance(f, dict)] if isinstance(fs, list) else []
+
+    @property
+    def failsafe_text(self) -> str:
+        """The failsafes in one line, e.g. "geofence breach at 10.06 s → hold; sprayer off" ('' when none)."""
+        return describe_failsafes(self.failsafes)
 
     def read_columns(self, names: Sequence[str]) -> dict[str, np.ndarray]:
         """The named time-series columns that exist (float arrays); ``t_s`` always included."""

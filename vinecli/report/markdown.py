@@ -59,9 +59,14 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
         lines.append("| " + " | ".join(_cell(x) for x in (
             r.case, r.mission, s.get("vehicle", "-"), s.get("seed", "-"), r.status,
             result_word(r, r.case in reg_cases), f"{n_ok}/{len(r.checks)}",
-            f"{float(s.get('sim_time_s') or 0):.1f} s", f"{float(s.get('real_time_factor') or 0):.1f}×")) + " |")
+            f"{float(s.get('sim_time_s') or 0):.1f} s", f"{float(r.timing.get('real_time_factor') or 0):.1f}×")) + " |")
     if n > max_rows:
         lines.append(f"\n… and {n - max_rows} more runs (all passing ones listed last); see the HTML report.")
+    safes = [r for r in ordered if r.failsafes]
+    if safes:
+        lines += ["", "### Failsafes", "", "| case | status | failsafe |", "|---|---|---|"]
+        for r in safes[:max_rows]:
+            lines.append(f"| {_cell(r.case)} | {_cell(r.status)} | {_cell(r.failsafe_text)} |")
     failed = [(r, c) for r in ordered for c in r.failed_checks]
     errors = [r for r in ordered if r.errored]
     if failed or errors:
@@ -71,7 +76,7 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
         for r, c in failed[:max_rows * 2]:
             lines.append("| " + " | ".join(_cell(x) for x in (
                 r.case, c["name"], _fmt(c.get("value")), f"{c.get('op')} {_fmt(c.get('bound'))}",
-                c.get("message") or "")) + " |")
+                "; ".join(x for x in (c.get("message") or "", r.failsafe_text) if x))) + " |")
         if len(failed) > max_rows * 2:
             lines.append(f"\n… and {len(failed) - max_rows * 2} more failed checks.")
     from vinecli.report.deposition_tables import deposition_markdown
