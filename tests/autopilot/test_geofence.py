@@ -41,16 +41,26 @@ def test_limits_relative_to_home() -> None:
     assert gf2.violation((89.0, 50.0, 25.0)) == "polygon"
 
 
-def test_breach_needs_consecutive_samples_and_fires_once_per_excursion() -> None:
-    gf = Geofence(GeofenceSpec(max_horizontal_distance_m=5.0, action="rtl"), (0.0, 0.0, 0.0), count=3)
+def test_breach_needs_consecutive_samples_and_fires_once_per_episode() -> None:
+    gf = Geofence(GeofenceSpec(max_horizontal_distance_m=5.0, action="rtl"), (0.0, 0.0, 0.0), count=3, rearm=4)
     out, inside = (6.0, 0.0, 1.0), (1.0, 0.0, 1.0)
     assert [gf.check(out) for _ in range(2)] == ["", ""]
     assert gf.check(inside) == ""  # the count restarts
     assert [gf.check(out) for _ in range(5)] == ["", "", "max_distance", "", ""]
     assert gf.breached
+    assert [gf.check(inside) for _ in range(3)] == ["", "", ""]
+    assert gf.breached  # not yet back inside for `rearm` checks
     gf.check(inside)
     assert not gf.breached
-    assert [gf.check(out) for _ in range(3)] == ["", "", "max_distance"]  # a new excursion fires again
+    assert [gf.check(out) for _ in range(3)] == ["", "", "max_distance"]  # a new episode fires again
+
+
+def test_an_estimate_jittering_across_the_fence_is_one_episode() -> None:
+    """A noisy position estimate near the fence: one breach, not one per re-entry (the ~115 warnings)."""
+    gf = Geofence(GeofenceSpec(polygon_enu=[(-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0)]), (0.0, 0.0, 0.0))
+    pattern = [(5.2, 0.0, 1.0)] * 3 + [(4.9, 0.0, 1.0)] * 2
+    fired = [v for _ in range(40) for p in pattern if (v := gf.check(p))]
+    assert fired == ["polygon"]
 
 
 def test_px4_action_numbers() -> None:

@@ -4,6 +4,7 @@ spray passes over rows, geofence actions, timeouts, registry."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import pytest
 
@@ -23,9 +24,17 @@ def vehicle(name: str = "x500") -> VehicleSpec:
     return load_spec(VEHICLES / f"{name}.yaml", VehicleSpec)
 
 
-def run(phases: list[dict], seconds: float, *, name: str = "x500", truth: bool = True, **ctx: object
+def push(t: float) -> tuple[float, float, float]:
+    """A 20 N eastward shove for 1 s at t = 8 s (out of the test fence), N ENU."""
+    return (20.0, 0.0, 0.0) if 8.0 <= t < 9.0 else (0.0, 0.0, 0.0)
+
+
+def run(phases: list[dict], seconds: float, *, name: str = "x500", truth: bool = True,
+        force: Callable[[float], tuple[float, float, float]] | None = None, **ctx: object
         ) -> tuple[RigidBodyDouble, BuiltinAutopilot, Trace, list]:
+    """Fly ``phases`` on the rigid-body double; ``force``: extra world force (N, ENU) of time (s)."""
     d = RigidBodyDouble(vehicle(name))
+    d.ext_force = force
     ap = BuiltinAutopilot()
     ap.reset(d.context(MissionSpec(name="t", truth=truth, phases=phases), **ctx))
     tr = d.fly(ap, seconds)
@@ -163,22 +172,25 @@ def _fence(action: str) -> GeofenceSpec:
     return GeofenceSpec(polygon_enu=[(-5.0, -5.0), (8.0, -5.0), (8.0, 5.0), (-5.0, 5.0)], action=action)
 
 
-FENCE_PHASES = [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "goto", "position_enu": [15.0, 0.0], "speed_mps": 3.0},
-                {"type": "hold", "duration_s": 1.0}]
+# the plan stays inside the fence (preflight refuses anything else); a shove pushes the vehicle out
+FENCE_PHASES = [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "goto", "position_enu": [6.0, 0.0], "speed_mps": 3.0},
+                {"type": "hold", "duration_s": 8.0}]
 
 
 @pytest.mark.parametrize("action", ["none", "warn"])
 def test_geofence_report_only_actions(action: str) -> None:
-    d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence(action))
+    d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence(action), force=push)
     gf = [e for e in ev if e.kind == "geofence"]
     assert len(gf) == 1 and gf[0].data["action"] == action and gf[0].data["violation"] == "polygon"
     assert gf[0].data["x"] == pytest.approx(8.0, abs=0.5)
     assert ap.status().status is RunStatus.COMPLETED
-    assert d.pos[0] == pytest.approx(15.0, abs=0.6)  # the mission went on
+    assert d.pos[0] == pytest.approx(6.0, abs=0.6)  # the mission went on
+    fs = [e for e in ev if e.kind == "failsafe"]
+    assert [e.data["action"] for e in fs] == ([] if action == "none" else ["warn"])
 
 
 def test_geofence_hold_stops_near_the_fence() -> None:
-    d, ap, tr, ev = run(FENCE_PHASES, 25, geofence=_fence("hold"))
+    d, ap, tr, ev = run(FENCE_PHASES, 25, geofence=_fence("hold"), force=push)
     gf = next(e for e in ev if e.kind == "geofence")
     assert gf.data["gf_action"] == 2
     st = ap.status()
@@ -187,7 +199,7 @@ def test_geofence_hold_stops_near_the_fence() -> None:
 
 
 def test_geofence_rtl_returns_home_and_lands() -> None:
-    d, ap, tr, ev = run(FENCE_PHASES, 60, geofence=_fence("rtl"))
+    d, ap, tr, ev = run(FENCE_PHASES, 60, geofence=_fence("rtl"), force=push)
     st = ap.status()
     assert st.status is RunStatus.COMPLETED and "returned to launch" in st.detail
     assert "AUTO.RTL" in [e.data["mode"] for e in ev if e.kind == "mode"]
@@ -196,7 +208,7 @@ def test_geofence_rtl_returns_home_and_lands() -> None:
 
 
 def test_geofence_land_lands_in_place() -> None:
-    d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence("land"))
+    d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence("land"), force=push)
     st = ap.status()
     assert st.status is RunStatus.COMPLETED and "landed" in st.detail
     gf = next(e for e in ev if e.kind == "geofence")
@@ -205,7 +217,8 @@ def test_geofence_land_lands_in_place() -> None:
 
 def test_geofence_terminate_and_max_altitude() -> None:
     fence = GeofenceSpec(max_altitude_agl_m=4.0, action="terminate")
-    d, ap, tr, ev = run([{"type": "takeoff", "altitude_agl_m": 6.0}], 20, geofence=fence)
+    d, ap, tr, ev = run([{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 10.0}], 20,
+                        geofence=fence, force=lambda t: (0.0, 0.0, 40.0) if t >= 6.0 else (0.0, 0.0, 0.0))  # updraft
     st = ap.status()
     assert st.status is RunStatus.GEOFENCE_TERMINATED
     gf = next(e for e in ev if e.kind == "geofence")

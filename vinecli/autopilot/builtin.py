@@ -771,9 +771,9 @@ class BuiltinAutopilot:
         self.set_flow(0.0)
         self.sprayer_inhibited = True
         p = self.pos
-        self.emit("failsafe", f"{cause} at {self.t_us * 1e-6:.2f} s → {action}; sprayer off ({detail})",
+        self.emit("failsafe", f"{detail} at {self.t_us * 1e-6:.2f} s → {action}; sprayer off",
                   {"cause": cause, "action": action, "detail": detail, "position_est_enu": [p[0], p[1], p[2]]})
-        log.warning("failsafe: %s at %.2f s → %s; sprayer off (%s)", cause, self.t_us * 1e-6, action, detail)
+        log.warning("failsafe: %s at %.2f s → %s; sprayer off", detail, self.t_us * 1e-6, action)
 
     # ------------------------------------------------------------------ helpers used by phases
     def emit(self, kind: str, message: str, data: dict[str, object] | None = None) -> None:
