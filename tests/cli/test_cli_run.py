@@ -63,9 +63,12 @@ def test_run_mission_writes_a_complete_run_dir(flat_world: Path, tmp_path: Path)
         "terrain_preview.npz", "run.mcap"])
     s = json.loads((run / "summary.json").read_text())
     for key in ("run_id", "case", "mission", "description", "vehicle", "world", "autopilot", "seed", "status",
-                "status_message", "passed", "sim_time_s", "wall_time_s", "real_time_factor", "checks", "metrics",
-                "started_utc"):
+                "status_message", "passed", "sim_time_s", "failsafes", "checks", "metrics", "timing", "started_utc"):
         assert key in s, key
+    assert s["failsafes"] == []
+    assert {"wall_time_s", "real_time_factor", "wall_per_step_us", "cpu_per_step_us"} <= set(s["timing"])
+    assert not {"wall_time_s", "real_time_factor", "wall_per_step_us", "cpu_per_step_us", "loop_wall_s"} & set(
+        s["metrics"]) and "wall_time_s" not in s  # machine-dependent figures only under timing
     assert s["status"] == "completed" and s["passed"] and s["seed"] == 3 and s["vehicle"] == "x500-sprayer"
     assert set(s["world"]) >= {"name", "dir", "origin", "rows_enu", "geofence"}
     assert s["world"]["origin"]["lat"] == pytest.approx(47.397742)

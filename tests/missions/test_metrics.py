@@ -172,3 +172,18 @@ def test_rotor_period_ignores_faster_attitude_oscillation() -> None:
     d.timeseries = ts
     assert m("rotor_wind_period_ratio", d) == pytest.approx(1.0, abs=0.02)
     assert m("rotor_period_s", d) == pytest.approx(2.2, rel=0.03)  # the unrestricted metric sees it
+
+
+def test_meaningless_metrics_are_nan() -> None:
+    """No wind -> no tilt-into-wind ratio (the drag of the vehicle's own motion is no wind); a constant
+    mass -> no rotor-mass correlation (float jitter of the mass column is no mass change)."""
+    calm = gust_series()
+    ts = dict(calm.timeseries)
+    ts["wind_enu_x_mps"] = np.full(ts["t_s"].shape, 0.2)  # below 0.5 m/s; the drag terms stay non-zero
+    calm.timeseries = ts
+    assert math.isnan(m("tilt_into_wind_ratio", calm))
+    d = spray_series()
+    ts = dict(d.timeseries)
+    ts["total_mass_kg"] = 3.32 + 1e-9 * np.sin(ts["t_s"])  # constant up to float noise
+    d.timeseries = ts
+    assert math.isnan(m("rotor_mass_correlation", d))

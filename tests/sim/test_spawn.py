@@ -29,15 +29,14 @@ def sample_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
 
 
 def test_sample_spawn_is_flat_and_inside_the_geofence(sample_dir: Path) -> None:
-    from vinecli.autopilot.geofence import point_in_polygon
+    from vinecli.autopilot.geofence import Geofence
+    from vinecli.autopilot.preflight import fence_margins_m
 
     rest = json.loads((sample_dir / "world.json").read_text())["spawn"]["rest"]
     assert rest["settled"] and rest["tilt_deg"] < 5.0 and rest["drift_m"] < 0.05
     w = load_world(sample_dir)
-    x, y, _ = w.spawn_enu
-    poly = [tuple(p) for p in w.geofence.polygon_enu]
-    for dx, dy in ((0.4, 0.0), (-0.4, 0.0), (0.0, 0.4), (0.0, -0.4)):  # 0.4 m margin to the fence
-        assert point_in_polygon(x + dx, y + dy, poly)
+    horiz, _ = Geofence(w.geofence, w.spawn_enu).clearance(w.spawn_enu)
+    assert horiz >= fence_margins_m(w.vehicle)[0] + 0.2  # 3 sigma of the GNSS noise (0.9 m) and then some
     # the runner's own rest state at t = 0 is as level as the build's
     r = run_simulation(w, mission(max_duration_s=0.5), OpenLoop(lambda o: [0.0] * 4), seed=1)
     assert math.degrees(r.timeseries["tilt_rad"][0]) < 5.0
@@ -88,3 +87,54 @@ def test_world_build_warns_about_a_tilted_spawn(tmp_path: Path, caplog: Any) -> 
     rest = json.loads((d / "world.json").read_text())["spawn"]["rest"]
     assert rest["tilt_deg"] == pytest.approx(15.0, abs=1.5)
     assert any("tilted" in rec.getMessage() for rec in caplog.records)
+
+
+def _slope_world(tmp_path: Path, slope_deg: float, **kw: Any) -> Path:
+    n = 121
+    x = np.arange(n) * 0.1
+    X, _ = np.meshgrid(x, x)
+    z = (400.0 + math.tan(math.radians(slope_deg)) * X).astype(np.float32)  # a slope towards east
+    tif = tmp_path / "slope.tif"
+    with rasterio.open(tif, "w", driver="GTiff", width=n, height=n, count=1, dtype="float32", crs="EPSG:32632",
+                       transform=from_origin(465000.0, 5250000.0, 0.1, 0.1)) as ds:
+        ds.write(z, 1)
+    return world_yaml(tmp_path, {"type": "dsm", "path": str(tif), "format": "tiles", "max_error_m": 0.01,
+                                 "tile_px": 64}, **kw)
+
+
+def test_world_build_refuses_a_spawn_that_cannot_pass_preflight(tmp_path: Path, repo: Path) -> None:
+    """Tilted beyond control.preflight_max_tilt_deg at rest: exit 2, one line, nothing written;
+    --allow-unsafe-spawn builds it and the run ends preflight_failed before arming."""
+    from typer.testing import CliRunner
+
+    from vinecli.cli.app import app
+    from vinecli.runs.mission import run_mission
+
+    strict = tmp_path / "strict.yaml"  # the x500 sprayer that refuses to arm above 10 deg (the slope is 15)
+    strict.write_text(f"base: {repo / 'vehicles' / 'x500-sprayer.yaml'}\nname: strict\n"
+                      "control: {preflight_max_tilt_deg: 10.0}\n")
+    spec = _slope_world(tmp_path, 15.0, vehicle=str(strict))
+    r = CliRunner().invoke(app, ["world", "build", str(spec), "--out", str(tmp_path / "w")])
+    assert r.exit_code == 2, r.output
+    assert "unsafe spawn: preflight check 'tilt': tilted 1" in r.output and "limit 10 deg" in r.output
+    assert len(r.output.strip().splitlines()) == 1
+    assert not (tmp_path / "w").exists() and not list(tmp_path.glob(".w.tmp-*"))
+    r = CliRunner().invoke(app, ["world", "build", str(spec), "--out", str(tmp_path / "w"), "--allow-unsafe-spawn"])
+    assert r.exit_code == 0, r.output
+    (tmp_path / "m.yaml").write_text("name: up\nmax_duration_s: 20\nphases: [{type: takeoff, altitude_agl_m: 2.0}]\n")
+    s = run_mission(tmp_path / "m.yaml", tmp_path / "w", tmp_path / "runs", seed=1)
+    assert s.status == "preflight_failed" and "'tilt'" in s.status_message and "limit 10 deg" in s.status_message
+    events = (tmp_path / "runs" / s.run_id / "events.jsonl").read_text()
+    assert '"kind": "preflight"' in events and '"kind": "arming"' not in events
+
+
+def test_world_build_refuses_a_spawn_near_the_geofence(tmp_path: Path) -> None:
+    from vinecli.errors import SpecError
+
+    fence = {"polygon_enu": [[-5.0, -5.0], [0.5, -5.0], [0.5, 5.0], [-5.0, 5.0]]}
+    spec = world_yaml(tmp_path, {"type": "flat", "z_m": 0.0, "size_m": 40.0},
+                      origin={"lat": 47.0, "lon": 8.0, "alt": 400.0}, geofence=fence)
+    with pytest.raises(SpecError, match=r"'geofence_spawn'.*0\.50 m inside, needs 0\.90 m"):
+        build_world(spec, tmp_path / "w")
+    assert not (tmp_path / "w").exists()
+    assert build_world(spec, tmp_path / "w", allow_unsafe_spawn=True).is_dir()
