@@ -33,6 +33,9 @@ from vinecli.specs.vehicle import VehicleSpec
 
 #: the fence margin covers this many standard deviations of the position noise
 MARGIN_SIGMAS = 3.0
+#: a planned point may lie this far beyond the terrain's last sample (rows detected on the height
+#: grid end a few cm past it), m
+TERRAIN_EDGE_TOLERANCE_M = 0.1
 
 
 @dataclass(frozen=True)
@@ -132,13 +135,15 @@ def check_plan(points: Sequence[PlanPoint], fence: GeofenceSpec | None, home: Ve
     """Every planned point inside the fence by the margins and over the mapped terrain (first failure of each kind)."""
     out: list[PreflightFailure] = []
     if terrain_bounds is not None:
+        tol = TERRAIN_EDGE_TOLERANCE_M
         xmin, ymin, xmax, ymax = terrain_bounds
+        xmin, ymin, xmax, ymax = xmin - tol, ymin - tol, xmax + tol, ymax + tol
         for p in points:
             if not (xmin <= p.x <= xmax and ymin <= p.y <= ymax):
                 out.append(PreflightFailure(
                     "plan_off_terrain", 0.0, 0.0,
                     f"preflight check 'plan_off_terrain': {p.label} at ({p.x:.2f}, {p.y:.2f}) is outside the terrain "
-                    f"[{xmin:.2f}, {ymin:.2f}, {xmax:.2f}, {ymax:.2f}]"))
+                    f"[{xmin + tol:.2f}, {ymin + tol:.2f}, {xmax - tol:.2f}, {ymax - tol:.2f}]"))
                 break
     if fence is not None and fence.action != "none":
         gf = Geofence(fence, home)
