@@ -88,17 +88,32 @@ def test_spray_pass_over_rows(flat: Any) -> None:
 
 
 def test_geofence_breach_returns_home(flat: Any) -> None:
-    fence = {"polygon_enu": [[-6.0, -6.0], [6.0, -6.0], [6.0, 6.0], [-6.0, 6.0]], "max_altitude_agl_m": 20.0,
+    """A 1-cos gust (18 m/s peak, towards east) shoves the hovering vehicle through the fence 2 m east of home."""
+    fence = {"polygon_enu": [[-6.0, -6.0], [2.0, -6.0], [2.0, 6.0], [-6.0, 6.0]], "max_altitude_agl_m": 20.0,
              "action": "rtl"}
-    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "goto", "position_enu": [15.0, 0.0]}],
-              geofence=fence, max_s=60.0)
+    gust = {"law": {"type": "gust", "peak_mps": 18.0, "start_s": 6.0, "duration_s": 4.0, "heading_deg": 90.0}}
+    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 12.0}],
+              geofence=fence, wind=gust, max_s=60.0)
     assert res.status is RunStatus.COMPLETED, res.detail
     assert "geofence" in res.detail and "returned to launch" in res.detail
     gf = [e for e in res.events if e.kind == "geofence"]
     assert len(gf) == 1
     assert gf[0].data["action"] == "rtl" and gf[0].data["gf_action"] == 3 and gf[0].data["violation"] == "polygon"
-    assert 5.5 < gf[0].data["x"] < 7.5
+    assert 1.5 < gf[0].data["x"] < 3.5
+    fs = [e for e in res.events if e.kind == "failsafe"]
+    assert len(fs) == 1 and fs[0].data["action"] == "rtl" and fs[0].data["position_enu"][0] > 1.5  # truth added
     ts = res.timeseries
-    assert float(np.max(ts["pos_enu_x_m"])) < 9.0
+    assert float(np.max(ts["pos_enu_x_m"])) < 5.0
     assert math.hypot(ts["pos_enu_x_m"][-1], ts["pos_enu_y_m"][-1]) < 0.7  # back home (GNSS-grade accuracy)
     assert ts["on_ground"][-1] == 1.0 and ts["armed"][-1] == 0.0
+
+
+def test_a_goto_outside_the_fence_is_refused_before_arming(flat: Any) -> None:
+    """PX4's mission feasibility check: a planned point outside the fence -> preflight_failed, never armed."""
+    fence = {"polygon_enu": [[-6.0, -6.0], [6.0, -6.0], [6.0, 6.0], [-6.0, 6.0]], "action": "rtl"}
+    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "goto", "position_enu": [15.0, 0.0]}],
+              geofence=fence)
+    assert res.status is RunStatus.PREFLIGHT_FAILED
+    assert "'geofence_plan'" in res.detail and "phase 1 (goto) at (15.00, 0.00)" in res.detail
+    assert res.timeseries["armed"].max() == 0.0 and res.timeseries["on_ground"].all()
+    assert res.sim_time_s < 2.5  # ends when it would have armed

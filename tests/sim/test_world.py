@@ -187,13 +187,14 @@ def test_world_json_carries_rows_geofence_wind_and_physics(tmp_path):
         tmp_path, {"type": "flat", "z_m": 1.5}, origin={"lat": 10.0, "lon": 20.0, "alt": 100.0}, rows="auto",
         wind={"law": {"type": "sinusoid", "mean_mps": 2.0, "amplitude_mps": 1.0, "heading_deg": 90.0}},
         physics_rate_hz=500, gravity_mps2=9.81, air_density_kgm3=1.1,
-        geofence={"polygon_enu": [[-5, -5], [5, -5], [5, 5]], "action": "rtl"}, spawn={"x_m": 1.0, "yaw_deg": 90.0},
+        geofence={"polygon_enu": [[-5, -5], [5, -5], [5, 5]], "action": "rtl"}, spawn={"x_m": 1.0, "y_m": -1.0,
+                                                                                      "yaw_deg": 90.0},
     )
     w = load_world(build_world(spec, tmp_path / "w"))
     assert w.rows_auto and w.vine_rows_enu == []
     assert w.physics_rate_hz == 500 and w.gravity == 9.81 and w.air_density == 1.1
     assert w.wind.law.type == "sinusoid" and w.geofence.action == "rtl"
-    assert w.spawn_enu == pytest.approx((1.0, 0.0, 1.5 + w.vehicle.frame.landing_gear_height_m), abs=0.005)
+    assert w.spawn_enu == pytest.approx((1.0, -1.0, 1.5 + w.vehicle.frame.landing_gear_height_m), abs=0.005)
     assert w.spawn_yaw_rad == pytest.approx(math.pi / 2)
     assert w.terrain_height(3.0, 4.0) == 1.5
     sdf = etree.parse(str(tmp_path / "w" / "world.sdf")).getroot()
