@@ -151,3 +151,4 @@ def test_estimator_without_a_usable_gnss_is_not_armed() -> None:
     assert st.status is RunStatus.PREFLIGHT_FAILED
     assert "'estimator'" in st.detail and "not converged after 10 s" in st.detail and "GNSS 4 satellites < 6" in st.detail
     assert next(e for e in ev if e.kind == "preflight").t_us == pytest.approx(10e6, abs=0.05e6)
+

@@ -30,9 +30,10 @@ Preflight (before arming, :mod:`vinecli.autopilot.preflight`): estimator converg
 by the position-uncertainty margin and over the mapped terrain; a failure ends the run
 ``preflight_failed`` naming the check and the value.
 
-Failsafes (geofence hold/rtl/land/terminate/warn, lost control) switch the sprayer off for the
-rest of the run and emit a ``failsafe`` event {cause, action, detail, position_est_enu}; the
-runner adds the true ``position_enu``.
+Failsafes (geofence hold/rtl/land/terminate/warn; lost control; the battery at its critical state
+of charge -> rtl, at its emergency one -> land, as PX4's BAT_CRIT_THR / BAT_EMERGEN_THR) switch
+the sprayer off for the rest of the run and emit a ``failsafe`` event {cause, action, detail,
+position_est_enu}; the runner adds the true ``position_enu``.
 """
 
 from __future__ import annotations
@@ -566,6 +567,7 @@ class BuiltinAutopilot:
         self._phase_t = 0.0
         self._failsafe = False
         self._failsafe_detail = ""
+        self._battery_level = 0  # 0 ok, 1 critical (returning), 2 emergency (landing)
         self.sprayer_inhibited = False
         self._countdown = 0
         self._z_armed = self.home[2]
@@ -922,6 +924,9 @@ class BuiltinAutopilot:
                 self._on_geofence(viol)
                 if self._status.status is not RunStatus.RUNNING:
                     return
+        soc = obs.battery_soc
+        if soc == soc and self.armed and self.airborne and self.vehicle.battery is not None:  # NaN: no battery model
+            self._check_battery(soc)
         # sequencer
         ph = self._phase
         if ph is not None:
@@ -947,6 +952,29 @@ class BuiltinAutopilot:
             ex["sp_x"], ex["sp_y"], ex["sp_z"] = sp
         ex["mass_est_kg"] = self.mass
         ex["sortie"] = float(self.sortie)
+
+    def _check_battery(self, soc: float) -> None:
+        """PX4 BAT_CRIT_THR / BAT_EMERGEN_THR: return to launch at the critical state of charge, land
+        where it is at the emergency one (each once; a landing in progress just goes on)."""
+        b = self.vehicle.battery
+        if b is None:
+            return
+        level = 2 if soc <= b.emergency_soc else 1 if soc <= b.critical_soc else 0
+        if level <= self._battery_level:
+            return
+        self._battery_level = level
+        name = "emergency" if level == 2 else "critical"
+        limit = b.emergency_soc if level == 2 else b.critical_soc
+        detail = f"battery {soc:.0%} at the {name} level {limit:.0%}"
+        if isinstance(self._phase, _Land):
+            self.failsafe("low_battery", "land", detail)
+        elif level == 2:
+            self.failsafe("low_battery", "land", detail)
+            self._sp = None  # land where the vehicle is
+            self._failsafe_to(_Land(0.7, math.inf), f"low battery ({detail}): landed")
+        else:
+            self.failsafe("low_battery", "rtl", detail)
+            self._failsafe_to(_Rtl(5.0, math.inf), f"low battery ({detail}): returned to launch and landed")
 
     def _on_geofence(self, violation: str) -> None:
         action = self.geofence.action  # type: ignore[union-attr]
