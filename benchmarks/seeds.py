@@ -6,7 +6,7 @@ The pipeline's world is built once (not timed); each mission runs as one batch e
 suite (800 runs, ~15 min on 2 cores); ``tests/batch/test_seed_sweep.py`` runs a handful of seeds.
 
     .venv/bin/python benchmarks/seeds.py [--quick] [--seeds 100] [--jobs 2] [--pipelines ci ci-hills]
-                                         [--json out.json] [--keep RUNS_DIR]
+                                         [--missions takeoff spray ...] [--json out.json] [--keep RUNS_DIR]
 """
 
 from __future__ import annotations
@@ -16,14 +16,16 @@ import json
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 
 
-def sweep(pipeline: Path, n_seeds: int, jobs: int, work: Path) -> dict[str, Any]:
-    """Run every mission of ``pipeline`` for seeds 0..n_seeds-1 under ``work``; failures per mission."""
+def sweep(pipeline: Path, n_seeds: int, jobs: int, work: Path, only: Sequence[str] = ()) -> dict[str, Any]:
+    """Run every mission of ``pipeline`` (or those named in ``only``) for seeds 0..n_seeds-1 under ``work``;
+    failures per mission."""
     from vinecli.batch import run_batch
     from vinecli.batch.runner import build_world_once
     from vinecli.batch.spec import load_pipeline
@@ -31,7 +33,8 @@ def sweep(pipeline: Path, n_seeds: int, jobs: int, work: Path) -> dict[str, Any]
     ci = load_pipeline(pipeline)
     assert ci.world is not None
     world = build_world_once((pipeline.parent / ci.world).resolve(), work / "_worlds")
-    missions = [str((pipeline.parent / e.mission).resolve()) for e in ci.missions]
+    missions = [str((pipeline.parent / e.mission).resolve()) for e in ci.missions
+                if not only or Path(str(e.mission)).stem in only]
     pipe = work / f"seeds-{ci.name}.yaml"
     pipe.write_text(json.dumps({
         "name": f"seeds-{ci.name}", "world": str(world), "seed": 0, "timeout_s": 900,
@@ -62,6 +65,7 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=100, help="seeds 0..N-1 per mission")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--pipelines", nargs="+", default=["ci", "ci-hills"], help="names in pipelines/")
+    ap.add_argument("--missions", nargs="+", default=[], help="only these missions (file stems), default all")
     ap.add_argument("--json", type=Path, default=None, help="also write the results as JSON")
     ap.add_argument("--keep", type=Path, default=None, help="keep the run directories here (default: a temp dir)")
     args = ap.parse_args()
@@ -71,7 +75,7 @@ def main() -> int:
         work = args.keep or Path(tmp_s)
         work.mkdir(parents=True, exist_ok=True)
         for name in args.pipelines:
-            r = sweep(REPO / "pipelines" / f"{name}.yaml", n, args.jobs, work)
+            r = sweep(REPO / "pipelines" / f"{name}.yaml", n, args.jobs, work, args.missions)
             results.append(r)
             for mission, m in r["missions"].items():
                 print(f"{r['pipeline']:9s} {mission:9s} {m['failed']} of {m['runs']} failed")
