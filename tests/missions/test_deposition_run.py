@@ -1,12 +1,11 @@
 """Deposition in real runs (flat world, real loop and autopilot): outputs, determinism, and the spray checks
-failing for a run that stops over one spot with the sprayer on."""
+failing for a run stopped mid-row by a geofence hold (the failsafe switches the sprayer off: no overdose)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-import numpy as np
 import pytest
 import rasterio
 from repo_paths import REPO
@@ -81,17 +80,21 @@ def test_spray_run_writes_deposition_and_is_deterministic(flat_world: Path, tmp_
     assert met["row_coverage_fraction"] >= 0.9
 
 
-def test_stopping_over_one_spot_with_the_sprayer_on_fails_the_spray_checks(flat_world: Path, tmp_path: Path) -> None:
-    # a fence across the first row: the vehicle holds at it mid-row (geofence action hold)
-    fence = "geofence: {polygon_enu: [[-10.0, -10.0], [10.0, -10.0], [10.0, 7.0], [-10.0, 7.0]], action: hold}"
+def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(flat_world: Path, tmp_path: Path) -> None:
+    # the fence 1 m west of the first row (preflight's 0.9 m margin); a westward gust shoves the vehicle
+    # through it mid-row: geofence hold until the time limit, sprayer off at the breach
+    fence = ("geofence: {polygon_enu: [[-1.0, -10.0], [10.0, -10.0], [10.0, 20.0], [-1.0, 20.0]], action: hold}\n"
+             "wind: {law: {type: gust, peak_mps: 24.0, start_s: 6.0, duration_s: 4.0, heading_deg: 270.0}}")
     s = run_mission(mission(tmp_path, "stuck", fence=fence, maxdur=45.0), flat_world, tmp_path / "runs", seed=4)
     failed = {c["name"] for c in s.failed_checks}
     assert "spray_coverage" in failed
     assert s.metrics["row_coverage_fraction"] < 0.5
     assert s.metrics["deposit_balance_error"] <= 1e-6
-    if s.metrics["deposit_emitted_l"] > 0.3:  # the sprayer stayed on in the hold: the tank went onto one spot
-        assert "spray_rate_on_rows" in failed or "spray_drift" in failed
-        assert np.isfinite(s.metrics["mean_rate_lpha_on_rows"])
+    summary = json.loads((Path(s.run_dir) / "summary.json").read_text())
+    (fs,) = summary["failsafes"]
+    assert fs["cause"] == "geofence" and fs["action"] == "hold"
+    # nothing more left the tank after the breach: well under the 0.4 L it would have emptied onto one spot
+    assert 0.0 < s.metrics["deposit_emitted_l"] < 0.1
 
 
 def test_the_deposition_grid_is_configurable(flat_world: Path, tmp_path: Path) -> None:
