@@ -41,7 +41,7 @@ def test_low_battery_returns_then_lands_with_the_sprayer_off() -> None:
     # critical (7 %) at 13 s: return to launch; emergency (5 %) at 15 s on the way back: land there
     assert [(e.data["cause"], e.data["action"]) for e in fs] == [("low_battery", "rtl"), ("low_battery", "land")]
     assert [round(e.t_us * 1e-6) for e in fs] == [13, 15]
-    assert "battery 7% at the critical level 7%" in fs[0].data["detail"]
+    assert "battery 7.0% below the critical level 7%" in fs[0].data["detail"]
     i_rtl = next(i for i, t in enumerate(tr.t) if t >= fs[0].t_us * 1e-6 + 0.1)
     assert max(tr.flow[:i_rtl]) == pytest.approx(0.02) and max(tr.flow[i_rtl:]) == 0.0  # sprayer off at once
     st = ap.status()

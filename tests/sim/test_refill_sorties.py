@@ -112,12 +112,16 @@ def test_low_battery_ends_a_sortie(flat_world_dir):
 
 def test_a_job_that_cannot_progress_is_aborted(flat_world_dir):
     """A 3 Wh pack is at its return threshold before it reaches the breakpoint again: the job stops
-    with 'no progress' instead of flying the same transit until the time limit."""
+    with 'no progress' instead of flying the same transit until the time limit. (Its return dips
+    into the emergency reserve, where the battery failsafe would land it first: the failsafe
+    levels are set to 0 here so that the job's own guard is what stops it.)"""
     from vinecli.world import load_world
 
+    v = _small_pack(3.0)
+    v = v.model_copy(update={"battery": v.battery.model_copy(update={"critical_soc": 0.0, "emergency_soc": 0.0})})
     r = run_simulation(load_world(flat_world_dir), mission(_job(0.03), max_duration_s=900, record_rate_hz=10,
                                                            tank_fill_l=1.0), BuiltinAutopilot(), seed=2,
-                       vehicle=_small_pack(3.0))
+                       vehicle=v)
     ends = [e.data for e in r.events if e.kind == "sortie" and e.data.get("event") == "end"]
     assert ends[-1]["reason"].startswith("no progress") and len(ends) <= 10
     assert r.sim_time_s < 300
@@ -138,3 +142,18 @@ def test_crew_refuses_a_flying_vehicle():
 def test_refill_needs_rows_done():
     with pytest.raises(ValueError, match="rows_done"):
         SprayPhase.model_validate({"type": "spray", "flow_lps": 0.02, "until": "empty", "refill": {}})
+
+
+def test_a_job_whose_return_reaches_the_emergency_reserve_lands_there(flat_world_dir):
+    """The same 3 Wh pack with PX4's battery failsafes: the critical level comes while the sortie's
+    return is under way (recorded, the return goes on), the emergency level lands the vehicle where
+    it is and ends the job."""
+    from vinecli.world import load_world
+
+    r = run_simulation(load_world(flat_world_dir), mission(_job(0.03), max_duration_s=900, record_rate_hz=10,
+                                                           tank_fill_l=1.0), BuiltinAutopilot(), seed=2,
+                       vehicle=_small_pack(3.0))
+    fs = [(e.data["cause"], e.data["action"]) for e in r.events if e.kind == "failsafe"]
+    assert fs == [("low_battery", "rtl"), ("low_battery", "land")]
+    assert r.status.value == "completed" and "below the emergency level" in r.detail and r.sim_time_s < 60
+

@@ -32,8 +32,9 @@ by the position-uncertainty margin and over the mapped terrain; a failure ends t
 
 Failsafes (geofence hold/rtl/land/terminate/warn; lost control; the battery at its critical state
 of charge -> rtl, at its emergency one -> land, as PX4's BAT_CRIT_THR / BAT_EMERGEN_THR) switch
-the sprayer off for the rest of the run and emit a ``failsafe`` event {cause, action, detail,
-position_est_enu}; the runner adds the true ``position_enu``.
+the sprayer off for the rest of the flight (until landed and armed again, e.g. after a refill)
+and emit a ``failsafe`` event {cause, action, detail, position_est_enu}; the runner adds the true
+``position_enu``. A critical battery while already returning or landing is recorded, not restarted.
 """
 
 from __future__ import annotations
@@ -769,7 +770,7 @@ class BuiltinAutopilot:
 
     # ------------------------------------------------------------------ failsafes
     def failsafe(self, cause: str, action: str, detail: str) -> None:
-        """Record a failsafe and switch the sprayer off for the rest of the run (event ``failsafe``)."""
+        """Record a failsafe and switch the sprayer off for the rest of the flight (event ``failsafe``)."""
         self.set_flow(0.0)
         self.sprayer_inhibited = True
         p = self.pos
@@ -783,8 +784,10 @@ class BuiltinAutopilot:
         self._events.append(Event(self.t_us, kind, message, data or {}))
 
     def arm(self) -> None:
+        """Arm (motors idle); a new flight: a failsafe's sprayer lock-out of the previous one ends."""
         if not self.armed:
             self.armed = True
+            self.sprayer_inhibited = False
             self._z_armed = self.pos[2]
             self.cascade.reset()
             self.cascade.set_yaw(quat_to_euler(self.quat)[2], immediate=True)
@@ -959,15 +962,16 @@ class BuiltinAutopilot:
         b = self.vehicle.battery
         if b is None:
             return
-        level = 2 if soc <= b.emergency_soc else 1 if soc <= b.critical_soc else 0
+        level = 2 if soc < b.emergency_soc else 1 if soc < b.critical_soc else 0  # a level of 0 is off
         if level <= self._battery_level:
             return
         self._battery_level = level
         name = "emergency" if level == 2 else "critical"
         limit = b.emergency_soc if level == 2 else b.critical_soc
-        detail = f"battery {soc:.0%} at the {name} level {limit:.0%}"
-        if isinstance(self._phase, _Land):
-            self.failsafe("low_battery", "land", detail)
+        detail = f"battery {soc:.1%} below the {name} level {limit:.0%}"
+        if self.mode in ("AUTO.RTL", "AUTO.LAND") and (level == 1 or self.mode == "AUTO.LAND"):
+            # already returning (a refill sortie's return) or landing: PX4 does not restart it
+            self.failsafe("low_battery", "rtl" if self.mode == "AUTO.RTL" else "land", detail)
         elif level == 2:
             self.failsafe("low_battery", "land", detail)
             self._sp = None  # land where the vehicle is

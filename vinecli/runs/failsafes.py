@@ -4,7 +4,7 @@ summary.json ``failsafes``: ``[{t_s, cause, action, detail, position_enu}]`` in 
 ``cause`` is ``geofence``, ``lost_control``, ``px4`` (a PX4 backend's failsafe), ...;
 ``action`` what the autopilot did (``hold``, ``rtl``, ``land``, ``terminate``, ``warn``,
 ``disarm``); ``position_enu`` the true vehicle position (m, world ENU) at that step. Every
-failsafe switches the sprayer off for the rest of the run.
+failsafe switches the sprayer off for the rest of the flight (until the vehicle is armed again).
 """
 
 from __future__ import annotations
