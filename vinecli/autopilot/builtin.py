@@ -788,6 +788,7 @@ class BuiltinAutopilot:
         if not self.armed:
             self.armed = True
             self.sprayer_inhibited = False
+            self._battery_level = 0  # a new flight (after a refill: a swapped battery)
             self._z_armed = self.pos[2]
             self.cascade.reset()
             self.cascade.set_yaw(quat_to_euler(self.quat)[2], immediate=True)
@@ -958,7 +959,7 @@ class BuiltinAutopilot:
 
     def _check_battery(self, soc: float) -> None:
         """PX4 BAT_CRIT_THR / BAT_EMERGEN_THR: return to launch at the critical state of charge, land
-        where it is at the emergency one (each once; a landing in progress just goes on)."""
+        where it is at the emergency one (each once per flight; a return or landing in progress goes on)."""
         b = self.vehicle.battery
         if b is None:
             return
