@@ -1,7 +1,7 @@
 """Failsafes of a run: from the autopilot's ``failsafe`` events to summary.json and back to text.
 
 summary.json ``failsafes``: ``[{t_s, cause, action, detail, position_enu}]`` in time order;
-``cause`` is ``geofence``, ``lost_control``, ``px4`` (a PX4 backend's failsafe), ...;
+``cause`` is ``geofence``, ``lost_control``, ``low_battery`` or, from the PX4 backend, PX4's warning text;
 ``action`` what the autopilot did (``hold``, ``rtl``, ``land``, ``terminate``, ``warn``,
 ``disarm``); ``position_enu`` the true vehicle position (m, world ENU) at that step. Every
 failsafe switches the sprayer off for the rest of the flight (until the vehicle is armed again).
@@ -15,8 +15,7 @@ from typing import Any
 from vinecli.sim.types import Event
 
 #: how a cause reads in reports
-CAUSE_WORDS = {"geofence": "geofence breach", "lost_control": "lost control", "px4": "PX4 failsafe",
-               "low_battery": "low battery"}
+CAUSE_WORDS = {"geofence": "geofence breach", "lost_control": "lost control", "low_battery": "low battery"}
 
 
 def failsafes_from_events(events: Iterable[Event]) -> list[dict[str, Any]]:
