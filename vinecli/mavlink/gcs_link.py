@@ -71,25 +71,6 @@ class _Peer:
         return [m for m in msgs if m.get_type() != "BAD_DATA"]
 
 
-def _pump(link: Link, sock: socket.socket, peer: _Peer) -> None:
-    """Read a connected TCP socket until the link stops, EOF or an error; each valid MAVLink message
-    goes to ``link.on_message`` and ``link.inbox``."""
-    while not link._stop.is_set():
-        try:
-            data = sock.recv(65536)
-        except TimeoutError:
-            continue
-        except OSError:
-            break
-        if not data:
-            break
-        for m in peer.parse(data):
-            link.rx_count += 1
-            if link.on_message is not None:
-                link.on_message(m)
-            link.inbox.put(m)
-
-
 class MultiPeerUdpLink(Link):
     """UDP bound to ``bind``; sends to ``target`` (if any) and to every peer that sent valid MAVLink."""
 
@@ -151,11 +132,7 @@ class MultiPeerUdpLink(Link):
                 self._candidates.pop(addr, None)
                 self.peers[addr] = peer
                 log.info("MAVLink: ground station %s:%d", addr[0], addr[1])
-        for m in msgs:
-            self.rx_count += 1
-            if self.on_message is not None:
-                self.on_message(m)
-            self.inbox.put(m)
+        self._deliver(msgs)
 
     def _expire(self, now: float) -> None:
         for a in [a for a, p in self.peers.items() if now - p.last_valid > self.peer_timeout_s]:
@@ -215,7 +192,7 @@ class TcpServerGcsLink(Link):
             threading.Thread(target=self._serve, args=(conn,), name=f"tcp-gcs-{addr[1]}", daemon=True).start()
 
     def _serve(self, conn: socket.socket) -> None:
-        _pump(self, conn, _Peer(*self._src))
+        self._read_stream(conn, _Peer(*self._src).parser, mark_closed=False)
         with self._conns_lock:
             if conn in self.conns:
                 self.conns.remove(conn)
@@ -262,7 +239,7 @@ class TcpClientGcsLink(Link):
             s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             s.settimeout(0.2)
             self._sock = s
-            _pump(self, s, _Peer(*self._tx_ids()))
+            self._read_stream(s, _Peer(*self._tx_ids()).parser, mark_closed=False)
             self._sock = None
             with contextlib.suppress(OSError):
                 s.close()

@@ -72,13 +72,15 @@ class Link:
         return self._tx
 
     # ---------------------------------------------------------------- receiving
-    def _feed(self, data: bytes) -> None:
-        msgs = self._rx.parse_buffer(data)
-        if not msgs:
-            return
+    def _feed(self, data: bytes, parser: mavlink2.MAVLink | None = None) -> None:
+        """Parse ``data`` with ``parser`` (default: the link's own) and deliver every valid message."""
+        msgs = (parser or self._rx).parse_buffer(data)
+        if msgs:
+            self._deliver([m for m in msgs if m.get_type() != "BAD_DATA"])
+
+    def _deliver(self, msgs: list[Message]) -> None:
+        """Count, hand to ``on_message`` (in the reader thread) and queue decoded messages."""
         for m in msgs:
-            if m.get_type() == "BAD_DATA":
-                continue
             self.rx_count += 1
             if self.on_message is not None:
                 try:
@@ -94,8 +96,10 @@ class Link:
     def _reader(self) -> None:  # pragma: no cover - overridden
         raise AutopilotError("reader not implemented")
 
-    def _read_stream(self, sock: socket.socket) -> None:
-        """Reader loop of a connected TCP socket: feed bytes until stop, EOF or error, then set ``closed_by_peer``."""
+    def _read_stream(self, sock: socket.socket, parser: mavlink2.MAVLink | None = None, *,
+                     mark_closed: bool = True) -> None:
+        """Reader loop of a connected TCP socket: feed bytes (to ``parser``, default the link's) until stop,
+        EOF or error, then set ``closed_by_peer`` if ``mark_closed``."""
         while not self._stop.is_set():
             try:
                 data = sock.recv(65536)
@@ -105,8 +109,9 @@ class Link:
                 break
             if not data:
                 break
-            self._feed(data)
-        self.closed_by_peer.set()
+            self._feed(data, parser)
+        if mark_closed:
+            self.closed_by_peer.set()
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """Next received message, or None after ``timeout`` seconds."""
