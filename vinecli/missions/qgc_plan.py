@@ -337,6 +337,23 @@ def plan_item(command: int, frame: int, params: Sequence[float | None], seq: int
             "doJumpId": seq}
 
 
+class PlanItems:
+    """Mission items under construction: numbered in order, ENU points as rounded latitude/longitude."""
+
+    def __init__(self, origin: GeoOrigin) -> None:
+        self.origin = origin
+        self.items: list[dict[str, Any]] = []
+
+    def ll(self, x: float, y: float) -> tuple[float, float]:
+        """(lat, lon) in degrees, 8 decimals, of the ENU point (x, y) m."""
+        lat, lon, _ = self.origin.enu_to_geodetic(x, y, 0.0)
+        return round(lat, 8), round(lon, 8)
+
+    def add(self, command: int, frame: int, params: Sequence[float | None]) -> None:
+        """Append one item with the next sequence number."""
+        self.items.append(plan_item(command, frame, params, len(self.items) + 1))
+
+
 
 def plan_document(items: list[dict[str, Any]], origin: GeoOrigin, home_enu: tuple[float, float, float], *,
                   fence_enu: Sequence[tuple[float, float]] | None = None,
@@ -391,16 +408,10 @@ def export_plan(
     from vinecli.missions.qgc_spray import leg_actions
     from vinecli.missions.rowplan import plan_rows
 
-    items: list[dict[str, Any]] = []
+    built = PlanItems(origin)
+    items, ll, add = built.items, built.ll, built.add
     cur = [home_enu[0], home_enu[1], 0.0]
     home_z = surface(home_enu[0], home_enu[1]) if surface is not None else 0.0
-
-    def ll(x: float, y: float) -> tuple[float, float]:
-        lat, lon, _ = origin.enu_to_geodetic(x, y, 0.0)
-        return round(lat, 8), round(lon, 8)
-
-    def add(command: int, frame: int, params: Sequence[float | None]) -> None:
-        items.append(plan_item(command, frame, params, len(items) + 1))
 
     def wp(x: float, y: float, h: float) -> None:
         lat, lon = ll(x, y)

@@ -90,19 +90,13 @@ def sortie_plan(legs: Sequence[Leg], origin: GeoOrigin, home_enu: tuple[float, f
         NAV_RTL,
         NAV_TAKEOFF,
         NAV_WAYPOINT,
+        PlanItems,
         plan_document,
-        plan_item,
     )
 
-    items: list[dict[str, Any]] = []
+    built = PlanItems(origin)
+    items, ll, add = built.items, built.ll, built.add
     home_z = surface(home_enu[0], home_enu[1]) if surface is not None else 0.0
-
-    def ll(x: float, y: float) -> tuple[float, float]:
-        lat, lon, _ = origin.enu_to_geodetic(x, y, 0.0)
-        return round(lat, 8), round(lon, 8)
-
-    def add(command: int, frame: int, params: Sequence[float | None]) -> None:
-        items.append(plan_item(command, frame, params, len(items) + 1))
 
     lat, lon = ll(home_enu[0], home_enu[1])
     add(NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, [0, 0, 0, None, lat, lon, takeoff_m])
