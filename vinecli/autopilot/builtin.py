@@ -282,6 +282,13 @@ class _Spray(_Phase):
             return f"battery at {ap.battery_soc * 100:.0f} % (low {bat.low_soc * 100:.0f} %)"
         return ""
 
+    def _last_sortie(self, ap: BuiltinAutopilot, why: str, reason: str) -> bool:
+        """End the job in this sortie (event ``sortie`` with ``last``), sprayer off; True (phase done)."""
+        ap.emit("sortie", f"sortie {self.sortie} ends {why}",
+                {"sortie": self.sortie, "event": "end", "reason": reason, "last": True})
+        ap.set_flow(0.0)
+        return True
+
     def _end_sortie(self, ap: BuiltinAutopilot, refill: RefillSpec, reason: str) -> None:
         """Record the breakpoint, then return, land, get serviced and take off again."""
         ap.set_flow(0.0)
@@ -332,16 +339,11 @@ class _Spray(_Phase):
             reason = self._sortie_over(ap, refill)
             if reason:
                 if self.sortie >= refill.max_sorties:
-                    ap.emit("sortie", f"sortie {self.sortie} ends ({reason}): max_sorties {refill.max_sorties} reached",
-                            {"sortie": self.sortie, "event": "end", "reason": reason, "last": True})
-                    ap.set_flow(0.0)
-                    return True
+                    return self._last_sortie(ap, f"({reason}): max_sorties {refill.max_sorties} reached", reason)
                 left = self.path.total - self.path.s
                 if left >= self._left_at_last_end - 0.5:
-                    ap.emit("sortie", f"sortie {self.sortie} ends ({reason}) before reaching new rows: job aborted",
-                            {"sortie": self.sortie, "event": "end", "reason": f"no progress ({reason})", "last": True})
-                    ap.set_flow(0.0)
-                    return True
+                    return self._last_sortie(ap, f"({reason}) before reaching new rows: job aborted",
+                                             f"no progress ({reason})")
                 self._left_at_last_end = left
                 self._end_sortie(ap, refill, reason)
                 return False
@@ -707,7 +709,7 @@ class BuiltinAutopilot:
             return self._off
         q = self.quat
         if 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1]) < self.cos_lost:
-            tilt = math.degrees(math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (q[0] * q[0] + q[1] * q[1])))))
+            tilt = math.degrees(tilt_angle(q))
             detail = f"tilt {tilt:.0f} deg beyond {self.vehicle.control.lost_control_tilt_deg:g} deg"
             self.failsafe("lost_control", "disarm", detail)
             self._finish(RunStatus.LOST_CONTROL, detail)

@@ -28,6 +28,7 @@ from vinecli.specs.mission import (
     SprayPhase,
     TakeoffPhase,
     WaypointsPhase,
+    phase_rows,
 )
 from vinecli.specs.vehicle import VehicleSpec
 
@@ -95,7 +96,6 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
     """The points the mission's phases fly to (z above home); spray rows at their height over the terrain."""
     pts: list[PlanPoint] = []
     x, y, z = home[0], home[1], 0.0
-    world_rows = [[(float(a), float(b)) for a, b in r] for r in rows]
     for i, ph in enumerate(mission.phases):
         label = f"phase {i} ({ph.type})"
         if isinstance(ph, TakeoffPhase):
@@ -115,14 +115,9 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
             x, y = home[0], home[1]
             pts.append(PlanPoint(label, x, y, z))
         elif isinstance(ph, SprayPhase):
-            if ph.rows == "world":
-                sel = world_rows
-            elif ph.rows and all(isinstance(r, int) for r in ph.rows):
-                sel = [world_rows[int(k)] for k in ph.rows if 0 <= int(k) < len(world_rows)]  # type: ignore[arg-type]
-            else:
-                sel = [[(float(a), float(b)) for a, b in r] for r in ph.rows]  # type: ignore[union-attr, misc]
+            sel = phase_rows(ph, rows)
             for r in sel:
-                for px, py in r:
+                for px, py in ((float(a), float(b)) for a, b in r):
                     ground = terrain_height(px, py) + landing_gear_m if terrain_height is not None else home[2]
                     pts.append(PlanPoint(f"{label} row point", px, py, ground + ph.height_agl_m - home[2]))
             if sel and sel[-1]:
@@ -151,15 +146,12 @@ def check_plan(points: Sequence[PlanPoint], fence: GeofenceSpec | None, home: Ve
         for p in points:
             horiz, vert = gf.clearance((p.x, p.y, home[2] + p.z_rel))
             if horiz < mh:
-                out.append(PreflightFailure(
-                    "geofence_plan", horiz, mh,
-                    f"preflight check 'geofence_plan': {p.label} at ({p.x:.2f}, {p.y:.2f}) is "
-                    f"{horiz:.2f} m inside the geofence, needs {mh:.2f} m"))
-                break
-            if vert < mv:
-                out.append(PreflightFailure(
-                    "geofence_plan", vert, mv,
-                    f"preflight check 'geofence_plan': {p.label} at {p.z_rel:.2f} m above home is {vert:.2f} m "
-                    f"below the geofence ceiling, needs {mv:.2f} m"))
-                break
+                value, need, where = horiz, mh, f"at ({p.x:.2f}, {p.y:.2f}) is {horiz:.2f} m inside the geofence"
+            elif vert < mv:
+                value, need, where = vert, mv, f"at {p.z_rel:.2f} m above home is {vert:.2f} m below the geofence ceiling"
+            else:
+                continue
+            out.append(PreflightFailure("geofence_plan", value, need,
+                                        f"preflight check 'geofence_plan': {p.label} {where}, needs {need:.2f} m"))
+            break
     return out

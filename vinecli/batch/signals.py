@@ -42,11 +42,6 @@ class StopRequest:
         self._old: dict[int, Any] = {}
 
     @property
-    def exit_code(self) -> int | None:
-        """128 + signal number (143 SIGTERM, 130 SIGINT), None if no signal came."""
-        return None if self.signum is None else 128 + self.signum
-
-    @property
     def name(self) -> str:
         return signal.Signals(self.signum).name if self.signum is not None else ""
 

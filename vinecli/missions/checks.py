@@ -78,6 +78,8 @@ class RunData:
     status: str = "completed"
     metrics: Mapping[str, float] = field(default_factory=dict)
     context: Any = None
+    #: results derived once per run and shared by several metrics (not part of the run's data)
+    cache: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def t(self) -> np.ndarray:

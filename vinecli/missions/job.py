@@ -21,7 +21,7 @@ SPRAYED_RADIUS_M = 0.5
 ROW_SAMPLE_M = 0.25
 
 
-def _integral(ts: Mapping[str, np.ndarray], col: str, sel: np.ndarray | None = None) -> float:
+def integral(ts: Mapping[str, np.ndarray], col: str, sel: np.ndarray | None = None) -> float:
     """∫ col dt over the rows in ``sel`` (each row holds its value until the next row)."""
     t = np.asarray(ts["t_s"], dtype=float)
     y = np.nan_to_num(np.asarray(ts[col], dtype=float))
@@ -49,8 +49,8 @@ def sorties(ts: Mapping[str, np.ndarray], events: Sequence[tuple[float, str, dic
             "sortie": int(n),
             "t_start_s": float(t[idx[0]]),
             "t_end_s": float(t[idx[-1]]),
-            "volume_l": _integral(ts, "tank_flow_lps", sel) if "tank_flow_lps" in ts else 0.0,
-            "energy_wh": _integral(ts, "power_elec_w", sel) / 3600.0 if "power_elec_w" in ts else math.nan,
+            "volume_l": integral(ts, "tank_flow_lps", sel) if "tank_flow_lps" in ts else 0.0,
+            "energy_wh": integral(ts, "power_elec_w", sel) / 3600.0 if "power_elec_w" in ts else math.nan,
             "end_reason": end.get("reason", "job done"),
             "breakpoint_enu": end.get("breakpoint_enu"),
         }

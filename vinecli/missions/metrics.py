@@ -602,6 +602,17 @@ def _job_span(data: RunData) -> tuple[float, float] | None:
     return (t0, float(data.t[armed[-1]])) if armed.size else None
 
 
+def _rows_sprayed(data: RunData) -> tuple[float, float]:
+    """(fraction, length m) of the context's rows that liquid was delivered over; computed once per RunData
+    (a KD-tree over the spraying samples) for the metrics that need it."""
+    from vinecli.missions.job import rows_sprayed
+
+    cached = data.cache.get("rows_sprayed")
+    if cached is None:
+        cached = data.cache["rows_sprayed"] = rows_sprayed(data.timeseries, getattr(data.context, "rows_enu", ()) or ())
+    return cached
+
+
 @metric("sorties", "1")
 def sorties(data: RunData, window: Window) -> float:
     """Number of sorties flown (take-offs of a refill job; 1 for a single flight), from the sortie column."""
@@ -621,25 +632,21 @@ def job_time_s(data: RunData, window: Window) -> float:
 @metric("rows_sprayed_fraction", "1")
 def rows_sprayed_fraction(data: RunData, window: Window) -> float:
     """Share of the target rows' length that liquid was delivered over (within 0.5 m); NaN if nothing was sprayed."""
-    from vinecli.missions.job import rows_sprayed
-
-    rows = getattr(data.context, "rows_enu", ()) or ()
     if not data.has("tank_flow_lps") or not (np.nan_to_num(data.column("tank_flow_lps")) > 0).any():
         return _nan()
-    return rows_sprayed(data.timeseries, rows)[0]
+    return _rows_sprayed(data)[0]
 
 
 @metric("area_rate_ha_per_h", "ha/h")
 def area_rate_ha_per_h(data: RunData, window: Window) -> float:
     """Sprayed area (sprayed row length x row spacing) per hour of job time, ha/h."""
-    from vinecli.missions.job import row_spacing_m, rows_sprayed
+    from vinecli.missions.job import row_spacing_m
 
-    rows = getattr(data.context, "rows_enu", ()) or ()
     t_job = job_time_s(data, None)
     if not data.has("tank_flow_lps") or not t_job > 0:
         return _nan()
-    _, length = rows_sprayed(data.timeseries, rows)
-    return length * row_spacing_m(rows) / 1e4 / (t_job / 3600.0)
+    length = _rows_sprayed(data)[1]
+    return length * row_spacing_m(getattr(data.context, "rows_enu", ()) or ()) / 1e4 / (t_job / 3600.0)
 
 
 @metric("litres_per_sortie", "L")
@@ -648,9 +655,9 @@ def litres_per_sortie(data: RunData, window: Window) -> float:
     n = sorties(data, None)
     if not data.has("tank_flow_lps") or not n > 0:
         return _nan()
-    t = data.t
-    flow = np.nan_to_num(data.column("tank_flow_lps"))
-    return float(np.sum(flow[:-1] * np.diff(t))) / n if t.size > 1 else _nan()
+    from vinecli.missions.job import integral
+
+    return integral(data.timeseries, "tank_flow_lps") / n if data.t.size > 1 else _nan()
 
 
 # ---------------------------------------------------------------- spray deposition (docs/deposition.md)

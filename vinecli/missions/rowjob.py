@@ -124,7 +124,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
 
         def surface(x: float, y: float) -> float:
             z = float(dsm.height(np.array([x]), np.array([y]))[0])
-            return (z if np.isfinite(z) else float(np.nanmedian(dsm.grid["z"]))) - origin.alt
+            return (z if np.isfinite(z) else dsm.median_z) - origin.alt
 
         home3 = (start[0], start[1], surface(*start))
     if not rows:

@@ -13,6 +13,7 @@ exactly, and rows go back to the source CRS for ``rows.geojson``.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass, field
@@ -56,12 +57,6 @@ class RowFrame:
         return {"crs": self.crs, "centre_crs": list(self.centre), "m_per_crs_unit": list(self.scale),
                 "offset_enu": list(self.offset)}
 
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> RowFrame:
-        """Inverse of :meth:`to_dict`."""
-        return cls(d.get("crs"), tuple(d["centre_crs"]), tuple(d["m_per_crs_unit"]),  # type: ignore[arg-type]
-                   tuple(d.get("offset_enu", (0.0, 0.0))))  # type: ignore[arg-type]
-
 
 def crs_scale(crs: Any, lat: float | None) -> tuple[float, float]:
     """Metres per CRS unit along x and y: linear unit factor, or metres per degree at ``lat`` (geographic)."""
@@ -87,13 +82,22 @@ class DsmRows:
     origin: GeoOrigin | None
     grid: dict[str, np.ndarray] = field(default_factory=dict)
 
-    def height(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        """Surface height (m, raster's vertical datum) at local positions: bilinear, NaN outside the grid."""
+    @functools.cached_property
+    def median_z(self) -> float:
+        """Median surface height of the grid (fills holes), m."""
+        return float(np.nanmedian(self.grid["z"]))
+
+    @functools.cached_property
+    def _interp(self) -> Any:
         from scipy.interpolate import RegularGridInterpolator
 
-        z = np.where(np.isfinite(self.grid["z"]), self.grid["z"], np.nanmedian(self.grid["z"]))
-        f = RegularGridInterpolator((self.grid["y"], self.grid["x"]), z, bounds_error=False, fill_value=np.nan)
-        return f(np.column_stack([np.asarray(ys, float), np.asarray(xs, float)]))
+        z = np.where(np.isfinite(self.grid["z"]), self.grid["z"], self.median_z)
+        return RegularGridInterpolator((self.grid["y"], self.grid["x"]), z, bounds_error=False, fill_value=np.nan)
+
+    def height(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """Surface height (m, raster's vertical datum) at local positions: bilinear, NaN outside the grid
+        (the interpolator is built once per detection)."""
+        return self._interp(np.column_stack([np.asarray(ys, float), np.asarray(xs, float)]))
 
 
 def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any) -> DsmRows:

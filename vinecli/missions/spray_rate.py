@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 
 from vinecli.missions.job import row_spacing_m
-from vinecli.specs.mission import MissionSpec, SprayPhase
+from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 from vinecli.specs.vehicle import VehicleSpec
 
 __all__ = ["flow_for_rate", "nominal_rate_lpha", "nozzle_height_m", "phase_rows", "resolve_spray_rates",
@@ -32,15 +32,6 @@ def nozzle_height_m(vehicle: VehicleSpec, height_agl_m: float) -> float:
 def spray_swath_m(vehicle: VehicleSpec, height_agl_m: float) -> float:
     """Geometric swath of the vehicle's nozzles flying at ``height_agl_m`` (skids above terrain), m."""
     return vehicle.sprayer.swath_m(nozzle_height_m(vehicle, height_agl_m))
-
-
-def phase_rows(phase: SprayPhase, world_rows: Rows) -> list[list[tuple[float, float]]]:
-    """The rows a spray phase targets: the world's, some of them by index, or its own polylines (ENU m)."""
-    if phase.rows == "world":
-        return [[tuple(q) for q in r] for r in world_rows]  # type: ignore[misc]
-    if phase.rows and isinstance(phase.rows[0], int):
-        return [[tuple(q) for q in world_rows[i]] for i in phase.rows if 0 <= i < len(world_rows)]  # type: ignore[misc, index]
-    return [[tuple(q) for q in r] for r in phase.rows]  # type: ignore[misc, union-attr]
 
 
 def track_width_m(vehicle: VehicleSpec, phase: SprayPhase, rows: Rows = ()) -> float:

@@ -88,7 +88,7 @@ class Battery:
 
     def update(self, load_w: float, dt: float) -> None:
         """Deliver ``load_w`` W for ``dt`` s (held constant): current, sagged voltage, energy drawn."""
-        e = self.cells * (ocv_chen_rincon_mora(self.soc) if self._table is None else self.ocv_cell(self.soc))
+        e = self.open_circuit_v()
         p = load_w if load_w > 0.0 else 0.0
         r = self.r_ohm
         p_max = e * e / (4.0 * r) if r > 0.0 else math.inf

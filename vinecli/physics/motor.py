@@ -110,6 +110,8 @@ class MotorBank:
             self._c_up = self.tau_up / (2.0 * dt) * (1.0 - e_up * e_up)
             self._c_down = self.tau_down / (2.0 * dt) * (1.0 - e_down * e_down)
         w_max = self.w_max
+        e_up, e_down = 1.0 - self._a_up, 1.0 - self._a_down
+        b_up, b_down, c_up, c_down = self._b_up, self._b_down, self._c_up, self._c_down
         w = self.w
         self.w_start = tuple(w)
         wm, w2m = self.w_mean, self.w2_mean
@@ -122,13 +124,13 @@ class MotorBank:
             wi = w[i]
             d = wi - c
             if c > wi:
-                wi = c + d * (1.0 - self._a_up)
-                wm[i] = c + d * self._b_up
-                w2m[i] = c * c + 2.0 * c * d * self._b_up + d * d * self._c_up
+                wi = c + d * e_up
+                wm[i] = c + d * b_up
+                w2m[i] = c * c + 2.0 * c * d * b_up + d * d * c_up
             else:
-                wi = c + d * (1.0 - self._a_down)
-                wm[i] = c + d * self._b_down
-                w2m[i] = c * c + 2.0 * c * d * self._b_down + d * d * self._c_down
+                wi = c + d * e_down
+                wm[i] = c + d * b_down
+                w2m[i] = c * c + 2.0 * c * d * b_down + d * d * c_down
             w[i] = w_max if wi > w_max else (0.0 if wi < 0.0 else wi)
         return w
 

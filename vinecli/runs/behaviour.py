@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.missions.metrics import point_polyline_distance
 from vinecli.runs import rundir
 
 
@@ -31,17 +32,6 @@ def _first_event(events: list[dict[str, Any]], kind: str) -> float | None:
 def _phase_span(t: np.ndarray, phase: np.ndarray, index: int) -> tuple[float, float] | None:
     sel = np.nonzero(phase == index)[0]
     return (float(t[sel[0]]), float(t[sel[-1]])) if sel.size else None
-
-
-def _row_distance(x: np.ndarray, y: np.ndarray, rows: list[list[list[float]]]) -> np.ndarray:
-    best = np.full(x.shape, np.inf)
-    for row in rows:
-        for (ax, ay), (bx, by) in zip(row[:-1], row[1:], strict=False):
-            dx, dy = bx - ax, by - ay
-            seg2 = dx * dx + dy * dy
-            u = np.clip(((x - ax) * dx + (y - ay) * dy) / seg2, 0.0, 1.0) if seg2 > 0 else np.zeros_like(x)
-            best = np.minimum(best, np.hypot(x - (ax + u * dx), y - (ay + u * dy)))
-    return best
 
 
 def behaviour_figures(run_dir: str | Path, *, hold_settle_s: float = 8.0) -> dict[str, float | None]:
@@ -81,7 +71,7 @@ def behaviour_figures(run_dir: str | Path, *, hold_settle_s: float = 8.0) -> dic
             rows = [rows[i] for i in spec.rows]  # type: ignore[union-attr,index]
         on = flow > 0
         if on.any():
-            out["spray_path_p95_m"] = float(np.percentile(_row_distance(x[on], y[on], rows), 95))
+            out["spray_path_p95_m"] = float(np.percentile(point_polyline_distance(x[on], y[on], rows), 95))
     if types and types[-1] == "land":
         span = _phase_span(t, phase, len(types) - 1)
         downs = [float(e["t_s"]) for e in events if e["kind"] == "touchdown"]

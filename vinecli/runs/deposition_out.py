@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.missions.deposition_metrics import deposition_metrics
-from vinecli.missions.spray_rate import nominal_rate_lpha, spray_swath_m, track_width_m
+from vinecli.missions.spray_rate import flow_for_rate, nominal_rate_lpha, spray_swath_m, track_width_m
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
 
@@ -128,7 +128,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     metrics["spray_swath_m"] = swath
     metrics["spray_track_width_m"] = track
     flow = float(phase.flow_lps) if phase is not None and phase.flow_lps is not None else (
-        nominal * track * phase.speed_mps / 1e4 if phase is not None else math.nan)
+        flow_for_rate(nominal, track, phase.speed_mps) if phase is not None else math.nan)
     doc = {
         "schema": "vinecli.deposition/1",
         "units": {"rate": "L/ha", "volume": "L", "length": "m", "frame": "world ENU"},

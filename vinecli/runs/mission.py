@@ -29,7 +29,7 @@ from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
 from vinecli.runs import rundir
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
-from vinecli.specs.mission import MissionSpec, SprayPhase
+from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 
 log = logging.getLogger(__name__)
 
@@ -313,14 +313,8 @@ def _auto_rows(world: Any) -> None:
 def _rows_for_metrics(spec: MissionSpec, world: Any) -> list[list[tuple[float, float]]]:
     """Row polylines the spray metrics compare against: a spray phase's explicit rows, else the world's."""
     world_rows = [list(map(tuple, r)) for r in getattr(world, "vine_rows_enu", []) or []]
-    for ph in spec.phases:
-        if isinstance(ph, SprayPhase):
-            if ph.rows == "world":
-                return world_rows
-            if ph.rows and isinstance(ph.rows[0], int):
-                return [world_rows[i] for i in ph.rows if 0 <= i < len(world_rows)]  # type: ignore[index]
-            return [[tuple(p) for p in r] for r in ph.rows]  # type: ignore[union-attr]
-    return world_rows
+    spray = next((ph for ph in spec.phases if isinstance(ph, SprayPhase)), None)
+    return phase_rows(spray, world_rows) if spray is not None else world_rows
 
 
 def _status_name(status: Any) -> str:

@@ -330,12 +330,14 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                              hide_body=body)
     point_clouds: list[tuple[float, np.ndarray]] = []
     emitter = None
+    group_s = 0.04
     if kw["deposition"]:
-        from vinecli.physics.deposition import SprayEmitter
+        from vinecli.physics.deposition import DepositionConfig, SprayEmitter
 
         emitter = SprayEmitter()
+        group_s = (kw["deposition_config"] or DepositionConfig()).group_s
     emit = emitter.emit if emitter is not None else None
-    dep_every = max(1, int(round(0.04 / (dt_us * 1e-6))))  # spraying steps summed per deposition record
+    dep_every = max(1, int(round(group_s / (dt_us * 1e-6))))  # spraying steps summed per deposition record
     dep_vol = 0.0
     dep_n = 0
     cam_period_us = int(round(1e6 / cam_spec.rate_hz))
@@ -636,7 +638,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
                 events.append(Event(t_us + dt_us, "tank_empty", f"tank empty at {te:.3f} s", {}))
                 metrics["tank_empty_s"] = te
 
-        if battery is not None:
+        if battery is not None:  # = physics.battery.electrical_power_w, multiplied out for the loop
             b_update(motors.shaft_power * inv_eta + b_spec.avionics_w
                      + (pump_w_per_lps * tank.flow_lps if tank is not None else 0.0), dt)
             energy_j += battery.power_drawn_w * dt

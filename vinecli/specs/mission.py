@@ -7,6 +7,7 @@ above the terrain at the home position (PX4 "relative altitude"). Times in secon
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
@@ -223,3 +224,12 @@ class MissionSpec(StrictModel):
                 raise ValueError(f"phase {i} (open_loop): initial_state is only allowed on the first phase "
                                  "(it sets the state the run starts from)")
         return self
+
+
+def phase_rows(phase: SprayPhase, world_rows: Sequence[Sequence[tuple[float, float]]]) -> list[list[tuple[float, float]]]:
+    """The rows a spray phase targets: the world's, some of them by index, or its own polylines (ENU m)."""
+    if phase.rows == "world":
+        return [[tuple(q) for q in r] for r in world_rows]  # type: ignore[misc]
+    if phase.rows and isinstance(phase.rows[0], int):
+        return [[tuple(q) for q in world_rows[i]] for i in phase.rows if 0 <= i < len(world_rows)]  # type: ignore[misc, index]
+    return [[tuple(q) for q in r] for r in phase.rows]  # type: ignore[misc, union-attr]
