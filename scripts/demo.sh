@@ -23,7 +23,7 @@ $VINECLI terrain convert "$DSM" --to tiles --max-error 0.03 --tile-px 256 --out 
 step "4/6 world: terrain + x500 sprayer + wind + geodetic origin (PyBullet + Gazebo SDF)"
 $VINECLI world build worlds/vineyard-sample.yaml --out "$OUT/world"
 
-step "5/6 the CI pipeline: takeoff, overload, spray, gust (thesis chapter 5)"
+step "5/6 the CI pipeline: takeoff, overload, spray, gust (thesis chapter 5) and a whole-field refill job"
 set +e
 $VINECLI run batch pipelines/ci.yaml --world "$OUT/world" --out "$OUT/runs" --jobs 2
 batch_rc=$?
