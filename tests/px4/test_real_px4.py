@@ -81,7 +81,16 @@ def test_geofence_failsafe_ends_the_run_with_px4s_cause(real_px4, tmp_path):
     fs = [e for e in res.events if e.kind == "failsafe"]
     assert len(fs) == 1 and "Geofence" in str(fs[0].data["cause"]) and fs[0].data["action"] == "hold"
     assert res.sim_time_s < 40 and time.monotonic() - t0 < 60  # not the 90 s time limit
-    assert 6.0 < max(res.timeseries["pos_enu_x_m"]) < 12.0  # stopped at the notch, never reached x = 16
+    # PX4 brakes when it predicts the breach (GF_PREDICT): the fastest point of the leg is before the
+    # notch (x = 8). The run ends when the mode switch is heard, which PX4's 1 Hz HEARTBEAT delays by
+    # up to 1 s of flight (measured: x = 9.1 ... 12.1 on 2 cores), so the end is only bounded: still
+    # braking, well short of the goal at x = 16.
+    ts = res.timeseries
+    vx, x = ts["vel_enu_x_mps"], ts["pos_enu_x_m"]
+    leg = [i for i in range(len(x)) if x[i] > 1.0]
+    peak = max(leg, key=lambda i: vx[i])
+    assert 4.0 < x[peak] < 8.0 and vx[peak] > 3.0, (x[peak], vx[peak])
+    assert vx[-1] < vx[peak] - 0.5 and max(x) < 13.5, (vx[-1], max(x))
     from vinecli.autopilot.px4_doctor import px4_doctor
 
     ap.close()  # PX4 stopped, sockets closed

@@ -21,7 +21,8 @@ state (mode, current item, events, error, finished). Sequence, each with a wall-
    the mission state is COMPLETE) and, if the mission lands, PX4 reports on-ground and disarmed.
    Once PX4 has flown in Mission mode, a switch to any other mode before the mission is done
    (a failsafe: geofence Hold, RTL, Land...) is a ``failsafe`` event whose cause is PX4's latest
-   warning STATUSTEXT, and ends the run with status ``failsafe``.
+   warning STATUSTEXT, and ends the run with status ``failsafe``. PX4 v1.15 sends HEARTBEAT at 1 Hz
+   and refuses a faster interval, so the switch is heard up to 1 s of flight after PX4 acted.
 
 The client sends a GCS HEARTBEAT every second of wall time *or* of sim time, whichever comes
 first, so PX4's data-link-loss check (sim time) is satisfied at any speed-up.
