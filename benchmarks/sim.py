@@ -34,7 +34,7 @@ sys.path.insert(0, str(REPO))
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus  # noqa: E402
 from vinecli.frames import quat_to_euler  # noqa: E402
-from vinecli.sim.types import ActuatorCommand, Event, Observation  # noqa: E402
+from vinecli.types import ActuatorCommand, Event, Observation  # noqa: E402
 
 
 class HoverPD:
@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     seconds, repeats = (5.0, 1) if args.quick else (args.seconds, args.repeats)
 
     from vinecli.sim.camera import DepthCamera
-    from vinecli.sim.engine import Engine
+    from vinecli.world.engine import Engine
     from vinecli.sim.runner import run_simulation
     from vinecli.specs.mission import MissionSpec
     from vinecli.world import build_world, load_world

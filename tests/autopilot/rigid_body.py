@@ -19,9 +19,9 @@ from vinecli.frames import Vec3, quat_from_euler, quat_rotate, quat_to_euler, ti
 from vinecli.geo import GeoOrigin
 from vinecli.physics.motor import MotorBank
 from vinecli.physics.sensors import make_sensors
-from vinecli.sim.types import Observation, RigidState
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.types import Observation, RigidState
 
 G = 9.80665
 ORIGIN = GeoOrigin(45.0, 8.0, 200.0)

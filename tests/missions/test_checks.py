@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vinecli.missions.checks import RunData, evaluate_check, evaluate_checks, parse_time_ref
+from vinecli.missions.checks import evaluate_check, evaluate_checks
+from vinecli.missions.rundata import RunData, parse_time_ref
 from vinecli.specs.mission import CheckSpec
 
 

@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from vinecli.missions.checks import RunData
-from vinecli.missions.job import row_spacing_m, rows_sprayed, sorties
-from vinecli.missions.metrics import METRICS, MetricContext
+from vinecli.missions.job import rows_sprayed, sorties
+from vinecli.missions.metrics import METRICS
+from vinecli.missions.rundata import MetricContext, RunData
+from vinecli.rows.detect import row_spacing_m
 
 ROWS = [[(x, 0.0), (x, 20.0)] for x in (0.0, 1.0, 2.0, 3.0)]
 

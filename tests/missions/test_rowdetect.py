@@ -13,8 +13,8 @@ from rasterio.transform import from_origin
 from repo_paths import REPO, TEST_DATA, shared_files
 from row_fields import Field, match_rows
 
-from vinecli.missions.rowdetect import detect_rows_grid
-from vinecli.missions.rowsource import detect_rows_in_dsm
+from vinecli.rows.detect import detect_rows_grid
+from vinecli.rows.source import detect_rows_in_dsm
 
 FIELDS = {
     "straight": Field(),

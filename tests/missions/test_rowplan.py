@@ -9,7 +9,7 @@ import pytest
 
 from vinecli.geo import GeoOrigin
 from vinecli.missions.qgc_spray import leg_actions, sortie_plan
-from vinecli.missions.rowplan import plan_rows, split_sorties
+from vinecli.rows.plan import plan_rows, split_sorties
 
 ORIGIN = GeoOrigin(44.70, 8.03, 250.0)
 

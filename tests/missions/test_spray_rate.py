@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from vinecli.missions.spray_rate import (
+from vinecli.rows.spray_rate import (
     flow_for_rate,
     nominal_rate_lpha,
     phase_rows,

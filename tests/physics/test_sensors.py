@@ -12,8 +12,8 @@ from vinecli.geo import GeoOrigin
 from vinecli.physics.atmosphere import air_density_at, altitude_at, pressure_at, temperature_at
 from vinecli.physics.magnetic import earth_field, earth_field_ned
 from vinecli.physics.sensors import Baro, Gnss, Imu, Mag, make_sensors
-from vinecli.sim.types import RigidState
 from vinecli.specs.vehicle import BaroSpec, GnssSpec, ImuSpec, MagSpec, MountSpec, SensorsSpec
+from vinecli.types import RigidState
 
 G0 = 9.80665
 ORIGIN = GeoOrigin(46.0700, 11.1200, 200.0)  # a vineyard near Trento

@@ -13,7 +13,7 @@ SYS_STATUS with the pre-arm bit, mission upload server, parameters, arm/mode com
 COMMAND_ACK, MISSION_CURRENT / MISSION_ITEM_REACHED, EXTENDED_SYS_STATE.
 
 Outputs are computed by the built-in controller (:class:`vinecli.autopilot.builtin.BuiltinAutopilot`
-with ground truth, driven through :class:`vinecli.mavlink.endpoint.MavlinkControlledAutopilot`)
+with ground truth, driven through :class:`vinecli.autopilot.mavlink_vehicle.MavlinkControlledAutopilot`)
 from HIL_STATE_QUATERNION, flying the uploaded mission; rotor speeds are turned back into PX4
 outputs u = (w - w_min) / (w_max - w_min).
 
@@ -29,6 +29,7 @@ import time
 from dataclasses import dataclass, field
 
 from vinecli.autopilot.base import AutopilotContext
+from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot
 from vinecli.frames import (
     attitude_ned_frd_to_enu_flu,
     frd_to_flu,
@@ -39,11 +40,10 @@ from vinecli.frames import (
 )
 from vinecli.geo import GeoOrigin
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.endpoint import MavlinkControlledAutopilot
 from vinecli.mavlink.link import TcpClientLink, UdpLink
-from vinecli.sim.types import ImuSample, Observation, RigidState
 from vinecli.specs.mission import HoldPhase, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.types import ImuSample, Observation, RigidState
 
 G0 = 9.80665
 

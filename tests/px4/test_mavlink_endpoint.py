@@ -13,9 +13,9 @@ from pymavlink import mavutil
 from tests.px4.conftest import free_port
 from tests.px4.sim_thread import SimThread
 from vinecli.autopilot.base import RunStatus
+from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot, serve_mavlink
 from vinecli.errors import InputError
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.endpoint import MavlinkControlledAutopilot, serve_mavlink
 from vinecli.specs.mission import MissionSpec
 
 pytestmark = pytest.mark.timeout(120)

@@ -11,9 +11,9 @@ from pymavlink import mavutil
 
 from tests.px4.conftest import free_port
 from tests.px4.sim_thread import SimThread
+from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot, serve_mavlink
 from vinecli.errors import InputError
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.endpoint import MavlinkControlledAutopilot, serve_mavlink
 from vinecli.mavlink.gcs_link import MultiPeerUdpLink, checked_address
 from vinecli.mavlink.link import is_loopback
 from vinecli.specs.mission import MissionSpec

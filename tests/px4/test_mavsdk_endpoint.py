@@ -13,8 +13,8 @@ import pytest
 from tests.px4.conftest import free_port
 from tests.px4.sim_thread import SimThread
 from vinecli.autopilot.base import RunStatus
+from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.endpoint import MavlinkControlledAutopilot
 from vinecli.mavlink.mission_items import enu_to_degE7
 from vinecli.specs.mission import MissionSpec
 

@@ -90,8 +90,8 @@ def test_doctor_finds_a_running_px4(tmp_path):
 
 def test_run_autopilot_factory():
     from vinecli.autopilot.builtin import BuiltinAutopilot
+    from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot
     from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
-    from vinecli.mavlink.endpoint import MavlinkControlledAutopilot
 
     assert isinstance(make_run_autopilot("builtin", truth=True), BuiltinAutopilot)
     ap = make_run_autopilot("px4", px4_instance=4, px4_connect_timeout_s=5)

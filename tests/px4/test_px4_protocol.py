@@ -16,8 +16,8 @@ from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import quat_from_euler
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpClientLink
-from vinecli.sim.types import BaroSample, GnssSample, ImuSample, MagSample, Observation, RigidState
 from vinecli.specs.mission import MissionSpec
+from vinecli.types import BaroSample, GnssSample, ImuSample, MagSample, Observation, RigidState
 from vinecli.vehicle import load_vehicle
 
 pytestmark = pytest.mark.timeout(60)

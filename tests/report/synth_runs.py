@@ -463,8 +463,9 @@ _BUILDERS = {"takeoff": _takeoff, "overload": _overload, "spray": _spray, "gust"
 # ---------------------------------------------------------------- writing
 def _evaluate(mission: str, r: _Run, cols: dict[str, np.ndarray], check_overrides: dict[str, dict[str, Any]] | None
               ) -> tuple[list[dict[str, Any]], dict[str, float | None]]:
-    from vinecli.missions.checks import RunData, evaluate_checks
-    from vinecli.missions.metrics import METRICS, MetricContext
+    from vinecli.missions.checks import evaluate_checks
+    from vinecli.missions.metrics import METRICS
+    from vinecli.missions.rundata import MetricContext, RunData
     from vinecli.specs.mission import CheckSpec
 
     defs = [dict(d) for d in CHECKS[mission]]

@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
-from vinecli.sim.types import ActuatorCommand, Event, Observation
 from vinecli.specs.mission import MissionSpec
+from vinecli.types import ActuatorCommand, Event, Observation
 
 
 class OpenLoop:

@@ -10,9 +10,9 @@ from sim_helpers import OpenLoop, mission
 
 from vinecli.frames import quat_from_euler
 from vinecli.sim.camera import DepthCamera
-from vinecli.sim.engine import Engine
 from vinecli.sim.runner import run_simulation
 from vinecli.specs.vehicle import DepthCameraSpec
+from vinecli.world.engine import Engine
 from vinecli.world.model import TerrainInfo
 
 

@@ -7,10 +7,10 @@ import pytest
 from sim_helpers import OpenLoop, mission
 
 from vinecli.errors import TerrainError
-from vinecli.sim.engine import Engine
 from vinecli.sim.runner import run_simulation
+from vinecli.terrain.grid import TerrainGrid
 from vinecli.world import load_world
-from vinecli.world.grid import TerrainGrid
+from vinecli.world.engine import Engine
 from vinecli.world.model import TerrainInfo
 
 

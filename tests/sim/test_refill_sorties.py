@@ -12,8 +12,8 @@ from sim_helpers import mission
 from vinecli.autopilot.builtin import BuiltinAutopilot
 from vinecli.missions.job import rows_sprayed, sorties
 from vinecli.sim.runner import _serve, run_simulation
-from vinecli.sim.types import Event, ServiceRequest
 from vinecli.specs.mission import SprayPhase
+from vinecli.types import Event, ServiceRequest
 
 ROWS = [[[x, 0.0], [x, 20.0]] for x in (3.0, 4.0, 5.0, 6.0)]  # 80 m of rows, 1 m apart
 

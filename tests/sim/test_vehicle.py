@@ -6,9 +6,9 @@ import pytest
 from lxml import etree
 
 from vinecli.errors import SpecError
-from vinecli.sim.engine import Engine
 from vinecli.vehicle import VEHICLES_DIR, known_vehicles, load_vehicle
 from vinecli.vehicle.urdf import link_names, rigid_inertia, vehicle_urdf, write_urdf
+from vinecli.world.engine import Engine
 
 URDF_TAGS = {"robot", "link", "joint", "inertial", "origin", "mass", "inertia", "visual", "collision", "geometry",
              "box", "cylinder", "parent", "child"}

@@ -67,7 +67,7 @@ def test_dsm_tiles_world(bumpy_worlds, bumpy_dsm):
     world = _check_sdf(d)
     assert len(world.findall("model[@name='terrain']/link/collision/geometry/mesh")) == 16
     # the lookup grid agrees with the collision surface (PyBullet rays) and with the DSM
-    from vinecli.sim.engine import Engine
+    from vinecli.world.engine import Engine
 
     with Engine() as e:
         e.load_terrain(w.terrain)
@@ -174,7 +174,7 @@ def test_world_from_a_converted_terrain_dir_with_an_explicit_origin(tmp_path, bu
     w = load_world(build_world(spec, tmp_path / "shifted"))
     for x, y in [(0.0, 0.0), (3.3, -4.1), (-7.0, 6.5)]:
         assert w.terrain_height(x - 10.0, y - 5.0) == pytest.approx(ref.terrain_height(x, y) + 2.0, abs=2e-3)
-    from vinecli.sim.engine import Engine
+    from vinecli.world.engine import Engine
 
     with Engine() as e:
         e.load_terrain(w.terrain)

@@ -1,7 +1,7 @@
 """The interface every autopilot backend implements (built-in cascade, PX4 SITL, plugins).
 
-Backends never touch PyBullet: they receive an :class:`~vinecli.sim.types.Observation`
-per physics step and return an :class:`~vinecli.sim.types.ActuatorCommand`.
+Backends never touch PyBullet: they receive an :class:`~vinecli.types.Observation`
+per physics step and return an :class:`~vinecli.types.ActuatorCommand`.
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from typing import Protocol
 
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
-from vinecli.sim.types import ActuatorCommand, Event, Observation
 from vinecli.specs.mission import GeofenceSpec, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.types import ActuatorCommand, Event, Observation
 
 
 class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values are used explicitly

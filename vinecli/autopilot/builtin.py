@@ -1,7 +1,7 @@
 """The built-in autopilot: estimator + PX4-style cascade + mission sequencer + safety checks.
 
 It never touches PyBullet: each physics step it gets an
-:class:`~vinecli.sim.types.Observation` and returns rotor speed commands (rad/s) and the
+:class:`~vinecli.types.Observation` and returns rotor speed commands (rad/s) and the
 sprayer flow (L/s). World ENU, body FLU, SI units. Altitudes ``*_agl_m`` of takeoff, goto,
 waypoints and RTL are above home (PX4 relative altitude); the spray height is above the
 terrain under the vehicle.
@@ -60,7 +60,6 @@ from vinecli.control.cascade import Cascade, G
 from vinecli.control.path import PathFollower
 from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import Vec3, quat_to_euler, tilt_angle
-from vinecli.sim.types import ActuatorCommand, Event, Observation, ServiceRequest
 from vinecli.specs.mission import (
     GotoPhase,
     HoldPhase,
@@ -73,6 +72,7 @@ from vinecli.specs.mission import (
     TakeoffPhase,
     WaypointsPhase,
 )
+from vinecli.types import ActuatorCommand, Event, Observation, ServiceRequest
 
 log = logging.getLogger(__name__)
 _NAN = float("nan")
@@ -241,11 +241,11 @@ class _Spray(_Phase):
         return self.sub.mode if self.sub is not None else "AUTO.MISSION"
 
     def _passes(self, ap: BuiltinAutopilot, start_xy: tuple[float, float]) -> tuple[list[Vec3], list[float]]:
-        """The operator plan from ``start_xy`` (:func:`~vinecli.missions.rowplan.plan_rows`: nearest row
+        """The operator plan from ``start_xy`` (:func:`~vinecli.rows.plan.plan_rows`: nearest row
         first, boustrophedon, headland turns from the speed and acceleration, rows clipped to the geofence
         with a 1 m margin); flow on over the rows only. ``until: empty`` replans from the last row's end,
         so the rows are flown back."""
-        from vinecli.missions.rowplan import plan_rows
+        from vinecli.rows.plan import plan_rows
 
         fence = ap.geofence.spec.polygon_enu if ap.geofence is not None and ap.geofence.spec.polygon_enu else None
         plan = plan_rows(self.rows, start_xy, speed_mps=self.spec.speed_mps, accel_mps2=self.accel(ap),
@@ -263,7 +263,7 @@ class _Spray(_Phase):
     @staticmethod
     def accel(ap: BuiltinAutopilot) -> float:
         """Acceleration of the spray path (m/s², the one the plans assume)."""
-        from vinecli.missions.rowplan import plan_accel
+        from vinecli.rows.plan import plan_accel
 
         return plan_accel(ap.vehicle)
 

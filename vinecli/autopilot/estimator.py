@@ -22,8 +22,8 @@ import math
 
 from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler
 from vinecli.geo import GeoOrigin
-from vinecli.sim.types import Observation
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.types import Observation
 
 log = logging.getLogger(__name__)
 G = 9.80665

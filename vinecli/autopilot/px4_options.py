@@ -29,7 +29,7 @@ def make_run_autopilot(
     """The backend for one run.
 
     * ``mavlink`` set: the built-in autopilot behind a MAVLink vehicle endpoint
-      (:class:`vinecli.mavlink.endpoint.MavlinkControlledAutopilot`), lockstep or ``realtime``;
+      (:class:`vinecli.autopilot.mavlink_vehicle.MavlinkControlledAutopilot`), lockstep or ``realtime``;
     * ``name == "px4"``: :class:`vinecli.autopilot.px4_sitl.Px4SitlAutopilot` on TCP
       ``px4_host:4560+px4_instance``; with ``px4_bin`` vinecli starts PX4 itself (on a free
       instance unless ``px4_instance`` is given) and stops it after the run;
@@ -39,7 +39,7 @@ def make_run_autopilot(
         if name != "builtin":
             raise InputError(f"--mavlink serves the built-in autopilot; with --autopilot {name} connect your "
                              "ground station to that autopilot directly (PX4: UDP 14550 / 14540+i)")
-        from vinecli.mavlink.endpoint import serve_mavlink
+        from vinecli.autopilot.mavlink_vehicle import serve_mavlink
 
         return serve_mavlink(mavlink, realtime=realtime, allow_remote=mavlink_allow_remote, truth=truth,  # type: ignore[return-value]
                              local_port=mavlink_local_port)

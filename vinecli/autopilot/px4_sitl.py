@@ -41,8 +41,8 @@ from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
-from vinecli.sim.types import ActuatorCommand, Event, Observation
 from vinecli.specs.mission import TakeoffPhase
+from vinecli.types import ActuatorCommand, Event, Observation
 
 log = logging.getLogger(__name__)
 

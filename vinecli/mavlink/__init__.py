@@ -1,5 +1,5 @@
 """MAVLink plumbing shared by the PX4 SITL backend, the PX4 mission client and the vehicle
-endpoint of the built-in autopilot.
+endpoint of the built-in autopilot (vinecli.autopilot.mavlink_vehicle).
 
 * :mod:`vinecli.mavlink.link` - MAVLink 2 over TCP (server/client) and UDP with a reader thread
   feeding a stateful pymavlink parser (TCP is a byte stream: never one message per ``recv``).
@@ -7,5 +7,4 @@ endpoint of the built-in autopilot.
 * :mod:`vinecli.mavlink.mission_items` - mission specs <-> MISSION_ITEM_INT items.
 * :mod:`vinecli.mavlink.vehicle` - the vehicle side of MAVLink (heartbeat, telemetry, commands,
   mission and parameter protocols) in front of any controller.
-* :mod:`vinecli.mavlink.endpoint` - ``MavlinkControlledAutopilot`` and ``serve_mavlink``.
 """

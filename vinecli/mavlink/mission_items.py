@@ -204,7 +204,7 @@ def phases_to_items(mission: MissionSpec, ctx: PlanContext) -> Px4Plan:
                                 "serves its landings); with PX4 export one plan per sortie (vinecli plan)")
             if ph.flow_lps is None:  # rate_lpha: the runner resolves it against the vehicle (missions/spray_rate.py)
                 raise SpecError(f"{where}: a spray phase given as rate_lpha needs its flow from the vehicle's nozzles; "
-                                "resolve it first (vinecli.missions.spray_rate.resolve_spray_rates) or give flow_lps")
+                                "resolve it first (vinecli.rows.spray_rate.resolve_spray_rates) or give flow_lps")
             u = _flow_to_u(ph.flow_lps, ctx, where)
             rows = _spray_rows(ph, ctx, where)
             speed(ph.speed_mps, pi)

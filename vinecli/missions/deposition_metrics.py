@@ -136,7 +136,7 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     gx, gy = np.meshgrid(xc, yc)
     canopy = list(canopy_rows) if canopy_rows else list(rows)
     if canopy and em > 0:
-        from vinecli.missions.metrics import point_polyline_distance
+        from vinecli.rows.geometry import point_polyline_distance
 
         band = point_polyline_distance(gx, gy, canopy) <= hw
         m["deposit_on_rows_fraction"] = float(dep.volume_l[band].sum() / em)

@@ -90,15 +90,3 @@ def rows_sprayed(ts: Mapping[str, np.ndarray], rows: Sequence[Polyline]) -> tupl
     return frac, frac * total
 
 
-def row_spacing_m(rows: Sequence[Polyline]) -> float:
-    """Median distance between the midpoints of neighbouring rows (sorted across them), m; NaN for < 2 rows."""
-    mids = [np.mean(np.asarray(r, dtype=float), axis=0) for r in rows if len(r) >= 2]
-    if len(mids) < 2:
-        return math.nan
-    r0 = np.asarray(rows[0], dtype=float)
-    u = r0[-1] - r0[0]
-    u = u / (np.linalg.norm(u) or 1.0)
-    across = np.sort([float(-u[1] * m[0] + u[0] * m[1]) for m in mids])
-    gaps = np.diff(across)
-    gaps = gaps[gaps > 1e-3]
-    return float(np.median(gaps)) if gaps.size else math.nan

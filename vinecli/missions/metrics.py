@@ -14,25 +14,17 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from vinecli.frames import quat_rotate
-from vinecli.missions.checks import EventMissing, RunData
+from vinecli.missions.rundata import EventMissing, RunData
+from vinecli.rows.geometry import point_polyline_distance
 
 Window = tuple[float, float] | None
 Polyline = Sequence[tuple[float, float]]
-
-
-@dataclass(frozen=True)
-class MetricContext:
-    """World facts metrics need: gravity (m/s², positive) and the rows (ENU polylines, m)."""
-
-    gravity: float = 9.80665
-    rows_enu: Sequence[Polyline] = field(default_factory=tuple)
-    wind_period_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -354,20 +346,6 @@ def hover_w_mass_exponent(data: RunData, window: Window) -> float:
     return float(np.polyfit(np.log(m[ok]), np.log(w[ok]), 1)[0])
 
 
-def point_polyline_distance(px: np.ndarray, py: np.ndarray, lines: Sequence[Polyline]) -> np.ndarray:
-    """Distance (m) from each point to the nearest segment of any polyline (ENU x, y)."""
-    best = np.full(px.shape, np.inf)
-    for line in lines:
-        pts = np.asarray(line, dtype=float)
-        for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
-            dx, dy = bx - ax, by - ay
-            L2 = dx * dx + dy * dy
-            u = np.clip(((px - ax) * dx + (py - ay) * dy) / L2, 0.0, 1.0) if L2 > 0 else np.zeros_like(px)
-            d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
-            np.minimum(best, d, out=best)
-    return best
-
-
 def _cross_track(data: RunData, window: Window) -> np.ndarray:
     rows = list(getattr(data.context, "rows_enu", ()) or ())
     if not rows:
@@ -640,7 +618,7 @@ def rows_sprayed_fraction(data: RunData, window: Window) -> float:
 @metric("area_rate_ha_per_h", "ha/h")
 def area_rate_ha_per_h(data: RunData, window: Window) -> float:
     """Sprayed area (sprayed row length x row spacing) per hour of job time, ha/h."""
-    from vinecli.missions.job import row_spacing_m
+    from vinecli.rows.detect import row_spacing_m
 
     t_job = job_time_s(data, None)
     if not data.has("tank_flow_lps") or not t_job > 0:

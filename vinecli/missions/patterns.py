@@ -1,10 +1,10 @@
 """Spray patterns over vine rows (compatibility layer over the row tools).
 
 * :func:`boustrophedon`: rows (ENU polylines) -> passes in the operator order of
-  :func:`vinecli.missions.rowplan.plan_rows` (nearest row first, alternating directions).
+  :func:`vinecli.rows.plan.plan_rows` (nearest row first, alternating directions).
 * :func:`spray_mission`: rows -> a MissionSpec (takeoff, spray, land) to export as ``.plan``.
-* Row detection lives in :mod:`vinecli.missions.rowdetect` (the detector) and
-  :mod:`vinecli.missions.rowsource` (DSM / world sources); the names are re-exported here.
+* Row detection lives in :mod:`vinecli.rows.detect` (the detector) and
+  :mod:`vinecli.rows.source` (DSM / world sources); the names are re-exported here.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from collections.abc import Sequence
 from pydantic import ValidationError
 
 from vinecli.errors import InputError
-from vinecli.missions.rowdetect import Polyline, RowDetection, detect_rows_grid
-from vinecli.missions.rowplan import plan_rows
-from vinecli.missions.rowsource import DsmRows, detect_rows_in_dsm, detect_rows_on_grid
+from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
+from vinecli.rows.plan import plan_rows
+from vinecli.rows.source import DsmRows, detect_rows_in_dsm, detect_rows_on_grid
 from vinecli.specs import format_validation_error
 from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import LandPhase, MissionSpec, SprayPhase, TakeoffPhase

@@ -24,7 +24,7 @@ cmd    MAVLink                 phase
 =====  ======================  ====================================================
 
 Export (:func:`export_plan`) writes the inverse mapping (spray phases are expanded into the
-operator plan of :mod:`vinecli.missions.rowplan` with DO_SET_ACTUATOR on/off around each row;
+operator plan of :mod:`vinecli.rows.plan` with DO_SET_ACTUATOR on/off around each row;
 one ``.plan`` per sortie: :func:`vinecli.missions.qgc_spray.sortie_plan`).
 """
 
@@ -401,12 +401,12 @@ def export_plan(
     surface: Callable[[float, float], float] | None = None,
 ) -> dict[str, Any]:
     """A MissionSpec -> .plan JSON (dict). Spray phases become the operator plan of
-    :func:`~vinecli.missions.rowplan.plan_rows` over ``rows_enu`` (or the phase's explicit rows): nearest
+    :func:`~vinecli.rows.plan.plan_rows` over ``rows_enu`` (or the phase's explicit rows): nearest
     row first, headland turns for ``accel_mps2``, rows clipped to the mission's geofence with a 1 m margin,
     DO_SET_ACTUATOR (p1 = flow / nozzle_max_flow_lps) on over each row and off after it. With ``surface``
     (ENU z of the DSM surface) the spray waypoints follow it (see :mod:`vinecli.missions.qgc_spray`)."""
-    from vinecli.missions.qgc_spray import leg_actions
-    from vinecli.missions.rowplan import plan_rows
+    from vinecli.missions.spray_actions import leg_actions
+    from vinecli.rows.plan import plan_rows
 
     built = PlanItems(origin)
     items, ll, add = built.items, built.ll, built.add

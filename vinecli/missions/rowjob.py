@@ -1,7 +1,7 @@
 """``vinecli plan rows``: rows of a DSM or a built world -> spray plan files (library side of the command).
 
 Writes ``OUT`` (the whole field as one QGroundControl ``.plan``: take-off, the operator plan of
-:func:`~vinecli.missions.rowplan.plan_rows`, land), ``rows.geojson`` beside it (one LineString per row in
+:func:`~vinecli.rows.plan.plan_rows`, land), ``rows.geojson`` beside it (one LineString per row in
 the source's CRS, or local metres x east / y north without one; properties ``index``, ``length_m``), and
 when the rows need more than one tank ``OUT-stem.sortie-N.plan`` (take-off, that sortie's rows, RTL).
 
@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError, OutputError
-from vinecli.missions.rowdetect import Polyline, RowDetection
-from vinecli.missions.rowplan import RowPlan, plan_accel, plan_rows, split_sorties
-from vinecli.missions.rowsource import RowFrame, rows_geojson
+from vinecli.rows.detect import Polyline, RowDetection
+from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
+from vinecli.rows.source import RowFrame, rows_geojson
 
 __all__ = ["RowsJob", "plan_rows_job"]
 
@@ -74,7 +74,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     det: RowDetection | None = None
     frame: RowFrame | None
     if source.is_dir():
-        from vinecli.missions.rowsource import detect_rows_on_grid, world_frame
+        from vinecli.rows.source import detect_rows_on_grid, world_frame
         from vinecli.world import load_world
 
         w = load_world(source)
@@ -101,7 +101,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     else:
         if world_rows:
             raise InputError("--world-rows needs a world directory", path=source)
-        from vinecli.missions.rowsource import detect_rows_in_dsm
+        from vinecli.rows.source import detect_rows_in_dsm
 
         dsm = detect_rows_in_dsm(source, spacing_m=spacing)
         det, frame, rows = dsm.detection, dsm.frame, dsm.detection.rows

@@ -60,7 +60,7 @@ def resolve_vehicle(name_or_path: str, *, relative_to: Path | None = None, path:
 
 def _check_windows_syntax(mission: MissionSpec, path: Path | str) -> None:
     """Reject malformed window/time strings of checks at load time (exit 2, not a failed check)."""
-    from vinecli.missions.checks import parse_time_ref
+    from vinecli.missions.rundata import parse_time_ref
 
     for i, c in enumerate(mission.checks):
         refs: list[tuple[str, object]] = []

@@ -1,6 +1,6 @@
 """Sensor models: IMU, barometer, magnetometer, GNSS (Gazebo/PX4 SITL conventions).
 
-Every sensor takes the ground truth (:class:`~vinecli.sim.types.RigidState`: ENU position,
+Every sensor takes the ground truth (:class:`~vinecli.types.RigidState`: ENU position,
 velocity and acceleration, FLU body rates, quaternion FLU -> ENU) and a seeded numpy
 Generator, so a run is deterministic for a seed. Each one is rate-limited on the integer
 microsecond clock: a sample is due when ``t_us // period_us`` has advanced (first sample at
@@ -29,8 +29,8 @@ from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler, quat_rot
 from vinecli.geo import GeoOrigin
 from vinecli.physics.atmosphere import altitude_at, pressure_at, temperature_at
 from vinecli.physics.magnetic import earth_field_ned
-from vinecli.sim.types import BaroSample, GnssSample, ImuSample, MagSample, RigidState
 from vinecli.specs.vehicle import BaroSpec, GnssSpec, ImuSpec, MagSpec, MountSpec, SensorsSpec
+from vinecli.types import BaroSample, GnssSample, ImuSample, MagSample, RigidState
 
 __all__ = ["Baro", "Gnss", "Imu", "Mag", "SensorSuite", "make_sensors"]
 

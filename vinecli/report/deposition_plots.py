@@ -19,7 +19,7 @@ __all__ = ["fig23_deposition", "fig24_row_coverage", "load_deposition"]
 
 def load_deposition(run_dir: Path | None) -> tuple[dict[str, Any], np.ndarray]:
     """(deposition.json, rate L/ha (ny, nx) row 0 SOUTH, NaN off the terrain); NoData without them."""
-    from vinecli.report.plots import NoData
+    from vinecli.report.figure_base import NoData
 
     if run_dir is None or not (Path(run_dir) / "deposition.json").is_file():
         raise NoData("no deposition in this run (no sprayer used)")
@@ -49,7 +49,7 @@ def fig23_deposition(data: Any) -> bytes:
     from matplotlib.colors import LightSource
     from matplotlib.figure import Figure
 
-    from vinecli.report.plots import C_FAIL, DPI, SIZES, _png, _title
+    from vinecli.report.figure_base import C_FAIL, DPI, SIZES, png_bytes, set_title
 
     doc, rate = load_deposition(getattr(data, "run_dir", None))
     g = doc["grid"]
@@ -146,20 +146,20 @@ def fig23_deposition(data: Any) -> bytes:
         f"balance error      {tot.get('balance_error', float('nan')):.1e}",
     ]
     fig.text(xt, pos.y1, "\n".join(lines), fontsize=9, family="monospace", va="top")
-    _title(fig, data, "Fig. 23  Spray deposition, L/ha")
-    return _png(fig)
+    set_title(fig, data, "Fig. 23  Spray deposition, L/ha")
+    return png_bytes(fig)
 
 
 def fig24_row_coverage(data: Any) -> bytes:
     """Per targeted row: rate along the row (L/ha) against the asked rate, and the share of its length covered."""
-    from vinecli.report.plots import C_FAIL, C_OK, NoData, _figure, _png, _title
+    from vinecli.report.figure_base import C_FAIL, C_OK, NoData, new_figure, png_bytes, set_title
 
     doc, _rate = load_deposition(getattr(data, "run_dir", None))
     rows = doc.get("rows") or []
     if not rows:
         raise NoData("no targeted rows to chart")
     nominal = (doc.get("metrics") or {}).get("nominal_rate_lpha")
-    fig, axes = _figure("fig24", rows=2, cols=1, sharex=False)
+    fig, axes = new_figure("fig24", rows=2, cols=1, sharex=False)
     fig.subplots_adjust(hspace=0.35)
     ax, axb = axes[0, 0], axes[1, 0]
     cmap_n = max(len(rows), 1)
@@ -186,5 +186,5 @@ def fig24_row_coverage(data: Any) -> bytes:
     axb.set_xlabel("targeted row (index in the mission's rows)")
     axb.set_ylabel("length with >= 50 % of the\nasked rate, %")
     axb.grid(alpha=0.3, axis="y")
-    _title(fig, data, "Fig. 24  Coverage along the targeted rows")
-    return _png(fig)
+    set_title(fig, data, "Fig. 24  Coverage along the targeted rows")
+    return png_bytes(fig)

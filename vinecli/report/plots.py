@@ -9,115 +9,28 @@ on the figures whose quantities they test.
 
 from __future__ import annotations
 
-import io
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
+from vinecli.report.figure_base import (
+    C_FAIL,
+    C_OK,
+    DPI,
+    SIZES,
+    NoData,
+    PlotData,
+    columns_needed,
+    new_figure,
+    png_bytes,
+    set_title,
+)
+
 log = logging.getLogger(__name__)
-
-DPI = 100
-#: figure sizes in inches (pixels = inches * DPI)
-SIZES = {"fig16": (12.0, 5.2), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
-         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6), "fig23": (11.0, 8.0), "fig24": (9.0, 6.0)}
-C_OK, C_FAIL = "#2ca02c", "#d62728"
-
-
-class NoData(Exception):
-    """The run has no data for this figure; the message is the note shown instead."""
-
-
-@dataclass
-class PlotData:
-    """What the figures read of one run: time-series columns (SI), events, summary and terrain preview."""
-
-    cols: dict[str, np.ndarray]
-    events: list[dict[str, Any]] = field(default_factory=list)
-    summary: dict[str, Any] = field(default_factory=dict)
-    preview: dict[str, np.ndarray] | None = None
-    run_dir: Path | None = None  # for the per-run files (deposition.json / .tif)
-
-    def has(self, *names: str) -> bool:
-        return all(n in self.cols and np.isfinite(self.cols[n]).any() for n in names)
-
-    @property
-    def t(self) -> np.ndarray:
-        return self.cols["t_s"]
-
-    def event_times(self, kind: str) -> list[float]:
-        """Times of events of ``kind``; ``tank_empty`` falls back to the level column reaching 0."""
-        times = sorted(float(e["t_s"]) for e in self.events if e.get("kind") == kind)
-        if not times and kind == "tank_empty" and self.has("tank_level_l"):
-            lvl = self.cols["tank_level_l"]
-            if lvl.size and float(np.nanmax(lvl)) > 0:
-                idx = np.flatnonzero(lvl <= 1e-6)
-                if idx.size:
-                    times = [float(self.t[idx[0]])]
-        return times
-
-    def rotors(self) -> list[str]:
-        i, out = 1, []
-        while f"rotor{i}_w_radps" in self.cols:
-            out.append(f"rotor{i}_w_radps")
-            i += 1
-        return out if out and self.has(*out) else []
-
-    def liftoff(self) -> float | None:
-        """The main lift-off: first on_ground 1 -> 0 transition after which the vehicle stays up >= 1 s."""
-        t = self.t
-        if "on_ground" in self.cols and t.size > 1:
-            og = self.cols["on_ground"] > 0.5
-            for i in np.flatnonzero(og[:-1] & ~og[1:]):
-                later = np.flatnonzero(og[i + 1:])
-                stay = (t[i + 1 + later[0]] if later.size else t[-1]) - t[i + 1]
-                if stay >= 1.0:
-                    return float(t[i + 1])
-        ev = self.event_times("liftoff")
-        return ev[-1] if ev else None
-
-
-def columns_needed() -> list[str]:
-    """Every column any figure reads (rotor columns up to 8 rotors)."""
-    base = ["pos_enu_x_m", "pos_enu_y_m", "pos_enu_z_m", "vel_enu_x_mps", "vel_enu_y_mps", "vel_enu_z_mps",
-            "acc_enu_z_mps2", "quat_x", "quat_y", "quat_z", "quat_w", "roll_rad", "pitch_rad", "yaw_rad", "tilt_rad",
-            "wind_enu_x_mps", "wind_enu_y_mps", "wind_enu_z_mps", "drag_enu_x_n", "drag_enu_y_n", "drag_enu_z_n",
-            "rotor_drag_flu_x_n", "rotor_drag_flu_y_n", "rotor_drag_flu_z_n", "tank_level_l", "tank_mass_kg",
-            "tank_flow_lps", "tank_flow_cmd_lps", "tank_force_enu_z_n", "tank_force_grav_enu_z_n",
-            "tank_force_inertial_enu_z_n", "total_mass_kg", "terrain_z_m", "height_agl_m", "on_ground",
-            "phase_index", "sp_pos_enu_x_m", "sp_pos_enu_y_m", "sp_pos_enu_z_m",
-            "battery_soc", "battery_voltage_v", "power_elec_w", "sortie"]
-    return base + [f"rotor{i}_w_radps" for i in range(1, 9)]
-
-
-# ---------------------------------------------------------------- helpers
-def _figure(name: str, rows: int = 1, cols: int = 1, sharex: bool = True) -> tuple[Any, Any]:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=SIZES[name], dpi=DPI)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False)
-    # fixed margins (a layout engine costs about half of the rendering time); room for twin-axis labels
-    fig.subplots_adjust(left=0.11, right=0.89, top=0.91, bottom=0.09 if rows < 3 else 0.075, hspace=0.18)
-    return fig, axes
-
-
-def _png(fig: Any) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None}, pil_kwargs={"compress_level": 4})
-    return buf.getvalue()
-
-
-def _title(fig: Any, data: PlotData, what: str) -> None:
-    s = data.summary
-    who = f"{s.get('case') or s.get('run_id', '')} ({s.get('mission', '')}, seed {s.get('seed', '-')})"
-    sep = "\n" if len(what) + len(who) > 90 else " — "
-    fig.suptitle(f"{what}{sep}{who}", fontsize=11 if sep == " — " else 10)
-
 
 def _align_zero(ax: Any, tw: Any) -> None:
     """Make y = 0 sit at the same height on an axis and its twin (so signs can be compared)."""
@@ -317,8 +230,8 @@ def fig16_path(data: PlotData) -> bytes:
     ax3.view_init(elev=28, azim=-60)
     ax3.set_title("3D view", fontsize=9)
     ax3.tick_params(labelsize=7)
-    _title(fig, data, "Fig. 16  Flown path over the terrain")
-    return _png(fig)
+    set_title(fig, data, "Fig. 16  Flown path over the terrain")
+    return png_bytes(fig)
 
 
 # ---------------------------------------------------------------- figure 17
@@ -330,7 +243,7 @@ def fig17_tank_force(data: PlotData) -> bytes:
     c, t = data.cols, data.t
     lo = data.liftoff()
     sel = (t >= lo - 3.0) & (t <= lo + 8.0) if lo is not None else np.ones(t.shape, bool)
-    fig, axes = _figure("fig17", 2, 1)
+    fig, axes = new_figure("fig17", 2, 1)
     ax, ax2 = axes[0, 0], axes[1, 0]
     ax.plot(t[sel], c["tank_force_enu_z_n"][sel], color="k", lw=1.6, label="total  m(g − a)")
     if data.has("tank_force_grav_enu_z_n"):
@@ -366,8 +279,8 @@ def fig17_tank_force(data: PlotData) -> bytes:
                 a.set_ylim(min(lo_y, 0.0) - pad, max(hi_y, 0.0) + pad)
                 if np.nanmax(np.abs(np.concatenate([c[n][sel] for n in names if data.has(n)]))) > max(abs(lo_y), abs(hi_y)) + pad:
                     a.annotate("spawn transient clipped", (0.01, 0.02), xycoords="axes fraction", fontsize=7, color="0.4")
-    _title(fig, data, "Fig. 17  Tank force around lift-off" + ("" if lo is not None else " (no lift-off)"))
-    return _png(fig)
+    set_title(fig, data, "Fig. 17  Tank force around lift-off" + ("" if lo is not None else " (no lift-off)"))
+    return png_bytes(fig)
 
 
 # ---------------------------------------------------------------- figure 18
@@ -375,7 +288,7 @@ def fig18_drag(data: PlotData) -> bytes:
     """Drag force x, y, z (ENU) with the wind and the drone velocity on the same time axis."""
     _need(data, "drag_enu_x_n", "drag_enu_y_n", "drag_enu_z_n", what="drag force")
     c, t = data.cols, data.t
-    fig, axes = _figure("fig18", 3, 1)
+    fig, axes = new_figure("fig18", 3, 1)
     for k, ax_name in enumerate("xyz"):
         ax = axes[k, 0]
         ax.plot(t, c[f"drag_enu_{ax_name}_n"], color="k", lw=1.3, label=f"drag {ax_name}, N")
@@ -394,8 +307,8 @@ def fig18_drag(data: PlotData) -> bytes:
         _vlines(ax, data, ("liftoff", "touchdown"))
     axes[2, 0].set_xlabel("time, s")
     _spans([axes[k, 0] for k in range(3)], "fig18", data)
-    _title(fig, data, "Fig. 18  Link drag c|v_app|v_app (v_app = wind − velocity) vs wind and velocity")
-    return _png(fig)
+    set_title(fig, data, "Fig. 18  Link drag c|v_app|v_app (v_app = wind − velocity) vs wind and velocity")
+    return png_bytes(fig)
 
 
 # ---------------------------------------------------------------- figure 19
@@ -405,7 +318,7 @@ def fig19_tank(data: PlotData) -> bytes:
     if not _has_tank(data) and not data.has("tank_flow_cmd_lps"):
         raise NoData("no tank in this run")
     c, t = data.cols, data.t
-    fig, axes = _figure("fig19", 2, 1)
+    fig, axes = new_figure("fig19", 2, 1)
     ax, ax2 = axes[0, 0], axes[1, 0]
     ax.plot(t, c["tank_level_l"], color="#1f77b4", lw=1.6, label="level, L")
     ax.set_ylabel("tank level, L")
@@ -426,8 +339,8 @@ def fig19_tank(data: PlotData) -> bytes:
         a.grid(alpha=0.3)
         _vlines(a, data, ("liftoff", "tank_empty"))
     _spans([ax, ax2], "fig19", data)
-    _title(fig, data, "Fig. 19  Tank level and flow")
-    return _png(fig)
+    set_title(fig, data, "Fig. 19  Tank level and flow")
+    return png_bytes(fig)
 
 
 # ---------------------------------------------------------------- figure 20
@@ -437,7 +350,7 @@ def fig20_rotors(data: PlotData) -> bytes:
     if not rotors:
         raise NoData("no rotor speeds in this run")
     c, t = data.cols, data.t
-    fig, axes = _figure("fig20", 3, 1)
+    fig, axes = new_figure("fig20", 3, 1)
     ax, axm, axw = axes[0, 0], axes[1, 0], axes[2, 0]
     for i, r in enumerate(rotors):
         ax.plot(t, c[r], lw=0.7, alpha=0.6, label=f"rotor {i + 1}")
@@ -476,8 +389,8 @@ def fig20_rotors(data: PlotData) -> bytes:
         a.grid(alpha=0.3)
         _vlines(a, data)
     _spans([ax, axm, axw], "fig20", data)
-    _title(fig, data, "Fig. 20  Rotor speeds vs mass and wind (hover: w ∝ √m)")
-    return _png(fig)
+    set_title(fig, data, "Fig. 20  Rotor speeds vs mass and wind (hover: w ∝ √m)")
+    return png_bytes(fig)
 
 
 # ---------------------------------------------------------------- figure 21
@@ -504,7 +417,7 @@ def fig21_attitude(data: PlotData) -> bytes:
     """Roll/pitch (and yaw) vs the wind: the vehicle tilts into the gust."""
     _need(data, "roll_rad", "pitch_rad", what="attitude")
     c, t = data.cols, data.t
-    fig, axes = _figure("fig21", 3, 1)
+    fig, axes = new_figure("fig21", 3, 1)
     ax, axy, axw = axes[0, 0], axes[1, 0], axes[2, 0]
     ax.plot(t, np.degrees(c["roll_rad"]), color="#1f77b4", lw=1.0, label="roll")
     ax.plot(t, np.degrees(c["pitch_rad"]), color="#ff7f0e", lw=1.0, label="pitch")
@@ -532,8 +445,8 @@ def fig21_attitude(data: PlotData) -> bytes:
         a.grid(alpha=0.3)
         _vlines(a, data, ("liftoff", "touchdown"))
     _spans([ax, axy, axw], "fig21", data)
-    _title(fig, data, "Fig. 21  Attitude vs wind (tilt into the gust; pitch > 0 = nose down in FLU)")
-    return _png(fig)
+    set_title(fig, data, "Fig. 21  Attitude vs wind (tilt into the gust; pitch > 0 = nose down in FLU)")
+    return png_bytes(fig)
 
 
 # ---------------------------------------------------------------- figure 22
@@ -541,7 +454,7 @@ def fig22_battery(data: PlotData) -> bytes:
     """Battery voltage and state of charge, electrical power, and the sorties of a refill job."""
     _need(data, "battery_soc", "battery_voltage_v", what="battery")
     c, t = data.cols, data.t
-    fig, axes = _figure("fig22", 2, 1)
+    fig, axes = new_figure("fig22", 2, 1)
     ax, ax2 = axes[0, 0], axes[1, 0]
     ax.plot(t, c["battery_voltage_v"], color="#6a1b9a", lw=1.2, label="terminal voltage, V")
     ax.set_ylabel("voltage, V")
@@ -568,8 +481,8 @@ def fig22_battery(data: PlotData) -> bytes:
         _vlines(a, data, ("liftoff", "refill", "battery_swap"))
     e_wh = (data.summary.get("metrics") or {}).get("energy_wh")
     what = "Fig. 22  Battery and sorties" + (f" ({e_wh:.1f} Wh drawn)" if isinstance(e_wh, float) else "")
-    _title(fig, data, what)
-    return _png(fig)
+    set_title(fig, data, what)
+    return png_bytes(fig)
 
 
 #: figure id -> (caption, function)
@@ -584,16 +497,9 @@ FIGURES: dict[str, tuple[str, Callable[[PlotData], bytes]]] = {
 }
 
 
-def _add_deposition_figures() -> None:
-    from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
-
-    FIGURES["fig23"] = ("Spray deposition (L/ha) over the terrain with the rows, the flown path and the fence",
-                        fig23_deposition)
-    FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and the share covered",
-                        fig24_row_coverage)
-
-
-_add_deposition_figures()
+FIGURES["fig23"] = ("Spray deposition (L/ha) over the terrain with the rows, the flown path and the fence",
+                    fig23_deposition)
+FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and the share covered", fig24_row_coverage)
 
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.missions.metrics import point_polyline_distance
+from vinecli.rows.geometry import point_polyline_distance
 from vinecli.runs import rundir
 
 

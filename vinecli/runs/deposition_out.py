@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.missions.deposition_metrics import deposition_metrics
-from vinecli.missions.spray_rate import flow_for_rate, nominal_rate_lpha, spray_swath_m, track_width_m
+from vinecli.rows.spray_rate import flow_for_rate, nominal_rate_lpha, spray_swath_m, track_width_m
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
 

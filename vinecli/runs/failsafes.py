@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
-from vinecli.sim.types import Event
+from vinecli.types import Event
 
 #: how a cause reads in reports
 CAUSE_WORDS = {"geofence": "geofence breach", "lost_control": "lost control", "low_battery": "low battery"}

@@ -20,10 +20,11 @@ from pathlib import Path
 from typing import Any
 
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
-from vinecli.missions.checks import EventMissing, RunData, evaluate_checks
+from vinecli.missions.checks import evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
-from vinecli.missions.metrics import METRICS, MetricContext
+from vinecli.missions.metrics import METRICS
 from vinecli.missions.quantities import check_quantities
+from vinecli.missions.rundata import EventMissing, MetricContext, RunData
 from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
@@ -303,7 +304,7 @@ def _auto_rows(world: Any) -> None:
     grid = getattr(world.terrain, "grid", None)
     if grid is None:
         return
-    from vinecli.missions.rowsource import detect_rows_on_grid
+    from vinecli.rows.source import detect_rows_on_grid
 
     det = detect_rows_on_grid(grid)
     world.vine_rows_enu = det.rows

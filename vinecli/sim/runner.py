@@ -53,9 +53,9 @@ from vinecli.autopilot.base import Autopilot, AutopilotContext, AutopilotStatus,
 from vinecli.errors import AutopilotError, SpecError
 from vinecli.frames import Vec3, quat_from_euler, quat_to_euler, tilt_angle
 from vinecli.sim.recorder import Recorder, timeseries_columns
-from vinecli.sim.types import ActuatorCommand, Event, Observation, RigidState, ServiceRequest
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.types import ActuatorCommand, Event, Observation, RigidState, ServiceRequest
 from vinecli.world.model import World, rest_position
 
 if TYPE_CHECKING:
@@ -184,12 +184,12 @@ def run_simulation(
     from vinecli.physics.sensors import make_sensors
     from vinecli.physics.tank import Tank
     from vinecli.physics.wind import make_wind
-    from vinecli.sim.engine import Engine
     from vinecli.vehicle.urdf import write_urdf
+    from vinecli.world.engine import Engine
 
     wall0 = time.perf_counter()
     veh = resolve_vehicle(world, mission, vehicle)
-    from vinecli.missions.spray_rate import resolve_spray_rates
+    from vinecli.rows.spray_rate import resolve_spray_rates
 
     mission = resolve_spray_rates(mission, veh, world.vine_rows_enu)  # phases in L/ha fly the equivalent flow
     rate = float(world.physics_rate_hz)

@@ -19,7 +19,7 @@ from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
 from vinecli.outputs import Manifest, atomic_output_dir, contained_path, write_json
 from vinecli.specs import load_spec
-from vinecli.world.grid import TerrainGrid
+from vinecli.terrain.grid import TerrainGrid
 from vinecli.world.model import SCHEMA, TerrainInfo, rest_position
 from vinecli.world.spec import DsmTerrain, FlatTerrain, WorldSpec
 
@@ -145,7 +145,7 @@ def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, gri
                fence: Any = None) -> tuple[list[list[list[float]]], dict[str, Any] | None]:
     """``rows: auto``: rows detected on the source DSM (the same rows ``plan rows DSM`` finds, mapped into
     the world through the terrain's CRS frame), or on the height grid for a terrain directory."""
-    from vinecli.missions.rowsource import detect_rows_in_dsm, detect_rows_on_grid, dsm_rows_in_frame, terrain_frame
+    from vinecli.rows.source import detect_rows_in_dsm, detect_rows_on_grid, dsm_rows_in_frame, terrain_frame
 
     frame = terrain_frame(terrain_json, tdir)
     if isinstance(t, DsmTerrain) and frame is not None:
@@ -187,7 +187,7 @@ def _rest_at_spawn(terrain_json: dict[str, Any], tmp: Path, grid: TerrainGrid | 
                    x: float, y: float, yaw: float, spawn: Any, spec: WorldSpec) -> dict[str, Any]:
     """Settle the vehicle (full tank) at the spawn in PyBullet: its rest pose for world.json ``spawn.rest``."""
     from vinecli.frames import quat_to_euler, tilt_angle
-    from vinecli.sim.engine import rest_pose
+    from vinecli.world.engine import rest_pose
 
     info = TerrainInfo(kind=terrain_json["kind"], files=[tmp / f for f in terrain_json.get("files", [])],
                        grid=grid, flat_z=float(terrain_json.get("flat_z", 0.0)),

@@ -43,7 +43,7 @@ from vinecli.specs import format_validation_error
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
-from vinecli.world.grid import TerrainGrid
+from vinecli.terrain.grid import TerrainGrid
 
 __all__ = ["SCHEMA", "TerrainInfo", "World", "load_world", "rest_position"]
 

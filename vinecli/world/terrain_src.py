@@ -3,7 +3,7 @@
 The terrain itself comes from the terrain tools (:mod:`vinecli.terrain.heightmap`,
 :mod:`vinecli.terrain.tiles`): a heightmap directory (N×N heights, row 0 north, centred on its
 geodetic origin) or a tiles directory (OBJ/STL meshes in local metres about the origin in
-tiles.json). This module turns either into a :class:`~vinecli.world.grid.TerrainGrid` for fast
+tiles.json). This module turns either into a :class:`~vinecli.terrain.grid.TerrainGrid` for fast
 ``terrain_height`` lookups, and works out the offset of the terrain's own origin in the world's
 ENU frame when the world file gives a different geodetic origin (local tangent plane).
 
@@ -22,7 +22,7 @@ import numpy as np
 from vinecli.errors import TerrainError
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
-from vinecli.world.grid import TerrainGrid
+from vinecli.terrain.grid import TerrainGrid
 
 __all__ = ["heightmap_grid", "origin_offset", "tiles_grid"]
 
@@ -50,7 +50,7 @@ def heightmap_grid(heights_north_up: np.ndarray, spacing_m: float, centre_enu: t
 
 def tiles_grid(files: list[Path], offset: Vec3, spacing_m: float = 0.05) -> TerrainGrid:
     """Height grid (ENU) ray-cast on mesh tiles placed at ``offset`` (m)."""
-    from vinecli.sim.engine import Engine
+    from vinecli.world.engine import Engine
     from vinecli.world.model import TerrainInfo
 
     if not files:

@@ -1,6 +1,6 @@
 """Row detection, part 2: strips along the rows, their lateral relief profiles, row peaks, and peaks linked
 strip to strip into chains (``s``: across the rows, m; ``t``: along them, m). Used by
-:func:`vinecli.missions.rowdetect.detect_rows_grid`.
+:func:`vinecli.rows.detect.detect_rows_grid`.
 """
 
 from __future__ import annotations

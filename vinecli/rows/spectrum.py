@@ -1,7 +1,7 @@
 """Row detection, part 1: grid preparation and the dominant row direction and spacing (2-D spectrum).
 
 Grids are regular, ``z[j, i]`` at ``x[i]``, ``y[j]`` (local metres: x east, y north; heights m; NaN = no
-data). Used by :func:`vinecli.missions.rowdetect.detect_rows_grid`.
+data). Used by :func:`vinecli.rows.detect.detect_rows_grid`.
 """
 
 from __future__ import annotations

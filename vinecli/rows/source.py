@@ -2,7 +2,7 @@
 
 Every caller (``world build`` with ``rows: auto``, ``plan rows``, the run-time detection) goes through
 :func:`detect_rows_in_dsm` or :func:`detect_rows_on_grid`, which both call the one detector
-:func:`vinecli.missions.rowdetect.detect_rows_grid`.
+:func:`vinecli.rows.detect.detect_rows_grid`.
 
 Frames. The terrain tools put a raster in *local metres along the CRS axes about a centre* (x =
 (X - cx) * sx, y = (Y - cy) * sy; sx, sy in m per CRS unit: 1 for metres, 0.3048 for feet, metres per
@@ -24,7 +24,7 @@ import numpy as np
 
 from vinecli.errors import TerrainError
 from vinecli.geo import GeoOrigin
-from vinecli.missions.rowdetect import Polyline, RowDetection, detect_rows_grid
+from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
 
 __all__ = ["DsmRows", "RowFrame", "detect_rows_in_dsm", "detect_rows_on_grid", "dsm_rows_in_frame", "rows_geojson",
            "terrain_frame", "world_frame"]
@@ -142,7 +142,7 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
 
 
 def detect_rows_on_grid(grid: Any, **kw: Any) -> RowDetection:
-    """Rows on a world's height grid (:class:`~vinecli.world.grid.TerrainGrid`, ENU m)."""
+    """Rows on a world's height grid (:class:`~vinecli.terrain.grid.TerrainGrid`, ENU m)."""
     p = grid.preview(10**9)  # full resolution
     return detect_rows_grid(np.asarray(p["z"], float), np.asarray(p["x"], float), np.asarray(p["y"], float), **kw)
 

@@ -37,9 +37,9 @@ from vinecli.mavlink.gcs_link import checked_address, open_vehicle_link
 from vinecli.mavlink.link import Link, parse_endpoint
 from vinecli.mavlink.mission_items import MissionItem, PlanContext, items_to_phases, phases_to_items
 from vinecli.mavlink.vehicle import DEFAULT_PARAMS, Telemetry, VehicleEndpoint
-from vinecli.sim.types import ActuatorCommand, Event, Observation
 from vinecli.specs.limits import MAX_DURATION_S  # phase timeout = none: max_duration_s ends the run
 from vinecli.specs.mission import GotoPhase, LandPhase, RtlPhase, TakeoffPhase
+from vinecli.types import ActuatorCommand, Event, Observation
 
 log = logging.getLogger(__name__)
 

@@ -52,7 +52,7 @@ class Engine:
     """A PyBullet DIRECT client stepping at a fixed rate with gravity along -z (ENU)."""
 
     def __init__(self, *, rate_hz: float = 250.0, gravity: float = 9.80665, solver_iterations: int = 50) -> None:
-        from vinecli.sim.quiet import c_output_silenced
+        from vinecli.world.quiet import c_output_silenced
 
         with c_output_silenced():  # pybullet printf()s its build time and argv[0]
             import pybullet as p

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from vinecli.missions.job import row_spacing_m
+from vinecli.rows.detect import row_spacing_m
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 from vinecli.specs.vehicle import VehicleSpec
 

@@ -4,7 +4,7 @@ The one row detector of vinecli (``world build`` with ``rows: auto``, ``plan row
 detection all call :func:`detect_rows_grid`). Deterministic; steps:
 
 1. dominant row direction and spacing from the 2-D spectrum of the plane-detrended heights
-   (:mod:`~vinecli.missions.rowspectrum`);
+   (:mod:`~vinecli.rows.spectrum`);
 2. canopy relief = heights minus a NaN-aware Gaussian background (sigma = one spacing): slopes and
    terrain undulations drop out, rows stand out;
 3. the field is cut into strips along the rows (about 1.5 spacings long); each strip's mean relief
@@ -13,7 +13,7 @@ detection all call :func:`detect_rows_grid`). Deterministic; steps:
 4. peaks are linked strip to strip into rows along the local row slope (first from each strip's
    gradient structure tensor, then from the rows found), within 0.3 spacing, canopy gaps up to
    ``max_gap_m`` bridged; later passes de-skew every strip by that slope so curved rows stay sharp
-   (:mod:`~vinecli.missions.rowtrack`);
+   (:mod:`~vinecli.rows.track`);
 5. each row's centre line is a cubic spline through its peaks, extended straight on and trimmed to
    where the canopy ends (relief at least half the row's median, data on both sides of the line), an
    end beyond the last strip peak located from the cells there, simplified to 2 cm (Douglas-Peucker).
@@ -26,14 +26,15 @@ or from south (rows running east-west).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from vinecli.errors import TerrainError
-from vinecli.missions.rowspectrum import decimate, direction_and_spacing, fill_and_detrend, gradients, relief_of
-from vinecli.missions.rowtrack import (
+from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, gradients, relief_of
+from vinecli.rows.track import (
     Strips,
     chain_skew,
     make_strips,
@@ -297,3 +298,17 @@ def _confidence(found: list[tuple[float, Polyline, float, np.ndarray, np.ndarray
     regularity = 1.0 - 2.0 * float(np.mean(devs)) if devs else 0.5
     strength_f = min(1.0, math.log10(max(strength, 1.0)) / 4.0)
     return round(max(0.0, support * regularity * strength_f), 3)
+
+
+def row_spacing_m(rows: Sequence[Polyline]) -> float:
+    """Median distance between the midpoints of neighbouring rows (sorted across them), m; NaN for < 2 rows."""
+    mids = [np.mean(np.asarray(r, dtype=float), axis=0) for r in rows if len(r) >= 2]
+    if len(mids) < 2:
+        return math.nan
+    r0 = np.asarray(rows[0], dtype=float)
+    u = r0[-1] - r0[0]
+    u = u / (np.linalg.norm(u) or 1.0)
+    across = np.sort([float(-u[1] * m[0] + u[0] * m[1]) for m in mids])
+    gaps = np.diff(across)
+    gaps = gaps[gaps > 1e-3]
+    return float(np.median(gaps)) if gaps.size else math.nan

@@ -1,0 +1,23 @@
+"""Plane geometry of rows and tracks (ENU x, y in m)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+Polyline = Sequence[tuple[float, float]]
+
+
+def point_polyline_distance(px: np.ndarray, py: np.ndarray, lines: Sequence[Polyline]) -> np.ndarray:
+    """Distance (m) from each point to the nearest segment of any polyline (ENU x, y)."""
+    best = np.full(px.shape, np.inf)
+    for line in lines:
+        pts = np.asarray(line, dtype=float)
+        for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
+            dx, dy = bx - ax, by - ay
+            L2 = dx * dx + dy * dy
+            u = np.clip(((px - ax) * dx + (py - ay) * dy) / L2, 0.0, 1.0) if L2 > 0 else np.zeros_like(px)
+            d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
+            np.minimum(best, d, out=best)
+    return best
