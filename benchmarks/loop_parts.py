@@ -1,0 +1,167 @@
+"""The CI missions' loop against the PyBullet floor, in one run, with the cost of each part.
+
+For each mission (built-in autopilot, estimator on, every physics model, the sample world's 27
+mesh tiles) it reports, all in process CPU time per 250 Hz step (robust to a shared machine):
+
+* **loop**: ``summary.json timing.cpu_per_step_us`` of a ``run_mission`` in this process;
+* **floor**: what any loop must pay PyBullet per step, measured here on the same world and body:
+  ``stepSimulation`` + ``getBasePositionAndOrientation`` + ``getBaseVelocity`` + one
+  ``applyExternalForce`` + one ``applyExternalTorque`` (gravity off, floating, no contact);
+* **loop / floor** (the issue's target: <= 2.5) and the loop's real-time factor;
+* **whole process**: ``vinecli run mission`` as a subprocess (start-up, world load, recording and
+  writing included): simulated s / wall s;
+* **parts** (``--parts``): a cProfile of the mission's loop, self time grouped by owner (PyBullet,
+  physics models, sensors, estimator, control + phases, recorder, loop body, other), scaled to the
+  unprofiled CPU per step. Profiling inflates Python calls more than C calls, so these are shares to
+  rank work by, not exact costs.
+
+    .venv/bin/python benchmarks/loop_parts.py [--missions gust spray] [--parts] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import json
+import pstats
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+#: owner of a function, by the path of its source file (first match wins); C functions by name below
+PARTS: list[tuple[str, str]] = [
+    ("vinecli/physics/sensors", "sensors"),
+    ("vinecli/physics/", "physics models"),
+    ("vinecli/autopilot/estimator", "estimator"),
+    ("vinecli/control/", "control + phases"),
+    ("vinecli/autopilot/", "control + phases"),
+    ("vinecli/sim/recorder", "recorder"),
+    ("vinecli/sim/runner", "loop body"),
+    ("vinecli/frames", "frames (shared)"),
+    ("vinecli/types", "types (shared)"),
+]
+PYBULLET_CALLS = ("stepSimulation", "getBasePositionAndOrientation", "getBaseVelocity", "applyExternalForce",
+                  "applyExternalTorque", "getContactPoints", "rayTest", "getJointState", "getLinkState",
+                  "resetBaseVelocity", "resetBasePositionAndOrientation")
+
+
+def floor_us(world: Any, steps: int) -> float:
+    """CPU µs per step of the PyBullet floor (step + state reads + one force + one torque)."""
+    from vinecli.world.engine import Engine
+
+    x, y = world.spawn_enu[0], world.spawn_enu[1]
+    z = world.terrain_height(x, y) + 3.0
+    with Engine(rate_hz=world.physics_rate_hz, gravity=0.0) as eng:
+        eng.load_terrain(world.terrain)
+        body = eng.load_vehicle(world.urdf, (x, y, z), (0.0, 0.0, 0.0, 1.0))
+        p = eng.client
+        step, pose, vel = p.stepSimulation, p.getBasePositionAndOrientation, p.getBaseVelocity
+        force, torque, frame = p.applyExternalForce, p.applyExternalTorque, p.WORLD_FRAME
+        best = float("inf")
+        for _ in range(3):
+            t = time.process_time()
+            for _ in range(steps):
+                pose(body)
+                vel(body)
+                force(body, -1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), frame)
+                torque(body, -1, (0.0, 0.0, 0.0), frame)
+                step()
+            best = min(best, (time.process_time() - t) / steps * 1e6)
+    return best
+
+
+def part_of(filename: str, funcname: str) -> str:
+    """The owner of one profiled function."""
+    if filename == "~":
+        return "PyBullet" if any(c in funcname for c in PYBULLET_CALLS) else "builtins (math, list...)"
+    for prefix, part in PARTS:
+        if prefix in filename:
+            return part
+    return "other (numpy, pydantic...)"
+
+
+def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: float) -> dict[str, float]:
+    """µs per step of each part: cProfile self-time shares of one run, scaled to ``cpu_per_step``."""
+    from vinecli.runs.mission import run_mission
+
+    prof = cProfile.Profile()
+    prof.enable()
+    s = run_mission(mission, world_dir, runs, seed=0, run_id="profiled", overwrite=True)
+    prof.disable()
+    steps = s.sim_time_s * 250.0
+    stats = pstats.Stats(prof)
+    totals: dict[str, float] = {}
+    loop_total = 0.0
+    for (filename, _line, func), (_cc, _nc, tt, _ct, _callers) in stats.stats.items():  # type: ignore[attr-defined]
+        part = part_of(filename, func)
+        totals[part] = totals.get(part, 0.0) + tt
+        loop_total += tt
+    # the set-up and writing are outside the loop: keep the per-step view honest by scaling the
+    # whole profile to the loop's measured CPU per step (set-up is a small share of a 90 s mission)
+    scale = cpu_per_step * steps / loop_total if loop_total > 0 else 0.0
+    return {k: v * scale / steps for k, v in sorted(totals.items(), key=lambda kv: -kv[1])}
+
+
+def whole_process_rtf(world_dir: Path, mission: Path, runs: Path) -> tuple[float, float]:
+    """(simulated s / wall s, wall s) of ``vinecli run mission`` as a new process."""
+    out = runs / "cli"
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "vinecli", "run", "mission", str(mission), "--world", str(world_dir),
+                    "--out", str(out), "--seed", "0", "--overwrite"], check=False, capture_output=True, cwd=REPO)
+    wall = time.perf_counter() - t
+    summaries = list(out.glob("*/summary.json"))
+    if not summaries:
+        return float("nan"), wall
+    return json.loads(summaries[0].read_text())["sim_time_s"] / wall, wall
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--missions", nargs="+", default=["gust", "spray"], help="missions of pipelines/missions/")
+    ap.add_argument("--parts", action="store_true", help="also profile each mission's loop by part")
+    ap.add_argument("--json", type=Path, help="write the figures as JSON")
+    args = ap.parse_args(argv)
+
+    from vinecli.runs.mission import run_mission
+    from vinecli.world import build_world, load_world
+
+    res: dict[str, Any] = {"missions": {}}
+    with tempfile.TemporaryDirectory(prefix="vinecli-loop-") as tmp_s:
+        tmp = Path(tmp_s)
+        world_dir = build_world(REPO / "worlds" / "vineyard-sample.yaml", tmp / "world")
+        world = load_world(world_dir)
+        floor = floor_us(world, 5000)
+        res["floor_cpu_us_per_step"] = floor
+        print(f"PyBullet floor (step + pose/velocity reads + 1 force + 1 torque), same world and body: "
+              f"{floor:.1f} µs/step CPU")
+        for name in args.missions:
+            mission = REPO / "pipelines" / "missions" / f"{name}.yaml"
+            s = run_mission(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True)
+            timing = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]
+            cpu = timing["cpu_per_step_us"]
+            rtf_proc, wall = whole_process_rtf(world_dir, mission, tmp / "runs")
+            row: dict[str, Any] = {"status": s.status, "sim_time_s": s.sim_time_s, "loop_cpu_us_per_step": cpu,
+                                   "loop_over_floor": cpu / floor, "loop_rtf_cpu": 4000.0 / cpu,
+                                   "process_rtf": rtf_proc, "process_wall_s": wall}
+            print(f"{name:8s} {s.sim_time_s:6.1f} s sim, {s.status}: loop {cpu:5.1f} µs/step CPU "
+                  f"= {cpu / floor:4.1f}× floor (target <= 2.5), loop {4000.0 / cpu:4.0f}× real time; "
+                  f"whole `run mission` {rtf_proc:4.0f}× ({wall:.1f} s wall)")
+            if args.parts:
+                parts = profile_parts(world_dir, mission, tmp / "runs", cpu)
+                row["parts_us_per_step"] = parts
+                for part, us in parts.items():
+                    print(f"    {part:28s} {us:6.1f} µs/step  ({us / cpu * 100:4.1f} %)")
+            res["missions"][name] = row
+    if args.json:
+        args.json.write_text(json.dumps(res, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
