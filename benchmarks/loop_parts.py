@@ -10,7 +10,7 @@ mesh tiles) it reports, all in process CPU time per 250 Hz step (robust to a sha
 * **loop / floor** (the issue's target: <= 2.5) and the loop's real-time factor;
 * **whole process**: ``vinecli run mission`` as a subprocess (start-up, world load, recording and
   writing included): simulated s / wall s;
-* **parts** (``--parts``): a cProfile of the mission's loop, self time grouped by owner (PyBullet,
+* **parts** (``--parts``): a cProfile of the mission's loop only (not set-up or writing), self time grouped by owner (PyBullet,
   physics models, sensors, estimator, control + phases, recorder, loop body, other), scaled to the
   unprofiled CPU per step. Profiling inflates Python calls more than C calls, so these are shares to
   rank work by, not exact costs.
@@ -88,12 +88,24 @@ def part_of(filename: str, funcname: str) -> str:
 
 def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: float) -> dict[str, float]:
     """µs per step of each part: cProfile self-time shares of one run, scaled to ``cpu_per_step``."""
+    import vinecli.sim.runner as runner
     from vinecli.runs.mission import run_mission
 
     prof = cProfile.Profile()
-    prof.enable()
-    s = run_mission(mission, world_dir, runs, seed=0, run_id="profiled", overwrite=True)
-    prof.disable()
+    loop = runner._loop  # noqa: SLF001 - profile the per-step loop only, not set-up and writing
+
+    def profiled_loop(*a: Any, **kw: Any) -> Any:
+        prof.enable()
+        try:
+            return loop(*a, **kw)
+        finally:
+            prof.disable()
+
+    runner._loop = profiled_loop  # noqa: SLF001
+    try:
+        s = run_mission(mission, world_dir, runs, seed=0, run_id="profiled", overwrite=True)
+    finally:
+        runner._loop = loop  # noqa: SLF001
     steps = s.sim_time_s * 250.0
     stats = pstats.Stats(prof)
     totals: dict[str, float] = {}
@@ -102,8 +114,7 @@ def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: floa
         part = part_of(filename, func)
         totals[part] = totals.get(part, 0.0) + tt
         loop_total += tt
-    # the set-up and writing are outside the loop: keep the per-step view honest by scaling the
-    # whole profile to the loop's measured CPU per step (set-up is a small share of a 90 s mission)
+    # shares of the profiled loop, scaled to the loop's CPU per step measured without the profiler
     scale = cpu_per_step * steps / loop_total if loop_total > 0 else 0.0
     return {k: v * scale / steps for k, v in sorted(totals.items(), key=lambda kv: -kv[1])}
 

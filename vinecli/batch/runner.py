@@ -207,7 +207,9 @@ def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: Sto
 def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs: int, executor: str,
              scheduler: str | None, dask_processes: bool, max_tasks_per_child: int, hard_limit: float | None,
              record: Callable[[CaseResult], None], stop: StopRequest) -> None:
-    pending: deque[RunSpec] = deque(todo)
+    # longest expected case first (max_duration_s as the estimate): a long case started last would leave
+    # the other workers idle at the end of the batch; the order does not change any run (seeds are per case)
+    pending: deque[RunSpec] = deque(sorted(todo, key=_expected_cost, reverse=True))
     suspects: deque[RunSpec] = deque()  # cases in flight when a worker died: rerun one at a time
     inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]] = {}
     local = executor == "local"
@@ -266,6 +268,11 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                     _kill_pool(ex)
                 else:
                     ex.shutdown(wait=True)
+
+
+def _expected_cost(s: RunSpec) -> float:
+    """Simulated seconds a case may take (its mission's ``max_duration_s``), to schedule long cases first."""
+    return float(s.mission.get("max_duration_s") or 0.0)
 
 
 def _drain(inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]], flag: Any,
