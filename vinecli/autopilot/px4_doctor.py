@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from vinecli.autopilot.px4_process import port_free
 from vinecli.autopilot.px4_sitl import API_PORT_BASE, PX4_API_LOCAL_BASE, SIM_PORT_BASE, px4_start_command
 from vinecli.errors import InputError
 
@@ -43,21 +44,6 @@ class DoctorReport:
     @property
     def ok(self) -> bool:
         return all(c.status != "fail" for c in self.checks)
-
-
-def _port_free(host: str, port: int, kind: int) -> tuple[bool, str]:
-    """Can vinecli bind ``port`` now? TCP with SO_REUSEADDR, as vinecli's server binds: a connection of
-    the last run in TIME_WAIT does not count, a listener does. UDP without it (it would share a port)."""
-    s = socket.socket(socket.AF_INET, kind)
-    if kind == socket.SOCK_STREAM:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        s.bind((host, port))
-    except OSError as exc:
-        return False, exc.strerror or str(exc)
-    finally:
-        s.close()
-    return True, ""
 
 
 def probe_px4(host: str, port: int, timeout_s: float, sysid: int) -> str | None:
@@ -112,11 +98,11 @@ def px4_doctor(px4_bin: str | Path | None = None, *, instance: int = 0, host: st
         else:
             add(Check("PX4 binary", "warn", "no --px4-bin given and no px4 on PATH (fine if PX4 runs elsewhere)"))
     sim_port = SIM_PORT_BASE + instance
-    free, why = _port_free(host, sim_port, socket.SOCK_STREAM)
+    free, why = port_free(sim_port, socket.SOCK_STREAM, host)
     add(Check(f"TCP {host}:{sim_port} (simulator)", "ok" if free else "fail",
               "free for vinecli to listen on" if free else f"in use ({why}): another simulator or vinecli run holds it"))
     api_port = API_PORT_BASE + instance if instance <= 9 else 14549
-    free, why = _port_free(host, api_port, socket.SOCK_DGRAM)
+    free, why = port_free(api_port, socket.SOCK_DGRAM, host)
     add(Check(f"UDP {host}:{api_port} (mission link)", "ok" if free else "warn",
               "free for vinecli's mission client" if free else f"in use ({why}): MAVSDK/MAVROS or another run listens there"))
     px4_port = PX4_API_LOCAL_BASE + instance

@@ -43,17 +43,20 @@ def etc_dir_for(px4_bin: Path) -> Path:
     return etc
 
 
-def _port_free(port: int, kind: int) -> bool:
+def port_free(port: int, kind: int, host: str = "127.0.0.1") -> tuple[bool, str]:
+    """Can vinecli bind ``port`` now (and if not, the OS's reason)? TCP with SO_REUSEADDR, as vinecli's
+    server binds: a connection of the last run in TIME_WAIT does not count, a listener does. UDP without
+    it (it would share a port)."""
     s = socket.socket(socket.AF_INET, kind)
+    if kind == socket.SOCK_STREAM:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
-        if kind == socket.SOCK_STREAM:  # TIME_WAIT of the last run is fine (vinecli's server sets SO_REUSEADDR)
-            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        s.bind(("127.0.0.1", port))
-    except OSError:
-        return False
+        s.bind((host, port))
+    except OSError as exc:
+        return False, exc.strerror or str(exc)
     finally:
         s.close()
-    return True
+    return True, ""
 
 
 class InstanceLock:
@@ -83,8 +86,8 @@ def reserve_instance(candidates: range | list[int] = AUTO_INSTANCES) -> Instance
         except OSError:
             fh.close()
             continue
-        if _port_free(SIM_PORT_BASE + i, socket.SOCK_STREAM) and all(
-                _port_free(b + i, socket.SOCK_DGRAM) for b in PX4_UDP_BASES):
+        if port_free(SIM_PORT_BASE + i, socket.SOCK_STREAM)[0] and all(
+                port_free(b + i, socket.SOCK_DGRAM)[0] for b in PX4_UDP_BASES):
             return InstanceLock(i, fh)
         fcntl.flock(fh, fcntl.LOCK_UN)
         fh.close()

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import TerrainError
+from vinecli.rows.geometry import polyline_length
 from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, gradients, relief_of
 from vinecli.rows.track import (
     Strips,
@@ -65,7 +66,7 @@ class RowDetection:
     @property
     def lengths_m(self) -> list[float]:
         """Length of each row polyline, m."""
-        return [sum(math.dist(a, b) for a, b in zip(r[:-1], r[1:], strict=True)) for r in self.rows]
+        return [polyline_length(r) for r in self.rows]
 
     def summary(self) -> str:
         """One line: count, spacing, orientation (ENU angle and compass bearing), confidence."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -21,3 +22,8 @@ def point_polyline_distance(px: np.ndarray, py: np.ndarray, lines: Sequence[Poly
             d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
             np.minimum(best, d, out=best)
     return best
+
+
+def polyline_length(points: Polyline) -> float:
+    """Length of a polyline (sum of its segment lengths), m."""
+    return sum(math.dist(a, b) for a, b in zip(points[:-1], points[1:], strict=True))

@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from vinecli.rows.detect import Polyline
+from vinecli.rows.geometry import polyline_length
 
 __all__ = ["PATH_ACCEL_MPS2", "Leg", "RowPlan", "plan_accel", "plan_rows", "split_sorties"]
 
@@ -47,7 +48,7 @@ class Leg:
     @property
     def length_m(self) -> float:
         """Length of the leg, m."""
-        return sum(math.dist(a, b) for a, b in zip(self.points[:-1], self.points[1:], strict=True))
+        return polyline_length(self.points)
 
 
 @dataclass

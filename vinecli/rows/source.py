@@ -25,6 +25,7 @@ import numpy as np
 from vinecli.errors import TerrainError
 from vinecli.geo import GeoOrigin
 from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
+from vinecli.rows.geometry import polyline_length
 
 __all__ = ["DsmRows", "RowFrame", "detect_rows_in_dsm", "detect_rows_on_grid", "dsm_rows_in_frame", "rows_geojson",
            "terrain_frame", "world_frame"]
@@ -189,7 +190,7 @@ def rows_geojson(rows: list[Polyline], frame: RowFrame | None) -> dict[str, Any]
     frame's CRS (named in a ``crs`` member), or in local metres x east / y north when there is none."""
     feats = []
     for i, r in enumerate(rows):
-        length = sum(math.dist(a, b) for a, b in zip(r[:-1], r[1:], strict=True))
+        length = polyline_length(r)
         coords = frame.to_crs(r) if frame is not None and frame.crs is not None else list(r)
         feats.append({"type": "Feature", "properties": {"index": i, "length_m": round(length, 3)},
                       "geometry": {"type": "LineString", "coordinates": [[round(float(a), 4), round(float(b), 4)]
