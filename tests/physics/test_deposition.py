@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from vinecli.physics.deposit_grid import GridSpec, grid_for, grid_height_sampler, rasterise, rasterise_discs
+from vinecli.physics.deposit_grid import GridSpec, flat_height, grid_for, rasterise, rasterise_discs
 from vinecli.physics.deposition import EMIT_COLUMNS, DepositionConfig, SprayerGeometry, transport
 from vinecli.physics.droplets import terminal_velocity
 from vinecli.specs.vehicle import DropletSpectrumSpec, NozzleSpec, SprayerSpec
@@ -19,7 +19,7 @@ from vinecli.vehicle import load_vehicle
 
 DT = 0.004
 RHO = 1.204
-FLAT = grid_height_sampler(None, 0.0, 0.0, 1.0, 1.0, 0.0)
+FLAT = flat_height(0.0)
 NO_DW = DepositionConfig(downwash=False, diffusion=False)
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["GridSpec", "disc_kernel", "grid_for", "grid_height_sampler", "rasterise", "rasterise_discs"]
+__all__ = ["GridSpec", "disc_kernel", "grid_for", "flat_height", "rasterise", "rasterise_discs"]
 
 HeightFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -188,29 +188,8 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
     return out, off
 
 
-def grid_height_sampler(z: np.ndarray | None, x0: float, y0: float, dx: float, dy: float, flat_z: float = 0.0) -> HeightFn:
-    """Vectorised bilinear terrain height (m ENU) on a height grid ``z[iy, ix]`` (clamped at its edges).
-
-    ``z`` None: flat ground at ``flat_z``. Same interpolation as :meth:`TerrainGrid.height`.
-    """
-    if z is None:
-        def flat(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-            return np.full(np.broadcast(x, y).shape, float(flat_z))
-        return flat
-    zz = np.asarray(z, dtype=np.float64)
-    ny, nx = zz.shape
-
-    flat_z = zz.ravel()
-
-    def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        fx = np.clip((np.asarray(x) - x0) / dx, 0.0, nx - 1.0)
-        fy = np.clip((np.asarray(y) - y0) / dy, 0.0, ny - 1.0)
-        ix = np.minimum(fx.astype(np.int64), nx - 2)
-        iy = np.minimum(fy.astype(np.int64), ny - 2)
-        tx, ty = fx - ix, fy - iy
-        i = iy * nx + ix
-        z00, z01 = flat_z.take(i), flat_z.take(i + 1)
-        z10, z11 = flat_z.take(i + nx), flat_z.take(i + nx + 1)
-        return (z00 * (1 - tx) + z01 * tx) * (1 - ty) + (z10 * (1 - tx) + z11 * tx) * ty
-
-    return height
+def flat_height(z: float) -> HeightFn:
+    """Vectorised height (m ENU) of flat ground at ``z``; a height grid's is :meth:`TerrainGrid.heights`."""
+    def flat(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.full(np.broadcast(x, y).shape, float(z))
+    return flat

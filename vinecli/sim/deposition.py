@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vinecli.physics.deposit_grid import GridSpec, grid_for, grid_height_sampler, rasterise_discs
+from vinecli.physics.deposit_grid import GridSpec, flat_height, grid_for, rasterise_discs
 from vinecli.physics.deposition import DepositionConfig, Parcels, SprayEmitter, SprayerGeometry, transport
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
@@ -56,8 +56,7 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     cfg = config or DepositionConfig()
     ter = world.terrain
     gr = ter.grid
-    height = (grid_height_sampler(gr.z, gr.x0, gr.y0, gr.dx, gr.dy) if gr is not None
-              else grid_height_sampler(None, 0.0, 0.0, 1.0, 1.0, ter.flat_z))
+    height = gr.heights if gr is not None else flat_height(ter.flat_z)
     geo = SprayerGeometry.from_vehicle(veh, world.air_density)
     parcels = transport(emitter.array(), geo, height, wind_spec, world.air_density, seed, cfg, float(world.gravity))
     rows_xy = [tuple(p) for row in world.vine_rows_enu for p in row]
