@@ -29,7 +29,9 @@ import time
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
-from vinecli.autopilot.builtin import BuiltinAutopilot, _Phase
+from vinecli.autopilot.builtin import BuiltinAutopilot
+from vinecli.autopilot.phase import Phase, PhaseHost
+from vinecli.autopilot.phases import make_phase
 from vinecli.errors import InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_to_euler, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
@@ -47,16 +49,16 @@ _BUILTIN_TO_PX4 = {"AUTO.TAKEOFF": "takeoff", "AUTO.LOITER": "hold", "AUTO.MISSI
                    "AUTO.RTL": "rtl"}
 
 
-class _Tail(_Phase):
+class _Tail(Phase):
     """Waiting for the operator: idle on the ground when armed there, hold position in the air."""
 
     mode = "AUTO.LOITER"
     type = "wait"
 
-    def start(self, ap: BuiltinAutopilot) -> None:
+    def start(self, ap: PhaseHost) -> None:
         self.sp = ap.hold_sp() if ap.armed else ap.pos
 
-    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+    def update(self, ap: PhaseHost, dt: float) -> bool:
         if ap.armed:
             if ap.airborne:
                 ap.idle = False
@@ -151,7 +153,7 @@ class MavlinkControlledAutopilot:
         """Replace the builtin's phase list with ``specs`` followed by the waiting phase."""
         ap = self.ap
         ctx = self.ctx
-        phases = [ap._make_phase(p, ctx) for p in specs]  # noqa: SLF001 - run-time phase injection
+        phases = [make_phase(p, ctx) for p in specs]
         phases.append(_Tail())
         ap.phases = phases
         ap._phase_i = -1  # noqa: SLF001
