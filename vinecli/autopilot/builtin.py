@@ -19,17 +19,22 @@ The parts, one job each:
   :mod:`vinecli.autopilot.flight_phases`, :mod:`vinecli.autopilot.spray_phase` (refill sorties).
 - :mod:`vinecli.autopilot.estimator`, :mod:`vinecli.autopilot.geofence`,
   :mod:`vinecli.autopilot.preflight`, :mod:`vinecli.control` (cascade, path follower).
+
+Run-time missions (the MAVLink vehicle, :mod:`vinecli.autopilot.mavlink_vehicle`) use the public
+:meth:`BuiltinAutopilot.replace_phases` and :attr:`BuiltinAutopilot.phase_index`.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimator import Estimator
 from vinecli.autopilot.flight_phases import OpenLoop
 from vinecli.autopilot.geofence import Geofence
+from vinecli.autopilot.phase import Phase
 from vinecli.autopilot.phases import make_phase
 from vinecli.autopilot.supervisor import FlightSupervisor
 from vinecli.control.cascade import Cascade
@@ -127,17 +132,25 @@ class BuiltinAutopilot(FlightSupervisor):
         self._events = []
         self._next_phase()
 
-    def replace_phases(self, phases: list[object]) -> None:
-        """Replace the remaining mission by ``phases`` (mission phase specs) and start the first
-        one now (run-time missions, e.g. uploaded over MAVLink). Raises InputError for bad phases."""
+    def replace_phases(self, phases: Sequence[object], *, then: Sequence[Phase] = ()) -> None:
+        """Replace the remaining mission by ``phases`` (mission phase specs) followed by ``then``
+        (phases already built, e.g. one that waits for the operator) and start the first one now
+        (run-time missions, e.g. uploaded over MAVLink); a failsafe in progress is dropped. Raises
+        InputError for bad phases, AutopilotError before :meth:`reset`."""
         ctx = self._ctx
         if ctx is None:
             raise AutopilotError("replace_phases before reset")
         self.phases = [make_phase(p, ctx) for p in phases]
+        self.phases.extend(then)
         self._phase_i = -1
         self._failsafe = False
         self._countdown = 0
         self._next_phase()
+
+    @property
+    def phase_index(self) -> int:
+        """Index of the current phase in the phase list (after :meth:`replace_phases`: in the new list)."""
+        return self._phase_i
 
     def step(self, obs: Observation) -> ActuatorCommand:
         """Commands for the next physics step."""

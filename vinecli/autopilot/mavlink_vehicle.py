@@ -31,7 +31,6 @@ from typing import Any
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
 from vinecli.autopilot.phase import Phase, PhaseHost
-from vinecli.autopilot.phases import make_phase
 from vinecli.errors import InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_to_euler, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
@@ -151,15 +150,7 @@ class MavlinkControlledAutopilot:
     # ------------------------------------------------------------------ phase control
     def _run_phases(self, specs: list[Any], mode: str, *, waiting: bool = False, src: list[int] | None = None) -> None:
         """Replace the builtin's phase list with ``specs`` followed by the waiting phase."""
-        ap = self.ap
-        ctx = self.ctx
-        phases = [make_phase(p, ctx) for p in specs]
-        phases.append(_Tail())
-        ap.phases = phases
-        ap._phase_i = -1  # noqa: SLF001
-        ap._failsafe = False  # noqa: SLF001
-        ap._countdown = 0  # noqa: SLF001
-        ap._next_phase()  # noqa: SLF001
+        self.ap.replace_phases(specs, then=[_Tail()])
         self.mode = mode
         self.waiting = waiting or not specs
         self._src = src
@@ -316,7 +307,7 @@ class MavlinkControlledAutopilot:
                 src = self._src
                 if 0 <= i < len(src) and (i + 1 >= len(src) or src[i + 1] != src[i]):  # last phase of that item
                     self.endpoint.mission_item_reached(src[i])
-        i = ap._phase_i  # noqa: SLF001
+        i = ap.phase_index
         if self._src is not None and 0 <= i < len(self._src):
             self.mission_seq = self._src[i]
         if i >= self._n_cmd and not self.waiting:  # commanded phases done: now waiting for the operator
