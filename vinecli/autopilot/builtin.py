@@ -171,6 +171,7 @@ class BuiltinAutopilot(FlightSupervisor):
         return self._command(obs)
 
     def _command(self, obs: Observation) -> ActuatorCommand:
+        """An open-loop phase's rotor speeds (rad/s) while it lasts, else the controllers' command."""
         ph = self._phase
         if isinstance(ph, OpenLoop):
             w, done = ph.command(obs.t_us)

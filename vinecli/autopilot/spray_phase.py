@@ -149,6 +149,7 @@ class Spray(Phase):
         self._next_step(ap)
 
     def _next_step(self, ap: PhaseHost) -> None:
+        """The next step between sorties (return, service, take-off), or - all done - the next sortie."""
         if self._queue:
             self.sub = self._queue.pop(0)
             self.sub.start(ap)
@@ -160,6 +161,7 @@ class Spray(Phase):
         self._new_path(ap, resume=self._resume)
 
     def _new_path(self, ap: PhaseHost, resume: tuple[list[Vec3], list[float]] | None = None) -> None:
+        """Follow the planned passes from the hold point, or ``resume`` (points ENU m, flows L/s) after a refill."""
         if resume is None:
             pts, flows = self._passes(ap, (ap.hold_sp()[0], ap.hold_sp()[1]))
         else:  # from where the vehicle is to the breakpoint (flow off), then the rest of the rows

@@ -113,7 +113,6 @@ class FlightSupervisor:
     _w_cmd: tuple[float, ...]  # last rotor speed command, rad/s
     _service: ServiceRequest | None
 
-
     # ------------------------------------------------------------------ preflight
     def _mission_preflight(self, ctx: AutopilotContext) -> list[PreflightFailure]:
         """Checks that depend only on the mission and the world (fence margins, plan over the terrain)."""
@@ -146,6 +145,7 @@ class FlightSupervisor:
         return True
 
     def _preflight_fail(self, f: PreflightFailure) -> None:
+        """End the run ``preflight_failed`` (event ``preflight`` {check, value, limit})."""
         self.emit("preflight", f.message, {"check": f.check, "value": f.value, "limit": f.limit})
         log.warning("%s", f.message)
         self._finish(RunStatus.PREFLIGHT_FAILED, f.message)
@@ -178,6 +178,7 @@ class FlightSupervisor:
             self.emit("arming", "armed", {"armed": True})
 
     def disarm(self) -> None:
+        """Disarm: motors off, sprayer off, no setpoint; mode ``DISARMED``."""
         if self.armed:
             self.armed = False
             self.airborne = False
@@ -224,12 +225,14 @@ class FlightSupervisor:
 
     # ------------------------------------------------------------------ mode, run status, phase sequence
     def _set_mode(self, mode: str) -> None:
+        """Switch to PX4 mode ``mode`` (event ``mode`` when it changes)."""
         if mode != self.mode:
             self.emit("mode", mode, {"mode": mode, "previous": self.mode})
             self.mode = mode
             self._status.mode = mode
 
     def _finish(self, status: RunStatus, detail: str) -> None:
+        """End the run with ``status`` (the first call wins; motors off for the fatal ones), event ``status``."""
         st = self._status
         if st.status is not RunStatus.RUNNING:
             return
@@ -241,6 +244,7 @@ class FlightSupervisor:
         log.info("run ends: %s (%s)", status.value, detail)
 
     def _next_phase(self) -> None:
+        """Start the next phase of :attr:`phases`; after the last the run ends ``completed``."""
         self._phase_i += 1
         if self._phase_i >= len(self.phases):
             self._phase = None
@@ -256,6 +260,7 @@ class FlightSupervisor:
         self._set_mode(ph.mode if (self.armed or isinstance(ph, OpenLoop)) else self.mode)
 
     def _end_phase(self) -> None:
+        """The current phase is done: the next one, or - for a failsafe action - the run ends ``completed``."""
         ph = self._phase
         if ph is None:
             return
@@ -267,6 +272,7 @@ class FlightSupervisor:
         self._next_phase()
 
     def _failsafe_to(self, ph: Phase, detail: str) -> None:
+        """Leave the mission for failsafe action ``ph``; when it is done the run ends with ``detail``."""
         self._failsafe = True
         self._failsafe_detail = detail
         self._phase = ph
@@ -349,6 +355,7 @@ class FlightSupervisor:
             self._failsafe_to(Rtl(5.0, math.inf), f"low battery ({detail}): returned to launch and landed")
 
     def _on_geofence(self, violation: str) -> None:
+        """A fence breach (``violation``: max_altitude, max_distance or polygon): event ``geofence``, then the GF_ACTION."""
         action = self.geofence.action  # type: ignore[union-attr]
         p = self.pos
         self.emit("geofence", f"geofence breach ({violation}): action {action}",
