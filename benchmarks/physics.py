@@ -30,10 +30,10 @@ def main() -> None:
     from vinecli.physics.sensors import make_sensors
     from vinecli.physics.tank import Tank
     from vinecli.physics.wind import make_wind
-    from vinecli.types import RigidState
     from vinecli.specs import load_spec
     from vinecli.specs.vehicle import VehicleSpec
     from vinecli.specs.wind import ConstantWind, DrydenWind, SinusoidWind, SumWind, WindSpec
+    from vinecli.types import RigidState
 
     v = load_spec(REPO / "vehicles" / f"{args.vehicle}.yaml", VehicleSpec)
     dt = 1 / 250

@@ -98,10 +98,10 @@ def main(argv: list[str] | None = None) -> int:
     seconds, repeats = (5.0, 1) if args.quick else (args.seconds, args.repeats)
 
     from vinecli.sim.camera import DepthCamera
-    from vinecli.world.engine import Engine
     from vinecli.sim.runner import run_simulation
     from vinecli.specs.mission import MissionSpec
     from vinecli.world import build_world, load_world
+    from vinecli.world.engine import Engine
 
     tmp = tempfile.TemporaryDirectory(prefix="vinecli-bench-")
     t0 = time.perf_counter()

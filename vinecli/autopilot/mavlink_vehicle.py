@@ -29,7 +29,8 @@ import time
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
-from vinecli.autopilot.builtin import BuiltinAutopilot, _Phase
+from vinecli.autopilot.builtin import BuiltinAutopilot
+from vinecli.autopilot.phase import Phase, PhaseHost
 from vinecli.errors import InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_to_euler, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
@@ -47,16 +48,16 @@ _BUILTIN_TO_PX4 = {"AUTO.TAKEOFF": "takeoff", "AUTO.LOITER": "hold", "AUTO.MISSI
                    "AUTO.RTL": "rtl"}
 
 
-class _Tail(_Phase):
+class _Tail(Phase):
     """Waiting for the operator: idle on the ground when armed there, hold position in the air."""
 
     mode = "AUTO.LOITER"
     type = "wait"
 
-    def start(self, ap: BuiltinAutopilot) -> None:
+    def start(self, ap: PhaseHost) -> None:
         self.sp = ap.hold_sp() if ap.armed else ap.pos
 
-    def update(self, ap: BuiltinAutopilot, dt: float) -> bool:
+    def update(self, ap: PhaseHost, dt: float) -> bool:
         if ap.armed:
             if ap.airborne:
                 ap.idle = False
@@ -149,15 +150,7 @@ class MavlinkControlledAutopilot:
     # ------------------------------------------------------------------ phase control
     def _run_phases(self, specs: list[Any], mode: str, *, waiting: bool = False, src: list[int] | None = None) -> None:
         """Replace the builtin's phase list with ``specs`` followed by the waiting phase."""
-        ap = self.ap
-        ctx = self.ctx
-        phases = [ap._make_phase(p, ctx) for p in specs]  # noqa: SLF001 - run-time phase injection
-        phases.append(_Tail())
-        ap.phases = phases
-        ap._phase_i = -1  # noqa: SLF001
-        ap._failsafe = False  # noqa: SLF001
-        ap._countdown = 0  # noqa: SLF001
-        ap._next_phase()  # noqa: SLF001
+        self.ap.replace_phases(specs, then=[_Tail()])
         self.mode = mode
         self.waiting = waiting or not specs
         self._src = src
@@ -314,7 +307,7 @@ class MavlinkControlledAutopilot:
                 src = self._src
                 if 0 <= i < len(src) and (i + 1 >= len(src) or src[i + 1] != src[i]):  # last phase of that item
                     self.endpoint.mission_item_reached(src[i])
-        i = ap._phase_i  # noqa: SLF001
+        i = ap.phase_index
         if self._src is not None and 0 <= i < len(self._src):
             self.mission_seq = self._src[i]
         if i >= self._n_cmd and not self.waiting:  # commanded phases done: now waiting for the operator
