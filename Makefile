@@ -39,7 +39,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check vinecli tests benchmarks
 
 bench: $(STAMP)
-	for b in terrain reconstruct physics sim autopilot_step deposition batch report seeds; do $(BIN)/python benchmarks/$$b.py || exit 1; done
+	for b in terrain reconstruct physics sim loop_parts autopilot_step deposition batch report seeds; do $(BIN)/python benchmarks/$$b.py || exit 1; done
 
 clean:
 	rm -rf $(DEMO_OUT) .pytest_cache
