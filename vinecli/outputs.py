@@ -26,6 +26,9 @@ from typing import Any
 from vinecli import __version__
 from vinecli.errors import OutputError
 
+#: the file every output directory gets last (what was read, configured and written)
+MANIFEST = "manifest.json"
+
 
 def sha256_file(path: Path, chunk: int = 1 << 20) -> str:
     """Hex sha256 of a file's bytes."""
@@ -38,19 +41,19 @@ def sha256_file(path: Path, chunk: int = 1 << 20) -> str:
 
 def write_json(path: Path, data: Any) -> None:
     """Write ``data`` as indented UTF-8 JSON (NaN is written as null)."""
-    path.write_text(json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    path.write_text(json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n", encoding="utf-8")
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
     """Recursively convert numpy scalars/arrays, Paths and non-finite floats to JSON types."""
     if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, Path):
         return str(obj)
     if hasattr(obj, "tolist"):  # numpy scalar or array
-        return _jsonable(obj.tolist())
+        return jsonable(obj.tolist())
     if isinstance(obj, float) and (obj != obj or obj in (float("inf"), float("-inf"))):
         return None
     return obj
@@ -87,7 +90,7 @@ class Manifest:
         """Manifest as a JSON-able dict; outputs are every file under ``root`` with hashes."""
         outputs = []
         for p in sorted(root.rglob("*")):
-            if p.is_file() and p.name != "manifest.json":
+            if p.is_file() and p.name != MANIFEST:
                 outputs.append({"path": p.relative_to(root).as_posix(), "bytes": p.stat().st_size,
                                 "sha256": sha256_file(p)})
         inputs = []
@@ -134,7 +137,7 @@ def manifest_problem(root: Path) -> str | None:
     """
     root = Path(root)
     try:
-        outputs = json.loads((root / "manifest.json").read_text(encoding="utf-8"))["outputs"]
+        outputs = json.loads((root / MANIFEST).read_text(encoding="utf-8"))["outputs"]
     except (OSError, ValueError, KeyError, TypeError) as exc:
         return f"no readable manifest.json ({type(exc).__name__})"
     for entry in outputs:
@@ -207,7 +210,7 @@ def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False)
         raise OutputError(f"cannot create output directory ({exc.strerror})", path=out) from exc
     try:
         yield tmp
-        write_json(tmp / "manifest.json", manifest.to_dict(tmp))
+        write_json(tmp / MANIFEST, manifest.to_dict(tmp))
         if out.exists():
             old = out.with_name(f".{out.name}.old-{os.getpid()}")
             out.rename(old)

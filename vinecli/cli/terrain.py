@@ -223,9 +223,9 @@ def info(
     if as_json:
         import json
 
-        from vinecli.outputs import _jsonable
+        from vinecli.outputs import jsonable
 
-        typer.echo(json.dumps(_jsonable(facts), indent=2))
+        typer.echo(json.dumps(jsonable(facts), indent=2))
         return
     if facts.get("kind") == "raster":
         _render_raster_info(facts)

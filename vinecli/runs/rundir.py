@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.outputs import _jsonable, manifest_problem, write_json
+from vinecli.outputs import jsonable, manifest_problem, write_json
 
 SUMMARY = "summary.json"
 TIMESERIES = "timeseries.parquet"
@@ -60,7 +60,7 @@ def write_events(path: Path, events: Sequence[Any]) -> None:
     """One JSON object per line: ``{t_s, kind, message, data}``."""
     with open(path, "w", encoding="utf-8") as f:
         for ev in events:
-            rec = {"t_s": ev.t_us / 1e6, "kind": ev.kind, "message": ev.message, "data": _jsonable(dict(ev.data))}
+            rec = {"t_s": ev.t_us / 1e6, "kind": ev.kind, "message": ev.message, "data": jsonable(dict(ev.data))}
             f.write(json.dumps(rec, allow_nan=False) + "\n")
 
 
