@@ -174,14 +174,14 @@ def checks_cmd(
 def _checks_table(checks: list[dict[str, Any]], title: str) -> None:
     from rich.table import Table
 
-    from vinecli.report.baseline import _fmt
+    from vinecli.report.text import format_value
 
     t = Table(title=title, title_justify="left")
     for col in ("check", "value", "op", "bound", "result"):
         t.add_column(col)
     for c in checks:
         ok = "[green]pass[/]" if c["passed"] else "[red]FAIL[/]"
-        t.add_row(c["name"], _fmt(c["value"]), c["op"], _fmt(c["bound"]), ok)
+        t.add_row(c["name"], format_value(c["value"]), c["op"], format_value(c["bound"]), ok)
     out_console.print(t)
     for c in checks:
         if not c["passed"]:

@@ -14,6 +14,7 @@ from typing import Any, Literal
 
 from vinecli.errors import InputError
 from vinecli.report.loader import Run
+from vinecli.report.text import format_value
 
 Better = Literal["lower", "higher", "closer_to_1", "any"]
 
@@ -126,8 +127,8 @@ def compare(current: Sequence[Run], baseline: Sequence[Run], baseline_dir: str,
             if o is not None and o.get("passed") and not c.get("passed"):
                 comp.regressions.append(Regression(
                     case, "check", c["name"],
-                    f"check {c['name']} newly fails: {_fmt(c.get('value'))} (baseline {_fmt(o.get('value'))}), "
-                    f"bound {c.get('op')} {_fmt(c.get('bound'))}", o.get("value"), c.get("value")))
+                    f"check {c['name']} newly fails: {format_value(c.get('value'))} (baseline {format_value(o.get('value'))}), "
+                    f"bound {c.get('op')} {format_value(c.get('bound'))}", o.get("value"), c.get("value")))
         new_m, old_m = run.metrics(), old.metrics()
         for name, tol in tols.items():
             a, b = _num(old_m.get(name)), _num(new_m.get(name))
@@ -139,7 +140,7 @@ def compare(current: Sequence[Run], baseline: Sequence[Run], baseline_dir: str,
                 continue
             worse = _is_worse(a, b, tol.better)
             entry = Regression(case, "metric", name,
-                               f"{name} moved {_fmt(a)} -> {_fmt(b)} (Δ {delta:+.4g}, tolerance ±{limit:.4g}"
+                               f"{name} moved {format_value(a)} -> {format_value(b)} (Δ {delta:+.4g}, tolerance ±{limit:.4g}"
                                f"{'' if tol.better == 'any' else ', better: ' + tol.better.replace('_', ' ')})",
                                a, b, limit)
             (comp.regressions if worse else comp.improvements).append(entry)
@@ -164,11 +165,3 @@ def _num(v: Any) -> float | None:
     except (TypeError, ValueError):
         return None
     return f if math.isfinite(f) else None
-
-
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_fmt(x) for x in v) + "]"
-    return "-" if v is None else str(v)

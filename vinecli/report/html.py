@@ -19,11 +19,11 @@ from pathlib import Path
 from typing import Any
 
 from vinecli.outputs import contained_path
-from vinecli.report.baseline import Comparison, _fmt
+from vinecli.report.baseline import Comparison
 from vinecli.report.loader import Run
 from vinecli.report.markdown import run_order
 from vinecli.report.plots import FIGURES, check_spans
-from vinecli.report.text import printable
+from vinecli.report.text import format_value, printable
 from vinecli.runs.failsafes import describe_failsafe
 
 TEMPLATE = "report.html.j2"
@@ -85,8 +85,8 @@ def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison:
     regs = comparison.for_case(run.case) if comparison else []
     checks = [{
         "name": c.get("name"), "description": c.get("description") or "", "quantity": str(c.get("quantity", "")),
-        "reduce": c.get("reduce") or "", "window": _fmt(c.get("window")) if c.get("window") else "whole run / default",
-        "value": _fmt(c.get("value")), "op": c.get("op"), "bound": _fmt(c.get("bound")), "passed": bool(c.get("passed")),
+        "reduce": c.get("reduce") or "", "window": format_value(c.get("window")) if c.get("window") else "whole run / default",
+        "value": format_value(c.get("value")), "op": c.get("op"), "bound": format_value(c.get("bound")), "passed": bool(c.get("passed")),
         "message": c.get("message") or "",
     } for c in run.checks]
     figures = []
@@ -98,7 +98,7 @@ def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison:
         figures.append({"id": fid, "label": f"Figure {fid[3:]}", "caption": caption, "note": f.get("note", ""),
                         "b64": base64.b64encode(f["png"]).decode("ascii") if f.get("png") else None,
                         "spans": spans})
-    metrics = sorted((k, _fmt(v)) for k, v in run.metrics().items())
+    metrics = sorted((k, format_value(v)) for k, v in run.metrics().items())
     return {
         "anchor": anchor, "case": run.case, "run_id": run.run_id, "mission": run.mission,
         "description": s.get("description") or "", "vehicle": s.get("vehicle", "-"), "world": _world(run),
@@ -106,9 +106,9 @@ def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison:
         "status_message": s.get("status_message") or "", "sim_time": _secs(s.get("sim_time_s")),
         "wall_time": _secs(run.timing.get("wall_time_s")), "rtf": _rtf(run.timing.get("real_time_factor")),
         "error": run.error, "failsafes": [{"text": describe_failsafe(f), "detail": f.get("detail") or "",
-                                           "position": _fmt(f.get("position_enu"))} for f in run.failsafes],
+                                           "position": format_value(f.get("position_enu"))} for f in run.failsafes],
         "result": _result(run, bool(regs)), "checks": checks, "n_passed": sum(c["passed"] for c in checks),
-        "regressions": [{**g.to_dict(), "baseline": _fmt(g.baseline), "current": _fmt(g.current)} for g in regs],
+        "regressions": [{**g.to_dict(), "baseline": format_value(g.baseline), "current": format_value(g.current)} for g in regs],
         "metrics": metrics, "figures": figures, "figure_note": figure_note,
     }
 
@@ -190,7 +190,7 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping
                      for r in ordered] if inline else [])
         html = tpl.render(page="overview", root=root, page_num=k, pages=pages, rows=rows, sections=sections,
                           missions=_missions(runs),
-                          regressions=[{**g.to_dict(), "baseline": _fmt(g.baseline), "current": _fmt(g.current)}
+                          regressions=[{**g.to_dict(), "baseline": format_value(g.baseline), "current": format_value(g.current)}
                                        for g in regs[:200]],
                           regressions_more=max(0, len(regs) - 200), figure_policy=figure_policy, **common)
         here.write_text(html, encoding="utf-8")

@@ -13,15 +13,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vinecli.report.baseline import Comparison, _fmt
+from vinecli.report.baseline import Comparison
 from vinecli.report.loader import Run
-from vinecli.report.text import printable
+from vinecli.report.text import format_value, printable
 
 
 def check_message(c: dict[str, Any], failsafe: str = "") -> str:
     """One line: ``name: value V, expected OP BOUND`` (``; failsafe: ...`` when the run had one; control
     characters escaped)."""
-    msg = f"{c['name']}: value {_fmt(c.get('value'))}, expected {c.get('op')} {_fmt(c.get('bound'))}"
+    msg = f"{c['name']}: value {format_value(c.get('value'))}, expected {c.get('op')} {format_value(c.get('bound'))}"
     return printable(f"{msg}; failsafe: {failsafe}" if failsafe else msg)
 
 
@@ -58,7 +58,7 @@ def write_junit(path: Path, runs: Sequence[Run], comparison: Comparison | None =
             if not c.get("passed"):
                 f = Failure(check_message(c, run.failsafe_text), "check")
                 f.text = x(f"{c.get('message') or ''}\nquantity: {c.get('quantity')}, reduce: {c.get('reduce')}, "
-                           f"window: {_fmt(c.get('window'))} s\nrun: {run.run_id} ({run.status}: "
+                           f"window: {format_value(c.get('window'))} s\nrun: {run.run_id} ({run.status}: "
                            f"{run.summary.get('status_message') or ''})")
                 tc.result = [f]
             add(tc)

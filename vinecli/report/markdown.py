@@ -9,9 +9,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from vinecli.report.baseline import Comparison, _fmt
+from vinecli.report.baseline import Comparison
 from vinecli.report.loader import Run
-from vinecli.report.text import md_text
+from vinecli.report.text import format_value, md_text
 
 
 def _cell(v: Any) -> str:
@@ -75,7 +75,7 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
             lines.append(f"| {_cell(r.case)} | (run) | - | - | error: {_cell(r.error)} |")
         for r, c in failed[:max_rows * 2]:
             lines.append("| " + " | ".join(_cell(x) for x in (
-                r.case, c["name"], _fmt(c.get("value")), f"{c.get('op')} {_fmt(c.get('bound'))}",
+                r.case, c["name"], format_value(c.get("value")), f"{c.get('op')} {format_value(c.get('bound'))}",
                 "; ".join(x for x in (c.get("message") or "", r.failsafe_text) if x))) + " |")
         if len(failed) > max_rows * 2:
             lines.append(f"\n… and {len(failed) - max_rows * 2} more failed checks.")

@@ -32,3 +32,12 @@ def md_text(value: Any) -> str:
     s = _AMP_RE.sub("&amp;", printable(value))
     s = _TAG_RE.sub("&lt;", s)
     return s.replace("|", "\\|").replace("\r", " ").replace("\n", " ")
+
+
+def format_value(v: Any) -> str:
+    """A check or metric value for people: floats to 4 significant digits, lists element-wise, None as ``-``."""
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(format_value(x) for x in v) + "]"
+    return "-" if v is None else str(v)
