@@ -19,10 +19,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Literal
 
+from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
+from vinecli.runs.rundir import SUMMARY
 
 log = logging.getLogger(__name__)
 
@@ -200,7 +202,7 @@ def build_report(
         runs = load_runs(runs_dir)
         for r in runs:
             r.report_metrics = compute_report_metrics(r)
-    manifest.inputs = [r.dir / "summary.json" for r in runs if r.dir is not None]
+    manifest.inputs = [r.dir / SUMMARY for r in runs if r.dir is not None]
     comparison = None
     if baseline is not None:
         with manifest.stage("baseline"):
@@ -209,11 +211,11 @@ def build_report(
                 r.report_metrics = compute_report_metrics(r)
             comparison = compare(runs, base_runs, str(baseline), tolerances)
     pipeline = None
-    if (runs_dir / "batch.json").is_file():
+    if (runs_dir / BATCH_JSON).is_file():
         import json
 
         try:
-            pipeline = json.loads((runs_dir / "batch.json").read_text(encoding="utf-8")).get("pipeline")
+            pipeline = json.loads((runs_dir / BATCH_JSON).read_text(encoding="utf-8")).get("pipeline")
         except (OSError, ValueError):
             pipeline = None
     want_figs = "html" in fmts

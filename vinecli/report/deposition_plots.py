@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.runs.deposition_out import DEPOSITION_JSON
+
 __all__ = ["fig23_deposition", "fig24_row_coverage", "load_deposition"]
 
 
@@ -21,9 +23,9 @@ def load_deposition(run_dir: Path | None) -> tuple[dict[str, Any], np.ndarray]:
     """(deposition.json, rate L/ha (ny, nx) row 0 SOUTH, NaN off the terrain); NoData without them."""
     from vinecli.report.figure_base import NoData
 
-    if run_dir is None or not (Path(run_dir) / "deposition.json").is_file():
+    if run_dir is None or not (Path(run_dir) / DEPOSITION_JSON).is_file():
         raise NoData("no deposition in this run (no sprayer used)")
-    doc = json.loads((Path(run_dir) / "deposition.json").read_text(encoding="utf-8"))
+    doc = json.loads((Path(run_dir) / DEPOSITION_JSON).read_text(encoding="utf-8"))
     import rasterio
 
     with rasterio.open(Path(run_dir) / doc["geotiff"]["file"]) as ds:

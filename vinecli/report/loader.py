@@ -19,19 +19,16 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
+from vinecli.outputs import MANIFEST
 from vinecli.runs.failsafes import describe_failsafes
+from vinecli.runs.rundir import EVENTS, PREVIEW, SUMMARY, SUMMARY_KEYS, TIMESERIES
 
 log = logging.getLogger(__name__)
 
-SUMMARY = "summary.json"
-TIMESERIES = "timeseries.parquet"
-EVENTS = "events.jsonl"
-PREVIEW = "terrain_preview.npz"
-BATCH = "batch.json"
-
-#: summary.json keys a run must have for the report
-REQUIRED_KEYS = ("run_id", "mission", "status", "passed", "checks", "sim_time_s")
+#: summary.json keys a run must have for the report: those of a complete run, and its mission
+REQUIRED_KEYS = (*SUMMARY_KEYS, "mission")
 #: check keys the report shows
 CHECK_KEYS = ("name", "op", "bound", "value", "passed")
 #: machine-dependent figures: summary.json ``timing`` (older runs had them in ``metrics`` / at the top level)
@@ -145,8 +142,8 @@ def load_runs(runs_dir: str | Path) -> list[Run]:
     if not root.is_dir():
         raise InputError("not a runs directory (does not exist or is not a directory)", path=root)
     if (root / SUMMARY).is_file():
-        runs = [_load_run(root, None)]
-    elif (root / BATCH).is_file():
+        runs = [load_run(root, None)]
+    elif (root / BATCH_JSON).is_file():
         runs = _from_batch(root)
     else:
         dirs = sorted(p.parent for p in root.glob(f"*/{SUMMARY}")
@@ -154,9 +151,9 @@ def load_runs(runs_dir: str | Path) -> list[Run]:
         if not dirs:
             raise InputError("not a runs directory (no batch.json and no run directories with summary.json)",
                              path=root)
-        runs = [_load_run(d, None) for d in dirs]
+        runs = [load_run(d, None) for d in dirs]
     if not runs:
-        raise InputError("the batch lists no cases", path=root / BATCH)
+        raise InputError("the batch lists no cases", path=root / BATCH_JSON)
     seen: dict[str, str] = {}
     for r in runs:
         if r.case in seen:
@@ -167,7 +164,7 @@ def load_runs(runs_dir: str | Path) -> list[Run]:
 
 
 def _from_batch(root: Path) -> list[Run]:
-    p = root / BATCH
+    p = root / BATCH_JSON
     try:
         batch = json.loads(p.read_text(encoding="utf-8"))
         cases = batch["cases"]
@@ -191,14 +188,14 @@ def _from_batch(root: Path) -> list[Run]:
             continue
         if not (d / SUMMARY).is_file():
             raise InputError(f"run {run_id!r} listed in batch.json is missing (no {SUMMARY})", path=d)
-        runs.append(_load_run(d, case))
+        runs.append(load_run(d, case))
     return runs
 
 
 def _is_report_dir(d: Path) -> bool:
     """A ``vinecli report`` output (its own summary.json) placed inside the runs directory."""
     try:
-        return json.loads((d / "manifest.json").read_text(encoding="utf-8")).get("command") == "report"
+        return json.loads((d / MANIFEST).read_text(encoding="utf-8")).get("command") == "report"
     except (OSError, ValueError, AttributeError):
         return False
 
@@ -210,8 +207,9 @@ def _mission_of(d: Path, fallback: str) -> str:
         return fallback
 
 
-def _load_run(d: Path, case: str | None) -> Run:
-    """Validate one run directory; InputError naming it when something is missing or corrupt."""
+def load_run(d: Path, case: str | None = None) -> Run:
+    """One run directory, validated (summary keys, time-series footer, event lines): InputError naming it when
+    something is missing or corrupt. ``case``: the batch's case name (default: the summary's, else the run id)."""
     import pyarrow.parquet as pq
 
     try:

@@ -504,9 +504,9 @@ FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and t
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:
     """Read what the figures need from a (validated) run directory."""
-    from vinecli.report.loader import _load_run
+    from vinecli.report.loader import load_run
 
-    run = _load_run(Path(run_dir), None)
+    run = load_run(Path(run_dir))
     return PlotData(cols=run.read_columns(columns or columns_needed()), events=run.events(), summary=run.summary,
                     preview=run.preview(), run_dir=Path(run_dir))
 
