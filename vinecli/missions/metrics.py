@@ -13,14 +13,14 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from vinecli.frames import quat_rotate
-from vinecli.missions.rundata import EventMissing, RunData
+from vinecli.missions.rundata import STANDARD_GRAVITY, EventMissing, RunData
 from vinecli.rows.geometry import point_polyline_distance
 
 Window = tuple[float, float] | None
@@ -50,7 +50,7 @@ def metric(name: str, unit: str) -> Callable[[Callable[[RunData, Window], float]
 # ---------------------------------------------------------------- helpers
 def _g(data: RunData) -> float:
     ctx = data.context
-    return float(getattr(ctx, "gravity", 9.80665) or 9.80665)
+    return float(getattr(ctx, "gravity", STANDARD_GRAVITY) or STANDARD_GRAVITY)
 
 
 def _try_event(data: RunData, kind: str) -> float | None:
@@ -495,6 +495,37 @@ def rotor_wind_period_ratio(data: RunData, window: Window) -> float:
     return _rotor_period(data, window, 0.5 * pw) / pw
 
 
+#: columns of the rotors' H-force (FLU) and of the attitude that turns it into ENU
+_ROTOR_DRAG = ("rotor_drag_flu_x_n", "rotor_drag_flu_y_n", "rotor_drag_flu_z_n")
+_QUAT = ("quat_x", "quat_y", "quat_z", "quat_w")
+
+
+def horizontal_aero_force_enu(columns: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The horizontal aerodynamic force F_h on the vehicle per sample, (x, y) ENU, N: the links' wind drag
+    ``drag_enu_{x,y}_n`` plus, when ``columns`` has ``rotor_drag_flu_{x,y,z}_n`` and ``quat_{x,y,z,w}``,
+    the rotors' H-force rotated from body FLU to ENU."""
+    fx = np.array(columns["drag_enu_x_n"], dtype=float)
+    fy = np.array(columns["drag_enu_y_n"], dtype=float)
+    if all(c in columns for c in (*_ROTOR_DRAG, *_QUAT)):
+        qx, qy, qz, qw = (columns[c] for c in _QUAT)
+        rdx, rdy, rdz = (columns[c] for c in _ROTOR_DRAG)
+        for k in range(fx.size):
+            q = (float(qx[k]), float(qy[k]), float(qz[k]), float(qw[k]))
+            r = quat_rotate(q, (float(rdx[k]), float(rdy[k]), float(rdz[k])))
+            fx[k] += r[0]
+            fy[k] += r[1]
+    return fx, fy
+
+
+def predicted_tilt_rad(columns: Mapping[str, np.ndarray], gravity: float,
+                       force_enu: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """The steady tilt the wind asks for, atan(|F_h| / (m g)) per sample, rad: F_h from
+    :func:`horizontal_aero_force_enu` (or ``force_enu`` when already computed), m = ``total_mass_kg``,
+    ``gravity`` in m/s² (positive; the run's world's)."""
+    fx, fy = force_enu if force_enu is not None else horizontal_aero_force_enu(columns)
+    return np.arctan2(np.hypot(fx, fy), np.asarray(columns["total_mass_kg"], dtype=float) * gravity)
+
+
 def _tilt_terms(data: RunData, window: Window) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(tilt towards the upwind side of the horizontal aerodynamic force, rad; predicted
     atan(|F_h| / (m g)), rad; dot(body z horizontal, wind) sign) on the selected samples."""
@@ -502,21 +533,17 @@ def _tilt_terms(data: RunData, window: Window) -> tuple[np.ndarray, np.ndarray, 
     idx = np.flatnonzero(sel)
     if idx.size == 0:
         return np.array([]), np.array([]), np.array([])
-    qx, qy, qz, qw = (data.column(f"quat_{c}")[idx] for c in "xyzw")
-    fx, fy = data.column("drag_enu_x_n")[idx].copy(), data.column("drag_enu_y_n")[idx].copy()
-    has_rd = data.has("rotor_drag_flu_x_n")
-    rdx, rdy, rdz = ((data.column(f"rotor_drag_flu_{c}_n")[idx] if has_rd else np.zeros(idx.size)) for c in "xyz")
+    names = ["drag_enu_x_n", "drag_enu_y_n", "total_mass_kg", *_QUAT]
+    if data.has("rotor_drag_flu_x_n"):
+        names += _ROTOR_DRAG
+    cols = {c: data.column(c)[idx] for c in names}
+    qx, qy, qz, qw = (cols[c] for c in _QUAT)
     zb = np.empty((idx.size, 3))
     for k in range(idx.size):
-        q = (float(qx[k]), float(qy[k]), float(qz[k]), float(qw[k]))
-        zb[k] = quat_rotate(q, (0.0, 0.0, 1.0))
-        if has_rd:
-            r = quat_rotate(q, (float(rdx[k]), float(rdy[k]), float(rdz[k])))
-            fx[k] += r[0]
-            fy[k] += r[1]
+        zb[k] = quat_rotate((float(qx[k]), float(qy[k]), float(qz[k]), float(qw[k])), (0.0, 0.0, 1.0))
+    fx, fy = horizontal_aero_force_enu(cols)
     fmag = np.hypot(fx, fy)
-    m = data.column("total_mass_kg")[idx]
-    pred = np.arctan2(fmag, m * _g(data))
+    pred = predicted_tilt_rad(cols, _g(data), force_enu=(fx, fy))
     with np.errstate(invalid="ignore", divide="ignore"):
         ux, uy = -fx / fmag, -fy / fmag  # upwind direction: against the aerodynamic force
     along = np.arctan2(zb[:, 0] * ux + zb[:, 1] * uy, zb[:, 2])

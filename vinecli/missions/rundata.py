@@ -13,12 +13,15 @@ import numpy as np
 
 from vinecli.rows.detect import Polyline
 
+#: standard gravity, m/s²: the value when a run's world (and so its gravity) is not known
+STANDARD_GRAVITY = 9.80665
+
 
 @dataclass(frozen=True)
 class MetricContext:
     """World facts metrics need: gravity (m/s², positive) and the rows (ENU polylines, m)."""
 
-    gravity: float = 9.80665
+    gravity: float = STANDARD_GRAVITY
     rows_enu: Sequence[Polyline] = field(default_factory=tuple)
     wind_period_s: float | None = None
 

@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.missions.rundata import STANDARD_GRAVITY
+
 DPI = 100
 #: figure sizes in inches (pixels = inches * DPI)
 SIZES = {"fig16": (12.0, 5.2), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
@@ -30,6 +32,7 @@ class PlotData:
     summary: dict[str, Any] = field(default_factory=dict)
     preview: dict[str, np.ndarray] | None = None
     run_dir: Path | None = None  # for the per-run files (deposition.json / .tif)
+    gravity: float = STANDARD_GRAVITY  # m/s², the run's world's (standard gravity when that world is gone)
 
     def has(self, *names: str) -> bool:
         return all(n in self.cols and np.isfinite(self.cols[n]).any() for n in names)

@@ -395,22 +395,16 @@ def fig20_rotors(data: PlotData) -> bytes:
 
 # ---------------------------------------------------------------- figure 21
 def _predicted_tilt_deg(data: PlotData) -> np.ndarray | None:
-    """atan(|F_h| / (m g)) in deg, F_h = horizontal link drag + rotor H-force (FLU rotated to ENU)."""
+    """The predicted steady tilt (:func:`vinecli.missions.metrics.predicted_tilt_rad`) in deg, with the rotors'
+    H-force when the run recorded it and the run's gravity; None without drag or mass."""
     if not data.has("drag_enu_x_n", "drag_enu_y_n", "total_mass_kg"):
         return None
-    from vinecli.frames import quat_rotate
+    from vinecli.missions.metrics import predicted_tilt_rad
 
     c = data.cols
-    fx, fy = c["drag_enu_x_n"].copy(), c["drag_enu_y_n"].copy()
-    if data.has("rotor_drag_flu_x_n", "quat_w"):
-        for k in range(fx.size):
-            q = (float(c["quat_x"][k]), float(c["quat_y"][k]), float(c["quat_z"][k]), float(c["quat_w"][k]))
-            r = quat_rotate(q, (float(c["rotor_drag_flu_x_n"][k]), float(c["rotor_drag_flu_y_n"][k]),
-                                float(c["rotor_drag_flu_z_n"][k])))
-            fx[k] += r[0]
-            fy[k] += r[1]
-    g = 9.80665
-    return np.degrees(np.arctan2(np.hypot(fx, fy), c["total_mass_kg"] * g))
+    cols = c if data.has("rotor_drag_flu_x_n", "quat_w") else \
+        {k: c[k] for k in ("drag_enu_x_n", "drag_enu_y_n", "total_mass_kg")}
+    return np.degrees(predicted_tilt_rad(cols, data.gravity))
 
 
 def fig21_attitude(data: PlotData) -> bytes:
@@ -504,11 +498,14 @@ FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and t
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:
     """Read what the figures need from a (validated) run directory."""
+    from vinecli.missions.rundata import STANDARD_GRAVITY
     from vinecli.report.loader import load_run
+    from vinecli.runs.rundir import world_gravity
 
     run = load_run(Path(run_dir))
+    g = world_gravity(run.summary)
     return PlotData(cols=run.read_columns(columns or columns_needed()), events=run.events(), summary=run.summary,
-                    preview=run.preview(), run_dir=Path(run_dir))
+                    preview=run.preview(), run_dir=Path(run_dir), gravity=STANDARD_GRAVITY if g is None else g)
 
 
 def render_figures(run_dir: str, only: Sequence[str] | None = None) -> dict[str, dict[str, Any]]:

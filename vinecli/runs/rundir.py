@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.errors import InputError
+from vinecli.errors import InputError, VinecliError
 from vinecli.outputs import jsonable, manifest_problem, write_json
 
 SUMMARY = "summary.json"
@@ -112,3 +112,14 @@ def is_complete_run(run_dir: Path) -> bool:
         log.info("run %s is incomplete: %s", run_dir, problem)
         return False
     return True
+
+
+def world_gravity(summary: Mapping[str, Any]) -> float | None:
+    """Gravity (m/s², positive) of the world a run flew in (summary.json ``world.dir``), or None when that
+    world is not available here (moved, deleted, unreadable)."""
+    try:
+        from vinecli.world import load_world
+
+        return float(load_world(Path(summary["world"]["dir"])).gravity)
+    except (KeyError, TypeError, VinecliError):
+        return None
