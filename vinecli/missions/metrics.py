@@ -75,10 +75,16 @@ def _mask(data: RunData, window: Window, default: Window) -> np.ndarray:
     return data.window_mask(w)
 
 
+def airborne_mask(columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The samples without ground contact (``on_ground`` < 0.5); all of them when the run has no ``on_ground``
+    column. ``columns`` has ``t_s``."""
+    if "on_ground" in columns:
+        return np.asarray(columns["on_ground"], dtype=float) < 0.5
+    return np.ones(np.shape(columns["t_s"]), dtype=bool)
+
+
 def _airborne(data: RunData) -> np.ndarray:
-    if data.has("on_ground"):
-        return data.column("on_ground") < 0.5
-    return np.ones(data.t.shape, dtype=bool)
+    return airborne_mask(data.timeseries)
 
 
 def _mean_rotor_speed(data: RunData) -> np.ndarray:

@@ -21,6 +21,7 @@ import numpy as np
 
 from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
+from vinecli.missions.metrics import airborne_mask
 from vinecli.outputs import MANIFEST
 from vinecli.runs.failsafes import describe_failsafes
 from vinecli.runs.rundir import EVENTS, PREVIEW, SUMMARY, SUMMARY_KEYS, TIMESERIES
@@ -270,7 +271,7 @@ def compute_report_metrics(run: Run) -> dict[str, float | None]:
     out: dict[str, float | None] = {"max_tilt_deg": None}
     tilt = cols.get("tilt_rad")
     if tilt is not None and tilt.size:
-        air = cols["on_ground"] < 0.5 if "on_ground" in cols else np.ones(tilt.shape, dtype=bool)
+        air = airborne_mask(cols)
         sel = tilt[air & np.isfinite(tilt)]
         if sel.size:
             v = float(np.degrees(np.max(sel)))

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.missions.metrics import airborne_mask, predicted_tilt_rad
 from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
 from vinecli.report.figure_base import (
     C_FAIL,
@@ -178,7 +179,7 @@ def fig16_path(data: PlotData) -> bytes:
     ax.plot(x[-1], y[-1], marker="s", color="k", ms=5, ls="", zorder=4, label="end")
     if float(np.max(np.nanmax(np.column_stack([x, y]), axis=0) - np.nanmin(np.column_stack([x, y]), axis=0))) < 3.0:
         # hover-like flight: the drift is invisible at field scale, show it in an inset
-        air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(x.shape, bool)
+        air = airborne_mask(c)
         ins = ax.inset_axes((0.6, 0.5, 0.38, 0.38))
         ins.plot(x[air], y[air], color="#d62728", lw=0.8)
         if data.has("sp_pos_enu_x_m", "sp_pos_enu_y_m"):
@@ -190,7 +191,7 @@ def fig16_path(data: PlotData) -> bytes:
         ins.grid(alpha=0.3)
     if data.has("wind_enu_x_mps", "wind_enu_y_mps"):
         wx, wy = c["wind_enu_x_mps"], c["wind_enu_y_mps"]
-        air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(x.shape, bool)
+        air = airborne_mask(c)
         idx = np.flatnonzero(air) if air.any() else np.arange(x.size)
         k = idx[np.linspace(0, idx.size - 1, min(14, idx.size)).astype(int)]
         if np.nanmax(np.hypot(wx, wy)) > 0.05:
@@ -363,7 +364,7 @@ def fig20_rotors(data: PlotData) -> bytes:
             box = np.ones(k)
             avg = np.convolve(mean, box, mode="same") / np.convolve(np.ones_like(mean), box, mode="same")
             ax.plot(t, avg, color="k", lw=1.8, label="mean, 2 s average")
-    air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(t.shape, bool)
+    air = airborne_mask(c)
     if air.any():
         ymin, ymax = np.nanpercentile(mean[air], [1, 99])
         pad = max(20.0, 0.25 * (ymax - ymin))
@@ -399,8 +400,6 @@ def _predicted_tilt_deg(data: PlotData) -> np.ndarray | None:
     H-force when the run recorded it and the run's gravity; None without drag or mass."""
     if not data.has("drag_enu_x_n", "drag_enu_y_n", "total_mass_kg"):
         return None
-    from vinecli.missions.metrics import predicted_tilt_rad
-
     c = data.cols
     cols = c if data.has("rotor_drag_flu_x_n", "quat_w") else \
         {k: c[k] for k in ("drag_enu_x_n", "drag_enu_y_n", "total_mass_kg")}
@@ -419,7 +418,7 @@ def fig21_attitude(data: PlotData) -> bytes:
         ax.plot(t, np.degrees(c["tilt_rad"]), color="k", lw=1.2, label="tilt |z_body ∠ up|")
     pred = _predicted_tilt_deg(data)
     if pred is not None:
-        air = c["on_ground"] < 0.5 if "on_ground" in c else np.ones(t.shape, bool)
+        air = airborne_mask(c)
         ax.plot(t, np.where(air, pred, np.nan), color="#9467bd", lw=1.0, ls="--",
                 label="predicted tilt atan(F_h / m g)")
     ax.axhline(0.0, color="0.6", lw=0.6)
