@@ -72,13 +72,8 @@ def import_cmd(
 
     Example: vinecli plan import survey.plan --world build/vineyard --out missions/survey.yaml
     """
-    from vinecli.missions.qgc_plan import import_plan
-    from vinecli.missions.spec_io import write_mission
-    from vinecli.world import load_world
+    from vinecli.missions.qgc_plan import import_plan_for_world
 
-    w = load_world(world)
-    nozzle = w.vehicle.tank.nozzle_max_flow_lps if w.vehicle.tank is not None else 0.1
-    mission = import_plan(plan, w.origin, nozzle_max_flow_lps=nozzle, spray_flow_lps=spray_flow, name=name)
-    write_mission(out, mission)
+    mission = import_plan_for_world(plan, world, out, spray_flow_lps=spray_flow, name=name)
     out_console.print(f"{out}: {len(mission.phases)} phases"
                       + (", with geofence" if mission.geofence is not None else ""))

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from pydantic import ValidationError
 
 from vinecli.errors import InputError
+from vinecli.missions.spray_defaults import SPRAY_DEFAULTS
 from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
 from vinecli.rows.plan import plan_rows
 from vinecli.rows.source import DsmRows, detect_rows_in_dsm, detect_rows_on_grid
@@ -34,8 +35,9 @@ def boustrophedon(rows: Sequence[Sequence[tuple[float, float]]], start_xy: tuple
     return [leg.points for leg in plan.legs if leg.spray]
 
 
-def spray_mission(rows: Sequence[Sequence[tuple[float, float]]], *, name: str = "spray-rows", height_m: float = 2.0,
-                  speed_mps: float = 1.5, flow_lps: float = 0.05, takeoff_m: float = 3.0,
+def spray_mission(rows: Sequence[Sequence[tuple[float, float]]], *, name: str = "spray-rows",
+                  height_m: float = SPRAY_DEFAULTS.height_m, speed_mps: float = SPRAY_DEFAULTS.speed_mps,
+                  flow_lps: float = SPRAY_DEFAULTS.flow_lps, takeoff_m: float = SPRAY_DEFAULTS.takeoff_m,
                   estimated_s: float | None = None) -> MissionSpec:
     """Takeoff, one spray phase over ``rows`` (explicit polylines, flown as :func:`plan_rows` orders
     them), land. ``max_duration_s`` = 1.5 x ``estimated_s`` + 60 s when given (capped at the spec limit).

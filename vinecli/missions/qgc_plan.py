@@ -56,6 +56,10 @@ from vinecli.specs.mission import (
     TakeoffPhase,
     WaypointsPhase,
 )
+from vinecli.specs.vehicle import VehicleSpec
+
+#: the flow (L/s) an actuator value of 1.0 stands for when the vehicle has no tank
+DEFAULT_NOZZLE_MAX_FLOW_LPS = 0.1
 
 NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_DELAY = 16, 19, 20, 21, 22, 93
 DO_CHANGE_SPEED, DO_SET_SERVO, DO_SET_ACTUATOR, DO_SPRAYER = 178, 183, 187, 216
@@ -157,7 +161,7 @@ def import_plan(
     path: Path | str,
     origin: GeoOrigin,
     *,
-    nozzle_max_flow_lps: float = 0.1,
+    nozzle_max_flow_lps: float = DEFAULT_NOZZLE_MAX_FLOW_LPS,
     spray_flow_lps: float | None = None,
     name: str | None = None,
     home_alt_m: float | None = None,
@@ -176,6 +180,26 @@ def import_plan(
         return _import_plan(path, origin, nozzle_max_flow_lps, spray_flow_lps, name, home_alt_m)
     except ValidationError as exc:
         raise SpecError(format_validation_error(exc), path=path) from None
+
+
+def vehicle_nozzle_flow_lps(vehicle: VehicleSpec) -> float:
+    """The flow (L/s) a .plan's actuator value 1.0 stands for on ``vehicle``: its nozzle's maximum
+    (:data:`DEFAULT_NOZZLE_MAX_FLOW_LPS` without a tank)."""
+    return vehicle.tank.nozzle_max_flow_lps if vehicle.tank is not None else DEFAULT_NOZZLE_MAX_FLOW_LPS
+
+
+def import_plan_for_world(plan: Path | str, world: Path | str, out: Path | str, *, spray_flow_lps: float | None = None,
+                          name: str | None = None) -> MissionSpec:
+    """``vinecli plan import``: the .plan ``plan`` as a mission of the built world ``world`` (its geodetic origin,
+    actuator values scaled to its vehicle's nozzle, see :func:`import_plan`), written to ``out`` as mission YAML."""
+    from vinecli.missions.spec_io import write_mission
+    from vinecli.world import load_world
+
+    w = load_world(world)
+    mission = import_plan(plan, w.origin, nozzle_max_flow_lps=vehicle_nozzle_flow_lps(w.vehicle),
+                          spray_flow_lps=spray_flow_lps, name=name)
+    write_mission(out, mission)
+    return mission
 
 
 def _import_plan(path: Path, origin: GeoOrigin, nozzle_max_flow_lps: float, spray_flow_lps: float | None,
@@ -396,7 +420,7 @@ def export_plan(
     home_enu: tuple[float, float, float] = (0.0, 0.0, 0.0),
     *,
     rows_enu: Sequence[Sequence[tuple[float, float]]] = (),
-    nozzle_max_flow_lps: float = 0.1,
+    nozzle_max_flow_lps: float = DEFAULT_NOZZLE_MAX_FLOW_LPS,
     accel_mps2: float = 1.5,
     surface: Callable[[float, float], float] | None = None,
 ) -> dict[str, Any]:

@@ -21,9 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError, OutputError
+from vinecli.missions.spray_defaults import SPRAY_DEFAULTS
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
 from vinecli.rows.source import RowFrame, rows_geojson
+from vinecli.specs.vehicle import DEFAULT_VEHICLE
 
 __all__ = ["RowsJob", "plan_rows_job"]
 
@@ -58,15 +60,16 @@ def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
 
 
-def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = 2.0, speed: float = 1.5,
-                  flow: float = 0.05, takeoff: float = 3.0, detect: bool = False, world_rows: bool = False,
+def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = SPRAY_DEFAULTS.height_m,
+                  speed: float = SPRAY_DEFAULTS.speed_mps, flow: float = SPRAY_DEFAULTS.flow_lps,
+                  takeoff: float = SPRAY_DEFAULTS.takeoff_m, detect: bool = False, world_rows: bool = False,
                   vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
                   home: tuple[float, float] | None = None, mission_out: Path | None = None) -> RowsJob:
     """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
     (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
     rows are flown, only the headland turns are kept over the surveyed ground)."""
     from vinecli.missions.patterns import spray_mission
-    from vinecli.missions.qgc_plan import export_plan, write_plan
+    from vinecli.missions.qgc_plan import export_plan, vehicle_nozzle_flow_lps, write_plan
     from vinecli.missions.qgc_spray import sortie_plan
     from vinecli.names import name_from
     from vinecli.vehicle import load_vehicle
@@ -109,7 +112,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
             raise InputError("the DSM has no CRS: a .plan needs latitude/longitude (build a world with origin: "
                              "and plan on it)", path=source)
         origin = dsm.origin
-        veh = load_vehicle(vehicle or "x500-sprayer")
+        veh = load_vehicle(vehicle or DEFAULT_VEHICLE)
         fence = _bbox_polygon(dsm.grid["x"], dsm.grid["y"], np.isfinite(dsm.grid["z"]))
         fence_name = "DSM's data extent"
         margin = 0.0 if fence_margin is None else fence_margin
@@ -137,7 +140,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     planned = [leg.points for leg in plan.legs if leg.spray]
     mission = spray_mission(planned, name=name_from(out.stem, "spray-rows"), height_m=height, speed_mps=speed, flow_lps=flow,
                             takeoff_m=takeoff, estimated_s=plan.time_s)
-    nozzle = veh.tank.nozzle_max_flow_lps if veh.tank is not None else 0.1
+    nozzle = vehicle_nozzle_flow_lps(veh)
     tank = tank_l if tank_l is not None else (veh.tank.capacity_l if veh.tank is not None else 0.0)
     job = RowsJob(rows, det, plan, 1, warnings=list(plan.warnings))
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))

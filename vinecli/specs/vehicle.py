@@ -18,6 +18,9 @@ from vinecli.specs.limits import MAX_IMAGE_PX, MAX_RATE_HZ
 
 Vec3L = tuple[float, float, float]
 
+#: the vehicle of a world (and of ``vinecli plan rows`` on a DSM) that names none
+DEFAULT_VEHICLE = "x500-sprayer"
+
 
 class FrameSpec(StrictModel):
     """Rigid airframe without liquid, payload or rotors' own mass."""

@@ -15,6 +15,7 @@ from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.limits import MAX_DISTANCE_M, Coord, Vec2Coord
 from vinecli.specs.mission import GeofenceSpec
+from vinecli.specs.vehicle import DEFAULT_VEHICLE
 from vinecli.specs.wind import WindSpec
 
 __all__ = [
@@ -94,7 +95,7 @@ class WorldSpec(StrictModel):
     description: str = ""
     terrain: Terrain = FlatTerrain()
     origin: OriginSpec | None = Field(None, description="default: from the terrain's sidecar")
-    vehicle: str = Field("x500-sprayer", description="vehicle name (vehicles/<name>.yaml) or path")
+    vehicle: str = Field(DEFAULT_VEHICLE, description="vehicle name (vehicles/<name>.yaml) or path")
     spawn: SpawnSpec = SpawnSpec()
     wind: WindSpec = WindSpec()
     physics_rate_hz: float = Field(250.0, gt=0, le=10000)
