@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from vinecli.autopilot.px4_options import PX4_DEFAULT_INSTANCE, PX4_DEFAULTS, PX4_PROBE_TIMEOUT_S
 from vinecli.autopilot.px4_process import port_free
 from vinecli.autopilot.px4_sitl import API_PORT_BASE, PX4_API_LOCAL_BASE, SIM_PORT_BASE, px4_start_command
 from vinecli.errors import InputError
@@ -67,8 +68,8 @@ def probe_px4(host: str, port: int, timeout_s: float, sysid: int) -> str | None:
         link.close()
 
 
-def px4_doctor(px4_bin: str | Path | None = None, *, instance: int = 0, host: str = "127.0.0.1",
-               probe_timeout_s: float = 2.0) -> DoctorReport:
+def px4_doctor(px4_bin: str | Path | None = None, *, instance: int = PX4_DEFAULT_INSTANCE,
+               host: str = PX4_DEFAULTS.px4_host, probe_timeout_s: float = PX4_PROBE_TIMEOUT_S) -> DoctorReport:
     """Run the checks (see the module docstring). InputError for a bad instance number."""
     if not 0 <= instance <= 99:
         raise InputError(f"--instance {instance}: expected 0..99")

@@ -1,30 +1,72 @@
-"""One factory for the autopilot of a run, covering the PX4 and MAVLink options of
-``vinecli run mission`` (``--autopilot px4 [--px4-bin PATH] --px4-instance N --px4-host H
---px4-connect-timeout S --px4-lockstep-timeout S``, ``--mavlink URL [--mavlink-port P] [--realtime]
-[--mavlink-allow-remote]``)."""
+"""The PX4 and MAVLink options of ``vinecli run mission`` (``--autopilot px4 [--px4-bin PATH]
+--px4-instance N --px4-host H --px4-connect-timeout S --px4-lockstep-timeout S``, ``--mavlink URL
+[--mavlink-port P] [--realtime] [--mavlink-allow-remote]``) with their defaults (:class:`AutopilotOptions`,
+declared once here; ``vinecli px4 doctor`` shares the host and instance), and one factory for the autopilot
+of a run (:func:`make_run_autopilot`). Light to import: the command line reads the defaults from here."""
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from vinecli.autopilot.base import Autopilot
 from vinecli.errors import InputError
+
+if TYPE_CHECKING:
+    from vinecli.autopilot.base import Autopilot
+
+
+@dataclass(frozen=True)
+class AutopilotOptions:
+    """The PX4/MAVLink options of one run; the field defaults are the options' defaults."""
+
+    px4_instance: int | None = None  # PX4 SITL instance (px4 -i N); None: 0, or a free one with px4_bin
+    px4_bin: str | None = None  # PX4 SITL binary: vinecli starts (and stops) PX4 for the run
+    px4_step_timeout_s: float = 1.0  # seconds each physics step waits for PX4's actuator controls (Gazebo bridge: 1)
+    mavlink_local_port: int | None = None  # vinecli's own UDP port with udp:/udpout: (None: 14580)
+    px4_host: str = "127.0.0.1"  # address to listen on for PX4 (loopback)
+    px4_connect_timeout_s: float = 30.0  # seconds to wait for PX4
+    mavlink: str | None = None  # serve the built-in autopilot over MAVLink at this URL
+    realtime: bool = False  # with mavlink: pace the run at wall-clock speed
+    mavlink_allow_remote: bool = False  # allow a non-loopback mavlink address
+    px4_allow_remote: bool = False  # allow a non-loopback px4_host
+
+    def changed(self) -> dict[str, Any]:
+        """Only the options that differ from their defaults (``run_mission(autopilot_options=...)``)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != f.default}
+
+
+#: the defaults of every option
+PX4_DEFAULTS = AutopilotOptions()
+#: the PX4 instance an external PX4 started by hand runs as (``px4 -i 0``)
+PX4_DEFAULT_INSTANCE = 0
+#: seconds ``vinecli px4 doctor`` waits for a running PX4 to answer
+PX4_PROBE_TIMEOUT_S = 2.0
+
+
+def px4_binary(path: Path | None) -> str | None:
+    """``--px4-bin`` as an absolute path (None stays None); InputError when it is not a file."""
+    if path is None:
+        return None
+    if not path.is_file():
+        raise InputError("PX4 binary not found (--px4-bin)", path=path)
+    return str(path.resolve())
 
 
 def make_run_autopilot(
     name: str,
     *,
     truth: bool | None = None,
-    mavlink: str | None = None,
-    realtime: bool = False,
-    mavlink_allow_remote: bool = False,
-    px4_instance: int | None = None,
-    px4_host: str = "127.0.0.1",
-    px4_connect_timeout_s: float = 30.0,
-    px4_step_timeout_s: float = 1.0,
-    px4_allow_remote: bool = False,
-    px4_bin: str | None = None,
-    mavlink_local_port: int | None = None,
+    mavlink: str | None = PX4_DEFAULTS.mavlink,
+    realtime: bool = PX4_DEFAULTS.realtime,
+    mavlink_allow_remote: bool = PX4_DEFAULTS.mavlink_allow_remote,
+    px4_instance: int | None = PX4_DEFAULTS.px4_instance,
+    px4_host: str = PX4_DEFAULTS.px4_host,
+    px4_connect_timeout_s: float = PX4_DEFAULTS.px4_connect_timeout_s,
+    px4_step_timeout_s: float = PX4_DEFAULTS.px4_step_timeout_s,
+    px4_allow_remote: bool = PX4_DEFAULTS.px4_allow_remote,
+    px4_bin: str | None = PX4_DEFAULTS.px4_bin,
+    mavlink_local_port: int | None = PX4_DEFAULTS.mavlink_local_port,
 ) -> Autopilot:
     """The backend for one run.
 
@@ -49,7 +91,7 @@ def make_run_autopilot(
         from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
 
         if px4_instance is None and px4_bin is None:
-            px4_instance = 0  # an external PX4 started by hand: instance 0 unless told
+            px4_instance = PX4_DEFAULT_INSTANCE  # an external PX4 started by hand: instance 0 unless told
         return Px4SitlAutopilot(host=px4_host, instance=px4_instance, connect_timeout_s=px4_connect_timeout_s,  # type: ignore[return-value]
                                 step_timeout_s=px4_step_timeout_s, allow_remote=px4_allow_remote, px4_bin=px4_bin)
     if px4_bin is not None:
