@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError, TerrainError
+from vinecli.terrain.defaults import FILL
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +60,7 @@ def _nearest(z: np.ndarray, holes: np.ndarray) -> None:
     z[holes] = z[idx[0][holes], idx[1][holes]]
 
 
-def fill_nodata(z: np.ndarray, fill: str | float = "idw", *, path: Path | None = None) -> FillResult:
+def fill_nodata(z: np.ndarray, fill: str | float = FILL, *, path: Path | None = None) -> FillResult:
     """Fill NaNs of ``z`` (float32 metres, modified in place). TerrainError if all of it is NaN."""
     holes = np.isnan(z)
     n = int(holes.sum())

@@ -31,6 +31,7 @@ from vinecli.errors import InputError, RuntimeFailure, TerrainError
 from vinecli.geo import GeoOrigin
 from vinecli.outputs import Manifest, atomic_output_dir, write_json
 from vinecli.terrain.crop import SquareCrop, square_crop
+from vinecli.terrain.defaults import FILL, HEIGHTMAP_METHOD
 from vinecli.terrain.fill import FillResult, fill_nodata, parse_fill
 from vinecli.terrain.raster import (
     DsmMeta,
@@ -239,8 +240,8 @@ def _loss(meta: DsmMeta, crop: SquareCrop, n: int, heights: np.ndarray, z: np.nd
     }
 
 
-def resample(meta: DsmMeta, src: Any, crop: SquareCrop, n: int, method: str = "bilinear",
-             fill: str | float = "idw", *, max_read_px: int = MAX_READ_PX) -> GridResult:
+def resample(meta: DsmMeta, src: Any, crop: SquareCrop, n: int, method: str = HEIGHTMAP_METHOD,
+             fill: str | float = FILL, *, max_read_px: int = MAX_READ_PX) -> GridResult:
     """Heights (float32 metres) at the n×n vertices of ``crop``; nodata filled before resampling."""
     import rasterio
 
@@ -322,9 +323,9 @@ def png16(heights: np.ndarray) -> tuple[np.ndarray, float, float, float]:
     return np.clip(q, 0, 65535).astype(np.uint16), z_min, z_max, step
 
 
-def build_heightmap(dsm: Path, size: int | None = None, *, method: str = "bilinear",
+def build_heightmap(dsm: Path, size: int | None = None, *, method: str = HEIGHTMAP_METHOD,
                     window: tuple[int, int, int, int] | None = None,
-                    bbox: tuple[float, float, float, float] | None = None, fill: str | float = "idw",
+                    bbox: tuple[float, float, float, float] | None = None, fill: str | float = FILL,
                     z_unit: str | None = None, max_read_px: int = MAX_READ_PX) -> Heightmap:
     """Make a heightmap in memory (no files). ``size`` None -> :func:`suggest_size` of the crop.
 
@@ -447,9 +448,9 @@ def _tif_crs(meta: DsmMeta, crop: SquareCrop) -> Any:
     return crop.grid_crs
 
 
-def convert_to_heightmap(dsm: Path, out: Path, *, size: int | None = None, method: str = "bilinear",
+def convert_to_heightmap(dsm: Path, out: Path, *, size: int | None = None, method: str = HEIGHTMAP_METHOD,
                          window: tuple[int, int, int, int] | None = None,
-                         bbox: tuple[float, float, float, float] | None = None, fill: str | float = "idw",
+                         bbox: tuple[float, float, float, float] | None = None, fill: str | float = FILL,
                          z_unit: str | None = None, overwrite: bool = False) -> Heightmap:
     """DSM GeoTIFF -> ``out``/heightmap.{png,tif,json} + manifest.json, written atomically.
 

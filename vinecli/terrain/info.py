@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
+from vinecli.terrain.defaults import TILE_PX
 from vinecli.terrain.raster import CLOUD_SUFFIXES, RASTER_SUFFIXES, gdal_env, inspect_dsm, open_raster, scan_heights
 
 log = logging.getLogger(__name__)
@@ -72,7 +73,7 @@ def raster_info(path: Path) -> dict[str, Any]:
     cell_px = crop.side_m / (n - 1) / min(px_m)
     z_min, z_max = stats["z_min"], stats["z_max"]
     relief = (z_max - z_min) if z_min is not None and z_max is not None else None
-    cedges, redges = split_edges(meta.width - 1, 256), split_edges(meta.height - 1, 256)
+    cedges, redges = split_edges(meta.width - 1, TILE_PX), split_edges(meta.height - 1, TILE_PX)
     full_tris = 2 * (meta.width - 1) * (meta.height - 1)
     w_px = (crop.side_m / px_m[0] + 1) * (crop.side_m / px_m[1] + 1)
     if stats["valid"] == 0:
@@ -115,7 +116,7 @@ def raster_info(path: Path) -> dict[str, Any]:
                 "read": "streamed (GDAL warper)" if w_px > MAX_READ_PX and cell_px >= 2 else "window at full resolution",
             },
             "tiles": {
-                "tile_px": 256,
+                "tile_px": TILE_PX,
                 "tile_grid": [len(redges) - 1, len(cedges) - 1],
                 "full_grid_triangles": full_tris,
                 "max_error_m": DEFAULT_MAX_ERROR,

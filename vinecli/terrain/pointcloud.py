@@ -28,6 +28,7 @@ import numpy as np
 from vinecli.errors import InputError, TerrainError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, timed_stage, write_json
 from vinecli.terrain import pointcloud_prep as prep
+from vinecli.terrain.defaults import RECONSTRUCT_METHOD
 from vinecli.terrain.pointcloud_io import RawCloud, read_cloud
 from vinecli.terrain.pointcloud_units import CloudUnits, cloud_units, crs_summary, to_metres
 
@@ -51,7 +52,7 @@ class ReconstructOptions:
     boundary edges. ``fill_holes``: bpa only.
     """
 
-    method: Method = "bpa"
+    method: Method = RECONSTRUCT_METHOD
     voxel: float | None = None
     radii: tuple[float, ...] | None = None
     classes: tuple[int, ...] | None = None

@@ -35,6 +35,7 @@ import numpy as np
 from vinecli.errors import InputError, RuntimeFailure
 from vinecli.geo import GeoOrigin
 from vinecli.outputs import Manifest, atomic_output_dir, write_json
+from vinecli.terrain.defaults import FILL, TILE_FORMAT, TILE_PX
 from vinecli.terrain.fill import fill_nodata, parse_fill
 from vinecli.terrain.raster import (
     check_out_dir,
@@ -163,7 +164,7 @@ def _borders(cedges: list[int], redges: list[int]) -> list[tuple[tuple[int, int]
 
 
 def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, max_triangles: int | None = None,
-                     tile_px: int = 256, fmt: str = "obj", fill: str | float = "idw", z_unit: str | None = None,
+                     tile_px: int = TILE_PX, fmt: str = TILE_FORMAT, fill: str | float = FILL, z_unit: str | None = None,
                      workers: int | None = None, overwrite: bool = False) -> TileSet:
     """DSM GeoTIFF -> ``out``/tiles/*.obj (or .stl) + tiles.json + manifest.json, atomically.
 
