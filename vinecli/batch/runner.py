@@ -34,7 +34,7 @@ from typing import Any
 from vinecli.batch.executors import EXECUTORS, dask_executor, local_stop_flag, make_local_executor
 from vinecli.batch.job import CaseResult, RunSpec, run_one
 from vinecli.batch.signals import BatchInterrupted, StopRequest
-from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline
+from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
 from vinecli.errors import InputError, OutputError, SpecError
 from vinecli.outputs import contained_path, write_json
 from vinecli.runs import rundir
@@ -124,7 +124,7 @@ def run_batch(
     if world is not None:
         if not Path(world).exists():
             raise InputError("world not found", path=world)
-        spec = spec.model_copy(update={"world": str(Path(world).resolve())})
+        spec = with_world(spec, world)
     cases = expand_cases(spec, ppath)
     runs_dir = Path(runs_dir)
     try:

@@ -139,6 +139,19 @@ def load_pipeline(path: Path | str) -> PipelineSpec:
     return load_spec(path, PipelineSpec)
 
 
+def with_world(pipeline: PipelineSpec, world: str | Path) -> PipelineSpec:
+    """``pipeline`` with ``world`` (a built world dir or a world spec, made absolute) as its default world
+    (``run batch --world``; entries naming their own world keep it)."""
+    return pipeline.model_copy(update={"world": str(Path(world).resolve())})
+
+
+def pipeline_cases(path: Path | str, world: str | Path | None = None) -> list[Case]:
+    """The cases ``vinecli run batch PIPELINE [--world W]`` runs, expanded and validated (SpecError naming the
+    pipeline for a bad entry, mission or world)."""
+    spec = load_pipeline(path)
+    return expand_cases(with_world(spec, world) if world is not None else spec, path)
+
+
 def derive_seed(root: int, key: str, replicate: int = 0) -> int:
     """Stable 31-bit seed for a case key (numpy SeedSequence)."""
     ss = np.random.SeedSequence(root, spawn_key=(zlib.crc32(key.encode()), replicate))

@@ -17,7 +17,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
@@ -30,6 +30,8 @@ log = logging.getLogger(__name__)
 
 FORMATS = ("html", "md", "junit", "json")
 FigurePolicy = Literal["auto", "all", "failed", "none"]
+#: the figure policies, in the order the help lists them
+FIGURE_POLICIES: tuple[str, ...] = get_args(FigurePolicy)
 FILES = {"html": "report.html", "md": "summary.md", "junit": "junit.xml", "json": "summary.json"}
 
 
@@ -184,8 +186,8 @@ def build_report(
     work) when ``out_dir`` is not writable, exists without ``overwrite`` or equals/contains the runs or baseline.
     """
     fmts = parse_formats(formats)
-    if figures not in ("auto", "all", "failed", "none"):
-        raise InputError(f"unknown figures policy {figures!r} (auto, all, failed, none)")
+    if figures not in FIGURE_POLICIES:
+        raise InputError(f"unknown figures policy {figures!r} ({', '.join(FIGURE_POLICIES)})")
     if max_figure_runs < 0 or inline_limit < 0 or page_size < 1:
         raise InputError("max_figure_runs and inline_limit must be >= 0, page_size >= 1")
     runs_dir = Path(runs_dir)
