@@ -84,8 +84,9 @@ def _escape(text: str) -> str:
     return escape(" ".join(str(text).split()))
 
 
-def progress() -> Progress:
-    """A Rich progress bar on stderr (hidden when stderr is not a terminal and not forced)."""
+def progress(*, transient: bool | None = None) -> Progress:
+    """A Rich progress bar of items done (n/total) on stderr, hidden when stderr is not a terminal and not forced.
+    ``transient``: remove the bar when done (default: when stderr is not a tty)."""
     return Progress(
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),
@@ -93,6 +94,20 @@ def progress() -> Progress:
         TimeElapsedColumn(),
         TextColumn("{task.fields[info]}"),
         console=err_console,
-        transient=not sys.stderr.isatty(),
+        transient=not sys.stderr.isatty() if transient is None else transient,
+        disable=not err_console.is_terminal,
+    )
+
+
+def sim_progress() -> Progress:
+    """A Rich progress bar of simulated time (its ``info`` field shows sim time and speed) on stderr; removed
+    when done, hidden when stderr is not a terminal and not forced."""
+    return Progress(
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
         disable=not err_console.is_terminal,
     )

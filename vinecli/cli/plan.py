@@ -7,7 +7,9 @@ from typing import Annotated
 
 import typer
 
-from vinecli.cli.console import handles_errors, out_console
+from vinecli.cli.console import err_console, handles_errors, out_console
+from vinecli.cli.options import out_option, world_option
+from vinecli.missions.spray_defaults import SPRAY_DEFAULTS
 
 app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> mission.", no_args_is_help=True)
 
@@ -16,12 +18,14 @@ app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> miss
 @handles_errors
 def rows_cmd(
     source: Annotated[Path, typer.Argument(help="A DSM GeoTIFF or a built world directory.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The .plan file to write (rows.geojson goes beside it).")],
+    out: Annotated[Path, out_option("The .plan file to write (rows.geojson goes beside it).")],
     spacing: Annotated[float | None, typer.Option("--spacing", help="Expected row spacing, m (default: search 0.5-6 m).")] = None,
-    height: Annotated[float, typer.Option("--height", help="Spray height above the canopy surface, m.")] = 2.0,
-    speed: Annotated[float, typer.Option("--speed", help="Ground speed along the rows, m/s.")] = 1.5,
-    flow: Annotated[float, typer.Option("--flow", help="Nozzle flow on the rows, L/s.")] = 0.05,
-    takeoff: Annotated[float, typer.Option("--takeoff", help="Take-off altitude above home, m.")] = 3.0,
+    height: Annotated[float, typer.Option("--height", help="Spray height above the canopy surface, m.")
+                      ] = SPRAY_DEFAULTS.height_m,
+    speed: Annotated[float, typer.Option("--speed", help="Ground speed along the rows, m/s.")] = SPRAY_DEFAULTS.speed_mps,
+    flow: Annotated[float, typer.Option("--flow", help="Nozzle flow on the rows, L/s.")] = SPRAY_DEFAULTS.flow_lps,
+    takeoff: Annotated[float, typer.Option("--takeoff", help="Take-off altitude above home, m.")
+                       ] = SPRAY_DEFAULTS.takeoff_m,
     use_world_rows: Annotated[bool, typer.Option("--world-rows", help="World source: its rows (the default; error if none).")] = False,
     detect: Annotated[bool, typer.Option("--detect", help="World source: detect rows on its height grid instead.")] = False,
     vehicle: Annotated[str | None, typer.Option("--vehicle", help="Vehicle (speed/acceleration limits, tank); default: the world's, else x500-sprayer.")] = None,
@@ -37,7 +41,6 @@ def rows_cmd(
 
     Example: vinecli plan rows worlds/sample/fieldimager_potato_plots_dsm_3cm_utm16n.tif --out rows.plan
     """
-    from vinecli.cli.console import err_console
     from vinecli.missions.rowjob import plan_rows_job
 
     job = plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
@@ -63,8 +66,8 @@ def rows_cmd(
 @handles_errors
 def import_cmd(
     plan: Annotated[Path, typer.Argument(help="QGroundControl .plan file.")],
-    world: Annotated[Path, typer.Option("--world", "-w", help="Built world directory (its geodetic origin).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Mission YAML to write.")],
+    world: Annotated[Path, world_option("Built world directory (its geodetic origin).")],
+    out: Annotated[Path, out_option("Mission YAML to write.")],
     spray_flow: Annotated[float | None, typer.Option("--spray-flow", help="Flow of DO_SPRAYER 'on', L/s.")] = None,
     name: Annotated[str | None, typer.Option("--name", help="Mission name (default: the file name).")] = None,
 ) -> None:

@@ -7,7 +7,9 @@ from typing import Annotated
 
 import typer
 
+from vinecli.autopilot.px4_options import PX4_DEFAULT_INSTANCE, PX4_DEFAULTS, PX4_PROBE_TIMEOUT_S
 from vinecli.cli.console import handles_errors, out_console
+from vinecli.cli.options import px4_bin_option
 
 app = typer.Typer(help="PX4 SITL helpers.", no_args_is_help=True)
 
@@ -15,10 +17,12 @@ app = typer.Typer(help="PX4 SITL helpers.", no_args_is_help=True)
 @app.command("doctor")
 @handles_errors
 def doctor_cmd(
-    px4_bin: Annotated[Path | None, typer.Option("--px4-bin", help="PX4 SITL binary (build/px4_sitl_default/bin/px4).")] = None,
-    instance: Annotated[int, typer.Option("--instance", "-i", help="PX4 instance (px4 -i N): ports 4560+N, 14540+N, 14580+N.")] = 0,
-    host: Annotated[str, typer.Option("--host", help="Address vinecli listens on / PX4 runs at.")] = "127.0.0.1",
-    timeout: Annotated[float, typer.Option("--timeout", help="Seconds to wait for a running PX4 to answer.")] = 2.0,
+    px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary (build/px4_sitl_default/bin/px4).")] = None,
+    instance: Annotated[int, typer.Option("--instance", "-i", help="PX4 instance (px4 -i N): ports 4560+N, 14540+N, 14580+N.")
+                        ] = PX4_DEFAULT_INSTANCE,
+    host: Annotated[str, typer.Option("--host", help="Address vinecli listens on / PX4 runs at.")] = PX4_DEFAULTS.px4_host,
+    timeout: Annotated[float, typer.Option("--timeout", help="Seconds to wait for a running PX4 to answer.")
+                       ] = PX4_PROBE_TIMEOUT_S,
 ) -> None:
     """Check that PX4 SITL and vinecli can reach each other; print the command that starts PX4.
 

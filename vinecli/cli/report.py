@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from vinecli.cli.console import handles_errors, out_console, progress
+from vinecli.cli.options import jobs_option, out_option, overwrite_option
 
 app = typer.Typer()
 
@@ -16,8 +17,7 @@ app = typer.Typer()
 @handles_errors
 def report_cmd(
     runs: Annotated[Path, typer.Argument(help="Runs directory (vinecli run batch --out RUNS) or one run directory.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Report directory (report.html, summary.md, junit.xml, "
-                                                          "summary.json).")],
+    out: Annotated[Path, out_option("Report directory (report.html, summary.md, junit.xml, summary.json).")],
     baseline: Annotated[Path | None, typer.Option("--baseline", help="Earlier runs directory to compare with "
                                                                      "(same case names).")] = None,
     fmt: Annotated[str, typer.Option("--format", help="Comma-separated: html, md, junit, json.")] = "html,md,junit,json",
@@ -29,9 +29,8 @@ def report_cmd(
                                                            "none.")] = "auto",
     max_figure_runs: Annotated[int, typer.Option("--max-figure-runs", help="Figure budget (runs) for "
                                                                            "--figures auto/failed.")] = 20,
-    jobs: Annotated[int | None, typer.Option("--jobs", "-j", help="Processes rendering figures "
-                                                                  "(default: min(4, CPUs)).")] = None,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing, non-empty --out.")] = False,
+    jobs: Annotated[int | None, jobs_option("Processes rendering figures (default: min(4, CPUs)).")] = None,
+    overwrite: Annotated[bool, overwrite_option("Replace an existing, non-empty --out.")] = False,
 ) -> None:
     """Build the HTML/Markdown/JUnit/JSON report of a batch of runs (thesis figures 16-21 per run).
 
@@ -42,9 +41,10 @@ def report_cmd(
     from vinecli.errors import ChecksFailed, InputError
     from vinecli.report import build_report
     from vinecli.report.baseline import parse_tolerances
+    from vinecli.report.build import FIGURE_POLICIES
 
-    if figures not in ("auto", "all", "failed", "none"):
-        raise InputError(f"unknown --figures {figures!r} (auto, all, failed, none)")
+    if figures not in FIGURE_POLICIES:
+        raise InputError(f"unknown --figures {figures!r} ({', '.join(FIGURE_POLICIES)})")
     bar = progress()
     with bar:
         task = bar.add_task("figures", total=None, info="")

@@ -7,7 +7,22 @@ from typing import Annotated, Any
 
 import typer
 
-from vinecli.cli.console import err_console, handles_errors, out_console
+from vinecli.autopilot.px4_options import PX4_DEFAULTS
+from vinecli.cli.console import handles_errors, out_console, progress, sim_progress
+from vinecli.cli.options import (
+    Px4AllowRemote,
+    Px4ConnectTimeout,
+    Px4Host,
+    Px4Instance,
+    Px4LockstepTimeout,
+    Seed,
+    jobs_option,
+    mcap_option,
+    out_option,
+    overwrite_option,
+    px4_bin_option,
+    world_option,
+)
 
 app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is_help=True)
 
@@ -16,33 +31,33 @@ app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is
 @handles_errors
 def mission_cmd(
     mission: Annotated[Path, typer.Argument(help="Mission YAML (pipelines/missions/*.yaml or any path).")],
-    world: Annotated[Path, typer.Option("--world", "-w", help="Built world directory (vinecli world build).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Runs directory; the run goes to OUT/<run-id>/.")],
-    seed: Annotated[int, typer.Option("--seed", help="Run seed (sensor noise, turbulence).")] = 0,
+    world: Annotated[Path, world_option("Built world directory (vinecli world build).")],
+    out: Annotated[Path, out_option("Runs directory; the run goes to OUT/<run-id>/.")],
+    seed: Seed = 0,
     autopilot: Annotated[str | None, typer.Option("--autopilot", help="builtin or px4 (default: the mission's).")] = None,
     truth: Annotated[bool, typer.Option("--truth", help="Controllers use ground truth, not the estimator.")] = False,
     rate: Annotated[float | None, typer.Option("--rate", help="Recording rate, Hz (default: the mission's).")] = None,
-    mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap for Foxglove.")] = False,
+    mcap: Annotated[bool, mcap_option("Also write run.mcap for Foxglove.")] = False,
     run_id: Annotated[str | None, typer.Option("--run-id", help="Run directory name (default <mission>-s<seed>).")] = None,
-    px4_bin: Annotated[Path | None, typer.Option("--px4-bin", help="PX4 SITL binary: vinecli starts PX4 for this run "
-                                                 "(fresh process and working directory, free instance) and stops it.")] = None,
-    px4_instance: Annotated[int | None, typer.Option("--px4-instance", help="PX4 SITL instance (px4 -i N): TCP 4560+N "
-                                                     "(default 0, or a free one with --px4-bin).")] = None,
-    px4_host: Annotated[str, typer.Option("--px4-host", help="Address to listen on for PX4 (loopback).")] = "127.0.0.1",
-    px4_connect_timeout: Annotated[float, typer.Option("--px4-connect-timeout", help="Seconds to wait for PX4.")] = 30.0,
-    px4_lockstep_timeout: Annotated[float, typer.Option("--px4-lockstep-timeout", help="Seconds each physics step waits "
-                                                        "for PX4's actuator controls (PX4's Gazebo bridge: 1).")] = 1.0,
-    px4_allow_remote: Annotated[bool, typer.Option("--px4-allow-remote", help="Allow a non-loopback --px4-host.")] = False,
+    px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary: vinecli starts PX4 for this run "
+                                                   "(fresh process and working directory, free instance) and stops it.")] = None,
+    px4_instance: Px4Instance = PX4_DEFAULTS.px4_instance,
+    px4_host: Px4Host = PX4_DEFAULTS.px4_host,
+    px4_connect_timeout: Px4ConnectTimeout = PX4_DEFAULTS.px4_connect_timeout_s,
+    px4_lockstep_timeout: Px4LockstepTimeout = PX4_DEFAULTS.px4_step_timeout_s,
+    px4_allow_remote: Px4AllowRemote = PX4_DEFAULTS.px4_allow_remote,
     mavlink: Annotated[str | None, typer.Option("--mavlink", help="Serve the built-in autopilot over MAVLink: "
                                                 "udp:HOST:PORT / udpout: send to a GCS listening there (14540); "
                                                 "udpin:HOST:PORT listen there; tcpin:HOST:PORT accept a TCP client; "
-                                                "tcp:HOST:PORT connect to a TCP server.")] = None,
+                                                "tcp:HOST:PORT connect to a TCP server.")] = PX4_DEFAULTS.mavlink,
     mavlink_port: Annotated[int | None, typer.Option("--mavlink-port", help="vinecli's own UDP port with udp:/udpout: "
-                                                     "(default 14580; 0 = any free port).")] = None,
-    realtime: Annotated[bool, typer.Option("--realtime", help="With --mavlink: pace the run at wall-clock speed.")] = False,
+                                                     "(default 14580; 0 = any free port).")] = PX4_DEFAULTS.mavlink_local_port,
+    realtime: Annotated[bool, typer.Option("--realtime", help="With --mavlink: pace the run at wall-clock speed.")
+                        ] = PX4_DEFAULTS.realtime,
     mavlink_allow_remote: Annotated[bool, typer.Option("--mavlink-allow-remote",
-                                                       help="Allow a non-loopback --mavlink address.")] = False,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing OUT/<run-id>/.")] = False,
+                                                       help="Allow a non-loopback --mavlink address.")
+                                    ] = PX4_DEFAULTS.mavlink_allow_remote,
+    overwrite: Annotated[bool, overwrite_option("Replace an existing OUT/<run-id>/.")] = False,
 ) -> None:
     """Run one mission and write OUT/<run-id>/ (time series, summary, events, manifest).
 
@@ -50,17 +65,13 @@ def mission_cmd(
 
     Example: vinecli run mission pipelines/missions/takeoff.yaml --world build/vineyard --out runs
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
+    from vinecli.autopilot.px4_options import AutopilotOptions, px4_binary
     from vinecli.errors import ChecksFailed, RuntimeFailure
     from vinecli.missions.spec_io import load_mission
     from vinecli.runs import run_mission
 
-    spec = load_mission(mission)
-    bar = Progress(
-        TextColumn("[progress.description]{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
-        TimeElapsedColumn(), console=err_console, transient=True, disable=not err_console.is_terminal,
-    )
+    spec = load_mission(mission)  # for the progress bar: the mission's name and time budget
+    bar = sim_progress()
     with bar:
         task = bar.add_task(spec.name, total=spec.max_duration_s, info="")
 
@@ -68,12 +79,14 @@ def mission_cmd(
             rtf = sim_t / wall_t if wall_t > 0 else 0.0
             bar.update(task, completed=min(sim_t, spec.max_duration_s), info=f"sim {sim_t:6.1f} s  {rtf:5.1f}x real time")
 
+        options = AutopilotOptions(
+            px4_instance=px4_instance, px4_bin=px4_binary(px4_bin), px4_step_timeout_s=px4_lockstep_timeout,
+            mavlink_local_port=mavlink_port, px4_host=px4_host, px4_connect_timeout_s=px4_connect_timeout,
+            mavlink=mavlink, realtime=realtime, mavlink_allow_remote=mavlink_allow_remote,
+            px4_allow_remote=px4_allow_remote)
         summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
                               record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
-                              autopilot_options=_autopilot_options(
-                                  px4_instance, px4_host, px4_connect_timeout, mavlink, realtime, mavlink_allow_remote,
-                                  px4_allow_remote, px4_bin=px4_bin, px4_lockstep_timeout=px4_lockstep_timeout,
-                                  mavlink_port=mavlink_port))
+                              autopilot_options=options.changed())
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")
     out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
                       f"{summary.real_time_factor:.1f}x real time")
@@ -90,17 +103,17 @@ def mission_cmd(
 @handles_errors
 def batch_cmd(
     pipeline: Annotated[Path, typer.Argument(help="Pipeline YAML (pipelines/*.yaml).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Runs directory (one run dir per case + batch.json).")],
-    jobs: Annotated[int, typer.Option("--jobs", "-j", help="Parallel cases.")] = 1,
+    out: Annotated[Path, out_option("Runs directory (one run dir per case + batch.json).")],
+    jobs: Annotated[int, jobs_option("Parallel cases.")] = 1,
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or dask.")] = "local",
     scheduler: Annotated[str | None, typer.Option("--scheduler", help="Dask scheduler address (default: local cluster).")] = None,
     resume: Annotated[bool, typer.Option("--resume", help="Skip cases whose run is already complete.")] = False,
     timeout: Annotated[float | None, typer.Option("--timeout", help="Wall-clock limit per case, s.")] = None,
-    mcap: Annotated[bool, typer.Option("--mcap", help="Also write run.mcap per case.")] = False,
-    world: Annotated[Path | None, typer.Option("--world", "-w", help="Built world dir or world spec replacing "
-                                               "the pipeline's default world.")] = None,
-    px4_bin: Annotated[Path | None, typer.Option("--px4-bin", help="PX4 SITL binary: each PX4 case starts its own PX4 "
-                                                 "(one process and instance per case, so --jobs runs them in parallel).")] = None,
+    mcap: Annotated[bool, mcap_option("Also write run.mcap per case.")] = False,
+    world: Annotated[Path | None, world_option("Built world dir or world spec replacing the pipeline's default world.")
+                     ] = None,
+    px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary: each PX4 case starts its own PX4 (one process "
+                                                   "and instance per case, so --jobs runs them in parallel).")] = None,
 ) -> None:
     """Run every case of a pipeline (missions and sweeps) and write OUT/batch.json.
 
@@ -109,21 +122,12 @@ def batch_cmd(
 
     Example: vinecli run batch pipelines/ci.yaml --out runs --jobs 2
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
     from vinecli.batch import run_batch
-    from vinecli.batch.spec import expand_cases, load_pipeline
+    from vinecli.batch.spec import pipeline_cases
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
 
-    spec = load_pipeline(pipeline)
-    if world is not None:
-        spec = spec.model_copy(update={"world": str(world.resolve())})
-    n = len(expand_cases(spec, pipeline))
-    bar = Progress(
-        TextColumn("[progress.description]{task.description}"), BarColumn(), MofNCompleteColumn(),
-        TimeElapsedColumn(), TextColumn("{task.fields[info]}"), console=err_console, transient=True,
-        disable=not err_console.is_terminal,
-    )
+    n = len(pipeline_cases(pipeline, world))  # for the progress bar (and a bad pipeline fails before any work)
+    bar = progress(transient=True)
     with bar:
         task = bar.add_task("cases", total=n, info="")
 
@@ -202,35 +206,3 @@ def _batch_table(result: Any) -> None:
                   c.error or ", ".join(c.failed_checks))
     out_console.print(t)
 
-
-def _autopilot_options(px4_instance: int | None, px4_host: str, px4_connect_timeout: float, mavlink: str | None,
-                       realtime: bool, mavlink_allow_remote: bool, px4_allow_remote: bool = False, *,
-                       px4_bin: Path | None = None, px4_lockstep_timeout: float = 1.0,
-                       mavlink_port: int | None = None) -> dict[str, Any]:
-    """Only the PX4/MAVLink options that differ from the defaults (see vinecli.autopilot.px4_options)."""
-    opts: dict[str, Any] = {}
-    if px4_instance is not None:
-        opts["px4_instance"] = px4_instance
-    if px4_bin is not None:
-        if not px4_bin.is_file():
-            from vinecli.errors import InputError
-
-            raise InputError("PX4 binary not found (--px4-bin)", path=px4_bin)
-        opts["px4_bin"] = str(px4_bin.resolve())
-    if px4_lockstep_timeout != 1.0:
-        opts["px4_step_timeout_s"] = px4_lockstep_timeout
-    if mavlink_port is not None:
-        opts["mavlink_local_port"] = mavlink_port
-    if px4_host != "127.0.0.1":
-        opts["px4_host"] = px4_host
-    if px4_connect_timeout != 30.0:
-        opts["px4_connect_timeout_s"] = px4_connect_timeout
-    if mavlink is not None:
-        opts["mavlink"] = mavlink
-    if realtime:
-        opts["realtime"] = True
-    if mavlink_allow_remote:
-        opts["mavlink_allow_remote"] = True
-    if px4_allow_remote:
-        opts["px4_allow_remote"] = True
-    return opts

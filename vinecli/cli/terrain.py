@@ -8,6 +8,8 @@ from typing import Annotated
 import typer
 
 from vinecli.cli.console import handles_errors, out_console
+from vinecli.cli.options import out_option, overwrite_option
+from vinecli.terrain.defaults import FILL, HEIGHTMAP_METHOD, RECONSTRUCT_METHOD, TILE_FORMAT, TILE_PX
 
 app = typer.Typer(help="Turn DSMs and point clouds into simulator terrain.", no_args_is_help=True)
 
@@ -16,10 +18,9 @@ app = typer.Typer(help="Turn DSMs and point clouds into simulator terrain.", no_
 @handles_errors
 def reconstruct(
     cloud: Annotated[Path, typer.Argument(help="Point cloud: .las .laz .ply .pcd .xyz/.txt/.csv", show_default=False)],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output directory (mesh.obj, stats.json, manifest.json).",
-                                      show_default=False)],
+    out: Annotated[Path, out_option("Output directory (mesh.obj, stats.json, manifest.json).")],
     method: Annotated[str, typer.Option("--method", help="bpa (ball pivoting) or delaunay25d (hole-free 2.5-D).")
-                      ] = "bpa",
+                      ] = RECONSTRUCT_METHOD,
     voxel: Annotated[float | None, typer.Option("--voxel", metavar="M",
                                                 help="Voxel edge in m (default 2x median spacing; 0 = none).")] = None,
     radii: Annotated[str | None, typer.Option("--radii", metavar="R1,R2,...",
@@ -35,7 +36,7 @@ def reconstruct(
     max_edge: Annotated[float | None, typer.Option("--max-edge", metavar="M",
                                                    help="delaunay25d: peel hull triangles with edges > M m.")] = None,
     no_fill: Annotated[bool, typer.Option("--no-fill-holes", help="bpa: skip hole filling.")] = False,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace a non-empty --out.")] = False,
+    overwrite: Annotated[bool, overwrite_option("Replace a non-empty --out.")] = False,
 ) -> None:
     """Mesh a point cloud (ball pivoting or 2.5-D Delaunay) into mesh.obj + stats.json.
 
@@ -88,20 +89,19 @@ def convert(
     dsm: Annotated[Path, typer.Argument(help="DSM/DEM GeoTIFF (.tif/.tiff), single band.", show_default=False)],
     to: Annotated[str, typer.Option("--to", help="heightmap (square 2^n+1 grid) or tiles (crack-free meshes).",
                                     show_default=False)],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output directory (must be new or empty).",
-                                      show_default=False)],
+    out: Annotated[Path, out_option("Output directory (must be new or empty).")],
     size: Annotated[int | None, typer.Option("--size", metavar="N",
                                              help="heightmap: side N = 2^n+1, at most 1025 (default: suggested).")
                     ] = None,
     method: Annotated[str, typer.Option("--method", help="heightmap: bilinear, cubic, average, max or nearest "
                                                          "(max keeps vine-row tops when downsampling).")
-                      ] = "bilinear",
+                      ] = HEIGHTMAP_METHOD,
     window: Annotated[str | None, typer.Option("--window", metavar="COL,ROW,WIDTH,HEIGHT",
                                                help="heightmap: crop to this pixel window (centred square).")
                       ] = None,
     bbox: Annotated[str | None, typer.Option("--bbox", metavar="MINX,MINY,MAXX,MAXY",
                                              help="heightmap: crop to this box in the DSM's CRS units.")] = None,
-    fill: Annotated[str, typer.Option("--fill", help="Nodata fill: idw, nearest, min, or a height in m.")] = "idw",
+    fill: Annotated[str, typer.Option("--fill", help="Nodata fill: idw, nearest, min, or a height in m.")] = FILL,
     z_unit: Annotated[str | None, typer.Option("--z-unit", help="Override the height unit: m, ft or us-ft.")
                       ] = None,
     max_error: Annotated[float | None, typer.Option("--max-error", metavar="M",
@@ -112,45 +112,23 @@ def convert(
                                                            "--max-error.")] = None,
     tile_px: Annotated[int, typer.Option("--tile-px", metavar="P",
                                          help="tiles: tile step in pixels; neighbours share a border row/column.")
-                       ] = 256,
-    fmt: Annotated[str, typer.Option("--format", help="tiles: obj or stl (binary).")] = "obj",
+                       ] = TILE_PX,
+    fmt: Annotated[str, typer.Option("--format", help="tiles: obj or stl (binary).")] = TILE_FORMAT,
     workers: Annotated[int | None, typer.Option("--workers", help="tiles: worker processes (default: CPUs).")
                        ] = None,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace a non-empty --out.")] = False,
+    overwrite: Annotated[bool, overwrite_option("Replace a non-empty --out.")] = False,
 ) -> None:
     """Convert a DSM into a PyBullet/Gazebo heightmap or into error-bounded mesh tiles.
 
     Examples: vinecli terrain convert field.tif --to heightmap --size 513 --method max --out hm;
     vinecli terrain convert field.tif --to tiles --max-error 0.05 --tile-px 256 --out tiles
     """
-    from vinecli.errors import InputError
-    from vinecli.terrain.crop import parse_floats, parse_ints
+    from vinecli.terrain.convert import convert_dsm
 
-    hm_only = {"--size": size, "--window": window, "--bbox": bbox}
-    tiles_only = {"--max-error": max_error, "--max-triangles": max_triangles, "--workers": workers}
-    if to == "heightmap":
-        bad = [k for k, v in tiles_only.items() if v is not None] + (["--format"] if fmt != "obj" else [])
-        if bad:
-            raise InputError(f"{', '.join(bad)} apply to --to tiles only", path=dsm)
-        from vinecli.terrain.heightmap import convert_to_heightmap
-
-        hm = convert_to_heightmap(
-            dsm, out, size=size, method=method,
-            window=parse_ints(window, 4, "--window", path=dsm) if window else None,  # type: ignore[arg-type]
-            bbox=parse_floats(bbox, 4, "--bbox", path=dsm) if bbox else None,  # type: ignore[arg-type]
-            fill=fill, z_unit=z_unit, overwrite=overwrite)
-        _render_heightmap(hm.meta, out)
-    elif to == "tiles":
-        bad = [k for k, v in hm_only.items() if v is not None] + (["--method"] if method != "bilinear" else [])
-        if bad:
-            raise InputError(f"{', '.join(bad)} apply to --to heightmap only", path=dsm)
-        from vinecli.terrain.tiles import convert_to_tiles
-
-        ts = convert_to_tiles(dsm, out, max_error=max_error, max_triangles=max_triangles, tile_px=tile_px, fmt=fmt,
-                              fill=fill, z_unit=z_unit, workers=workers, overwrite=overwrite)
-        _render_tiles(ts.meta, out)
-    else:
-        raise InputError(f"--to {to!r}: choose heightmap or tiles", path=dsm)
+    result = convert_dsm(dsm, out, to=to, size=size, method=method, window=window, bbox=bbox, fill=fill,
+                         z_unit=z_unit, max_error=max_error, max_triangles=max_triangles, tile_px=tile_px, fmt=fmt,
+                         workers=workers, overwrite=overwrite)
+    (_render_heightmap if to == "heightmap" else _render_tiles)(result.meta, out)
 
 
 def _origin_text(geo: dict | None) -> str:

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from vinecli.cli.console import handles_errors, out_console
+from vinecli.cli.options import out_option, overwrite_option
 
 app = typer.Typer(help="Build simulator worlds from terrain, vehicles and wind.", no_args_is_help=True)
 
@@ -16,8 +17,8 @@ app = typer.Typer(help="Build simulator worlds from terrain, vehicles and wind."
 @handles_errors
 def build(
     spec: Annotated[Path, typer.Argument(help="World file (worlds/*.yaml).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output world directory.")],
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing output directory.")] = False,
+    out: Annotated[Path, out_option("Output world directory.")],
+    overwrite: Annotated[bool, overwrite_option("Replace an existing output directory.")] = False,
     allow_unsafe_spawn: Annotated[bool, typer.Option(
         "--allow-unsafe-spawn", help="Build even when the spawn cannot pass preflight (near the geofence, tilted).")] = False,
 ) -> None:
