@@ -1,6 +1,7 @@
 """The dependency rule (docs/architecture.md): every import of a vinecli module - at the top of a
 file or inside a function - goes to the same layer or one below, and no modules import each other
-in a circle. Walked with ``ast`` over the package source, so a new upward edge fails here."""
+in a circle. A private name (leading underscore) stays inside its unit: other units import public
+names only. Walked with ``ast`` over the package source, so a new upward edge or private import fails here."""
 
 from __future__ import annotations
 
@@ -118,3 +119,70 @@ def test_the_rule_catches_an_upward_import(tmp_path: Path) -> None:
     f.write_text("def f():\n    from vinecli.cli import app\n    from ..report import build\n")
     modules = {"vinecli.cli", "vinecli.cli.app", "vinecli.report", "vinecli.report.build", "vinecli.physics"}
     assert _imports(f, "vinecli.physics.m", modules) == {"vinecli.cli.app", "vinecli.report.build"}
+
+
+def _is_private(name: str) -> bool:
+    """A leading underscore, not a dunder (``__version__`` is public)."""
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _private_uses(path: Path, module: str, modules: set[str]) -> list[tuple[int, str]]:
+    """(line, ``vinecli.x._name``) for every private name ``path`` takes from a vinecli module: imported with
+    ``from vinecli.x import _name``, a private module in an import path (``vinecli.x._mod``), or read as an
+    attribute of an imported vinecli module (``import vinecli.x as m; m._name``)."""
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    tree = ast.parse(path.read_text(), str(path))
+    found: list[tuple[int, str]] = []
+    aliases: dict[str, str] = {}  # local name -> vinecli module it is bound to
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith("vinecli."):
+                    found += [(node.lineno, a.name) for part in a.name.split(".") if _is_private(part)][:1]
+                    if a.asname:
+                        aliases[a.asname] = a.name
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                base = f"{anchor}.{base}" if base else anchor
+            if base != "vinecli" and not base.startswith("vinecli."):
+                continue
+            if any(_is_private(part) for part in base.split(".")):
+                found.append((node.lineno, base))
+            for a in node.names:
+                full = f"{base}.{a.name}"
+                if _is_private(a.name):
+                    found.append((node.lineno, full))
+                elif full in modules:
+                    aliases[a.asname or a.name] = full
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in aliases
+                and _is_private(node.attr)):
+            found.append((node.lineno, f"{aliases[node.value.id]}.{node.attr}"))
+    return found
+
+
+def test_no_private_name_crosses_a_unit() -> None:
+    """A name with a leading underscore is private to its unit (a top-level module or package of vinecli):
+    modules of the same package may share helpers, every other unit uses public names only."""
+    files = {_module_name(p): p for p in sorted(PKG.rglob("*.py"))}
+    crossing = sorted(
+        f"{src}:{line} uses {name}"
+        for src, path in files.items() for line, name in _private_uses(path, src, set(files))
+        if _unit(name) != _unit(src)
+    )
+    assert not crossing, "private names used outside their unit:\n" + "\n".join(crossing)
+
+
+def test_the_rule_catches_a_private_import(tmp_path: Path) -> None:
+    """Each way of reaching a private name is seen (top level, inside a function, relative, via a module alias)."""
+    f = tmp_path / "m.py"
+    f.write_text("from vinecli.outputs import _jsonable, write_json\n"
+                 "from vinecli import __version__, outputs\n"
+                 "import vinecli.report.baseline as bl\n"
+                 "def f():\n    from ..report.loader import _load_run\n    return outputs._x(bl._fmt)\n")
+    modules = {"vinecli.outputs", "vinecli.report.baseline", "vinecli.report.loader", "vinecli.physics.m"}
+    names = sorted(n for _, n in _private_uses(f, "vinecli.physics.m", modules))
+    assert names == ["vinecli.outputs._jsonable", "vinecli.outputs._x", "vinecli.report.baseline._fmt",
+                     "vinecli.report.loader._load_run"]
