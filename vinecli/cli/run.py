@@ -53,10 +53,11 @@ def mission_cmd(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from vinecli.errors import ChecksFailed, RuntimeFailure
-    from vinecli.missions.spec_io import load_mission
+    from vinecli.missions.spec_io import read_mission
     from vinecli.runs import run_mission
 
-    spec = load_mission(mission)
+    src = read_mission(mission)  # read once: run_mission takes it as it is
+    spec = src.spec
     bar = Progress(
         TextColumn("[progress.description]{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
         TimeElapsedColumn(), console=err_console, transient=True, disable=not err_console.is_terminal,
@@ -68,7 +69,7 @@ def mission_cmd(
             rtf = sim_t / wall_t if wall_t > 0 else 0.0
             bar.update(task, completed=min(sim_t, spec.max_duration_s), info=f"sim {sim_t:6.1f} s  {rtf:5.1f}x real time")
 
-        summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
+        summary = run_mission(src, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
                               record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
                               autopilot_options=_autopilot_options(
                                   px4_instance, px4_host, px4_connect_timeout, mavlink, realtime, mavlink_allow_remote,
