@@ -63,6 +63,7 @@ from vinecli.world.model import World
 
 if TYPE_CHECKING:
     from vinecli.physics.battery import Battery
+    from vinecli.physics.deposition import DepositionConfig
     from vinecli.physics.tank import Tank
     from vinecli.physics.wind import WindField
     from vinecli.world.engine import Engine
@@ -151,7 +152,7 @@ def run_simulation(
     should_stop: Callable[[], bool] | None = None,
     end_on_crash: bool = True,
     crash_speed_mps: float = 3.0,
-    deposition: bool | Any = True,
+    deposition: bool | DepositionConfig = True,
 ) -> SimResult:
     """Fly ``mission`` with ``autopilot`` in ``world`` and return the recorded run
     (:func:`~vinecli.sim.setup.prepare_run`, then :func:`simulate`).
