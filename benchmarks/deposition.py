@@ -88,12 +88,12 @@ def main(argv: list[str] | None = None) -> int:
     repeats = 1 if args.quick else args.repeats
 
     from vinecli.missions.spec_io import load_mission
-    from vinecli.runs.mission import _auto_rows
+    from vinecli.sim.setup import resolve_rows
     from vinecli.world import build_world, load_world
 
     tmp = tempfile.TemporaryDirectory(prefix="vinecli-bench-dep-")
-    world = load_world(build_world(REPO / "worlds" / "vineyard-sample.yaml", Path(tmp.name) / "world"))
-    _auto_rows(world)
+    # rows detected once here (worlds built now carry them; each run would otherwise detect them again)
+    world = resolve_rows(load_world(build_world(REPO / "worlds" / "vineyard-sample.yaml", Path(tmp.name) / "world")))
     mission = load_mission(REPO / "pipelines" / "missions" / "spray.yaml")
     _run(world, mission, True)  # warm-up: imports, first-call caches
     on, off = [], []

@@ -80,10 +80,12 @@ def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
 
 def test_old_rows_auto_worlds_get_the_same_rows_at_run_time(tmp_path: Path) -> None:
     """A world built before rows were detected at build time (rows_auto, no rows): the run detects them on the
-    world's height grid with the same detector, and finds the rows world build finds on the DSM."""
+    world's height grid with the same detector (in the run set-up, on a copy of the world), and finds the rows world
+    build finds on the DSM."""
     from shapely.geometry import LineString
 
-    from vinecli.runs.mission import _auto_rows
+    from vinecli.sim.setup import prepare_run, resolve_rows
+    from vinecli.specs.mission import MissionSpec
     from vinecli.world import build_world, load_world
 
     vineyard_tif(tmp_path / "v.tif")
@@ -93,8 +95,12 @@ def test_old_rows_auto_worlds_get_the_same_rows_at_run_time(tmp_path: Path) -> N
     w = load_world(build_world(tmp_path / "w.yaml", tmp_path / "world"))
     built = [list(map(tuple, r)) for r in w.vine_rows_enu]
     w.vine_rows_enu = []
-    _auto_rows(w)
-    assert len(w.vine_rows_enu) == len(built)
-    for a, b in zip(w.vine_rows_enu, built, strict=True):  # the heightmap grid (0.16 m) vs the DSM (0.1 m)
+    found = resolve_rows(w)
+    assert w.vine_rows_enu == []  # the loaded world is not changed
+    assert len(found.vine_rows_enu) == len(built)
+    for a, b in zip(found.vine_rows_enu, built, strict=True):  # the heightmap grid (0.16 m) vs the DSM (0.1 m)
         la, lb = LineString(a), LineString(b)
         assert la.hausdorff_distance(lb) < 0.5 and lb.interpolate(0.5, normalized=True).distance(la) < 0.05
+    with prepare_run(w, MissionSpec.model_validate({"name": "m", "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}]})) as run:
+        assert run.world.vine_rows_enu == found.vine_rows_enu  # the run flies them
+        assert run.rows == tuple(tuple((float(x), float(y)) for x, y in r) for r in found.vine_rows_enu)

@@ -67,10 +67,11 @@ def mission_cmd(
     """
     from vinecli.autopilot.px4_options import AutopilotOptions, px4_binary
     from vinecli.errors import ChecksFailed, RuntimeFailure
-    from vinecli.missions.spec_io import load_mission
+    from vinecli.missions.spec_io import read_mission
     from vinecli.runs import run_mission
 
-    spec = load_mission(mission)  # for the progress bar: the mission's name and time budget
+    src = read_mission(mission)  # read once: run_mission takes it as it is
+    spec = src.spec
     bar = sim_progress()
     with bar:
         task = bar.add_task(spec.name, total=spec.max_duration_s, info="")
@@ -84,7 +85,7 @@ def mission_cmd(
             mavlink_local_port=mavlink_port, px4_host=px4_host, px4_connect_timeout_s=px4_connect_timeout,
             mavlink=mavlink, realtime=realtime, mavlink_allow_remote=mavlink_allow_remote,
             px4_allow_remote=px4_allow_remote)
-        summary = run_mission(mission, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
+        summary = run_mission(src, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
                               record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
                               autopilot_options=options.changed())
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")

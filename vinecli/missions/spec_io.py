@@ -1,13 +1,15 @@
 """Loading mission files (``pipelines/missions/*.yaml`` or any path) into :class:`MissionSpec`.
 
 Errors are :class:`~vinecli.errors.SpecError` lines naming the file and the field. A
-``vehicle:`` given as a name or path is checked against :func:`vinecli.vehicle.load_vehicle`
-so a typo fails before any simulation starts.
+``vehicle:`` given as a name or path is loaded through :func:`vinecli.vehicle.load_vehicle`
+so a typo fails before any simulation starts; :func:`read_mission` keeps what it loaded
+(:class:`MissionFile`), so a run reads the file and loads the vehicle once.
 """
 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -30,18 +32,44 @@ def mission_from_dict(data: dict[str, Any], path: Path | str) -> MissionSpec:
     return mission
 
 
+@dataclass(frozen=True)
+class MissionFile:
+    """A mission read once: the validated spec, the file it came from (None: a spec made in memory) and the
+    vehicle it names, loaded (None: the mission flies the world's vehicle)."""
+
+    spec: MissionSpec
+    path: Path | None = None
+    vehicle: VehicleSpec | None = None
+
+
 def load_mission(path: Path | str, *, check_vehicle: bool = True) -> MissionSpec:
     """Read, resolve ``base:`` and validate a mission YAML file.
 
     ``vehicle`` names are resolved relative to the mission file first (a path), then through
-    :func:`vinecli.vehicle.load_vehicle` (``vehicles/<name>.yaml``).
+    :func:`vinecli.vehicle.load_vehicle` (``vehicles/<name>.yaml``); ``check_vehicle=False`` skips that.
     """
+    if check_vehicle:
+        return read_mission(path).spec
     path = Path(path)
-    data = resolve_base(path.resolve(), read_yaml(path))
-    mission = mission_from_dict(data, path)
-    if check_vehicle and mission.vehicle is not None:
-        resolve_vehicle(mission.vehicle, relative_to=path.parent, path=path)
-    return mission
+    return mission_from_dict(resolve_base(path.resolve(), read_yaml(path)), path)
+
+
+def read_mission(mission: Path | str | MissionSpec | MissionFile) -> MissionFile:
+    """The mission and the vehicle it names, each read once (a :class:`MissionFile` is returned as it is).
+
+    A path is parsed and validated as :func:`load_mission` does, its ``vehicle`` resolved relative to the
+    file first; a :class:`MissionSpec` keeps its ``vehicle`` as given (a name or a path from the working
+    directory). SpecError names the file (or the mission) and the field.
+    """
+    if isinstance(mission, MissionFile):
+        return mission
+    if isinstance(mission, MissionSpec):
+        veh = resolve_vehicle(mission.vehicle, path=mission.name) if mission.vehicle is not None else None
+        return MissionFile(mission, None, veh)
+    path = Path(mission)
+    spec = mission_from_dict(resolve_base(path.resolve(), read_yaml(path)), path)
+    veh = resolve_vehicle(spec.vehicle, relative_to=path.parent, path=path) if spec.vehicle is not None else None
+    return MissionFile(spec, path, veh)
 
 
 def resolve_vehicle(name_or_path: str, *, relative_to: Path | None = None, path: Path | str | None = None) -> VehicleSpec:

@@ -1,7 +1,9 @@
 """``run_mission``: one mission in one built world -> one run directory.
 
-Loads the world and the mission, makes the autopilot through the registry, runs THE loop
-(:func:`vinecli.sim.runner.run_simulation`), evaluates the checks and writes
+Reads the mission (and the vehicle it names) once (:func:`~vinecli.missions.spec_io.read_mission`),
+loads the world, resolves the run once (:func:`vinecli.sim.setup.prepare_run`: overrides, vehicle,
+rows, spray rates, spawn, URDF), makes the autopilot through the registry, runs THE loop
+(:func:`vinecli.sim.runner.simulate`), evaluates the checks and writes
 ``RUNS/<run_id>/`` atomically. Ctrl-C (SIGINT) while running stops the loop at the next step
 and the partial run is written with status ``interrupted``; a second Ctrl-C aborts at once.
 """
@@ -17,7 +19,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
 from vinecli.missions.checks import evaluate_checks
@@ -25,12 +27,15 @@ from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
 from vinecli.missions.quantities import check_quantities
 from vinecli.missions.rundata import EventMissing, MetricContext, RunData
-from vinecli.missions.spec_io import dump_mission, load_mission, resolve_vehicle
+from vinecli.missions.spec_io import MissionFile, dump_mission, load_mission, read_mission
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
 from vinecli.runs import rundir
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
+
+if TYPE_CHECKING:
+    from vinecli.sim.setup import PreparedRun
 
 log = logging.getLogger(__name__)
 
@@ -95,7 +100,7 @@ def default_run_id(mission: MissionSpec, seed: int) -> str:
 
 
 def run_mission(
-    mission: str | Path | MissionSpec,
+    mission: str | Path | MissionSpec | MissionFile,
     world_dir: str | Path,
     runs_dir: str | Path,
     *,
@@ -117,7 +122,8 @@ def run_mission(
 
     Parameters
     ----------
-    mission : mission YAML path or a validated MissionSpec
+    mission : mission YAML path, a validated MissionSpec or a :class:`~vinecli.missions.spec_io.MissionFile`
+        (:func:`~vinecli.missions.spec_io.read_mission`: the file and its vehicle already read)
     world_dir : a built world directory (``vinecli world build``)
     runs_dir : parent of the run directory
     seed : run seed (sensor noise, turbulence)
@@ -131,38 +137,43 @@ def run_mission(
     Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
     Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
     """
-    mission_path: Path | None = None
-    if isinstance(mission, MissionSpec):
-        spec = mission
-    else:
-        mission_path = Path(mission)
-        spec = load_mission(mission_path)
-    updates: dict[str, Any] = {}
-    if autopilot is not None:
-        updates["autopilot"] = autopilot
-    if truth is not None:
-        updates["truth"] = truth
-    if record_rate is not None:
-        if not record_rate > 0:
-            raise SpecError(f"record rate must be > 0 Hz, got {record_rate}", path=mission_path)
-        updates["record_rate_hz"] = float(record_rate)
-    if updates:
-        spec = MissionSpec.model_validate({**spec.model_dump(), **updates})
-
-    run_id = check_name(run_id or default_run_id(spec, seed), "run id")
+    src = read_mission(mission)  # the file is read and the vehicle it names loaded here, once
+    mission_path = src.path
+    run_id = check_name(run_id or default_run_id(src.spec, seed), "run id")
     out = contained_path(Path(runs_dir), run_id)
     inputs = [p for p in (mission_path, Path(world_dir), *map(Path, protect)) if p is not None]
     check_output_target(out, overwrite=overwrite, inputs=inputs)
 
+    from vinecli.sim.setup import RunOverrides, prepare_run
     from vinecli.world import load_world
 
-    world = load_world(Path(world_dir))
-    _auto_rows(world)
-    vehicle = None
-    if spec.vehicle is not None:
-        vehicle = resolve_vehicle(spec.vehicle, relative_to=mission_path.parent if mission_path else None,
-                                  path=mission_path or spec.name)
-    check_quantities(spec.checks, mission_path or spec.name, n_rotors=(vehicle or world.vehicle).n_rotors)
+    overrides = RunOverrides(autopilot=autopilot, truth=truth, record_rate_hz=record_rate)
+    with prepare_run(load_world(Path(world_dir)), src.spec, vehicle=src.vehicle, overrides=overrides,
+                     source=mission_path) as run:
+        return _run_prepared(run, Path(world_dir), run_id, out, seed=seed, mission_path=mission_path, mcap=mcap,
+                             progress=progress, should_stop=should_stop, wall_timeout_s=wall_timeout_s, case=case,
+                             autopilot_options=autopilot_options, overwrite=overwrite)
+
+
+def _run_prepared(
+    run: PreparedRun,
+    world_dir: Path,
+    run_id: str,
+    out: Path,
+    *,
+    seed: int,
+    mission_path: Path | None,
+    mcap: bool,
+    progress: Callable[[float, float], None] | None,
+    should_stop: Callable[[], bool] | None,
+    wall_timeout_s: float | None,
+    case: str | None,
+    autopilot_options: dict[str, Any] | None,
+    overwrite: bool,
+) -> RunSummary:
+    """Fly a prepared run, evaluate its checks and write ``out`` (:func:`run_mission`, after the set-up)."""
+    spec, world, vehicle = run.mission, run.world, run.vehicle
+    check_quantities(spec.checks, mission_path or spec.name, n_rotors=vehicle.n_rotors)
     from vinecli.autopilot.px4_options import make_run_autopilot
 
     # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
@@ -170,7 +181,7 @@ def run_mission(
                             **(autopilot_options or {}))
     stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
 
-    from vinecli.sim.runner import run_simulation
+    from vinecli.sim.runner import simulate
 
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
@@ -180,8 +191,7 @@ def run_mission(
             progress(sim_t, time.perf_counter() - t0)
     with _sigint_to_flag(stop):
         try:
-            result = run_simulation(world, spec, ap, seed=seed, vehicle=vehicle, on_progress=on_progress,
-                                    should_stop=stop)
+            result = simulate(run, ap, seed=seed, on_progress=on_progress, should_stop=stop)
         except VinecliError:
             raise
         except Exception as exc:  # noqa: BLE001 - any engine failure becomes one exit-3 line
@@ -199,14 +209,13 @@ def run_mission(
     if failsafes:
         status_message = f"{status_message} (failsafe: {describe_failsafes(failsafes)})"
 
-    rows = _rows_for_metrics(spec, world)
+    rows = _rows_for_metrics(spec, world.vine_rows_enu)
     dep_metrics: dict[str, float] = {}
     dep_doc: dict[str, Any] | None = None
     if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
         from vinecli.runs.deposition_out import evaluate_deposition
 
-        dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle or world.vehicle, world, rows,
-                                                   spec.geofence or getattr(world, "geofence", None))
+        dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle, world, rows, run.geofence)
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -234,16 +243,16 @@ def run_mission(
     timing = {"wall_time_s": round(wall, 4), "real_time_factor": round(rtf, 3),
               **{k: _num(v) for k, v in loop.items() if k != "real_time_factor"},
               "loop_real_time_factor": _num(loop.get("real_time_factor"))}
-    geofence = spec.geofence or getattr(world, "geofence", None)
+    geofence = run.geofence
     summary = {
         "run_id": run_id,
         "case": case or run_id,
         "mission": spec.name,
         "description": spec.description,
-        "vehicle": (vehicle.name if vehicle is not None else world.vehicle.name),
+        "vehicle": vehicle.name,
         "world": {
             "name": world.name,
-            "dir": str(Path(world_dir).resolve()),
+            "dir": str(world_dir.resolve()),
             "origin": world.origin.to_dict(),
             "rows_enu": [[list(p) for p in row] for row in world.vine_rows_enu],
             "geofence": geofence.model_dump(mode="json") if geofence is not None else None,
@@ -267,7 +276,7 @@ def run_mission(
         command="run mission",
         parameters={"seed": seed, "autopilot": spec.autopilot, "truth": spec.truth, **(autopilot_options or {}),
                     "record_rate_hz": spec.record_rate_hz, "mcap": mcap, "run_id": run_id},
-        inputs=[p for p in (mission_path, Path(world_dir) / "world.json") if p is not None],
+        inputs=[p for p in (mission_path, world_dir / "world.json") if p is not None],
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
@@ -285,7 +294,7 @@ def run_mission(
         if dep_doc is not None:
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
-            write_deposition(tmp, result.deposition, world, dsm_crs(Path(world_dir)), dep_doc)
+            write_deposition(tmp, result.deposition, world, dsm_crs(world_dir), dep_doc)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
@@ -296,24 +305,9 @@ def run_mission(
     )
 
 
-def _auto_rows(world: Any) -> None:
-    """``rows: auto`` worlds built before the rows were detected at build time: detect them on the world's
-    height grid with the same detector (in memory, before the run). Worlds built now carry the rows."""
-    if not getattr(world, "rows_auto", False) or world.vine_rows_enu:
-        return
-    grid = getattr(world.terrain, "grid", None)
-    if grid is None:
-        return
-    from vinecli.rows.source import detect_rows_on_grid
-
-    det = detect_rows_on_grid(grid)
-    world.vine_rows_enu = det.rows
-    log.info("world %s: %s", world.name, det.summary())
-
-
-def _rows_for_metrics(spec: MissionSpec, world: Any) -> list[list[tuple[float, float]]]:
-    """Row polylines the spray metrics compare against: a spray phase's explicit rows, else the world's."""
-    world_rows = [list(map(tuple, r)) for r in getattr(world, "vine_rows_enu", []) or []]
+def _rows_for_metrics(spec: MissionSpec, world_rows_enu: Sequence[Sequence[Sequence[float]]]) -> list[list[tuple[float, float]]]:
+    """Row polylines (ENU m) the spray metrics compare against: a spray phase's explicit rows, else the world's."""
+    world_rows = [list(map(tuple, r)) for r in world_rows_enu or []]
     spray = next((ph for ph in spec.phases if isinstance(ph, SprayPhase)), None)
     return phase_rows(spray, world_rows) if spray is not None else world_rows
 
@@ -387,13 +381,9 @@ def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = 
     except (KeyError, TypeError, VinecliError):
         log.info("world of %s not available: g = %.5f m/s²", run_dir, gravity)
     rows = [[tuple(p) for p in r] for r in world.get("rows_enu") or []]
-
-    class _W:  # the parts of a World that _rows_for_metrics reads
-        vine_rows_enu = rows
-
     data = RunData(
         timeseries=ts, events=events, status=str(summary.get("status")),
         metrics={k: float(v) for k, v in (summary.get("metrics") or {}).items() if isinstance(v, (int, float))},
-        context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, _W())),
+        context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, rows)),
     )
     return summary, evaluate_checks(spec.checks, data)

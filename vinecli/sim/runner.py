@@ -1,5 +1,9 @@
 """THE simulation loop: one vehicle, one PyBullet client, fixed rate, integer-µs clock.
 
+:func:`run_simulation` = :func:`vinecli.sim.setup.prepare_run` (world, mission, vehicle, rows, spawn,
+URDF resolved once into a :class:`~vinecli.sim.setup.PreparedRun`) + :func:`simulate` (engine, vehicle
+placed and settled, then THE loop, which unpacks the prepared run into locals once).
+
 Per physics step k (t_us = k · dt_us, dt_us = round(1e6 / rate)):
 
 1. read the base state once (position, attitude FLU -> ENU, linear and angular velocity);
@@ -40,37 +44,39 @@ from __future__ import annotations
 
 import logging
 import math
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vinecli.autopilot.base import Autopilot, AutopilotContext, AutopilotStatus, RunStatus
-from vinecli.errors import AutopilotError, SpecError
-from vinecli.frames import Vec3, quat_from_euler, quat_to_euler, tilt_angle
+from vinecli.errors import AutopilotError
+from vinecli.frames import Vec3, quat_to_euler, tilt_angle
 from vinecli.sim.recorder import Recorder, timeseries_columns
+from vinecli.sim.setup import PreparedRun, prepare_run
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import ActuatorCommand, Event, Observation, RigidState, ServiceRequest
-from vinecli.world.model import World, rest_position
+from vinecli.world.model import World
 
 if TYPE_CHECKING:
     from vinecli.physics.battery import Battery
+    from vinecli.physics.deposition import DepositionConfig
     from vinecli.physics.tank import Tank
+    from vinecli.physics.wind import WindField
+    from vinecli.world.engine import Engine
 
-__all__ = ["SimResult", "resolve_vehicle", "run_simulation"]
+__all__ = ["SimResult", "run_simulation", "simulate"]
 
 log = logging.getLogger(__name__)
 
 _DEBOUNCE_S = 0.05  # s of (no) contact before lift-off / touchdown is declared
 _LIFTOFF_THRUST_FRAC = 0.5  # rotor thrust / weight when contact is lost, for that to count as a lift-off
-_CONTACT_MARGIN_M = 0.6
-SPAWN_GAP_M = 0.0
-_TOUCH_M = 1e-4  # m: a contact point closer than this counts as touching  # m between the skids and the terrain at spawn  # contacts are queried only when the skids are this close to the grid height
+_CONTACT_MARGIN_M = 0.6  # m: contacts are queried only when the skids are this close to the grid height
+SPAWN_GAP_M = 0.0  # m between the skids and the terrain at spawn
+_TOUCH_M = 1e-4  # m: a contact point closer than this counts as touching
 
 
 @dataclass
@@ -96,20 +102,6 @@ class SimResult:
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second."""
         return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
-
-
-def resolve_vehicle(world: World, mission: MissionSpec, vehicle: VehicleSpec | None = None) -> VehicleSpec:
-    """The vehicle a run flies: ``vehicle`` arg > ``mission.vehicle`` > the world's; payload override applied."""
-    if vehicle is None:
-        if mission.vehicle:
-            from vinecli.vehicle import load_vehicle
-
-            vehicle = load_vehicle(mission.vehicle)
-        else:
-            vehicle = world.vehicle
-    if mission.payload_kg is not None:
-        vehicle = vehicle.model_copy(update={"payload": vehicle.payload.model_copy(update={"mass_kg": mission.payload_kg})})
-    return vehicle
 
 
 def _bounds(world: World) -> tuple[float, float, float, float] | None:
@@ -160,15 +152,16 @@ def run_simulation(
     should_stop: Callable[[], bool] | None = None,
     end_on_crash: bool = True,
     crash_speed_mps: float = 3.0,
-    deposition: bool | Any = True,
+    deposition: bool | DepositionConfig = True,
 ) -> SimResult:
-    """Fly ``mission`` with ``autopilot`` in ``world`` and return the recorded run.
+    """Fly ``mission`` with ``autopilot`` in ``world`` and return the recorded run
+    (:func:`~vinecli.sim.setup.prepare_run`, then :func:`simulate`).
 
     Parameters
     ----------
     world : the built world (:func:`vinecli.world.load_world`).
     mission : mission spec; its overrides (vehicle, payload_kg, tank_fill_l, wind, geofence) and
-        the ``initial_state`` of a first ``open_loop`` phase are applied here.
+        the ``initial_state`` of a first ``open_loop`` phase are applied by the set-up.
     autopilot : any :class:`~vinecli.autopilot.base.Autopilot`; reset here, closed by the caller.
     seed : seeds wind turbulence and sensor noise (same seed -> identical time series).
     vehicle : overrides the mission's/world's vehicle.
@@ -179,109 +172,78 @@ def run_simulation(
     deposition : run the spray transport model (vehicles with a tank): ``SimResult.deposition``; a
         :class:`~vinecli.physics.deposition.DepositionConfig` sets its options (cell size, margin, ...).
     """
+    wall0 = time.perf_counter()
+    with prepare_run(world, mission, vehicle=vehicle, end_on_crash=end_on_crash, crash_speed_mps=crash_speed_mps,
+                     deposition=deposition) as run:
+        return simulate(run, autopilot, seed=seed, on_progress=on_progress, should_stop=should_stop, wall0=wall0)
+
+
+@dataclass(frozen=True)
+class _Plant:
+    """What :func:`simulate` builds from a prepared run for one seed: the PyBullet engine with the vehicle
+    body placed (settled at rest unless it starts airborne or moving), tank, battery and wind field."""
+
+    engine: Engine
+    body: int  # PyBullet body id of the vehicle
+    tank: Tank | None
+    battery: Battery | None
+    wind: WindField
+    home: Vec3  # CoM at rest at the start, m ENU (AutopilotContext.home_enu)
+    settle_s: float  # simulated time the settling before t = 0 took, s
+
+
+def simulate(
+    run: PreparedRun,
+    autopilot: Autopilot,
+    *,
+    seed: int,
+    on_progress: Callable[[float, float], None] | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    wall0: float | None = None,
+) -> SimResult:
+    """Fly a prepared run (:func:`~vinecli.sim.setup.prepare_run`) with ``autopilot`` and return the
+    recorded run; ``seed``, ``on_progress``, ``should_stop`` as :func:`run_simulation`. ``wall0``: the
+    ``time.perf_counter()`` the run's wall time counts from (default: now)."""
+    from vinecli.frames import quat_rotate
     from vinecli.physics.battery import Battery
-    from vinecli.physics.motor import MotorBank
-    from vinecli.physics.sensors import make_sensors
     from vinecli.physics.tank import Tank
     from vinecli.physics.wind import make_wind
-    from vinecli.vehicle.urdf import write_urdf
     from vinecli.world.engine import Engine
 
-    wall0 = time.perf_counter()
-    veh = resolve_vehicle(world, mission, vehicle)
-    from vinecli.rows.spray_rate import resolve_spray_rates
-
-    mission = resolve_spray_rates(mission, veh, world.vine_rows_enu)  # phases in L/ha fly the equivalent flow
-    rate = float(world.physics_rate_hz)
-    dt_us = int(round(1e6 / rate))
-    dt = dt_us * 1e-6
-    inv_dt = 1.0 / dt
-    g = float(world.gravity)
-    g_vec: Vec3 = (0.0, 0.0, -g)
-
-    # ---- tank, masses
-    tank_spec = veh.tank
-    if tank_spec is None:
-        if mission.tank_fill_l:
-            raise SpecError(f"mission fills a tank but vehicle {veh.name!r} has none")
-        fill = 0.0
-    else:
-        fill = tank_spec.capacity_l if mission.tank_fill_l is None else float(mission.tank_fill_l)
-        if fill > tank_spec.capacity_l + 1e-9:
-            raise SpecError(f"tank_fill_l {fill} exceeds the tank capacity {tank_spec.capacity_l} L of {veh.name!r}")
-    tank = Tank(tank_spec, fill) if tank_spec is not None else None
+    if wall0 is None:
+        wall0 = time.perf_counter()
+    veh = run.vehicle
+    tank = Tank(veh.tank, run.tank_fill_l) if veh.tank is not None else None
     battery = Battery(veh.battery) if veh.battery is not None else None
-    rigid_mass = veh.dry_mass()
-    mass0 = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
+    wind = make_wind(run.wind, seed, run.dt_us * 1e-6)
+    sp = run.spawn
+    pos0, quat0 = sp.position_enu, sp.quat_xyzw
 
-    wind_spec = mission.wind if mission.wind is not None else world.wind
-    geofence = mission.geofence if mission.geofence is not None else world.geofence
-    wind = make_wind(wind_spec, seed, dt)
-
-    # ---- initial state
-    first = mission.phases[0]
-    init = first.initial_state if isinstance(first, OpenLoopPhase) else None
-    lgh = veh.frame.landing_gear_height_m
-    if veh == world.vehicle:
-        home = world.spawn_enu
-    else:
-        home = rest_position(world.terrain, veh, world.spawn_enu[0], world.spawn_enu[1])
-    yaw0 = world.spawn_yaw_rad
-    quat0 = quat_from_euler(0.0, 0.0, yaw0)
-    pos0, vel0, omega0_body = home, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-    airborne_start = False
-    if init is not None:
-        if init.position_enu is not None:
-            x, y, hz = init.position_enu
-            pos0 = (x, y, rest_position(world.terrain, veh, x, y)[2] + hz)
-            airborne_start = hz > 0.0
-        r, p_, yw = (math.radians(a) for a in init.rpy_deg)
-        quat0 = quat_from_euler(r, p_, yw)
-        vel0 = tuple(float(v) for v in init.velocity_enu)  # type: ignore[assignment]
-        omega0_body = tuple(float(w) for w in init.angular_velocity_flu)  # type: ignore[assignment]
-
-    # ---- engine
-    engine = Engine(rate_hz=rate, gravity=g)
-    tmpdir: tempfile.TemporaryDirectory[str] | None = None
+    engine = Engine(rate_hz=run.physics_rate_hz, gravity=run.gravity)
     try:
-        engine.load_terrain(world.terrain)
-        urdf = world.urdf
-        if veh != world.vehicle:
-            tmpdir = tempfile.TemporaryDirectory(prefix="vinecli-urdf-")
-            urdf = write_urdf(veh, Path(tmpdir.name) / f"{veh.name}.urdf")
-        from vinecli.frames import quat_rotate
-
-        if not airborne_start:
+        engine.load_terrain(run.world.terrain)
+        if not sp.airborne:
             # place the skids exactly on the loaded collision surface (the grid can differ from a
             # mesh by its max error): highest ray hit under the collision box + SPAWN_GAP_M
             bx, by, _bz = veh.frame.collision_box_m
             ground = engine.footprint_height(pos0[0], pos0[1], bx / 2.0, by / 2.0, quat_to_euler(quat0)[2])
             if ground is not None:
-                pos0 = (pos0[0], pos0[1], ground + lgh + SPAWN_GAP_M)
-        body = engine.load_vehicle(urdf, pos0, quat0)
-        engine.reset_vehicle(pos0, quat0, vel0, quat_rotate(quat0, omega0_body))
+                pos0 = (pos0[0], pos0[1], ground + veh.frame.landing_gear_height_m + SPAWN_GAP_M)
+        body = engine.load_vehicle(run.urdf, pos0, quat0)
+        engine.reset_vehicle(pos0, quat0, sp.velocity_enu, quat_rotate(quat0, sp.omega_flu))
         settle_s = 0.0
-        if not airborne_start and vel0 == (0.0, 0.0, 0.0) and omega0_body == (0.0, 0.0, 0.0):
+        if sp.at_rest:
             # settle at rest BEFORE the clock starts: a vehicle on a slope or a ridge tilts/slides
             # here, so t = 0 is a true rest state (no contact flicker -> no spurious events)
             rest = engine.settle_vehicle(liquid_kg=tank.mass_kg if tank is not None else 0.0,
                                          mount_flu=tank.mount_m if tank is not None else (0.0, 0.0, 0.0))
             pos0, quat0, settle_s = rest.pos, rest.quat, rest.time_s
-        home = pos0 if not airborne_start else rest_position(world.terrain, veh, pos0[0], pos0[1])
+        home = sp.home_enu if sp.airborne and sp.home_enu is not None else pos0
         engine.client.performCollisionDetection()  # contacts are known at t = 0
-        return _loop(
-            world=world, mission=mission, autopilot=autopilot, seed=seed, veh=veh, engine=engine, body=body,
-            tank=tank, battery=battery, wind=wind, geofence=geofence, home=home, mass0=mass0, rigid_mass=rigid_mass, g=g, g_vec=g_vec,
-            dt_us=dt_us, dt=dt, inv_dt=inv_dt, lgh=lgh, airborne_start=airborne_start, init_phase=first if init else None,
-            on_progress=on_progress, should_stop=should_stop, end_on_crash=end_on_crash,
-            crash_speed=crash_speed_mps, wall0=wall0, MotorBank=MotorBank, make_sensors=make_sensors,
-            settle_s=settle_s, deposition=bool(deposition) and tank is not None, wind_spec=wind_spec,
-            deposition_config=None if isinstance(deposition, bool) else deposition,
-        )
+        plant = _Plant(engine, body, tank, battery, wind, home, settle_s)
+        return _loop(run, plant, autopilot, seed, on_progress, should_stop, wall0)
     finally:
         engine.close()
-        if tmpdir is not None:
-            tmpdir.cleanup()
 
 
 def _raiser(exc: AutopilotError) -> Callable[[Observation], ActuatorCommand]:
@@ -291,34 +253,46 @@ def _raiser(exc: AutopilotError) -> Callable[[Observation], ActuatorCommand]:
     return step
 
 
-def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one flat function
-    world: World = kw["world"]
-    mission: MissionSpec = kw["mission"]
-    autopilot: Autopilot = kw["autopilot"]
-    veh: VehicleSpec = kw["veh"]
-    engine = kw["engine"]
-    body: int = kw["body"]
-    tank = kw["tank"]
-    battery: Battery | None = kw["battery"]
-    wind = kw["wind"]
-    seed: int = kw["seed"]
-    home: Vec3 = kw["home"]
-    g: float = kw["g"]
-    g_vec: Vec3 = kw["g_vec"]
-    dt_us: int = kw["dt_us"]
-    dt: float = kw["dt"]
-    inv_dt: float = kw["inv_dt"]
-    lgh: float = kw["lgh"]
-    rigid_mass: float = kw["rigid_mass"]
-    mass0: float = kw["mass0"]
+def _loop(  # noqa: C901 - the loop is deliberately one flat function
+    run: PreparedRun,
+    plant: _Plant,
+    autopilot: Autopilot,
+    seed: int,
+    on_progress: Callable[[float, float], None] | None,
+    should_stop: Callable[[], bool] | None,
+    wall0: float,
+) -> SimResult:
+    """THE loop (module doc) from t = 0 to the end of the run. Everything the steps read is unpacked into
+    locals here, once: the per-step code touches no dataclass attribute of ``run`` or ``plant``."""
+    from vinecli.physics.motor import MotorBank
+    from vinecli.physics.sensors import make_sensors
+
+    world = run.world
+    mission = run.flight
+    veh = run.vehicle
+    engine = plant.engine
+    body = plant.body
+    tank = plant.tank
+    battery = plant.battery
+    wind = plant.wind
+    home = plant.home
+    g = run.gravity
+    g_vec: Vec3 = (0.0, 0.0, -g)
+    dt_us = run.dt_us
+    dt = dt_us * 1e-6
+    inv_dt = 1.0 / dt
+    lgh = veh.frame.landing_gear_height_m
+    rigid_mass = run.rigid_mass_kg
+    mass0 = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
+    airborne_start = run.spawn.airborne
     n_rot = veh.n_rotors
 
-    motors = kw["MotorBank"](veh.motor, list(veh.rotors))
-    init_phase = kw["init_phase"]
-    if kw["airborne_start"] and init_phase is not None:
-        cmds = _first_commands(init_phase, n_rot)
+    motors = MotorBank(veh.motor, list(veh.rotors))
+    spin_up = run.spawn.spin_up
+    if airborne_start and spin_up is not None:
+        cmds = _first_commands(spin_up, n_rot)
         motors.reset(cmds)
-    sensors = kw["make_sensors"](veh.sensors, world.origin, seed, g=g)
+    sensors = make_sensors(veh.sensors, world.origin, seed, g=g)
     sample_all = sensors.sample_all
 
     camera = None
@@ -331,11 +305,11 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     point_clouds: list[tuple[float, np.ndarray]] = []
     emitter = None
     group_s = 0.04
-    if kw["deposition"]:
+    if run.deposition:
         from vinecli.physics.deposition import DepositionConfig, SprayEmitter
 
         emitter = SprayEmitter()
-        group_s = (kw["deposition_config"] or DepositionConfig()).group_s
+        group_s = (run.deposition_config or DepositionConfig()).group_s
     emit = emitter.emit if emitter is not None else None
     dep_every = max(1, int(round(group_s / (dt_us * 1e-6))))  # spraying steps summed per deposition record
     dep_vol = 0.0
@@ -350,8 +324,8 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         home_enu=home,
         physics_dt_us=dt_us,
         total_mass_kg=mass0,
-        vine_rows_enu=tuple(tuple((float(p[0]), float(p[1])) for p in row) for row in world.vine_rows_enu),
-        geofence=kw["geofence"],
+        vine_rows_enu=run.rows,
+        geofence=run.geofence,
         terrain_height=world.terrain_height,
         seed=seed,
         terrain_bounds=_bounds(world),
@@ -418,20 +392,18 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         "hover_w_pred": veh.hover_speed(mass0, g),
         "physics_rate_hz": 1e6 / dt_us,
         "max_impact_speed_mps": 0.0,
-        "spawn_settle_s": kw["settle_s"],
+        "spawn_settle_s": plant.settle_s,
         "spawn_tilt_rad": tilt_angle(get_po(body, cid)[1]),
     }
     debounce = max(1, int(round(_DEBOUNCE_S / dt)))
-    airborne = bool(kw["airborne_start"])
+    airborne = airborne_start
     flip_count = 0
     flip_t_us = 0
     flip_thrust = False
     tank_was_empty = tank.empty if tank is not None else True
     impact_pending = True  # the next first contact is an impact to measure
-    end_on_crash: bool = kw["end_on_crash"]
-    crash_speed: float = kw["crash_speed"]
-    on_progress = kw["on_progress"]
-    should_stop = kw["should_stop"]
+    end_on_crash = run.end_on_crash
+    crash_speed = run.crash_speed_mps
     progress_every = max(1, int(round(1.0 / dt)))
     stop_every = max(1, int(round(0.1 / dt)))
 
@@ -442,7 +414,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
     vpx, vpy, vpz = get_v(body, cid)[0]
     opx, opy, opz = get_v(body, cid)[1]
     first_step = True
-    airborne0 = bool(kw["airborne_start"])
+    airborne0 = airborne_start
     pex = pey = pez = ptx = pty = ptz = 0.0
     flow_cmd = 0.0
     k = 0
@@ -724,7 +696,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         from vinecli.sim.deposition import deposit
 
         cpu_dep0 = time.process_time()
-        dep = deposit(emitter, world, veh, kw["wind_spec"], seed, kw["deposition_config"])
+        dep = deposit(emitter, world, veh, run.wind, seed, run.deposition_config)
         timing["deposition_transport_s"] = dep.transport_s
         timing["deposition_transport_cpu_s"] = time.process_time() - cpu_dep0
         metrics["deposition_records"] = float(len(emitter.rows))
@@ -734,7 +706,7 @@ def _loop(**kw: Any) -> SimResult:  # noqa: C901 - the loop is deliberately one 
         status=status,
         detail=detail,
         sim_time_s=sim_time,
-        wall_time_s=wall_end - kw["wall0"],
+        wall_time_s=wall_end - wall0,
         timeseries=rec.columns_dict(),
         events=events,
         metrics=metrics,
