@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from tests.repo_paths import REPO
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.missions.metrics import horizontal_aero_force_enu, predicted_tilt_rad
-from vinecli.missions.rundata import STANDARD_GRAVITY
 from vinecli.report.plots import load_plot_data
 from vinecli.runs.rundir import SUMMARY, world_gravity
 

@@ -20,13 +20,14 @@ import functools
 import logging
 import math
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler
 from vinecli.geo import GeoOrigin
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import Observation
 
 log = logging.getLogger(__name__)
-G = 9.80665
+G = STANDARD_GRAVITY
 
 
 def earth_field_enu(origin: GeoOrigin) -> Vec3:

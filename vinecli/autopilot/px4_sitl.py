@@ -37,6 +37,7 @@ from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.px4_takeoff import TakeoffWatch
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
@@ -49,7 +50,7 @@ log = logging.getLogger(__name__)
 SIM_PORT_BASE = 4560
 API_PORT_BASE = 14540  # vinecli binds (PX4 sends here)
 PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
-G0 = 9.80665
+G0 = STANDARD_GRAVITY
 
 
 def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",

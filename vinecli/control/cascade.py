@@ -26,12 +26,13 @@ from __future__ import annotations
 
 import math
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.control.allocation import Mixer
 from vinecli.control.pid import Pid
 from vinecli.frames import QuatXYZW, Vec3
 from vinecli.specs.vehicle import VehicleSpec
 
-G = 9.80665
+G = STANDARD_GRAVITY
 
 
 def thrust_to_attitude(fx: float, fy: float, fz: float, yaw: float) -> QuatXYZW:

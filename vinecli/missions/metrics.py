@@ -19,8 +19,9 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate
-from vinecli.missions.rundata import STANDARD_GRAVITY, EventMissing, RunData
+from vinecli.missions.rundata import EventMissing, RunData
 from vinecli.rows.geometry import point_polyline_distance
 
 Window = tuple[float, float] | None

@@ -11,10 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.rows.detect import Polyline
-
-#: standard gravity, m/s²: the value when a run's world (and so its gravity) is not known
-STANDARD_GRAVITY = 9.80665
 
 
 @dataclass(frozen=True)

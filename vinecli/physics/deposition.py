@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate_many
 from vinecli.physics.downwash import fall_time_s, induced_velocity
 from vinecli.physics.droplets import AIR_VISCOSITY, WATER_DENSITY, relaxation_time_s, size_classes_m, terminal_velocity
@@ -145,7 +146,7 @@ def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
 
 def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
               wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
-              g: float = 9.80665) -> Parcels:
+              g: float = STANDARD_GRAVITY) -> Parcels:
     """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed."""
     from vinecli.physics.wind import height_factor
 

@@ -18,13 +18,15 @@ from statistics import NormalDist
 
 import numpy as np
 
+from vinecli.constants import STANDARD_GRAVITY
+
 __all__ = ["AIR_DENSITY", "AIR_VISCOSITY", "WATER_DENSITY", "relaxation_time_s", "size_classes_m",
            "stokes_velocity", "terminal_velocity"]
 
 WATER_DENSITY = 998.2  # kg/m³, 20 °C
 AIR_DENSITY = 1.204  # kg/m³, 20 °C, 1013.25 hPa
 AIR_VISCOSITY = 1.81e-5  # Pa s, 20 °C
-G = 9.80665
+G = STANDARD_GRAVITY
 
 
 def stokes_velocity(d_m: float | np.ndarray, rho_w: float = WATER_DENSITY, rho_a: float = AIR_DENSITY,

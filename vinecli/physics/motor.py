@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import QuatXYZW, Vec3, quat_rotate_inv
 from vinecli.specs.vehicle import MotorSpec, RotorSpec
 
@@ -261,6 +262,6 @@ class MotorBank:
         return (dx, dy, fz), (tx + mx, ty + my, tz + rz)
 
     # ------------------------------------------------------------------ helpers
-    def hover_speed(self, total_mass: float, g: float = 9.80665) -> float:
+    def hover_speed(self, total_mass: float, g: float = STANDARD_GRAVITY) -> float:
         """Steady hover speed ``sqrt(m g / (n k_f))`` in rad/s (all axes vertical)."""
         return math.sqrt(total_mass * g / (self.n * self.k_f))

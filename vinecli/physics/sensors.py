@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler, quat_rotate, quat_rotate_inv
 from vinecli.geo import GeoOrigin
 from vinecli.physics.atmosphere import altitude_at, pressure_at, temperature_at
@@ -34,7 +35,7 @@ from vinecli.types import BaroSample, GnssSample, ImuSample, MagSample, RigidSta
 
 __all__ = ["Baro", "Gnss", "Imu", "Mag", "SensorSuite", "make_sensors"]
 
-G0 = 9.80665
+G0 = STANDARD_GRAVITY
 
 
 class _Normals:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import SpecError
 from vinecli.frames import Vec3
 from vinecli.specs.vehicle import TankSpec
@@ -40,7 +41,7 @@ EMPTY_EPS_KG = 1e-9
 
 
 def slosh_parameters(
-    level_l: float, capacity_l: float, height_m: float, g: float = 9.80665
+    level_l: float, capacity_l: float, height_m: float, g: float = STANDARD_GRAVITY
 ) -> tuple[float, float, float]:
     """(pendulum mass fraction m1/m, length L1 m, ω1 rad/s) of the first slosh mode.
 

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.missions.rundata import STANDARD_GRAVITY
+from vinecli.constants import STANDARD_GRAVITY
 
 DPI = 100
 #: figure sizes in inches (pixels = inches * DPI)

@@ -497,7 +497,7 @@ FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and t
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:
     """Read what the figures need from a (validated) run directory."""
-    from vinecli.missions.rundata import STANDARD_GRAVITY
+    from vinecli.constants import STANDARD_GRAVITY
     from vinecli.report.loader import load_run
     from vinecli.runs.rundir import world_gravity
 

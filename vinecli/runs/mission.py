@@ -21,6 +21,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
 from vinecli.missions.checks import evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
@@ -373,7 +374,7 @@ def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = 
     ts = rundir.read_timeseries(ts_path)
     events = [(float(e["t_s"]), str(e["kind"])) for e in rundir.read_events(run_dir / rundir.EVENTS)]
     world = summary.get("world") or {}
-    gravity = 9.80665
+    gravity = STANDARD_GRAVITY
     try:
         from vinecli.world import load_world
 

@@ -12,6 +12,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.limits import MAX_IMAGE_PX, MAX_RATE_HZ
@@ -312,6 +313,6 @@ class VehicleSpec(StrictModel):
         """Total thrust at w_max along the rotor axes, N."""
         return self.n_rotors * self.motor.k_f * self.motor.w_max**2
 
-    def hover_speed(self, total_mass: float, g: float = 9.80665) -> float:
+    def hover_speed(self, total_mass: float, g: float = STANDARD_GRAVITY) -> float:
         """Steady hover rotor speed sqrt(m g / (n k_f)), rad/s."""
         return math.sqrt(total_mass * g / (self.n_rotors * self.motor.k_f))

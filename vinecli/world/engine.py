@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import RuntimeFailure, TerrainError
 from vinecli.frames import QuatXYZW, Vec3, quat_rotate
 from vinecli.world.model import TerrainInfo
@@ -51,7 +52,7 @@ class SettleResult:
 class Engine:
     """A PyBullet DIRECT client stepping at a fixed rate with gravity along -z (ENU)."""
 
-    def __init__(self, *, rate_hz: float = 250.0, gravity: float = 9.80665, solver_iterations: int = 50) -> None:
+    def __init__(self, *, rate_hz: float = 250.0, gravity: float = STANDARD_GRAVITY, solver_iterations: int = 50) -> None:
         from vinecli.world.quiet import c_output_silenced
 
         with c_output_silenced():  # pybullet printf()s its build time and argv[0]
@@ -250,7 +251,7 @@ class Engine:
 
 def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
               collision_box_m: Vec3, landing_gear_height_m: float, liquid_kg: float = 0.0,
-              mount_flu: Vec3 = (0.0, 0.0, 0.0), rate_hz: float = 250.0, gravity: float = 9.80665) -> SettleResult:
+              mount_flu: Vec3 = (0.0, 0.0, 0.0), rate_hz: float = 250.0, gravity: float = STANDARD_GRAVITY) -> SettleResult:
     """Where a vehicle placed at (x, y, yaw) on ``terrain`` comes to rest (as the runner settles it).
 
     Skids on the highest ray hit under the collision box (``z_guess`` CoM z if the rays miss), then

@@ -36,6 +36,7 @@ from typing import Any, Literal
 
 from pydantic import ValidationError
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import SpecError
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
@@ -82,7 +83,7 @@ class World:
     spawn_yaw_rad: float = 0.0
     wind: WindSpec = field(default_factory=WindSpec)
     physics_rate_hz: float = 250.0
-    gravity: float = 9.80665  # m/s², positive
+    gravity: float = STANDARD_GRAVITY  # m/s², positive
     air_density: float = 1.225  # kg/m³
     vine_rows_enu: list[list[tuple[float, float]]] = field(default_factory=list)
     geofence: GeofenceSpec | None = None
@@ -163,7 +164,7 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         spawn_yaw_rad=float(d["spawn"].get("yaw_rad", 0.0)),
         wind=wind,
         physics_rate_hz=float(d.get("physics_rate_hz", 250.0)),
-        gravity=float(d.get("gravity_mps2", 9.80665)),
+        gravity=float(d.get("gravity_mps2", STANDARD_GRAVITY)),
         air_density=float(d.get("air_density_kgm3", 1.225)),
         vine_rows_enu=[[(float(p[0]), float(p[1])) for p in row] for row in d.get("vine_rows_enu", [])],
         geofence=geofence,

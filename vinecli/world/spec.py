@@ -11,6 +11,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.limits import MAX_DISTANCE_M, Coord, Vec2Coord
@@ -99,7 +100,7 @@ class WorldSpec(StrictModel):
     spawn: SpawnSpec = SpawnSpec()
     wind: WindSpec = WindSpec()
     physics_rate_hz: float = Field(250.0, gt=0, le=10000)
-    gravity_mps2: float = Field(9.80665, gt=0, le=100.0)
+    gravity_mps2: float = Field(STANDARD_GRAVITY, gt=0, le=100.0)
     air_density_kgm3: float = Field(1.225, gt=0, le=100.0)
     canopy_width_m: float = Field(0.6, gt=0, le=10.0, description="width of the vine canopy band along each row, m (spray metrics)")
     rows: list[list[Vec2L]] | Literal["auto"] | None = Field(
