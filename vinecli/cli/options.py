@@ -3,7 +3,7 @@
 Factories (``out_option("...")``) for flags whose help depends on the command, ready-made ``Annotated`` types
 for flags that mean the same everywhere. Defaults are never declared here: a command's signature takes them
 from the library (:data:`vinecli.autopilot.px4_options.PX4_DEFAULTS`,
-:data:`vinecli.missions.spray_defaults.SPRAY_DEFAULTS`, :mod:`vinecli.terrain.defaults`). Only light modules
+:data:`vinecli.spray_defaults.SPRAY_DEFAULTS`, :mod:`vinecli.terrain.defaults`). Only light modules
 are imported so ``vinecli --help`` stays fast.
 """
 

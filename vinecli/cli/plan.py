@@ -9,7 +9,7 @@ import typer
 
 from vinecli.cli.console import err_console, handles_errors, out_console
 from vinecli.cli.options import out_option, world_option
-from vinecli.missions.spray_defaults import SPRAY_DEFAULTS
+from vinecli.spray_defaults import SPRAY_DEFAULTS
 
 app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> mission.", no_args_is_help=True)
 

@@ -15,13 +15,13 @@ from collections.abc import Sequence
 from pydantic import ValidationError
 
 from vinecli.errors import InputError
-from vinecli.missions.spray_defaults import SPRAY_DEFAULTS
 from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
 from vinecli.rows.plan import plan_rows
 from vinecli.rows.source import DsmRows, detect_rows_in_dsm, detect_rows_on_grid
 from vinecli.specs import format_validation_error
 from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import LandPhase, MissionSpec, SprayPhase, TakeoffPhase
+from vinecli.spray_defaults import SPRAY_DEFAULTS
 
 __all__ = ["DsmRows", "Polyline", "RowDetection", "boustrophedon", "detect_rows_grid", "detect_rows_in_dsm",
            "detect_rows_on_grid", "spray_mission"]

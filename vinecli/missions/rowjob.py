@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError, OutputError
-from vinecli.missions.spray_defaults import SPRAY_DEFAULTS
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
 from vinecli.rows.source import RowFrame, rows_geojson
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
+from vinecli.spray_defaults import SPRAY_DEFAULTS
 
 __all__ = ["RowsJob", "plan_rows_job"]
 

@@ -24,6 +24,7 @@ from vinecli.specs.limits import (
     Vec3Speed,
 )
 from vinecli.specs.wind import WindSpec
+from vinecli.spray_defaults import SPRAY_DEFAULTS
 
 Vec2L = Vec2Coord
 Vec3L = Vec3Coord
@@ -86,8 +87,9 @@ class SprayPhase(StrictModel):
     rows: Literal["world"] | list[int] | list[list[Vec2L]] = Field(
         "world", description="'world' = all rows of the world, indices into them, or explicit polylines (ENU)"
     )
-    height_agl_m: float = Field(2.0, gt=0, le=MAX_DISTANCE_M, description="height above the terrain under the drone, m")
-    speed_mps: float = Field(1.5, gt=0, le=MAX_SPEED_MPS)
+    height_agl_m: float = Field(SPRAY_DEFAULTS.height_m, gt=0, le=MAX_DISTANCE_M,
+                                description="height above the terrain under the drone, m")
+    speed_mps: float = Field(SPRAY_DEFAULTS.speed_mps, gt=0, le=MAX_SPEED_MPS)
     flow_lps: float | None = Field(None, gt=0, description="nozzle flow while over a row, L/s (or give rate_lpha)")
     rate_lpha: float | None = Field(
         None, gt=0, le=10_000.0,

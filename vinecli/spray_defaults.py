@@ -1,4 +1,5 @@
-"""Defaults of a spray plan over vine rows, declared once (:func:`vinecli.missions.patterns.spray_mission`,
+"""Defaults of a spray plan over vine rows, declared once (the spray phase of a mission spec,
+:func:`vinecli.missions.patterns.spray_mission`,
 :func:`vinecli.missions.rowjob.plan_rows_job`, ``vinecli plan rows``). Plain Python, light to import: the
 command line reads them for its option defaults."""
 
