@@ -1,10 +1,10 @@
 """Batch throughput: cases per minute of ``pipelines/ci.yaml`` with 1 and 2 workers, and the
 real-time factor of each mission.
 
-The world is built once (not timed). Each configuration runs the four chapter-5 missions
+The world is built once (not timed). Each configuration runs the CI missions (chapter 5 + the job)
 ``--repeat`` times (replicate seeds) through :func:`vinecli.batch.run_batch` on the local
-spawn process pool; wall time includes starting the workers. Target: 2 workers >= 1.8x the
-throughput of 1 worker on a 2-core machine (run it on a quiet machine).
+spawn process pool; wall time includes starting the workers. Target: 2 workers >= 1.9x the
+throughput of 1 worker on a 2-core machine (longest cases are started first) (run it on a quiet machine).
 
     .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--jobs 1 2] [--json out.json]
 """
@@ -47,7 +47,7 @@ def main() -> None:
             "name": "bench-ci", "world": str(world), "seed": 0, "timeout_s": 900,
             "missions": [{"mission": m, "seeds": repeat} for m in missions],
         }))
-        results: dict[str, object] = {"repeat": repeat, "cases": 4 * repeat, "configs": {}}
+        results: dict[str, object] = {"repeat": repeat, "cases": len(missions) * repeat, "configs": {}}
         rtf: dict[str, list[float]] = {}
         for jobs in args.jobs:
             t0 = time.perf_counter()
@@ -68,7 +68,7 @@ def main() -> None:
         if "1" in cfg and "2" in cfg:
             ratio = cfg["2"]["cases_per_min"] / cfg["1"]["cases_per_min"]
             results["speedup_2_vs_1"] = round(ratio, 2)
-            print(f"speed-up 2 workers vs 1: {ratio:.2f}x (target >= 1.8x)")
+            print(f"speed-up 2 workers vs 1: {ratio:.2f}x (target >= 1.9x)")
         results["real_time_factor"] = {k: round(statistics.median(v), 1) for k, v in rtf.items()}
         for k, v in results["real_time_factor"].items():  # type: ignore[union-attr]
             print(f"real-time factor {k:10s} {v:6.1f}x (1 worker, median)")

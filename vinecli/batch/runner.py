@@ -31,7 +31,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from vinecli.batch.executors import EXECUTORS, dask_executor, local_stop_flag, make_local_executor
+from vinecli.batch.executors import EXECUTORS, WORKER_CASES, dask_executor, local_stop_flag, make_local_executor
 from vinecli.batch.job import CaseResult, RunSpec, run_one
 from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
@@ -95,7 +95,7 @@ def run_batch(
     progress: ProgressFn | None = None,
     job: Callable[[RunSpec], CaseResult] = run_one,
     dask_processes: bool = True,
-    max_tasks_per_child: int = 4,
+    max_tasks_per_child: int = WORKER_CASES,
     grace_s: float | None = None,
     mcap: bool = False,
     world: str | Path | None = None,
