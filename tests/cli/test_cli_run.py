@@ -206,15 +206,20 @@ def test_run_batch_bad_pipeline_exits_2(tmp_path: Path) -> None:
     assert r.exit_code == 2 and "p.yaml" in r.output and "nothing.yaml" in r.output
 
 
-def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_path: Path, monkeypatch) -> None:
-    """A real SIGINT while the loop runs: the run stops at the next step, is written, CLI exits 130."""
+@pytest.mark.parametrize(("signame", "code"), [("SIGINT", 130), ("SIGTERM", 143)])
+def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_path: Path, monkeypatch,
+                                                       signame: str, code: int) -> None:
+    """A real SIGINT (Ctrl-C) or SIGTERM (a CI timeout, kill) while the loop runs: the run stops at the next
+    step, is written with status interrupted, the CLI exits 128 + the signal number."""
     import os
     import signal
 
     import vinecli.runs.mission as rm
 
+    sig = getattr(signal, signame)
+
     m = quick_mission(tmp_path, hold=30.0)
-    before = signal.getsignal(signal.SIGINT)
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     real_run = rm.run_mission
     sent = {"t": None}
 
@@ -226,7 +231,7 @@ def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_pat
                 user_progress(sim_t, wall_t)
             if sim_t >= 4.0 and sent["t"] is None:
                 sent["t"] = sim_t
-                os.kill(os.getpid(), signal.SIGINT)
+                os.kill(os.getpid(), sig)
 
         kw["progress"] = progress
         return real_run(*args, **kw)
@@ -234,12 +239,12 @@ def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_pat
     monkeypatch.setattr("vinecli.runs.run_mission", run_and_press_ctrl_c)
     out = tmp_path / "runs"
     r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out)])
-    assert r.exit_code == 130, r.output
+    assert r.exit_code == code, r.output
     s = json.loads((out / "quick-s0" / "summary.json").read_text())
-    assert s["status"] == "interrupted" and s["passed"] is False
+    assert s["status"] == "interrupted" and s["passed"] is False and signame in s["status_message"]
     assert sent["t"] is not None and sent["t"] <= s["sim_time_s"] < sent["t"] + 1.5
     assert pq.read_table(out / "quick-s0" / "timeseries.parquet").num_rows > 50
-    assert signal.getsignal(signal.SIGINT) is before  # the handler is restored
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before  # handlers restored
 
 
 def test_recheck_a_finished_run(flat_world: Path, tmp_path: Path) -> None:

@@ -66,7 +66,7 @@ def mission_cmd(
     Example: vinecli run mission pipelines/missions/takeoff.yaml --world build/vineyard --out runs
     """
     from vinecli.autopilot.px4_options import AutopilotOptions, px4_binary
-    from vinecli.errors import ChecksFailed, RuntimeFailure
+    from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
     from vinecli.missions.spec_io import read_mission
     from vinecli.runs import run_mission
 
@@ -92,7 +92,8 @@ def mission_cmd(
     out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
                       f"{summary.real_time_factor:.1f}x real time")
     if summary.status == "interrupted":
-        raise typer.Exit(130)
+        raise Interrupted(f"{summary.status_message}; the partial run is in {summary.run_dir}",
+                          signum=summary.stop_signal or 2)
     if summary.status == "error":
         raise RuntimeFailure(summary.status_message or "the run failed", path=summary.run_dir)
     if not summary.passed:

@@ -5,7 +5,8 @@ loads the world, resolves the run once (:func:`vinecli.sim.setup.prepare_run`: o
 rows, spray rates, spawn, URDF), makes the autopilot through the registry, runs THE loop
 (:func:`vinecli.sim.runner.simulate`), evaluates the checks and writes
 ``RUNS/<run_id>/`` atomically. Ctrl-C (SIGINT) while running stops the loop at the next step
-and the partial run is written with status ``interrupted``; a second Ctrl-C aborts at once.
+and the partial run is written with status ``interrupted``; a second Ctrl-C aborts at once. SIGTERM (a CI
+runner's timeout, ``kill``) does the same, so the partial run is kept; the CLI then exits 143 (130 for Ctrl-C).
 """
 
 from __future__ import annotations
@@ -65,6 +66,7 @@ class RunSummary:
     metrics: dict[str, float | None] = field(default_factory=dict)
     status_message: str = ""
     error: str | None = None
+    stop_signal: int = 0  # the signal that stopped the run (SIGINT 2, SIGTERM 15), 0 if none
 
     @property
     def failed_checks(self) -> list[dict[str, Any]]:
@@ -81,10 +83,11 @@ class RunSummary:
 
 
 class _StopFlag:
-    """SIGINT -> stop at the next step; wall-clock deadline; optional caller predicate."""
+    """SIGINT/SIGTERM -> stop at the next step; wall-clock deadline; optional caller predicate."""
 
     def __init__(self, deadline: float | None, extra: Callable[[], bool] | None) -> None:
         self.interrupted = False
+        self.signum = 0  # the signal that stopped the run (0: none)
         self.timed_out = False
         self.deadline = deadline
         self.extra = extra
@@ -206,6 +209,8 @@ def _run_prepared(
     status_message = result.detail or _status_message(result.status)
     if stop.timed_out and status == "interrupted":
         status_message = f"stopped: wall-clock limit of {wall_timeout_s:g} s reached"
+    elif stop.signum and status == "interrupted":
+        status_message = f"stopped by {signal.Signals(stop.signum).name}"
     failsafes = failsafes_from_events(result.events)
     if failsafes:
         status_message = f"{status_message} (failsafe: {describe_failsafes(failsafes)})"
@@ -302,7 +307,7 @@ def _run_prepared(
     return RunSummary(
         run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
         wall_time_s=round(wall, 4), real_time_factor=round(rtf, 3), checks=summary["checks"], metrics=metrics,
-        status_message=status_message,
+        status_message=status_message, stop_signal=stop.signum,
     )
 
 
@@ -330,28 +335,33 @@ def _num(v: Any) -> float | None:
 
 
 class _sigint_to_flag:
-    """Context manager: in the main thread, the first SIGINT sets ``flag.interrupted``; the second raises."""
+    """Context manager: in the main thread, the first SIGINT or SIGTERM sets ``flag.interrupted`` (and
+    ``flag.signum``); a second one raises KeyboardInterrupt (abort at once)."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self, flag: _StopFlag) -> None:
         self.flag = flag
-        self.old: Any = None
+        self.old: dict[int, Any] = {}
 
     def __enter__(self) -> None:
         if threading.current_thread() is not threading.main_thread():
             return
-        self.old = signal.getsignal(signal.SIGINT)
 
         def handler(signum: int, frame: Any) -> None:
             if self.flag.interrupted:
                 raise KeyboardInterrupt
-            log.warning("interrupt: stopping the run at the next step (Ctrl-C again to abort)")
+            log.warning("%s: stopping the run at the next step (again to abort)", signal.Signals(signum).name)
             self.flag.interrupted = True
+            self.flag.signum = signum
 
-        signal.signal(signal.SIGINT, handler)
+        for sig in self.SIGNALS:
+            self.old[sig] = signal.getsignal(sig)
+            signal.signal(sig, handler)
 
     def __exit__(self, *exc: object) -> None:
-        if self.old is not None:
-            signal.signal(signal.SIGINT, self.old)
+        for sig, old in self.old.items():
+            signal.signal(sig, old)
 
 
 def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = None) -> tuple[dict[str, Any], list[Any]]:
