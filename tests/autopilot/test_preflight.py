@@ -99,6 +99,25 @@ def test_spray_rows_are_planned_points() -> None:
     assert all(p.z_rel == pytest.approx(0.5 + 0.1 + 2.0 - 0.1) for p in pts[1:])  # 2 m over the terrain
 
 
+def test_spray_path_is_checked_as_flown_clipped_to_the_fence() -> None:
+    """With the vehicle's acceleration the spray phase's points are the path it flies: the rows clipped
+    to the fence (1 m margin) with headland turns - so rows that run past the fence do not block arming
+    (as the spray phase clips them), and every path point keeps the fence margin."""
+    rows = (((-2.0, -8.0), (-2.0, 8.0)), ((0.0, -8.0), (0.0, 8.0)), ((2.0, -8.0), (2.0, 8.0)))  # past y = +-5
+    fence = SQUARE.model_copy(update={"max_altitude_agl_m": 20.0})
+    mission = MissionSpec(name="m", phases=[{"type": "takeoff", "altitude_agl_m": 3.0},
+                                            {"type": "spray", "rows": "world", "height_agl_m": 2.0, "flow_lps": 0.01}])
+    home = (0.0, -3.0, 0.0)
+    raw = plan_points(mission, home, rows, lambda x, y: 0.0, 0.0)
+    fails = check_plan(raw, fence, home, (0.9, 1.5), None)
+    assert [f.check for f in fails] == ["geofence_plan"] and "row point" in fails[0].message
+    flown = plan_points(mission, home, rows, lambda x, y: 0.0, 0.0, fence=fence, accel_mps2=1.5)
+    assert check_plan(flown, fence, home, (0.9, 1.5), None) == []
+    spray = [p for p in flown if "path point" in p.label]
+    assert spray and max(abs(p.y) for p in spray) <= 4.0 + 1e-6  # clipped 1 m inside the fence
+    assert {round(p.x, 6) for p in spray} >= {-2.0, 0.0, 2.0}  # every row is flown
+
+
 def test_tilt_check() -> None:
     assert check_tilt(math.radians(29.0), vehicle()) is None
     f = check_tilt(math.radians(172.0), vehicle())

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from vinecli.autopilot.geofence import Geofence
 from vinecli.frames import Vec3
+from vinecli.rows.plan import plan_rows
 from vinecli.specs.mission import (
     GeofenceSpec,
     GotoPhase,
@@ -92,8 +93,12 @@ def check_spawn_fence(fence: GeofenceSpec | None, home: Vec3, margin_h: float) -
 
 
 def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[float, float]]],
-                terrain_height: Callable[[float, float], float] | None, landing_gear_m: float) -> list[PlanPoint]:
-    """The points the mission's phases fly to (z above home); spray rows at their height over the terrain."""
+                terrain_height: Callable[[float, float], float] | None, landing_gear_m: float, *,
+                fence: GeofenceSpec | None = None, accel_mps2: float | None = None) -> list[PlanPoint]:
+    """The points the mission's phases fly to (z above home). A spray phase contributes the path the
+    built-in spray phase flies: :func:`~vinecli.rows.plan.plan_rows` over its rows from where the vehicle
+    is, clipped to ``fence`` and with headland turns for ``accel_mps2`` (its rows' points when no
+    acceleration is given), each at the spray height over the terrain."""
     pts: list[PlanPoint] = []
     x, y, z = home[0], home[1], 0.0
     for i, ph in enumerate(mission.phases):
@@ -115,13 +120,17 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
             x, y = home[0], home[1]
             pts.append(PlanPoint(label, x, y, z))
         elif isinstance(ph, SprayPhase):
-            sel = phase_rows(ph, rows)
-            for r in sel:
-                for px, py in ((float(a), float(b)) for a, b in r):
-                    ground = terrain_height(px, py) + landing_gear_m if terrain_height is not None else home[2]
-                    pts.append(PlanPoint(f"{label} row point", px, py, ground + ph.height_agl_m - home[2]))
-            if sel and sel[-1]:
-                x, y = sel[-1][-1]
+            sel = [[(float(a), float(b)) for a, b in r] for r in phase_rows(ph, rows)]
+            what, path = "row point", [p for r in sel for p in r]
+            if accel_mps2 is not None and sel:
+                polygon = fence.polygon_enu if fence is not None and fence.polygon_enu else None
+                plan = plan_rows(sel, (x, y), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=polygon)
+                what, path = "path point", plan.path(0.0)[0]
+            for px, py in path:
+                ground = terrain_height(px, py) + landing_gear_m if terrain_height is not None else home[2]
+                pts.append(PlanPoint(f"{label} {what}", px, py, ground + ph.height_agl_m - home[2]))
+            if path:
+                x, y = path[-1]
     return pts
 
 

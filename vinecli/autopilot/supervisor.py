@@ -57,6 +57,7 @@ from vinecli.autopilot.preflight import (
 )
 from vinecli.control.cascade import Cascade, G
 from vinecli.frames import QuatXYZW, Vec3, quat_to_euler, tilt_angle
+from vinecli.rows.plan import plan_accel
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import Event, ServiceRequest
 
@@ -122,7 +123,8 @@ class FlightSupervisor:
         spawn = check_spawn_fence(ctx.geofence, self.home, margins[0])
         if spawn is not None:
             out.append(spawn)
-        pts = plan_points(ctx.mission, self.home, ctx.vine_rows_enu, self.terrain, v.frame.landing_gear_height_m)
+        pts = plan_points(ctx.mission, self.home, ctx.vine_rows_enu, self.terrain, v.frame.landing_gear_height_m,
+                          fence=ctx.geofence, accel_mps2=plan_accel(v))
         out += check_plan(pts, ctx.geofence, self.home, margins, ctx.terrain_bounds)
         return out
 
