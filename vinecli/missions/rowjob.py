@@ -133,6 +133,9 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     nozzle = vehicle_nozzle_flow_lps(veh)
     tank = tank_l if tank_l is not None else (veh.tank.capacity_l if veh.tank is not None else 0.0)
     job = RowsJob(rows, det, plan, 1, warnings=list(plan.warnings))
+    # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
+    # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
+    # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
     job.files.append(out)
     gj = out.with_name("rows.geojson")
