@@ -44,6 +44,22 @@ def write_json(path: Path, data: Any) -> None:
     path.write_text(json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n", encoding="utf-8")
 
 
+def write_text_atomic(path: Path | str, text: str) -> None:
+    """Write ``text`` (UTF-8) to the file ``path`` atomically: a temporary sibling, then a rename.
+
+    On an OSError the temporary file is removed and OutputError (exit 2, ``cannot write: ...``) is
+    raised; ``path`` is then left as it was.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+
+
 def jsonable(obj: Any) -> Any:
     """Recursively convert numpy scalars/arrays, Paths and non-finite floats to JSON types."""
     if isinstance(obj, Mapping):

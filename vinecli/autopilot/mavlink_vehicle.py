@@ -81,8 +81,8 @@ class MavlinkControlledAutopilot:
                  instance: int = 0, local_port: int | None = None, truth: bool | None = None, link: Link | None = None,
                  pace: bool = True) -> None:
         self.scheme, host, port = parse_endpoint(url)
-        if link is None:
-            checked_address(host, allow_remote)  # resolved and checked as an IP now, not at reset
+        # the one address check: resolved and checked as an IP now (not at reset); the link opens on this IP
+        self.ip = checked_address(host, allow_remote) if link is None else None
         if local_port is not None and self.scheme not in ("udp", "udpout"):
             raise InputError(f"--mavlink {url}: --mavlink-port (vinecli's own port) applies to udp:/udpout: only")
         self.allow_remote = allow_remote
@@ -123,7 +123,8 @@ class MavlinkControlledAutopilot:
         if self._given_link is not None:
             self.link = self._given_link
         else:
-            self.link = open_vehicle_link(self.url, allow_remote=self.allow_remote, local_port=self.local_port,
+            assert self.ip is not None  # checked in __init__
+            self.link = open_vehicle_link(self.scheme, self.ip, self.port, local_port=self.local_port,
                                           instance=self.instance, src_system=self.instance + 1, src_component=1)
         self.endpoint = VehicleEndpoint(self.link, self, params, sysid=self.instance + 1)
         self.endpoint.missions[0] = list(items)

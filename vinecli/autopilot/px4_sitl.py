@@ -280,15 +280,15 @@ class Px4SitlAutopilot:
         if mc is not None:
             mc.sim_time_us = obs.t_us
             self._poll_mission(obs.t_us)
-        cmd = self._command()
-        self._watch_saturation(obs)
+        u = [_unit(self.controls[ch]) for ch in self.channels]  # the motor outputs, clamped once
+        cmd = self._command(u)
+        self._watch_saturation(obs, u)
         return cmd
 
-    def _watch_saturation(self, obs: Observation) -> None:
-        """``cannot_take_off`` (see :mod:`vinecli.autopilot.px4_takeoff`)."""
+    def _watch_saturation(self, obs: Observation, u: list[float]) -> None:
+        """``cannot_take_off`` (see :mod:`vinecli.autopilot.px4_takeoff`) from the motor outputs ``u`` (0..1)."""
         if self._status.status is not RunStatus.RUNNING:
             return
-        u = [min(max(self.controls[ch], 0.0), 1.0) if self.controls[ch] == self.controls[ch] else 0.0 for ch in self.channels]
         why = self._takeoff.update(obs.t_us, self.dt_us * 1e-6, self.armed, obs.truth.pos[2], obs.truth.vel[2], u)
         if why:
             st = self._status
@@ -344,19 +344,13 @@ class Px4SitlAutopilot:
                 f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * self.step_timeout_s:.1f} s)"
                 + self._px4_log())
 
-    def _command(self) -> ActuatorCommand:
-        c = self.controls
+    def _command(self, u: list[float]) -> ActuatorCommand:
+        """Rotor speeds from the motor outputs ``u`` (0..1, one per rotor), the sprayer from its channel."""
         if not self.armed:
             return ActuatorCommand((0.0,) * len(self.channels), 0.0, False)
         span = self.w_max - self.w_min
-        w = []
-        for ch in self.channels:
-            u = c[ch]
-            u = 0.0 if not u > 0.0 else (1.0 if u > 1.0 else u)  # NaN -> 0
-            w.append(self.w_min + u * span)
-        us = c[self.spray_ch]
-        us = 0.0 if not us > 0.0 else (1.0 if us > 1.0 else us)
-        return ActuatorCommand(tuple(w), us * self.nozzle, True)
+        w = [self.w_min + ui * span for ui in u]
+        return ActuatorCommand(tuple(w), _unit(self.controls[self.spray_ch]) * self.nozzle, True)
 
     def _send_sensors(self, t: int, obs: Observation) -> None:
         link = self.link
@@ -454,6 +448,11 @@ class Px4SitlAutopilot:
         if self._instance_lock is not None:
             self._instance_lock.release()
             self._instance_lock = None
+
+
+def _unit(u: float) -> float:
+    """A PX4 actuator output clamped to [0, 1] (NaN -> 0)."""
+    return 0.0 if not u > 0.0 else (1.0 if u > 1.0 else u)
 
 
 def _i16(x: float) -> int:

@@ -327,16 +327,15 @@ class FlightSupervisor:
                 self._on_geofence(viol)
                 if self._status.status is not RunStatus.RUNNING:
                     return False
-        soc = self.battery_soc
-        if soc == soc and self.armed and self.airborne and self.vehicle.battery is not None:  # NaN: no battery model
-            self._check_battery(soc)
+        self._check_battery()
         return True
 
-    def _check_battery(self, soc: float) -> None:
+    def _check_battery(self) -> None:
         """PX4 BAT_CRIT_THR / BAT_EMERGEN_THR: return to launch at the critical state of charge, land
-        where it is at the emergency one (each once per flight; a return or landing in progress goes on)."""
-        b = self.vehicle.battery
-        if b is None:
+        where it is at the emergency one (each once per flight; a return or landing in progress goes on).
+        Only armed and airborne, with a battery model (the vehicle has a battery and the state of charge is not NaN)."""
+        b, soc = self.vehicle.battery, self.battery_soc
+        if b is None or soc != soc or not (self.armed and self.airborne):
             return
         level = 2 if soc < b.emergency_soc else 1 if soc < b.critical_soc else 0  # a level of 0 is off
         if level <= self._battery_level:

@@ -263,24 +263,18 @@ class TcpClientGcsLink(Link):
                 s.close()
 
 
-def open_vehicle_link(url: str, *, allow_remote: bool, local_port: int | None, instance: int = 0,
+def open_vehicle_link(scheme: str, ip: str, port: int, *, local_port: int | None, instance: int = 0,
                       src_system: int = 1, src_component: int = 1) -> Link:
-    """The vehicle's link for ``--mavlink URL`` (module docstring); InputError for bad or remote addresses."""
-    from vinecli.mavlink.link import parse_endpoint
-
-    scheme, host, port = parse_endpoint(url)
-    ip = checked_address(host, allow_remote)
+    """The vehicle's link for ``--mavlink SCHEME:HOST:PORT`` (module docstring), opened on ``ip``: HOST as
+    :func:`checked_address` returned it. The caller checks the URL (that one place gives the error
+    messages): ``ip`` loopback unless remote is allowed, ``local_port`` only with udp:/udpout:."""
     ids = {"src_system": src_system, "src_component": src_component}
     local_any = "0.0.0.0" if not ipaddress.IPv4Address(ip).is_loopback else "127.0.0.1"
     if scheme == "udpin":
-        if local_port is not None:
-            raise InputError(f"--mavlink {url}: udpin binds {host}:{port} itself; --mavlink-port applies to udp:/udpout:")
         return MultiPeerUdpLink((ip, port), None, **ids)
     if scheme in ("udp", "udpout"):
         default = 14580 + instance if scheme == "udp" else 0
         return MultiPeerUdpLink((local_any, default if local_port is None else local_port), (ip, port), **ids)
-    if local_port is not None:
-        raise InputError(f"--mavlink {url}: --mavlink-port applies to udp:/udpout: only")
     if scheme == "tcpin":
         return TcpServerGcsLink((ip, port), **ids)
     return TcpClientGcsLink((ip, port), **ids)

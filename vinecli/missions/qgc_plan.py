@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -42,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
 from vinecli.names import check_name, name_from
+from vinecli.outputs import write_text_atomic
 from vinecli.specs import format_validation_error
 from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import (
@@ -499,13 +499,4 @@ def export_plan(
 
 def write_plan(path: Path | str, plan: dict[str, Any]) -> None:
     """Write a .plan atomically (temporary file, then rename)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(json.dumps(plan, indent=4) + "\n", encoding="utf-8")
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        from vinecli.errors import OutputError
-
-        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+    write_text_atomic(path, json.dumps(plan, indent=4) + "\n")

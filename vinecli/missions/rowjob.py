@@ -14,13 +14,13 @@ the detector on the world's height grid; fence: the world's geofence, else its t
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from vinecli.errors import InputError, OutputError
+from vinecli.errors import InputError
+from vinecli.outputs import write_text_atomic
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
 from vinecli.rows.source import RowFrame, rows_geojson
@@ -40,16 +40,6 @@ class RowsJob:
     sorties: int
     files: list[Path] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
-
-
-def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
 
 
 def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple[float, float]]:
@@ -143,10 +133,13 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     nozzle = vehicle_nozzle_flow_lps(veh)
     tank = tank_l if tank_l is not None else (veh.tank.capacity_l if veh.tank is not None else 0.0)
     job = RowsJob(rows, det, plan, 1, warnings=list(plan.warnings))
+    # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
+    # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
+    # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
     job.files.append(out)
     gj = out.with_name("rows.geojson")
-    _write_text(gj, json.dumps(rows_geojson(rows, frame)) + "\n")
+    write_text_atomic(gj, json.dumps(rows_geojson(rows, frame)) + "\n")
     job.files.append(gj)
     sorties = split_sorties(plan, flow, tank) if tank > 0 else [plan.legs]
     job.sorties = len(sorties)

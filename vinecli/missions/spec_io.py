@@ -17,6 +17,7 @@ import yaml
 
 from vinecli.errors import SpecError
 from vinecli.missions.quantities import check_quantities
+from vinecli.outputs import write_text_atomic
 from vinecli.specs import read_yaml, resolve_base, validate_spec
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
@@ -119,15 +120,4 @@ def dump_mission(mission: MissionSpec) -> str:
 
 def write_mission(path: Path | str, mission: MissionSpec) -> None:
     """Write a mission YAML atomically (temporary file, then rename)."""
-    import os
-
-    from vinecli.errors import OutputError
-
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(dump_mission(mission), encoding="utf-8")
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+    write_text_atomic(path, dump_mission(mission))

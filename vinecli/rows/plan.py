@@ -251,12 +251,11 @@ def plan_rows(
     fence_margin_m: float = 1.0,
     fence_name: str = "geofence",
     terrain_bounds: tuple[float, float, float, float] | None = None,
-    transit_speed_mps: float | None = None,
     climb: tuple[float, float, float] | None = None,
 ) -> RowPlan:
     """Operator-style plan over ``rows`` (ENU polylines, indices kept) from ``start_xy``; see the module
     docstring. ``climb`` = (altitude m, climb speed m/s, descent speed m/s) adds take-off and landing
-    time to the estimate; ``transit_speed_mps`` (default: ``speed_mps``) for the flight to the first row."""
+    time to the estimate."""
     from shapely.geometry import LineString, Point, Polygon, box
 
     v, a = float(speed_mps), float(accel_mps2)
@@ -299,8 +298,7 @@ def plan_rows(
         legs.append(Leg(seq, True, i, "row"))
         pos = seq[-1]
     plan = RowPlan(legs, v, a, warnings)
-    vt = transit_speed_mps or v
-    t = sum(_leg_time(leg, vt if leg.kind == "transit" else v, a) for leg in legs)
+    t = sum(_leg_time(leg, v, a) for leg in legs)
     if climb is not None:
         alt, up, down = climb
         t += alt / up + alt / down

@@ -67,12 +67,15 @@ def _enu_to_crs_affine(origin: Any, crs: Any) -> tuple[float, float, float, floa
 
 
 def write_deposition(out_dir: Path, dep: Any, world: Any, crs: Any, doc: dict[str, Any]) -> None:
-    """Write ``deposition.tif`` and ``deposition.json`` into ``out_dir``."""
+    """Write ``deposition.tif`` and ``deposition.json`` into ``out_dir``; the JSON is ``doc`` (of
+    :func:`evaluate_deposition`) with ``totals.max_rate_lpha`` and ``geotiff`` filled in."""
     import rasterio
     from rasterio.transform import Affine
 
     g = dep.grid
-    rate = np.flipud(dep.rate_lpha()).astype(np.float32)  # row 0 = north
+    rate_lpha = dep.rate_lpha()
+    max_rate = float(np.nanmax(rate_lpha)) if dep.volume_l.size else 0.0
+    rate = np.flipud(rate_lpha).astype(np.float32)  # row 0 = north
     rate = np.where(np.isfinite(rate), rate, np.float32(NODATA)).astype(np.float32)
     # pixel (col, row) -> ENU: e = x0 + col cell, n = y_top - row cell
     y_top = g.y0 + g.ny * g.cell
@@ -94,8 +97,9 @@ def write_deposition(out_dir: Path, dep: Any, world: Any, crs: Any, doc: dict[st
         ds.write(rate, 1)
         ds.update_tags(**tags)
         ds.set_band_description(1, "application rate L/ha")
-    doc = {**doc, "geotiff": {"file": DEPOSITION_TIF, "crs": crs.to_string() if crs is not None else None,
-                              "transform": list(transform)[:6], "nodata": NODATA, "units": "L/ha"}}
+    doc = {**doc, "totals": {**doc["totals"], "max_rate_lpha": max_rate},
+           "geotiff": {"file": DEPOSITION_TIF, "crs": crs.to_string() if crs is not None else None,
+                       "transform": list(transform)[:6], "nodata": NODATA, "units": "L/ha"}}
     (out_dir / DEPOSITION_JSON).write_text(json.dumps(_clean(doc), indent=1, allow_nan=False), encoding="utf-8")
 
 
@@ -116,7 +120,8 @@ def _clean(v: Any) -> Any:
 
 def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world: Any,
                         rows: list[list[tuple[float, float]]], fence: Any) -> tuple[dict[str, float], dict[str, Any]]:
-    """(summary metrics, deposition.json document) of one run's deposition."""
+    """(summary metrics, deposition.json document) of one run's deposition (:func:`write_deposition` adds
+    the raster's figures: ``totals.max_rate_lpha``, ``geotiff``)."""
     phase = next((p for p in spec.phases if isinstance(p, SprayPhase)), None)
     nominal = nominal_rate_lpha(phase, vehicle, rows) if phase is not None else math.nan
     swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
@@ -134,8 +139,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
         "units": {"rate": "L/ha", "volume": "L", "length": "m", "frame": "world ENU"},
         "grid": {**dep.grid.to_dict(), "row0": "south"},
         "totals": {"emitted_l": dep.emitted_l, "on_grid_l": dep.on_grid_l, "off_grid_l": dep.off_grid_l,
-                   "balance_error": dep.balance_error, "max_rate_lpha": float(np.nanmax(dep.rate_lpha()))
-                   if dep.volume_l.size else 0.0},
+                   "balance_error": dep.balance_error},  # + max_rate_lpha: write_deposition
         "spray_phase": None if phase is None else {"flow_lps": flow, "rate_lpha": nominal, "swath_m": swath,
                                                    "speed_mps": phase.speed_mps, "height_agl_m": phase.height_agl_m,
                                                    "rate_given": phase.rate_lpha is not None},
