@@ -114,6 +114,8 @@ def test_spray_path_is_checked_as_flown_clipped_to_the_fence() -> None:
     flown = plan_points(mission, home, rows, lambda x, y: 0.0, 0.0, fence=fence, accel_mps2=1.5)
     assert check_plan(flown, fence, home, (0.9, 1.5), None) == []
     spray = [p for p in flown if "path point" in p.label]
+    turns = [p for p in flown if p.turn]
+    assert turns and all("turn" in p.label or "transit" in p.label for p in turns)
     assert spray and max(abs(p.y) for p in spray) <= 4.0 + 1e-6  # clipped 1 m inside the fence
     assert {round(p.x, 6) for p in spray} >= {-2.0, 0.0, 2.0}  # every row is flown
 

@@ -68,7 +68,7 @@ def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
                    {"name": "drain", "quantity": "metric:drain_time_ratio", "op": "between", "bound": [0.98, 1.02]}],
     }))
     s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=2)
-    assert s.passed, s.checks
+    assert s.passed, (s.status, s.status_message, [(c["name"], c["value"], c["passed"]) for c in s.checks])
     summ = json.loads((Path(s.run_dir) / "summary.json").read_text())
     rows = summ["world"]["rows_enu"]
     assert rows == wj["vine_rows_enu"]  # the run flies the rows world build found

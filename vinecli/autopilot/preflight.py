@@ -58,6 +58,9 @@ class PlanPoint:
     x: float
     y: float
     z_rel: float
+    #: a headland turn or transit of a spray plan: checked against the fence only, since turns may run a
+    #: little past the mapped terrain's edge (flown at the edge's height)
+    turn: bool = False
 
 
 def fence_margins_m(vehicle: VehicleSpec, *, truth: bool = False) -> tuple[float, float]:
@@ -121,29 +124,31 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
             pts.append(PlanPoint(label, x, y, z))
         elif isinstance(ph, SprayPhase):
             sel = [[(float(a), float(b)) for a, b in r] for r in phase_rows(ph, rows)]
-            what, path = "row point", [p for r in sel for p in r]
+            path = [(p, "row point", False) for r in sel for p in r]
             if accel_mps2 is not None and sel:
                 polygon = fence.polygon_enu if fence is not None and fence.polygon_enu else None
                 plan = plan_rows(sel, (x, y), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=polygon)
-                what, path = "path point", plan.path(0.0)[0]
-            for px, py in path:
+                path = [(p, "path point" if leg.spray else f"{leg.kind} point", not leg.spray)
+                        for leg in plan.legs for p in leg.points]
+            for (px, py), what, turn in path:
                 ground = terrain_height(px, py) + landing_gear_m if terrain_height is not None else home[2]
-                pts.append(PlanPoint(f"{label} {what}", px, py, ground + ph.height_agl_m - home[2]))
+                pts.append(PlanPoint(f"{label} {what}", px, py, ground + ph.height_agl_m - home[2], turn))
             if path:
-                x, y = path[-1]
+                x, y = path[-1][0]
     return pts
 
 
 def check_plan(points: Sequence[PlanPoint], fence: GeofenceSpec | None, home: Vec3, margins: tuple[float, float],
                terrain_bounds: tuple[float, float, float, float] | None) -> list[PreflightFailure]:
-    """Every planned point inside the fence by the margins and over the mapped terrain (first failure of each kind)."""
+    """Every planned point inside the fence by the margins and, but for the turns of a spray plan, over the
+    mapped terrain (first failure of each kind)."""
     out: list[PreflightFailure] = []
     if terrain_bounds is not None:
         tol = TERRAIN_EDGE_TOLERANCE_M
         xmin, ymin, xmax, ymax = terrain_bounds
         xmin, ymin, xmax, ymax = xmin - tol, ymin - tol, xmax + tol, ymax + tol
         for p in points:
-            if not (xmin <= p.x <= xmax and ymin <= p.y <= ymax):
+            if not p.turn and not (xmin <= p.x <= xmax and ymin <= p.y <= ymax):
                 out.append(PreflightFailure(
                     "plan_off_terrain", 0.0, 0.0,
                     f"preflight check 'plan_off_terrain': {p.label} at ({p.x:.2f}, {p.y:.2f}) is outside the terrain "
