@@ -1,8 +1,9 @@
 """The unit of work of a batch: ``run_one(RunSpec) -> CaseResult``.
 
 ``run_one`` is a top-level, picklable function executed in worker processes (local process
-pool or Dask workers). It opens its own PyBullet client (through the simulation loop), never
-raises, and returns a small :class:`CaseResult`. A stop of a local pool (its shared flag or a SIGTERM to the
+pool or Dask workers). A worker keeps one PyBullet client with its world's terrain loaded from one
+case to the next (:func:`vinecli.world.engine.reuse_terrain_engines`), never raises, and returns a
+small :class:`CaseResult`. A stop of a local pool (its shared flag or a SIGTERM to the
 worker, :mod:`vinecli.batch.signals`) ends the run at the next step, written with status ``interrupted``.
 """
 
@@ -66,6 +67,9 @@ def run_one(spec: RunSpec) -> CaseResult:
     try:
         from vinecli.runs.mission import run_mission
         from vinecli.specs.mission import MissionSpec
+        from vinecli.world.engine import reuse_terrain_engines
+
+        reuse_terrain_engines()  # a worker keeps its world's terrain loaded from one case to the next
 
         mission = MissionSpec.model_validate(spec.mission)
         s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,

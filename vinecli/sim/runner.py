@@ -208,7 +208,7 @@ def simulate(
     from vinecli.physics.battery import Battery
     from vinecli.physics.tank import Tank
     from vinecli.physics.wind import make_wind
-    from vinecli.world.engine import Engine
+    from vinecli.world.engine import terrain_engine
 
     if wall0 is None:
         wall0 = time.perf_counter()
@@ -219,9 +219,7 @@ def simulate(
     sp = run.spawn
     pos0, quat0 = sp.position_enu, sp.quat_xyzw
 
-    engine = Engine(rate_hz=run.physics_rate_hz, gravity=run.gravity)
-    try:
-        engine.load_terrain(run.world.terrain)
+    with terrain_engine(run.world.terrain, rate_hz=run.physics_rate_hz, gravity=run.gravity) as engine:
         if not sp.airborne:
             # place the skids exactly on the loaded collision surface (the grid can differ from a
             # mesh by its max error): highest ray hit under the collision box + SPAWN_GAP_M
@@ -242,8 +240,6 @@ def simulate(
         engine.client.performCollisionDetection()  # contacts are known at t = 0
         plant = _Plant(engine, body, tank, battery, wind, home, settle_s)
         return _loop(run, plant, autopilot, seed, on_progress, should_stop, wall0)
-    finally:
-        engine.close()
 
 
 def _raiser(exc: AutopilotError) -> Callable[[Observation], ActuatorCommand]:

@@ -22,6 +22,9 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -164,6 +167,13 @@ class Engine:
         c.changeDynamics(body, -1, ccdSweptSphereRadius=ccd_radius)
         return body
 
+    def remove_vehicle(self) -> None:
+        """Remove the vehicle body (the terrain stays loaded for the next run)."""
+        if self.vehicle >= 0:
+            self.client.removeBody(self.vehicle)
+            self.vehicle = -1
+            self.n_links = 0
+
     def reset_vehicle(self, pos: Vec3, quat: QuatXYZW, vel: Vec3, omega_world: Vec3) -> None:
         """Teleport the vehicle (m ENU, FLU -> ENU) and set its velocities (m/s, rad/s world)."""
         c = self.client
@@ -247,6 +257,72 @@ class Engine:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class _TerrainEngines(threading.local):
+    """At most one kept engine per thread (Dask may run cases in threads), for the terrain it was last
+    asked for (see :func:`terrain_engine`)."""
+
+    def __init__(self) -> None:
+        self.enabled = False
+        self.key: tuple[object, ...] | None = None
+        self.engine: Engine | None = None
+
+    def drop(self) -> None:
+        if self.engine is not None:
+            self.engine.close()
+        self.key, self.engine = None, None
+
+
+_KEPT = _TerrainEngines()
+
+
+def reuse_terrain_engines(enabled: bool = True) -> None:
+    """Keep the engine of the last terrain in this thread across runs (batch workers: a case on the same
+    world skips connecting PyBullet and loading its tiles). Runs stay bit-identical to fresh engines: the
+    engine is created with ``deterministicOverlappingPairs`` and only the vehicle body is removed between
+    runs (checked against fresh engines in tests/sim/test_engine_reuse.py)."""
+    _KEPT.enabled = enabled
+    if not enabled:
+        _KEPT.drop()
+
+
+def _terrain_key(terrain: TerrainInfo, rate_hz: float, gravity: float) -> tuple[object, ...]:
+    """What makes a loaded terrain the same one: its kind, files (with size and mtime), offset, flat height,
+    the grid's geometry, the step rate and gravity."""
+    files = tuple((str(f), f.stat().st_size, f.stat().st_mtime_ns) for f in terrain.files if f.exists())
+    g = terrain.grid
+    grid = None if g is None else (g.x0, g.y0, g.dx, g.dy, g.z.shape, float(g.z.sum()))
+    return (terrain.kind, files, tuple(terrain.offset), terrain.flat_z, grid, rate_hz, gravity)
+
+
+@contextmanager
+def terrain_engine(terrain: TerrainInfo, *, rate_hz: float, gravity: float) -> Iterator[Engine]:
+    """An engine with ``terrain`` loaded, for one run. Closed afterwards, unless
+    :func:`reuse_terrain_engines` is on: then the same engine serves the next run on the same terrain
+    (its vehicle removed after each run); a run that fails drops it."""
+    if not _KEPT.enabled:
+        with Engine(rate_hz=rate_hz, gravity=gravity) as engine:
+            engine.load_terrain(terrain)
+            yield engine
+        return
+    key = _terrain_key(terrain, rate_hz, gravity)
+    if _KEPT.key != key or _KEPT.engine is None:
+        _KEPT.drop()
+        engine = Engine(rate_hz=rate_hz, gravity=gravity)
+        try:
+            engine.load_terrain(terrain)
+        except BaseException:
+            engine.close()
+            raise
+        _KEPT.key, _KEPT.engine = key, engine
+    engine = _KEPT.engine
+    try:
+        yield engine
+    except BaseException:
+        _KEPT.drop()
+        raise
+    engine.remove_vehicle()
 
 
 def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
