@@ -3,7 +3,8 @@
 Models on: motor lag + thrust/torques, rotor drag and rolling moment, per-link wind drag,
 Dryden turbulence (moderate) on a mean wind, tank draining at 0.05 L/s, IMU/baro/mag/GNSS
 (depth camera off). The autopilot is a minimal hover PD controller on the truth (~3 µs per step),
-so the figure is essentially the loop's own cost. Reported:
+so the figure is essentially the loop's own cost (the CI missions with the built-in autopilot and its
+estimator, against the PyBullet floor and per part: ``benchmarks/loop_parts.py``). Reported:
 
 * real-time factor of ``run_simulation`` (simulated s per wall s, loop only) and µs per step, also
   in process CPU time (what the loop would take on an otherwise idle core: the machine is shared);
