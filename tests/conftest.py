@@ -24,3 +24,11 @@ def repo() -> Path:
 def test_data() -> Path:
     """tests/data (small committed fixtures with attribution)."""
     return TEST_DATA
+
+
+@pytest.fixture(scope="session")
+def flat_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
+    """worlds/flat.yaml built once per session (read-only: tests write their runs elsewhere)."""
+    from vinecli.world import build_world
+
+    return build_world(repo / "worlds" / "flat.yaml", tmp_path_factory.mktemp("w") / "flat")

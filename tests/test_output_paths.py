@@ -44,15 +44,6 @@ def tree(root: Path) -> set[str]:
     return {p.relative_to(root).as_posix() for p in root.rglob("*")}
 
 
-@pytest.fixture(scope="module")
-def flat_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
-
-
 @pytest.mark.parametrize("bad", ["../escaped", "/tmp/abs", "a/b", "..", ".hidden", "-rf", "a\x1bb", "tab\tx",
                                  "", "x" * 200])
 def test_unsafe_names_are_refused(bad: str) -> None:
@@ -83,11 +74,11 @@ def test_contained_path_refuses_escapes(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("run_id", ["../escaped", "/tmp/vinecli-abs-run", "a\nb"])
-def test_run_id_outside_out_is_refused(flat_world: Path, tmp_path: Path, run_id: str) -> None:
+def test_run_id_outside_out_is_refused(flat_world_dir: Path, tmp_path: Path, run_id: str) -> None:
     m = tmp_path / "m.yaml"
     m.write_text(MISSION.format(name="quick"))
     before = tree(tmp_path)
-    r = runner.invoke(app, ["run", "mission", str(m), "-w", str(flat_world), "--out", str(tmp_path / "runs"),
+    r = runner.invoke(app, ["run", "mission", str(m), "-w", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                             "--run-id", run_id])
     assert r.exit_code == 2, r.output
     assert "run id" in one_error_line(r)
@@ -95,32 +86,32 @@ def test_run_id_outside_out_is_refused(flat_world: Path, tmp_path: Path, run_id:
     assert not Path("/tmp/vinecli-abs-run").exists()
 
 
-def test_mission_name_with_a_path_is_refused(flat_world: Path, tmp_path: Path) -> None:
+def test_mission_name_with_a_path_is_refused(flat_world_dir: Path, tmp_path: Path) -> None:
     victim = tmp_path / "victim-s0"
     victim.mkdir()
     (victim / "keep.txt").write_text("precious")
     m = tmp_path / "m.yaml"
     m.write_text(MISSION.format(name="../victim"))
-    r = runner.invoke(app, ["run", "mission", str(m), "-w", str(flat_world), "--out", str(tmp_path / "runs")])
+    r = runner.invoke(app, ["run", "mission", str(m), "-w", str(flat_world_dir), "--out", str(tmp_path / "runs")])
     assert r.exit_code == 2
     assert "name" in one_error_line(r) and str(m) in one_error_line(r)
     assert (victim / "keep.txt").read_text() == "precious"
 
 
-def test_pipeline_case_name_with_a_path_is_refused(flat_world: Path, tmp_path: Path) -> None:
+def test_pipeline_case_name_with_a_path_is_refused(flat_world_dir: Path, tmp_path: Path) -> None:
     (tmp_path / "m.yaml").write_text(MISSION.format(name="quick"))
     p = tmp_path / "p.yaml"
-    p.write_text(f"name: p\nworld: {flat_world}\nmissions: [{{mission: m.yaml, name: ../../evil}}]\n")
+    p.write_text(f"name: p\nworld: {flat_world_dir}\nmissions: [{{mission: m.yaml, name: ../../evil}}]\n")
     r = runner.invoke(app, ["run", "batch", str(p), "--out", str(tmp_path / "runs")])
     assert r.exit_code == 2
     assert "missions.0.name" in one_error_line(r)
     assert not (tmp_path / "runs").exists()
 
 
-def test_run_mission_refuses_an_existing_run_without_overwrite(flat_world: Path, tmp_path: Path) -> None:
+def test_run_mission_refuses_an_existing_run_without_overwrite(flat_world_dir: Path, tmp_path: Path) -> None:
     m = tmp_path / "m.yaml"
     m.write_text(MISSION.format(name="quick"))
-    args = ["run", "mission", str(m), "-w", str(flat_world), "--out", str(tmp_path / "runs")]
+    args = ["run", "mission", str(m), "-w", str(flat_world_dir), "--out", str(tmp_path / "runs")]
     assert runner.invoke(app, args).exit_code in (0, 1)
     first = (tmp_path / "runs" / "quick-s0" / "summary.json").read_bytes()
     r = runner.invoke(app, args)
@@ -185,13 +176,13 @@ def test_check_output_target_refuses_inputs(tmp_path: Path) -> None:
     check_output_target(tmp_path / "in" / "report", inputs=[tmp_path / "in" / "a.yaml"])
 
 
-def test_batch_case_dir_never_replaces_its_mission(flat_world: Path, tmp_path: Path) -> None:
+def test_batch_case_dir_never_replaces_its_mission(flat_world_dir: Path, tmp_path: Path) -> None:
     """A case named like the folder holding its mission, with --out at the pipeline: the case errors, the
     mission survives."""
     (tmp_path / "missions").mkdir()
     (tmp_path / "missions" / "m.yaml").write_text(MISSION.format(name="quick"))
     p = tmp_path / "p.yaml"
-    p.write_text(f"name: p\nworld: {flat_world}\nmissions: [{{mission: missions/m.yaml, name: missions}}]\n")
+    p.write_text(f"name: p\nworld: {flat_world_dir}\nmissions: [{{mission: missions/m.yaml, name: missions}}]\n")
     r = runner.invoke(app, ["run", "batch", str(p), "--out", str(tmp_path)])
     assert r.exit_code == 3
     assert (tmp_path / "missions" / "m.yaml").read_text() == MISSION.format(name="quick")

@@ -14,7 +14,6 @@ from contextlib import suppress
 from pathlib import Path
 
 import pytest
-from repo_paths import REPO
 
 import vinecli
 
@@ -31,15 +30,6 @@ phases:
   - {{type: hold, duration_s: {hold}}}
   - {{type: land}}
 """
-
-
-@pytest.fixture(scope="module")
-def flat_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
 
 
 def pipeline(d: Path, world: Path, *, hold: float, n: int = 3) -> Path:
@@ -93,9 +83,9 @@ def simulating(pid: int) -> bool:
 
 
 @pytest.mark.parametrize(("signum", "code"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
-def test_signal_stops_workers_and_writes_interrupted_runs(flat_world: Path, tmp_path: Path, signum: int,
+def test_signal_stops_workers_and_writes_interrupted_runs(flat_world_dir: Path, tmp_path: Path, signum: int,
                                                           code: int) -> None:
-    p = pipeline(tmp_path, flat_world, hold=600.0)
+    p = pipeline(tmp_path, flat_world_dir, hold=600.0)
     runs = tmp_path / "runs"
     proc = subprocess.Popen(vinecli_cmd("run", "batch", str(p), "--out", str(runs), "--jobs", "2"), env=env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
@@ -142,8 +132,8 @@ def _signal_and_check(proc: subprocess.Popen[str], runs: Path, signum: int, code
     assert not (runs / not_run[0]["run_id"]).exists()
 
 
-def test_resume_reruns_a_run_whose_files_fail_the_manifest(flat_world: Path, tmp_path: Path) -> None:
-    p = pipeline(tmp_path, flat_world, hold=0.5, n=2)
+def test_resume_reruns_a_run_whose_files_fail_the_manifest(flat_world_dir: Path, tmp_path: Path) -> None:
+    p = pipeline(tmp_path, flat_world_dir, hold=0.5, n=2)
     runs = tmp_path / "runs"
     first = subprocess.run(vinecli_cmd("run", "batch", str(p), "--out", str(runs)), env=env(), capture_output=True,
                            text=True, timeout=300)

@@ -8,7 +8,6 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from repo_paths import REPO
 from typer.testing import CliRunner
 
 from vinecli.cli.app import app
@@ -16,15 +15,6 @@ from vinecli.geo import GeoOrigin
 from vinecli.missions.spec_io import load_mission
 
 runner = CliRunner()
-
-
-@pytest.fixture(scope="module")
-def flat_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
 
 
 def small_plan(path: Path, origin: GeoOrigin) -> None:
@@ -51,12 +41,12 @@ def small_plan(path: Path, origin: GeoOrigin) -> None:
     path.write_text(json.dumps(plan))
 
 
-def test_import_plan_and_fly_it(flat_world: Path, tmp_path: Path) -> None:
+def test_import_plan_and_fly_it(flat_world_dir: Path, tmp_path: Path) -> None:
     origin = GeoOrigin(47.397742, 8.545594, 488.0)  # worlds/flat.yaml
     plan = tmp_path / "row.plan"
     small_plan(plan, origin)
     mission = tmp_path / "row.yaml"
-    r = runner.invoke(app, ["plan", "import", str(plan), "--world", str(flat_world), "--out", str(mission)])
+    r = runner.invoke(app, ["plan", "import", str(plan), "--world", str(flat_world_dir), "--out", str(mission)])
     assert r.exit_code == 0, r.output
     m = load_mission(mission)
     assert [p.type for p in m.phases] == ["takeoff", "waypoints", "sprayer", "waypoints", "sprayer", "land"]
@@ -70,7 +60,7 @@ def test_import_plan_and_fly_it(flat_world: Path, tmp_path: Path) -> None:
     ]
     mission.write_text(yaml.safe_dump(data))
     out = tmp_path / "runs"
-    r = runner.invoke(app, ["run", "mission", str(mission), "--world", str(flat_world), "--out", str(out)])
+    r = runner.invoke(app, ["run", "mission", str(mission), "--world", str(flat_world_dir), "--out", str(out)])
     assert r.exit_code == 0, r.output
     t = pq.read_table(out / "row-s0" / "timeseries.parquet")
     flow = t.column("tank_flow_lps").to_numpy()
@@ -79,14 +69,14 @@ def test_import_plan_and_fly_it(flat_world: Path, tmp_path: Path) -> None:
     assert on.any() and x[on].min() >= 1.0 and x[on].max() <= 12.8  # spraying only along the row
 
 
-def test_import_plan_bad_item_exits_2(flat_world: Path, tmp_path: Path) -> None:
+def test_import_plan_bad_item_exits_2(flat_world_dir: Path, tmp_path: Path) -> None:
     plan = tmp_path / "bad.plan"
     small_plan(plan, GeoOrigin(47.397742, 8.545594, 488.0))
     d = json.loads(plan.read_text())
     d["mission"]["items"][4]["command"] = 31  # NAV_LOITER_TO_ALT: not supported
     plan.write_text(json.dumps(d))
     out = tmp_path / "m.yaml"
-    r = runner.invoke(app, ["plan", "import", str(plan), "--world", str(flat_world), "--out", str(out)])
+    r = runner.invoke(app, ["plan", "import", str(plan), "--world", str(flat_world_dir), "--out", str(out)])
     assert r.exit_code == 2 and "bad.plan" in r.output and "mission.items[4]: unsupported command 31" in r.output
     assert not out.exists()
 

@@ -9,7 +9,6 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from repo_paths import REPO
 from typer.testing import CliRunner
 
 from vinecli.cli.app import app
@@ -35,15 +34,6 @@ checks:
 """
 
 
-@pytest.fixture(scope="module")
-def flat_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
-
-
 def quick_mission(d: Path, *, high: float = 1.0, hold: float = 1.0, maxdur: float = 40.0, name: str = "quick.yaml"
                   ) -> Path:
     p = d / name
@@ -51,10 +41,10 @@ def quick_mission(d: Path, *, high: float = 1.0, hold: float = 1.0, maxdur: floa
     return p
 
 
-def test_run_mission_writes_a_complete_run_dir(flat_world: Path, tmp_path: Path) -> None:
+def test_run_mission_writes_a_complete_run_dir(flat_world_dir: Path, tmp_path: Path) -> None:
     m = quick_mission(tmp_path)
     out = tmp_path / "runs"
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out), "--seed", "3",
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(out), "--seed", "3",
                             "--mcap", "--rate", "20"])
     assert r.exit_code == 0, r.output
     run = out / "quick-s3"
@@ -104,9 +94,9 @@ def test_run_mission_writes_a_complete_run_dir(flat_world: Path, tmp_path: Path)
         assert {c.topic for c in summ.channels.values()} == {"/pose", "/state", "/events"}
 
 
-def test_failing_check_exits_1(flat_world: Path, tmp_path: Path) -> None:
+def test_failing_check_exits_1(flat_world_dir: Path, tmp_path: Path) -> None:
     m = quick_mission(tmp_path, high=50.0)
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(tmp_path / "runs")])
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs")])
     assert r.exit_code == 1
     assert "too_high" in r.output and "FAIL" in r.output
     s = json.loads((tmp_path / "runs" / "quick-s0" / "summary.json").read_text())
@@ -124,11 +114,11 @@ def test_failing_check_exits_1(flat_world: Path, tmp_path: Path) -> None:
         ("name: [unclosed\n", "invalid YAML"),
     ],
 )
-def test_bad_mission_exits_2_naming_file_and_field(flat_world: Path, tmp_path: Path, text: str, needle: str) -> None:
+def test_bad_mission_exits_2_naming_file_and_field(flat_world_dir: Path, tmp_path: Path, text: str, needle: str) -> None:
     m = tmp_path / "bad_mission.yaml"
     m.write_text(text)
     out = tmp_path / "runs"
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out)])
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(out)])
     assert r.exit_code == 2, r.output
     assert "bad_mission.yaml" in r.output and needle in r.output
     assert "Traceback" not in r.output
@@ -141,7 +131,7 @@ def test_missing_world_exits_2(tmp_path: Path) -> None:
     assert r.exit_code == 2 and "nowhere" in r.output
 
 
-def test_interrupted_run_is_a_valid_partial_run(flat_world: Path, tmp_path: Path) -> None:
+def test_interrupted_run_is_a_valid_partial_run(flat_world_dir: Path, tmp_path: Path) -> None:
     from vinecli.runs import run_mission
 
     m = quick_mission(tmp_path, hold=30.0)
@@ -150,7 +140,7 @@ def test_interrupted_run_is_a_valid_partial_run(flat_world: Path, tmp_path: Path
     def progress(sim_t: float, wall_t: float) -> None:
         state["t"] = sim_t
 
-    s = run_mission(m, flat_world, tmp_path / "runs", seed=1, progress=progress,
+    s = run_mission(m, flat_world_dir, tmp_path / "runs", seed=1, progress=progress,
                     should_stop=lambda: state["t"] >= 6.0)
     assert s.status == "interrupted" and not s.passed
     assert 6.0 <= s.sim_time_s < 8.0
@@ -162,7 +152,7 @@ def test_interrupted_run_is_a_valid_partial_run(flat_world: Path, tmp_path: Path
     assert (run / "manifest.json").is_file()
 
 
-def test_run_batch_cli_on_a_small_pipeline(flat_world: Path, tmp_path: Path) -> None:
+def test_run_batch_cli_on_a_small_pipeline(flat_world_dir: Path, tmp_path: Path) -> None:
     quick_mission(tmp_path, name="ok.yaml")
     quick_mission(tmp_path, name="slow.yaml", hold=5000.0, maxdur=6000.0)
     bad = yaml.safe_load(QUICK.format(high=50, hold=1, maxdur=40))
@@ -174,7 +164,7 @@ def test_run_batch_cli_on_a_small_pipeline(flat_world: Path, tmp_path: Path) -> 
     pipe = tmp_path / "pipe.yaml"
     pipe.write_text(f"""\
 name: small
-world: {flat_world}
+world: {flat_world_dir}
 missions:
   - ok.yaml
   - fails.yaml
@@ -207,7 +197,7 @@ def test_run_batch_bad_pipeline_exits_2(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("signame", "code"), [("SIGINT", 130), ("SIGTERM", 143)])
-def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_path: Path, monkeypatch,
+def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world_dir: Path, tmp_path: Path, monkeypatch,
                                                        signame: str, code: int) -> None:
     """A real SIGINT (Ctrl-C) or SIGTERM (a CI timeout, kill) while the loop runs: the run stops at the next
     step, is written with status interrupted, the CLI exits 128 + the signal number."""
@@ -238,7 +228,7 @@ def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_pat
 
     monkeypatch.setattr("vinecli.runs.run_mission", run_and_press_ctrl_c)
     out = tmp_path / "runs"
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out)])
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(out)])
     assert r.exit_code == code, r.output
     s = json.loads((out / "quick-s0" / "summary.json").read_text())
     assert s["status"] == "interrupted" and s["passed"] is False and signame in s["status_message"]
@@ -247,10 +237,10 @@ def test_ctrl_c_keeps_a_partial_run_marked_interrupted(flat_world: Path, tmp_pat
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before  # handlers restored
 
 
-def test_recheck_a_finished_run(flat_world: Path, tmp_path: Path) -> None:
+def test_recheck_a_finished_run(flat_world_dir: Path, tmp_path: Path) -> None:
     m = quick_mission(tmp_path)
     out = tmp_path / "runs"
-    assert runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world), "--out", str(out)]).exit_code == 0
+    assert runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(out)]).exit_code == 0
     run = out / "quick-s0"
     before = {p.name: p.stat().st_mtime_ns for p in run.iterdir()}
     r = runner.invoke(app, ["run", "checks", str(run)])

@@ -33,25 +33,16 @@ checks:
 """
 
 
-@pytest.fixture(scope="module")
-def flat_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
-
-
 def mission(d: Path, name: str, fence: str = "", maxdur: float = 60.0) -> Path:
     p = d / f"{name}.yaml"
     p.write_text(SPRAY.format(name=name, fence=fence, maxdur=maxdur))
     return p
 
 
-def test_spray_run_writes_deposition_and_is_deterministic(flat_world: Path, tmp_path: Path) -> None:
+def test_spray_run_writes_deposition_and_is_deterministic(flat_world_dir: Path, tmp_path: Path) -> None:
     m = mission(tmp_path, "rows")
-    a = run_mission(m, flat_world, tmp_path / "a", seed=4)
-    b = run_mission(m, flat_world, tmp_path / "b", seed=4)
+    a = run_mission(m, flat_world_dir, tmp_path / "a", seed=4)
+    b = run_mission(m, flat_world_dir, tmp_path / "b", seed=4)
     assert a.passed, a.failed_checks
     ra, rb = Path(a.run_dir), Path(b.run_dir)
     assert (ra / "deposition.tif").read_bytes() == (rb / "deposition.tif").read_bytes()
@@ -80,12 +71,12 @@ def test_spray_run_writes_deposition_and_is_deterministic(flat_world: Path, tmp_
     assert met["row_coverage_fraction"] >= 0.9
 
 
-def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(flat_world: Path, tmp_path: Path) -> None:
+def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(flat_world_dir: Path, tmp_path: Path) -> None:
     # the fence 1 m west of the first row (preflight's 0.9 m margin); a westward gust shoves the vehicle
     # through it mid-row: geofence hold until the time limit, sprayer off at the breach
     fence = ("geofence: {polygon_enu: [[-1.0, -10.0], [10.0, -10.0], [10.0, 20.0], [-1.0, 20.0]], action: hold}\n"
              "wind: {law: {type: gust, peak_mps: 24.0, start_s: 6.0, duration_s: 4.0, heading_deg: 270.0}}")
-    s = run_mission(mission(tmp_path, "stuck", fence=fence, maxdur=45.0), flat_world, tmp_path / "runs", seed=4)
+    s = run_mission(mission(tmp_path, "stuck", fence=fence, maxdur=45.0), flat_world_dir, tmp_path / "runs", seed=4)
     failed = {c["name"] for c in s.failed_checks}
     assert "spray_coverage" in failed
     assert s.metrics["row_coverage_fraction"] < 0.5
@@ -97,7 +88,7 @@ def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(fla
     assert 0.0 < s.metrics["deposit_emitted_l"] < 0.1
 
 
-def test_the_deposition_grid_is_configurable(flat_world: Path, tmp_path: Path) -> None:
+def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Path) -> None:
     from vinecli.autopilot.px4_options import make_run_autopilot
     from vinecli.missions.spec_io import load_mission
     from vinecli.physics.deposition import DepositionConfig
@@ -107,14 +98,14 @@ def test_the_deposition_grid_is_configurable(flat_world: Path, tmp_path: Path) -
     spec = load_mission(mission(tmp_path, "cells"))
     ap = make_run_autopilot("builtin", truth=True)
     try:
-        res = run_simulation(load_world(flat_world), spec, ap, seed=1, deposition=DepositionConfig(cell_m=0.05))
+        res = run_simulation(load_world(flat_world_dir), spec, ap, seed=1, deposition=DepositionConfig(cell_m=0.05))
     finally:
         ap.close()
     dep = res.deposition
     assert dep.grid.cell == 0.05 and dep.balance_error <= 1e-6 and dep.emitted_l > 0.1
     ap = make_run_autopilot("builtin", truth=True)
     try:
-        off = run_simulation(load_world(flat_world), spec, ap, seed=1, deposition=False)
+        off = run_simulation(load_world(flat_world_dir), spec, ap, seed=1, deposition=False)
     finally:
         ap.close()
     assert off.deposition is None

@@ -30,15 +30,6 @@ checks:
 """
 
 
-@pytest.fixture(scope="module")
-def flat_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
-
-
 def mission(tmp_path: Path, check: str) -> Path:
     p = tmp_path / "q.yaml"
     p.write_text(MISSION.format(check=check))
@@ -70,26 +61,26 @@ def test_known_quantities_load() -> None:
         load_mission(f)
 
 
-def test_rotor_beyond_the_vehicle_exits_2_before_simulating(flat_world: Path, tmp_path: Path) -> None:
+def test_rotor_beyond_the_vehicle_exits_2_before_simulating(flat_world_dir: Path, tmp_path: Path) -> None:
     p = mission(tmp_path, "{name: c, quantity: rotor6_w_radps, reduce: max, op: '<', bound: 3000}")
     load_mission(p)  # the vehicle is known only with the world: accepted at load
-    r = runner.invoke(app, ["run", "mission", str(p), "-w", str(flat_world), "--out", str(tmp_path / "runs")])
+    r = runner.invoke(app, ["run", "mission", str(p), "-w", str(flat_world_dir), "--out", str(tmp_path / "runs")])
     assert r.exit_code == 2
     assert "checks.0.quantity" in r.stderr and "rotors 1..4" in r.stderr
     assert not (tmp_path / "runs").exists()
 
 
-def test_typo_exits_2_not_1(flat_world: Path, tmp_path: Path) -> None:
+def test_typo_exits_2_not_1(flat_world_dir: Path, tmp_path: Path) -> None:
     p = mission(tmp_path, "{name: c, quantity: pos_enu_zz_m, reduce: max, op: '<', bound: 3}")
-    r = runner.invoke(app, ["run", "mission", str(p), "-w", str(flat_world), "--out", str(tmp_path / "runs")])
+    r = runner.invoke(app, ["run", "mission", str(p), "-w", str(flat_world_dir), "--out", str(tmp_path / "runs")])
     assert r.exit_code == 2 and "pos_enu_zz_m" in r.stderr
     assert not (tmp_path / "runs").exists()
 
 
-def test_every_metric_a_real_run_reports_is_known(flat_world: Path, tmp_path: Path) -> None:
+def test_every_metric_a_real_run_reports_is_known(flat_world_dir: Path, tmp_path: Path) -> None:
     """SIMULATOR_METRICS lists what the loop reports: a check may name any summary metric."""
     from vinecli.runs import run_mission
 
     p = mission(tmp_path, "{name: c, quantity: pos_enu_z_m, reduce: max, op: '>', bound: 1}")
-    s = run_mission(p, flat_world, tmp_path / "runs")
+    s = run_mission(p, flat_world_dir, tmp_path / "runs")
     assert s.metrics and set(s.metrics) <= known_metrics(), set(s.metrics) - known_metrics()

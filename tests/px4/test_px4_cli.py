@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from tests.conftest import REPO
 from tests.px4.fake_px4 import FakePx4
 from vinecli.cli.app import app
 
@@ -33,25 +32,16 @@ checks:
 """
 
 
-@pytest.fixture(scope="module")
-def built_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vinecli.world import build_world
-
-    out = tmp_path_factory.mktemp("worlds") / "flat"
-    build_world(REPO / "worlds" / "flat.yaml", out)
-    return out
-
-
-def test_run_mission_with_px4_through_the_cli(built_world: Path, tmp_path: Path) -> None:
+def test_run_mission_with_px4_through_the_cli(flat_world_dir: Path, tmp_path: Path) -> None:
     from vinecli.world import load_world
 
-    w = load_world(built_world)
+    w = load_world(flat_world_dir)
     m = tmp_path / "px4-quick.yaml"
     m.write_text(MISSION)
     fake = FakePx4(w.vehicle, w.origin, instance=INSTANCE, sim_port=4560 + INSTANCE, api_local_port=14580 + INSTANCE,
                    api_remote_port=14540 + INSTANCE).start()
     try:
-        r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+        r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                                 "--px4-instance", str(INSTANCE), "--px4-connect-timeout", "10"])
     finally:
         fake.stop()
@@ -66,10 +56,10 @@ def test_run_mission_with_px4_through_the_cli(built_world: Path, tmp_path: Path)
     assert manifest["parameters"]["px4_instance"] == INSTANCE
 
 
-def test_px4_never_connecting_is_exit_3_with_the_start_command(built_world: Path, tmp_path: Path) -> None:
+def test_px4_never_connecting_is_exit_3_with_the_start_command(flat_world_dir: Path, tmp_path: Path) -> None:
     m = tmp_path / "px4-quick.yaml"
     m.write_text(MISSION)
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                             "--px4-instance", str(INSTANCE), "--px4-connect-timeout", "0.3"])
     assert r.exit_code == 3
     err = " ".join(r.stderr.split())
@@ -78,18 +68,18 @@ def test_px4_never_connecting_is_exit_3_with_the_start_command(built_world: Path
     assert "Traceback" not in r.output
 
 
-def test_mavlink_non_loopback_needs_the_flag(built_world: Path, tmp_path: Path) -> None:
+def test_mavlink_non_loopback_needs_the_flag(flat_world_dir: Path, tmp_path: Path) -> None:
     m = tmp_path / "hover.yaml"
     m.write_text(MISSION.replace("autopilot: px4", "autopilot: builtin"))
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                             "--mavlink", "udp:192.168.7.7:14540"])
     assert r.exit_code == 2 and "--mavlink-allow-remote" in r.stderr
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out",
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out",
                             str(tmp_path / "runs"), "--autopilot", "px4", "--mavlink", "udp:127.0.0.1:14540"])
     assert r.exit_code == 2 and "serves the built-in autopilot" in r.stderr
 
 
-def test_px4_bin_that_fails_leaves_a_run_directory_and_exit_3(built_world: Path, tmp_path: Path) -> None:
+def test_px4_bin_that_fails_leaves_a_run_directory_and_exit_3(flat_world_dir: Path, tmp_path: Path) -> None:
     """--px4-bin starts the process itself; one that exits at once gives status error, its log in the message."""
     px4 = tmp_path / "px4build" / "bin" / "px4"
     (tmp_path / "px4build" / "etc" / "init.d-posix").mkdir(parents=True)
@@ -99,7 +89,7 @@ def test_px4_bin_that_fails_leaves_a_run_directory_and_exit_3(built_world: Path,
     px4.chmod(0o755)
     m = tmp_path / "px4-quick.yaml"
     m.write_text(MISSION)
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                             "--px4-bin", str(px4), "--px4-connect-timeout", "10"])
     assert r.exit_code == 3, r.output
     summary = json.loads((tmp_path / "runs" / "px4-quick-s0" / "summary.json").read_text())
@@ -107,9 +97,9 @@ def test_px4_bin_that_fails_leaves_a_run_directory_and_exit_3(built_world: Path,
     assert "PX4 exited (code 7)" in summary["status_message"] and "broken build for this test" in summary["status_message"]
 
 
-def test_px4_bin_needs_the_px4_autopilot(built_world: Path, tmp_path: Path) -> None:
+def test_px4_bin_needs_the_px4_autopilot(flat_world_dir: Path, tmp_path: Path) -> None:
     m = tmp_path / "builtin.yaml"
     m.write_text(MISSION.replace("autopilot: px4", "autopilot: builtin"))
-    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(built_world), "--out", str(tmp_path / "runs"),
+    r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                             "--px4-bin", "/bin/sh"])
     assert r.exit_code == 2 and "--px4-bin needs --autopilot px4" in r.output

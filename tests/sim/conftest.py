@@ -11,13 +11,6 @@ import pytest
 from sim_helpers import world_yaml
 
 
-@pytest.fixture(scope="session")
-def flat_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
-    from vinecli.world import build_world
-
-    return build_world(repo / "worlds" / "flat.yaml", tmp_path_factory.mktemp("w") / "flat")
-
-
 @pytest.fixture()
 def flat_world(flat_world_dir: Path) -> Any:
     from vinecli.world import load_world

@@ -30,7 +30,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink2
 
 from vinecli.errors import InputError
-from vinecli.mavlink.link import Link
+from vinecli.mavlink.link import Link, bound_udp_socket, listening_tcp_socket
 
 log = logging.getLogger(__name__)
 
@@ -77,13 +77,7 @@ class MultiPeerUdpLink(Link):
     def __init__(self, bind: tuple[str, int], target: tuple[str, int] | None = None, *, src_system: int = 1,
                  src_component: int = 1, max_peers: int = 4, peer_timeout_s: float = 10.0) -> None:
         super().__init__(src_system, src_component, name=f"udp-multi-{bind[1]}")
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            self._sock.bind(bind)
-        except OSError as exc:
-            self._sock.close()
-            raise InputError(f"cannot bind UDP {bind[0]}:{bind[1]}: {exc.strerror or exc}") from None
-        self._sock.settimeout(0.2)
+        self._sock = bound_udp_socket(bind, InputError)
         self.local = self._sock.getsockname()
         self.target = target
         self.max_peers, self.peer_timeout_s = max_peers, peer_timeout_s
@@ -158,14 +152,7 @@ class TcpServerGcsLink(Link):
 
     def __init__(self, bind: tuple[str, int], *, src_system: int = 1, src_component: int = 1, max_peers: int = 4) -> None:
         super().__init__(src_system, src_component, name=f"tcp-gcs-{bind[1]}")
-        self._srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self._srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self._srv.bind(bind)
-        except OSError as exc:
-            self._srv.close()
-            raise InputError(f"cannot listen on TCP {bind[0]}:{bind[1]}: {exc.strerror or exc}") from None
-        self._srv.listen(max_peers)
+        self._srv = listening_tcp_socket(bind, max_peers, InputError)
         self._srv.settimeout(0.2)
         self.local = self._srv.getsockname()
         self.max_peers = max_peers

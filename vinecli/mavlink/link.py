@@ -22,7 +22,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from vinecli.errors import AutopilotError, AutopilotTimeout
+from vinecli.errors import AutopilotError, AutopilotTimeout, VinecliError
 
 log = logging.getLogger(__name__)
 
@@ -181,20 +181,27 @@ class Link:
         """Close the subclass's sockets (the base class has none)."""
 
 
+def listening_tcp_socket(bind: tuple[str, int], backlog: int, error: type[VinecliError], *, hint: str = "") -> socket.socket:
+    """A TCP socket listening on ``bind`` (SO_REUSEADDR: the last run's connections in TIME_WAIT do not block
+    it); ``error`` (one line naming the address, then ``hint``) if the bind fails."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind(bind)
+    except OSError as exc:
+        sock.close()
+        raise error(f"cannot listen on TCP {bind[0]}:{bind[1]}: {exc.strerror or exc}{hint}") from None
+    sock.listen(backlog)
+    return sock
+
+
 class TcpServerLink(Link):
     """Listen on ``host:port`` and accept exactly one peer (Gazebo-classic / jMAVSim role)."""
 
     def __init__(self, host: str, port: int, *, src_system: int = 1, src_component: int = 200) -> None:
         super().__init__(src_system, src_component, name=f"tcp-server-{port}")
         self.host, self.port = host, port
-        self._srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self._srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self._srv.bind((host, port))
-        except OSError as exc:
-            self._srv.close()
-            raise AutopilotError(f"cannot listen on TCP {host}:{port}: {exc.strerror or exc} (another simulator running?)") from None
-        self._srv.listen(1)
+        self._srv = listening_tcp_socket((host, port), 1, AutopilotError, hint=" (another simulator running?)")
         self.port = self._srv.getsockname()[1]
         self._conn: socket.socket | None = None
         self.peer: tuple[str, int] | None = None
@@ -278,6 +285,21 @@ class TcpClientLink(Link):
             self._sock.close()
 
 
+def bound_udp_socket(bind: tuple[str, int], error: type[VinecliError], *, reuse_addr: bool = False) -> socket.socket:
+    """A UDP socket bound to ``bind`` with a 0.2 s receive timeout (the reader threads poll their stop flag);
+    ``error`` (one line naming the address) if the bind fails."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    if reuse_addr:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind(bind)
+    except OSError as exc:
+        sock.close()
+        raise error(f"cannot bind UDP {bind[0]}:{bind[1]}: {exc.strerror or exc}") from None
+    sock.settimeout(0.2)
+    return sock
+
+
 class UdpLink(Link):
     """A UDP MAVLink endpoint bound to ``bind`` that sends to ``remote``.
 
@@ -297,14 +319,7 @@ class UdpLink(Link):
     ) -> None:
         super().__init__(src_system, src_component, name=f"udp-{bind[1]}")
         self.on_message = on_message
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            self._sock.bind(bind)
-        except OSError as exc:
-            self._sock.close()
-            raise AutopilotError(f"cannot bind UDP {bind[0]}:{bind[1]}: {exc.strerror or exc}") from None
-        self._sock.settimeout(0.2)
+        self._sock = bound_udp_socket(bind, AutopilotError, reuse_addr=True)
         self.local = self._sock.getsockname()
         self.remote = remote
         self.reply_to_sender = reply_to_sender
