@@ -193,7 +193,7 @@ def _run_prepared(
     if progress is not None:
         def on_progress(sim_t: float, _max_t: float) -> None:
             progress(sim_t, time.perf_counter() - t0)
-    with _sigint_to_flag(stop):
+    with _stop_signals_to_flag(stop):
         try:
             result = simulate(run, ap, seed=seed, on_progress=on_progress, should_stop=stop)
         except VinecliError:
@@ -334,7 +334,7 @@ def _num(v: Any) -> float | None:
     return f if math.isfinite(f) else None
 
 
-class _sigint_to_flag:
+class _stop_signals_to_flag:
     """Context manager: in the main thread, the first SIGINT or SIGTERM sets ``flag.interrupted`` (and
     ``flag.signum``); a second one raises KeyboardInterrupt (abort at once)."""
 
