@@ -23,7 +23,7 @@ def main() -> None:
     n = 20_000 if args.quick else 200_000
     repeat = 3 if args.quick else 7
 
-    from vinecli.frames import quat_from_euler
+    from vinecli.frames import quat_from_euler, quat_rotate_inv
     from vinecli.geo import GeoOrigin
     from vinecli.physics.aero import wind_drag
     from vinecli.physics.motor import MotorBank
@@ -67,8 +67,8 @@ def main() -> None:
     def motor_wrench() -> None:
         bank.wrench(bank.apparent_air_body(q, vel, omega, (2.0, 1.0, 0.0)))
 
-    def motor_wrench_state() -> None:
-        bank.wrench_state(q, vel, omega, (2.0, 1.0, 0.0))
+    def motor_wrench_com() -> None:
+        bank.wrench_com(*quat_rotate_inv(q, (2.0 - vel[0], 1.0 - vel[1], -vel[2])), *omega)
 
     def drag_links() -> None:
         for c in coeffs:
@@ -84,7 +84,7 @@ def main() -> None:
         clock[0] += dt
         wind = dry.velocity(clock[0], (1.0, 2.0, 3.0))
         bank.update(cmd, dt)
-        bank.wrench_state(q, vel, omega, wind)
+        bank.wrench_com(*quat_rotate_inv(q, (wind[0] - vel[0], wind[1] - vel[1], wind[2] - vel[2])), *omega)
         v_app = (wind[0] - vel[0], wind[1] - vel[1], wind[2] - vel[2])
         for c in coeffs:
             wind_drag(c, v_app)
@@ -102,7 +102,7 @@ def main() -> None:
     cases = [
         (f"motor update ({bank.n} rotors)", motor_update),
         (f"rotor wrench, general: apparent_air_body + wrench ({bank.n} rotors)", motor_wrench),
-        (f"rotor wrench, fast path: wrench_state ({bank.n} rotors)", motor_wrench_state),
+        (f"rotor wrench, the loop's form: wrench_com ({bank.n} rotors)", motor_wrench_com),
         *[(f"wind {k}", (lambda w=w: wind_step(w))) for k, w in winds.items()],
         (f"wind drag ({len(coeffs)} links)", drag_links),
     ]

@@ -29,11 +29,14 @@ def angle_between(q1: tuple[float, ...], q2: tuple[float, ...]) -> float:
     return 2.0 * math.acos(min(1.0, abs(d[3])))
 
 
+_SENSORS: dict[int, tuple[Estimator, object]] = {}
+
+
 def run(est: Estimator, truth_at, seconds: float, *, seed: int = 3, gyro_bias: tuple[float, float, float] = (0.0, 0.0, 0.0),
         after_first=None, after_each=None, start_s: float = 0.0) -> RigidState:
     """Feed the estimator with the simulated sensors sampling ``truth_at(t)`` from start_s to seconds."""
-    sensors = getattr(est, "_test_sensors", None) or make_sensors(vehicle().sensors, ORIGIN, seed)
-    est._test_sensors = sensors  # type: ignore[attr-defined]
+    # one sensor set per estimator across calls (a compiled Estimator takes no new attributes)
+    sensors = _SENSORS.setdefault(id(est), (est, make_sensors(vehicle().sensors, ORIGIN, seed)))[1]
     st = truth_at(0.0)
     for k in range(int(start_s * 1e6 / DT_US), int(seconds * 1e6 / DT_US)):
         st = truth_at(k * DT_US * 1e-6)

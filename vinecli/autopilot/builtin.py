@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Final
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimator import Estimator
@@ -43,6 +43,7 @@ from vinecli.frames import Vec3, quat_to_euler, tilt_angle
 from vinecli.types import ActuatorCommand, Event, Observation
 
 _NAN = float("nan")
+_RUNNING: Final = RunStatus.RUNNING  # read every step: a constant, not an enum lookup (~50 ns on 3.11)
 
 
 class BuiltinAutopilot(FlightSupervisor):
@@ -71,6 +72,7 @@ class BuiltinAutopilot(FlightSupervisor):
         if ctx.physics_dt_us <= 0:
             raise AutopilotError(f"invalid physics step {ctx.physics_dt_us} µs")
         self.dt = ctx.physics_dt_us * 1e-6
+        self._gear_m = v.frame.landing_gear_height_m
         self.truth = bool(ctx.mission.truth if self._truth_opt is None else self._truth_opt)
         self.cascade = Cascade(v, self.dt)
         self.n_pos = max(1, round(1.0 / (self.dt * v.control.pos_loop_rate_hz)))
@@ -155,7 +157,7 @@ class BuiltinAutopilot(FlightSupervisor):
     def step(self, obs: Observation) -> ActuatorCommand:
         """Commands for the next physics step."""
         st = self._status
-        if st.status is not RunStatus.RUNNING:
+        if st.status is not _RUNNING:
             return self._off
         self.t_us = obs.t_us
         if self.truth:
@@ -167,7 +169,7 @@ class BuiltinAutopilot(FlightSupervisor):
             self.pos, self.vel, self.quat, self.omega = est.pos, est.vel, est.quat, est.omega  # type: ignore[union-attr]
             self.est_ready = est.ready  # type: ignore[union-attr]
         self.ground_contact = obs.truth.on_ground
-        self.height_terrain = self.pos[2] - obs.terrain_height_m - self.vehicle.frame.landing_gear_height_m
+        self.height_terrain = self.pos[2] - obs.terrain_height_m - self._gear_m
         return self._command(obs)
 
     def _command(self, obs: Observation) -> ActuatorCommand:
@@ -179,7 +181,7 @@ class BuiltinAutopilot(FlightSupervisor):
                 self._w_cmd = w
                 return ActuatorCommand(w, self.flow, True)
             self._end_phase()
-            if self._status.status is not RunStatus.RUNNING:
+            if self._status.status is not _RUNNING:
                 return self._off
             self._countdown = 0
             if isinstance(self._phase, OpenLoop):
@@ -198,7 +200,7 @@ class BuiltinAutopilot(FlightSupervisor):
         if self._countdown <= 0:
             self._countdown = self.n_pos
             self._outer(obs)
-            if self._status.status is not RunStatus.RUNNING:
+            if self._status.status is not _RUNNING:
                 return self._off
             if isinstance(self._phase, OpenLoop):
                 return self._command(obs)

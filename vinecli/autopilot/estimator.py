@@ -333,18 +333,18 @@ class Estimator:
                     p[2] = gn.alt_m - self.origin.alt
                     v[2] = gv[2]
             else:
-                k = self.k_gnss
+                kg = self.k_gnss
                 for i, pm, vm in ((0, e_m, gv[0]), (1, n_m, gv[1])):
                     rp = pm - p[i]
                     rv = vm - v[i]
-                    p[i] += k[0][0] * rp + k[0][1] * rv
-                    v[i] += k[1][0] * rp + k[1][1] * rv
-                    b[i] += k[2][0] * rp + k[2][1] * rv
-                k = self.k_gnss_vz
+                    p[i] += kg[0][0] * rp + kg[0][1] * rv
+                    v[i] += kg[1][0] * rp + kg[1][1] * rv
+                    b[i] += kg[2][0] * rp + kg[2][1] * rv
+                kg = self.k_gnss_vz
                 rv = gv[2] - v[2]
-                p[2] += k[0][0] * rv
-                v[2] += k[1][0] * rv
-                b[2] += k[2][0] * rv
+                p[2] += kg[0][0] * rv
+                v[2] += kg[1][0] * rv
+                b[2] += kg[2][0] * rv
         ba = obs.baro
         if ba is not None:
             zm = ba.altitude_m - self.origin.alt
@@ -352,11 +352,11 @@ class Estimator:
                 p[2] = zm
                 self._baro_init = True
             else:
-                k = self.k_baro
+                kg = self.k_baro
                 r = zm - p[2]
-                p[2] += k[0][0] * r
-                v[2] += k[1][0] * r
-                b[2] += k[2][0] * r
+                p[2] += kg[0][0] * r
+                v[2] += kg[1][0] * r
+                b[2] += kg[2][0] * r
         self.pos = (p[0], p[1], p[2])
         self.vel = (v[0], v[1], v[2])
         if not self.ready and self._gnss_init and self._baro_init and self._gnss_quality_ok:

@@ -23,7 +23,7 @@ class Takeoff(Phase):
     """Arm (after the preflight checks), spool up for ``spool_s``, then climb straight up to
     ``altitude_agl_m`` above home at the climb speed (m/s; default the vehicle's max_vel_up)."""
 
-    mode = "AUTO.TAKEOFF"
+    MODE = "AUTO.TAKEOFF"
     type = "takeoff"
 
     def __init__(self, spec: TakeoffPhase, vehicle: VehicleSpec) -> None:
@@ -68,7 +68,7 @@ class Takeoff(Phase):
 class Hold(Phase):
     """Hold the last setpoint for ``duration_s`` s."""
 
-    mode = "AUTO.LOITER"
+    MODE = "AUTO.LOITER"
     type = "hold"
 
     def __init__(self, duration_s: float) -> None:
@@ -88,7 +88,7 @@ class Hold(Phase):
 class Loiter(Phase):
     """Hold forever (geofence 'hold' action)."""
 
-    mode = "AUTO.LOITER"
+    MODE = "AUTO.LOITER"
     type = "loiter"
 
     def start(self, ap: PhaseHost) -> None:
@@ -105,7 +105,7 @@ class FollowPath(Phase):
     ``make`` when the phase starts, from where the vehicle is then); optional sprayer flow (L/s)
     and yaw (deg, ENU: 0 = east, counter-clockwise) set at the start."""
 
-    mode = "AUTO.MISSION"
+    MODE = "AUTO.MISSION"
 
     def __init__(self, type_: str, make: Callable[[PhaseHost], PathFollower], timeout_s: float,
                  flow: float | None = None, yaw_deg: float | None = None) -> None:
@@ -137,9 +137,15 @@ class SetSprayerFlow(Phase):
 
     def __init__(self, flow: float) -> None:
         self.flow = flow
+        self._mode = ""
+
+    @property
+    def mode(self) -> str:
+        """The mode it started in (instantaneous, no mode change)."""
+        return self._mode
 
     def start(self, ap: PhaseHost) -> None:
-        self.mode = ap.mode  # instantaneous, no mode change
+        self._mode = ap.mode
         ap.set_flow(self.flow)
 
     def update(self, ap: PhaseHost, dt: float) -> bool:
@@ -151,7 +157,7 @@ class SetSprayerFlow(Phase):
 class Land(Phase):
     """Descend at ``descent`` m/s holding x, y; disarm at touchdown (slow, low thrust or ground contact for 0.4 s)."""
 
-    mode = "AUTO.LAND"
+    MODE = "AUTO.LAND"
     type = "land"
 
     def __init__(self, descent: float, timeout_s: float) -> None:
@@ -189,7 +195,7 @@ class Land(Phase):
 class Rtl(Phase):
     """Return to launch: climb to ``return_alt`` m above home (if lower), fly home at up to 5 m/s, then land."""
 
-    mode = "AUTO.RTL"
+    MODE = "AUTO.RTL"
     type = "rtl"
 
     def __init__(self, return_alt: float, timeout_s: float, descent: float = 0.7) -> None:
@@ -223,7 +229,7 @@ class Rtl(Phase):
 class OpenLoop(Phase):
     """Rotor speeds (rad/s) from a schedule, no controller; the autopilot asks :meth:`command` each physics step."""
 
-    mode = "OPEN_LOOP"
+    MODE = "OPEN_LOOP"
     type = "open_loop"
 
     def __init__(self, spec: OpenLoopPhase, n: int) -> None:

@@ -51,7 +51,7 @@ _BUILTIN_TO_PX4 = {"AUTO.TAKEOFF": "takeoff", "AUTO.LOITER": "hold", "AUTO.MISSI
 class _Tail(Phase):
     """Waiting for the operator: idle on the ground when armed there, hold position in the air."""
 
-    mode = "AUTO.LOITER"
+    MODE = "AUTO.LOITER"
     type = "wait"
 
     def start(self, ap: PhaseHost) -> None:

@@ -13,6 +13,8 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Protocol
 
+from mypy_extensions import mypyc_attr
+
 from vinecli.autopilot.geofence import Geofence
 from vinecli.control.cascade import Cascade
 from vinecli.frames import Vec3
@@ -83,16 +85,23 @@ class PhaseHost(Protocol):
         ...
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)  # compiled (vinecli/native.py); MAVLink phases subclass it
 class Phase(ABC):
     """One step of the mission; ``update`` runs at the position-loop rate, returns True when done.
 
-    ``mode`` is the PX4 mode name while the phase runs, ``type`` its name in ``phase`` events,
-    ``timeout_s`` how long it may run before the run ends ``timeout`` (s).
+    ``mode`` is the PX4 mode name while the phase runs (``MODE`` of the class unless the phase
+    decides it), ``type`` its name in ``phase`` events, ``timeout_s`` how long it may run before
+    the run ends ``timeout`` (s).
     """
 
-    mode = "AUTO.LOITER"
+    MODE = "AUTO.LOITER"
     type = ""
     timeout_s = math.inf
+
+    @property
+    def mode(self) -> str:
+        """The PX4 mode name while the phase runs."""
+        return self.MODE
 
     def start(self, ap: PhaseHost) -> None:
         """Called once when the phase becomes active (default: remember when)."""

@@ -44,7 +44,7 @@ def spray_rows(p: SprayPhase, ctx: AutopilotContext) -> list[list[tuple[float, f
 class Service(Phase):
     """On the ground, disarmed: the crew refills the tank (and swaps the battery) in ``time_s``."""
 
-    mode = "AUTO.LOITER"
+    MODE = "AUTO.LOITER"
     type = "service"
 
     def __init__(self, spec: RefillSpec, fill_l: float) -> None:
@@ -77,12 +77,13 @@ class Spray(Phase):
         self.timeout_s = spec.timeout_s
         self.sortie = 1
         self.sub: Phase | None = None  # return / service / take-off between sorties
+        self.announced = False
         self._queue: list[Phase] = []
         self._resume: tuple[list[Vec3], list[float]] | None = None
         self._left_at_last_end = math.inf  # path length left when the last sortie ended, m
 
     @property
-    def mode(self) -> str:  # type: ignore[override]
+    def mode(self) -> str:
         """The sortie step's mode while one runs, else AUTO.MISSION."""
         return self.sub.mode if self.sub is not None else "AUTO.MISSION"
 
@@ -102,7 +103,9 @@ class Spray(Phase):
             ap.emit("spray_plan", plan.summary(), {"rows": plan.order, "length_m": round(plan.length_m, 2),
                                                    "time_s": plan.time_s, "warnings": plan.warnings})
             self.announced = True
-        pts2, flows = plan.path(self.spec.flow_lps)
+        flow = self.spec.flow_lps
+        assert flow is not None, 'rate_lpha is resolved to flow_lps at load'
+        pts2, flows = plan.path(flow)
         h = self.spec.height_agl_m
         return [(x, y, h) for x, y in pts2], flows
 

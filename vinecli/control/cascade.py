@@ -25,12 +25,13 @@ loops every step.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.control.allocation import Mixer
 from vinecli.control.pid import Pid
 from vinecli.frames import QuatXYZW, Vec3
-from vinecli.specs.vehicle import VehicleSpec
+from vinecli.specs.vehicle import ControlSpec, VehicleSpec
 
 G = STANDARD_GRAVITY
 
@@ -146,6 +147,34 @@ def attitude_rate_setpoint(q: QuatXYZW, qd: QuatXYZW, gain: Vec3, yaw_weight: fl
     return (s * ex * gain[0], s * ey * gain[1], s * ez * gain[2] / yw)
 
 
+@dataclass(frozen=True)
+class LoopGains:
+    """The :class:`ControlSpec` numbers the position and attitude loops read at their rates, as plain
+    floats (compiled, these are read without the pydantic attribute lookup). Units as the spec's."""
+
+    pos_p_xy: float
+    pos_p_z: float
+    vel_p_xy: float
+    vel_i_xy: float
+    vel_d_xy: float
+    vel_p_z: float
+    vel_i_z: float
+    vel_d_z: float
+    vel_i_limit: float
+    max_vel_xy: float
+    max_vel_up: float
+    max_vel_down: float
+    att_p: Vec3
+    yaw_weight: float
+
+    @staticmethod
+    def of(c: ControlSpec) -> LoopGains:
+        """The spec's values, unchanged."""
+        a = c.att_p
+        return LoopGains(c.pos_p_xy, c.pos_p_z, c.vel_p_xy, c.vel_i_xy, c.vel_d_xy, c.vel_p_z, c.vel_i_z, c.vel_d_z,
+                         c.vel_i_limit, c.max_vel_xy, c.max_vel_up, c.max_vel_down, (a[0], a[1], a[2]), c.yaw_weight)
+
+
 class Cascade:
     """The full controller for one vehicle; see the module docstring.
 
@@ -159,12 +188,14 @@ class Cascade:
         self.dt = dt
         self.mixer = Mixer(vehicle)
         self.c = c
+        self.gains = LoopGains.of(c)
         self.t_total_max = self.mixer.n * self.mixer.t_max
         self.thr_min = c.thrust_min_frac * self.t_total_max
         self.thr_max = c.thrust_max_frac * self.t_total_max
         self.tan_tilt = math.tan(math.radians(c.max_tilt_deg))
         self.torque_scale = self.mixer.torque_scale
-        self.max_rate = tuple(math.radians(r) for r in c.max_rate_deg_s)
+        mr = c.max_rate_deg_s
+        self.max_rate: Vec3 = (math.radians(mr[0]), math.radians(mr[1]), math.radians(mr[2]))
         self.vel_d_tau = 1.0 / (2.0 * math.pi * c.vel_d_cutoff_hz)
         # setpoints (ENU): position, velocity feed-forward, yaw
         self.pos_sp: Vec3 = (0.0, 0.0, 0.0)
@@ -183,10 +214,9 @@ class Cascade:
         self._prev_vel: Vec3 | None = None
         self._acc_f = [0.0, 0.0, 0.0]
         c = self.c
-        self.rate_pid = tuple(
-            Pid(c.rate_p[i], c.rate_i[i], c.rate_d[i], i_limit=c.rate_i_limit, d_cutoff_hz=c.rate_d_cutoff_hz)
-            for i in (0, 1, 2)
-        )
+        pids = [Pid(c.rate_p[i], c.rate_i[i], c.rate_d[i], i_limit=c.rate_i_limit, d_cutoff_hz=c.rate_d_cutoff_hz)
+                for i in (0, 1, 2)]
+        self.rate_pid: tuple[Pid, Pid, Pid] = (pids[0], pids[1], pids[2])  # roll, pitch, yaw
         self.q_sp: QuatXYZW = (0.0, 0.0, 0.0, 1.0)
         self.thrust_sp = 0.0  # N collective
         self.vel_sp: Vec3 = (0.0, 0.0, 0.0)
@@ -203,7 +233,7 @@ class Cascade:
     # ------------------------------------------------------------------ position / velocity loop
     def update_position(self, pos: Vec3, vel: Vec3, mass_kg: float, dt: float) -> None:
         """Position P + velocity PID -> thrust vector -> (q_sp, thrust_sp). ENU, SI."""
-        c = self.c
+        c = self.gains
         ffx, ffy, ffz = self.vel_ff
         if self.xy_pos_ctrl:
             vx = ffx + c.pos_p_xy * (self.pos_sp[0] - pos[0])
@@ -296,7 +326,7 @@ class Cascade:
     # ------------------------------------------------------------------ attitude + rate loop
     def update_attitude(self, q: QuatXYZW, omega: Vec3, dt: float) -> tuple[float, ...]:
         """Attitude P + rate PID + allocation -> rotor speed commands (rad/s)."""
-        c = self.c
+        c = self.gains
         rsx, rsy, rsz = attitude_rate_setpoint(q, self.q_sp, c.att_p, c.yaw_weight)
         mr = self.max_rate
         rsx = mr[0] if rsx > mr[0] else (-mr[0] if rsx < -mr[0] else rsx)

@@ -42,7 +42,7 @@ class PathFollower:
                  max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf,
                  lookahead_s: float = 2.0, lookahead_m: float | None = None, climb_frac: float = 0.5,
                  floor_margin_frac: float = 0.25) -> None:
-        pts = [tuple(float(c) for c in p) for p in points]
+        pts: list[Vec3] = [(float(p[0]), float(p[1]), float(p[2])) for p in points]
         # drop zero-length segments
         clean = [pts[0]]
         clean_flows: list[float] = []

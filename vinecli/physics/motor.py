@@ -63,9 +63,6 @@ class MotorBank:
         #: per rotor (px, py, pz, ax, ay, az, s): position m FLU, unit axis FLU, spin sign
         self.geometry = tuple(geo)
         self.positions: tuple[Vec3, ...] = tuple((g[0], g[1], g[2]) for g in geo)
-        #: every axis is body +z (the usual multicopter): cheaper formulas in :meth:`wrench_state`
-        self.all_vertical = all(g[3] == 0.0 and g[4] == 0.0 and g[5] == 1.0 for g in geo)
-        self._vgeo = tuple((g[0], g[1], g[2], g[6]) for g in geo)
         self._dt = -1.0
         self._a_up = 0.0
         self._a_down = 0.0
@@ -159,6 +156,16 @@ class MotorBank:
         Also stores ``.thrust``, ``.thrust_total``, ``.rotor_drag_body``,
         ``.reaction_torque_body`` and ``.rolling_moment_body`` for recording.
         """
+        return self._wrench(v_app_body, v_app_body is not None, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    def wrench_com(self, bx: float, by: float, bz: float, wx: float, wy: float, wz: float) -> tuple[Vec3, Vec3]:
+        """:meth:`wrench` for the apparent air at the CoM ``(bx, by, bz)`` (``wind - v``, body FLU, m/s)
+        and body rates ``(wx, wy, wz)`` (rad/s FLU): at rotor i the air is ``b - ω × r_i``. The loop's
+        form: the same numbers as ``wrench(apparent_air_body(...))`` without per-rotor lists."""
+        return self._wrench(None, True, bx, by, bz, wx, wy, wz)
+
+    def _wrench(self, v_app_body: Sequence[Vec3] | None, moving: bool, bx: float, by: float, bz: float,
+                wx: float, wy: float, wz: float) -> tuple[Vec3, Vec3]:
         k_f, k_m, k_d, k_roll = self.k_f, self.k_m, self.k_d, self.k_roll
         w, w2 = self.w_mean, self.w2_mean
         thrust = self.thrust
@@ -175,8 +182,11 @@ class MotorBank:
             tsum += t
             psum += t * wi
             f0, f1, f2 = t * ax, t * ay, t * az
-            if v_app_body is not None:
-                vx, vy, vz = v_app_body[i]
+            if moving:
+                if v_app_body is not None:
+                    vx, vy, vz = v_app_body[i]
+                else:  # minus (omega x r)
+                    vx, vy, vz = bx - (wy * pz - wz * py), by - (wz * px - wx * pz), bz - (wx * py - wy * px)
                 va = vx * ax + vy * ay + vz * az
                 # in-plane apparent air velocity; V⊥ of (v_rotor - wind) is its negative
                 ux, uy, uz = vx - va * ax, vy - va * ay, vz - va * az
@@ -208,58 +218,6 @@ class MotorBank:
         self.reaction_torque_body = (qx, qy, qz)
         self.rolling_moment_body = (mx, my, mz)
         return (fx, fy, fz), (tx + qx + mx, ty + qy + my, tz + qz + mz)
-
-    def wrench_state(self, quat: QuatXYZW, vel_enu: Vec3, omega_body: Vec3, wind_enu: Vec3) -> tuple[Vec3, Vec3]:
-        """Same as ``wrench(apparent_air_body(quat, vel_enu, omega_body, wind_enu))`` in one pass.
-
-        The fast path of the simulation loop (no per-rotor lists); falls back to the general
-        formulas when a rotor axis is not body +z.
-        """
-        if not self.all_vertical:
-            return self.wrench(self.apparent_air_body(quat, vel_enu, omega_body, wind_enu))
-        # apparent air at the CoM in body FLU: R^T (wind - v)
-        qx, qy, qz, qw = quat
-        vx, vy, vz = wind_enu[0] - vel_enu[0], wind_enu[1] - vel_enu[1], wind_enu[2] - vel_enu[2]
-        tx_ = 2.0 * (qz * vy - qy * vz)  # rotation by the conjugate (-q_vec, w)
-        ty_ = 2.0 * (qx * vz - qz * vx)
-        tz_ = 2.0 * (qy * vx - qx * vy)
-        bx = vx + qw * tx_ - (qy * tz_ - qz * ty_)
-        by = vy + qw * ty_ - (qz * tx_ - qx * tz_)
-        wx, wy, wz = omega_body
-        k_f, k_m, k_d, k_roll = self.k_f, self.k_m, self.k_d, self.k_roll
-        thrust = self.thrust
-        fz = tx = ty = psum = 0.0
-        dx = dy = rz = tz = mx = my = 0.0
-        w, w2 = self.w_mean, self.w2_mean
-        i = 0
-        for px, py, pz, s in self._vgeo:
-            wi = w[i]
-            t = k_f * w2[i]
-            thrust[i] = t
-            psum += t * wi
-            i += 1
-            # in-plane apparent air at the rotor: (wind - v_com - ω × r) without the z part
-            ux = bx - (wy * pz - wz * py)
-            uy = by - (wz * px - wx * pz)
-            kd = k_d * wi
-            hx, hy = kd * ux, kd * uy
-            dx += hx
-            dy += hy
-            kr = k_roll * wi
-            mx += kr * ux
-            my += kr * uy
-            rz -= s * k_m * t
-            fz += t
-            # r × (hx, hy, t)
-            tx += py * t - pz * hy
-            ty += pz * hx - px * t
-            tz += px * hy - py * hx
-        self.thrust_total = fz
-        self.shaft_power = k_m * psum
-        self.rotor_drag_body = (dx, dy, 0.0)
-        self.rolling_moment_body = (mx, my, 0.0)
-        self.reaction_torque_body = (0.0, 0.0, rz)
-        return (dx, dy, fz), (tx + mx, ty + my, tz + rz)
 
     # ------------------------------------------------------------------ helpers
     def hover_speed(self, total_mass: float, g: float = STANDARD_GRAVITY) -> float:

@@ -102,6 +102,10 @@ class Imu:
         self.gyro_bias: list[float] = [0.0, 0.0, 0.0]
         self._w_prev: Vec3 | None = None
         self._walk = spec.accel_bias_random_walk > 0.0 or spec.gyro_bias_random_walk > 0.0
+        # the spec's numbers as plain floats (read every step)
+        self._accel_walk, self._gyro_walk = spec.accel_bias_random_walk, spec.gyro_bias_random_walk
+        self._accel_density, self._gyro_density = spec.accel_noise_density, spec.gyro_noise_density
+        self._accel_q, self._gyro_q = spec.accel_quantization, spec.gyro_quantization
         self.last: ImuSample | None = None
 
     def sample(self, truth: RigidState) -> ImuSample | None:
@@ -109,7 +113,6 @@ class Imu:
         dt = self._rate.due(truth.t_us)
         if dt is None:
             return None
-        s = self.spec
         ax, ay, az = truth.acc
         fx, fy, fz = quat_rotate_inv(truth.quat, (ax, ay, az + self.g))
         wx, wy, wz = truth.omega_body
@@ -139,18 +142,18 @@ class Imu:
         sq = math.sqrt(dt)
         ab, gb = self.accel_bias, self.gyro_bias
         if self._walk:
-            kab, kgb = s.accel_bias_random_walk * sq, s.gyro_bias_random_walk * sq
+            kab, kgb = self._accel_walk * sq, self._gyro_walk * sq
             ab[0] += kab * n[j + 6]
             ab[1] += kab * n[j + 7]
             ab[2] += kab * n[j + 8]
             gb[0] += kgb * n[j + 9]
             gb[1] += kgb * n[j + 10]
             gb[2] += kgb * n[j + 11]
-        sa = s.accel_noise_density / sq
-        sg = s.gyro_noise_density / sq
+        sa = self._accel_density / sq
+        sg = self._gyro_density / sq
         acc = (fx + ab[0] + sa * n[j], fy + ab[1] + sa * n[j + 1], fz + ab[2] + sa * n[j + 2])
         gyr = (wx + gb[0] + sg * n[j + 3], wy + gb[1] + sg * n[j + 4], wz + gb[2] + sg * n[j + 5])
-        qa, qg = s.accel_quantization, s.gyro_quantization
+        qa, qg = self._accel_q, self._gyro_q
         if qa > 0.0:
             acc = (_quantize(acc[0], qa), _quantize(acc[1], qa), _quantize(acc[2], qa))
         if qg > 0.0:
@@ -169,17 +172,17 @@ class Baro:
         self._rate = _Rate(spec.rate_hz)
         self._n = _Normals(rng)
         self.drift_pa = 0.0
+        self._drift, self._noise, self._q = spec.drift_pa_per_sqrt_s, spec.noise_pa, spec.quantization_pa
 
     def sample(self, truth: RigidState) -> BaroSample | None:
         """New barometer sample or None when not due."""
         dt = self._rate.due(truth.t_us)
         if dt is None:
             return None
-        s = self.spec
         h = self.origin_alt + truth.pos[2]
         n = self._n.take(2)
-        self.drift_pa += s.drift_pa_per_sqrt_s * math.sqrt(dt) * n[1]
-        p = _quantize(pressure_at(h) + self.drift_pa + s.noise_pa * n[0], s.quantization_pa)
+        self.drift_pa += self._drift * math.sqrt(dt) * n[1]
+        p = _quantize(pressure_at(h) + self.drift_pa + self._noise * n[0], self._q)
         return BaroSample(truth.t_us, p, temperature_at(h) - 273.15, altitude_at(p))
 
 
@@ -195,6 +198,7 @@ class Mag:
         self._rate = _Rate(spec.rate_hz)
         self._n = _Normals(rng)
         self._qm = _mount_quat(spec.mount)
+        self._noise = spec.noise_gauss
 
     def sample(self, truth: RigidState) -> MagSample | None:
         """New magnetometer sample or None when not due."""
@@ -204,7 +208,7 @@ class Mag:
         if self._qm is not None:
             b = quat_rotate_inv(self._qm, b)
         n = self._n.take(3)
-        s = self.spec.noise_gauss
+        s = self._noise
         return MagSample(truth.t_us, (b[0] + s * n[0], b[1] + s * n[1], b[2] + s * n[2]))
 
 

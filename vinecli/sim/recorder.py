@@ -8,6 +8,9 @@ at the end (the missions tools write them to Parquet).
 
 from __future__ import annotations
 
+from array import array
+from typing import ClassVar
+
 import numpy as np
 
 __all__ = ["Recorder", "timeseries_columns"]
@@ -41,14 +44,14 @@ def timeseries_columns(n_rotors: int) -> list[str]:
 class Recorder:
     """Rows of floats collected into fixed-size float64 chunks that are added as the run goes.
 
-    :meth:`append` only stores the row list; rows are copied into the current chunk in blocks of
-    :attr:`BLOCK` (one numpy call per block instead of one per row). Memory grows with the rows
+    :meth:`append` only copies the row's floats into a flat buffer; rows go into the current chunk
+    in blocks of :attr:`BLOCK` (one numpy call per block instead of one per row). Memory grows with the rows
     actually recorded: ``capacity`` (the most rows the run can record) only sizes the first chunk,
     capped at :attr:`CHUNK` rows, so a long ``max_duration_s`` costs nothing up front.
     """
 
     BLOCK = 256
-    CHUNK = 8192
+    CHUNK: ClassVar[int] = 8192
 
     def __init__(self, columns: list[str], capacity: int) -> None:
         self.columns = list(columns)
@@ -57,7 +60,7 @@ class Recorder:
         self._chunks: list[np.ndarray] = []
         self._fill = 0  # rows used in the last chunk
         self.n = 0
-        self._pending: list[list[float]] = []
+        self._pending = array("d")  # rows not yet in a chunk, one after the other
 
     @property
     def capacity(self) -> int:
@@ -71,13 +74,15 @@ class Recorder:
 
     def append(self, row: list[float]) -> None:
         """Append one row (len = number of columns)."""
-        self._pending.append(row)
-        if len(self._pending) >= self.BLOCK:
+        if len(row) != len(self.columns):
+            raise ValueError(f"a row of {len(row)} values for {len(self.columns)} columns")
+        self._pending.extend(row)
+        if len(self._pending) >= self.BLOCK * len(self.columns):
             self.flush()
 
     def flush(self) -> None:
         """Copy pending rows into the chunks (adding a chunk when the last one is full)."""
-        rows = self._pending
+        rows = np.frombuffer(self._pending, dtype=np.float64).reshape(-1, len(self.columns))
         i = 0
         while i < len(rows):
             if not self._chunks or self._fill == self._chunks[-1].shape[0]:
@@ -86,11 +91,12 @@ class Recorder:
                 self._fill = 0
             chunk = self._chunks[-1]
             k = min(len(rows) - i, chunk.shape[0] - self._fill)
-            chunk[self._fill : self._fill + k] = rows if k == len(rows) else rows[i : i + k]
+            chunk[self._fill : self._fill + k] = rows[i : i + k]
             self._fill += k
             i += k
         self.n += len(rows)
-        self._pending = []
+        del rows  # the view pins the buffer
+        self._pending = array("d")
 
     def columns_dict(self) -> dict[str, np.ndarray]:
         """``{column: 1-D float64 array}`` of every row recorded so far (copies)."""

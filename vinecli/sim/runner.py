@@ -54,19 +54,19 @@ import numpy as np
 from vinecli.autopilot.base import Autopilot, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.errors import AutopilotError
 from vinecli.frames import Vec3, quat_to_euler, tilt_angle
+from vinecli.physics.battery import Battery
+from vinecli.physics.tank import Tank
+from vinecli.physics.wind import WindField
 from vinecli.sim.recorder import Recorder, timeseries_columns
 from vinecli.sim.setup import PreparedRun, prepare_run
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import ActuatorCommand, Event, Observation, RigidState, ServiceRequest
+from vinecli.world.engine import Engine
 from vinecli.world.model import World
 
 if TYPE_CHECKING:
-    from vinecli.physics.battery import Battery
     from vinecli.physics.deposition import DepositionConfig
-    from vinecli.physics.tank import Tank
-    from vinecli.physics.wind import WindField
-    from vinecli.world.engine import Engine
 
 __all__ = ["SimResult", "run_simulation", "simulate"]
 
@@ -289,7 +289,6 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         cmds = _first_commands(spin_up, n_rot)
         motors.reset(cmds)
     sensors = make_sensors(veh.sensors, world.origin, seed, g=g)
-    sample_all = sensors.sample_all
 
     camera = None
     cam_spec = veh.sensors.depth_camera
@@ -326,7 +325,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         seed=seed,
         terrain_bounds=_bounds(world),
     )
-    ap_step = autopilot.step
+    ap_step: Callable[[Observation], ActuatorCommand] = autopilot.step
     ap_status = autopilot.status
     ap_drain = autopilot.drain_events
     try:
@@ -350,8 +349,8 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     if battery is not None:  # electrical load = shaft / eta + avionics + pump (physics/battery.py)
         b_spec = battery.spec
         inv_eta = 1.0 / b_spec.motor_efficiency
+        avionics_w = b_spec.avionics_w
         pump_w_per_lps = (b_spec.pump_w_at_max_flow / tank.spec.nozzle_max_flow_lps) if tank is not None else 0.0
-        b_update = battery.update
     energy_j = 0.0
 
     columns = timeseries_columns(n_rot)
@@ -371,11 +370,9 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     contacts = engine.client.getContactPoints
     step_sim = pb.stepSimulation
     world_frame = pb.WORLD_FRAME
-    th = world.terrain_height
-    wind_at = wind.velocity
-    m_update = motors.update
-    rotor_pos = tuple((float(r.position_m[0]), float(r.position_m[1]), float(r.position_m[2])) for r in veh.rotors)
-    m_wrench = motors.wrench
+    # the terrain under the vehicle (= World.terrain_height, called here without its bound-method layer)
+    grid = world.terrain.grid
+    flat_z = world.terrain.flat_z
 
     events: list[Event] = []
     metrics: dict[str, float] = {
@@ -403,10 +400,31 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     progress_every = max(1, int(round(1.0 / dt)))
     stop_every = max(1, int(round(0.1 / dt)))
 
-    status = RunStatus.RUNNING
+    RUNNING = RunStatus.RUNNING  # noqa: N806 - an enum member read every step (a local, not a class lookup)
+    status = RUNNING
     detail = ""
     gnss_lat = gnss_lon = gnss_alt = math.nan
     baro_alt = math.nan
+    # PyBullet's state as floats (compiled, these are C doubles: the loop's arithmetic is unboxed)
+    px: float
+    py: float
+    pz: float
+    qx: float
+    qy: float
+    qz: float
+    qw: float
+    vx: float
+    vy: float
+    vz: float
+    ox: float
+    oy: float
+    oz: float
+    vpx: float
+    vpy: float
+    vpz: float
+    opx: float
+    opy: float
+    opz: float
     vpx, vpy, vpz = get_v(body, cid)[0]
     opx, opy, opz = get_v(body, cid)[1]
     first_step = True
@@ -437,7 +455,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
             ax, ay, az = (vx - vpx) * inv_dt, (vy - vpy) * inv_dt, (vz - vpz) * inv_dt
             alx, aly, alz = (ox - opx) * inv_dt, (oy - opy) * inv_dt, (oz - opz) * inv_dt
         omega_body = (r00 * ox + r10 * oy + r20 * oz, r01 * ox + r11 * oy + r21 * oz, r02 * ox + r12 * oy + r22 * oz)
-        tz_ = th(px, py)
+        tz_ = grid.height(px, py) if grid is not None else flat_z
         agl = pz - tz_ - lgh
         on_ground = False
         if agl < _CONTACT_MARGIN_M:
@@ -465,7 +483,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
                 if vimp > crash_speed:
                     events.append(Event(t_us, "crash", f"hard impact at {vimp:.2f} m/s vertical",
                                         {"impact_speed_mps": vimp}))
-                    if end_on_crash and status is RunStatus.RUNNING:
+                    if end_on_crash and status is RUNNING:
                         status = RunStatus.CRASHED
                         detail = f"{RunStatus.CRASHED.message} (impact {vimp:.2f} m/s > {crash_speed:.1f} m/s)"
             if flip_count >= debounce and not on_ground and not (
@@ -490,9 +508,12 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
                 impact_pending = True
 
         truth = RigidState(t_us, (px, py, pz), quat, (vx, vy, vz), omega_body, (ax, ay, az), on_ground)
-        imu, baro, mag, gnss = sample_all(truth)
-        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0,
-                          *((battery.soc, battery.voltage_v) if battery is not None else (math.nan, math.nan)))
+        imu, baro, mag, gnss = sensors.sample_all(truth)
+        if battery is not None:
+            soc, volt = battery.soc, battery.voltage_v
+        else:
+            soc = volt = math.nan
+        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0, soc, volt)
         try:
             cmd = ap_step(obs)
             st = ap_status()
@@ -513,8 +534,8 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
             point_clouds.append((t, camera.capture((px, py, pz), quat)))
 
         # ---- forces for the step t_k -> t_k+1 (interval means of the lagged speeds; motor.py)
-        m_update(cmd.rotor_speed_cmd, dt)
-        wind_v = wind_at(t, (px, py, pz))
+        motors.update(cmd.rotor_speed_cmd, dt)
+        wind_v = wind.velocity(t, (px, py, pz))
         wdx, wdy, wdz = wind_v
         # apparent air at each rotor, body FLU: R^T (wind - v) - ω_b × r_i
         ux, uy, uz = wdx - vx, wdy - vy, wdz - vz
@@ -522,10 +543,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         bay = r01 * ux + r11 * uy + r21 * uz
         baz = r02 * ux + r12 * uy + r22 * uz
         obx, oby, obz = omega_body
-        (fbx, fby, fbz), (tbx, tby, tbz) = m_wrench([
-            (bax - (oby * rpz - obz * rpy), bay - (obz * rpx - obx * rpz), baz - (obx * rpy - oby * rpx))
-            for rpx, rpy, rpz in rotor_pos
-        ])
+        (fbx, fby, fbz), (tbx, tby, tbz) = motors.wrench_com(bax, bay, baz, obx, oby, obz)
         fx = r00 * fbx + r01 * fby + r02 * fbz
         fy = r10 * fbx + r11 * fby + r12 * fbz
         fz = r20 * fbx + r21 * fby + r22 * fbz
@@ -607,13 +625,13 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
                 metrics["tank_empty_s"] = te
 
         if battery is not None:  # = physics.battery.electrical_power_w, multiplied out for the loop
-            b_update(motors.shaft_power * inv_eta + b_spec.avionics_w
+            battery.update(motors.shaft_power * inv_eta + avionics_w
                      + (pump_w_per_lps * tank.flow_lps if tank is not None else 0.0), dt)
             energy_j += battery.power_drawn_w * dt
 
         # ---- termination (the state at t_k is recorded below, always for the last step)
-        if status is RunStatus.RUNNING:
-            if st.status is not RunStatus.RUNNING:
+        if status is RUNNING:
+            if st.status is not RUNNING:
                 status, detail = st.status, st.detail or st.status.message
             elif t_us >= max_us:
                 status, detail = RunStatus.TIMEOUT, f"{RunStatus.TIMEOUT.message} ({mission.max_duration_s:g} s)"
@@ -621,7 +639,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
                 status, detail = RunStatus.INTERRUPTED, RunStatus.INTERRUPTED.message
 
         # ---- record
-        if t_us >= next_rec_us or status is not RunStatus.RUNNING:
+        if t_us >= next_rec_us or status is not RUNNING:
             next_rec_us += rec_period_us
             if baro is not None:
                 baro_alt = baro.altitude_m
@@ -656,7 +674,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
             row.append(ex.get("sortie", math.nan))
             rec.append(row)
 
-        if status is not RunStatus.RUNNING:
+        if status is not RUNNING:
             break
 
         apply_f(body, -1, (fx, fy, fz), (px, py, pz), world_frame, cid)
