@@ -4,10 +4,14 @@ PY      ?= python3
 VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
-APT_PKGS := libusb-1.0-0 gdal-bin
+APT_PKGS := libusb-1.0-0 gdal-bin gcc
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test install sysdeps lint bench clean
+.PHONY: demo test install native sysdeps lint bench clean
+
+# the per-step kernel compiled with mypyc (vinecli/native.py); rebuilt when one of its sources changes
+KERNEL_SRC := $(addprefix vinecli/,$(shell grep -o '^    "[a-z_/]*\.py",' vinecli/native.py | tr -d '", '))
+NATIVE  := vinecli/native.json
 
 $(STAMP): pyproject.toml
 	@$(MAKE) --no-print-directory sysdeps
@@ -21,6 +25,11 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
+$(NATIVE): $(STAMP) $(KERNEL_SRC) vinecli/native.py scripts/build_native.py
+	$(BIN)/python scripts/build_native.py
+
+native: $(NATIVE)
+
 sysdeps:
 	@missing=""; for p in $(APT_PKGS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
@@ -29,17 +38,18 @@ sysdeps:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing >/dev/null; \
 	fi
 
-test: $(STAMP)
+test: $(STAMP) $(NATIVE)
 	$(BIN)/python -m pytest -q
 
-demo: $(STAMP)
+demo: $(STAMP) $(NATIVE)
 	bash scripts/demo.sh $(DEMO_OUT)
 
 lint: $(STAMP)
 	$(BIN)/ruff check vinecli tests benchmarks
 
-bench: $(STAMP)
+bench: $(STAMP) $(NATIVE)
 	for b in terrain reconstruct physics sim loop_parts autopilot_step deposition batch report seeds; do $(BIN)/python benchmarks/$$b.py || exit 1; done
 
 clean:
-	rm -rf $(DEMO_OUT) .pytest_cache
+	rm -rf $(DEMO_OUT) .pytest_cache build/native $(NATIVE)
+	find vinecli -name '*.so' -delete

@@ -1,0 +1,50 @@
+"""Compile the per-step kernel (vinecli/native.py KERNEL) with mypyc, ahead of time, in place.
+
+    .venv/bin/python scripts/build_native.py        # `make native` runs this when a kernel source changed
+
+Writes ``<module>.cpython-*.so`` beside each source and, last, ``vinecli/native.json`` (the digest of
+every source it compiled); until that manifest exists and matches, vinecli runs the sources.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def main() -> int:
+    os.chdir(REPO)
+    sys.path.insert(0, str(REPO))
+    os.environ["VINECLI_PURE_PYTHON"] = "1"  # importing vinecli here must not load an old kernel
+    build = REPO / "build" / "native"
+    shutil.rmtree(build, ignore_errors=True)  # no incremental state: mypyc's cache has failed on edited classes
+    os.environ["MYPY_CACHE_DIR"] = str(build / "mypy-cache")
+    from vinecli import native
+
+    native.MANIFEST.unlink(missing_ok=True)  # a failed build leaves no manifest: the sources run
+    from mypy.version import __version__ as mypy_version
+    from mypyc.build import mypycify
+    from setuptools import setup
+
+    t0 = time.perf_counter()
+    paths = [f"vinecli/{rel}" for rel in native.KERNEL]
+    setup(name="vinecli-kernel", packages=[], py_modules=[],
+          ext_modules=mypycify(paths, opt_level="3", separate=True, target_dir=str(build / "c")),
+          script_args=["-q", "build_ext", "--inplace", "--build-temp", str(build / "obj"), "-j", str(os.cpu_count() or 1)])
+    doc = {"compiler": f"mypyc {mypy_version}", "python": sys.version.split()[0],
+           "sources": native.source_digests()}
+    tmp = native.MANIFEST.with_suffix(".tmp")
+    tmp.write_text(json.dumps(doc, indent=1) + "\n")
+    tmp.replace(native.MANIFEST)
+    print(f"compiled {len(paths)} kernel modules with mypyc in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
