@@ -3,17 +3,23 @@
 For each mission (built-in autopilot, estimator on, every physics model, the sample world's 27
 mesh tiles) it reports, all in process CPU time per 250 Hz step (robust to a shared machine):
 
-* **loop**: ``summary.json timing.cpu_per_step_us`` of a ``run_mission`` in this process;
+* **loop**: ``summary.json timing.cpu_per_step_us`` of a ``run_mission`` in this process, with the
+  kernel this process runs (``vinecli.native.state``: ``compiled`` after ``make native``);
+* **reference**: the same loop on the pure-Python sources (``VINECLI_PURE_PYTHON=1``, a subprocess),
+  and the kernel's speed-up over it;
 * **floor**: what any loop must pay PyBullet per step, measured here on the same world and body:
   ``stepSimulation`` + ``getBasePositionAndOrientation`` + ``getBaseVelocity`` + one
   ``applyExternalForce`` + one ``applyExternalTorque`` (gravity off, floating, no contact);
 * **loop / floor** (the issue's target: <= 2.5) and the loop's real-time factor;
-* **whole process**: ``vinecli run mission`` as a subprocess (start-up, world load, recording and
-  writing included): simulated s / wall s;
-* **parts** (``--parts``): a cProfile of the mission's loop only (not set-up or writing), self time grouped by owner (PyBullet,
-  physics models, sensors, estimator, control + phases, recorder, loop body, other), scaled to the
-  unprofiled CPU per step. Profiling inflates Python calls more than C calls, so these are shares to
-  rank work by, not exact costs.
+* **whole case in a warm worker**: a second ``run_mission`` of the mission in this process, as a batch
+  worker runs its next case (terrain kept loaded; reading the specs, the run, checks and writing the
+  run directory included): simulated s / wall s;
+* **whole process**: ``vinecli run mission`` as a subprocess (Python start-up, imports, world load,
+  recording and writing included): simulated s / wall s;
+* **parts** (``--parts``): a cProfile of the mission's loop only on the pure-Python reference (cProfile
+  does not see inside compiled code), self time grouped by owner (PyBullet, physics models, sensors,
+  estimator, control + phases, recorder, loop body, other), scaled to the reference's CPU per step.
+  Profiling inflates Python calls more than C calls, so these are shares to rank work by.
 
     .venv/bin/python benchmarks/loop_parts.py [--missions gust spray] [--parts] [--json out.json]
 """
@@ -23,6 +29,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import json
+import os
 import pstats
 import subprocess
 import sys
@@ -132,17 +139,45 @@ def whole_process_rtf(world_dir: Path, mission: Path, runs: Path) -> tuple[float
     return json.loads(summaries[0].read_text())["sim_time_s"] / wall, wall
 
 
+def reference(world_dir: Path, mission: Path, runs: Path, parts: bool) -> dict[str, Any]:
+    """The pure-Python reference in a subprocess: its loop's CPU µs per step (and its parts)."""
+    env = {**os.environ, "VINECLI_PURE_PYTHON": "1"}
+    out = subprocess.run([sys.executable, __file__, "--reference", str(world_dir), str(mission), str(runs)]
+                         + (["--parts"] if parts else []), check=True, capture_output=True, text=True, env=env)
+    return json.loads(out.stdout.splitlines()[-1])
+
+
+def _reference_main(world_dir: Path, mission: Path, runs: Path, parts: bool) -> int:
+    from vinecli import native
+    from vinecli.runs.mission import run_mission
+
+    assert native.state == "pure", native.state
+    s = run_mission(mission, world_dir, runs, seed=0, run_id="reference", overwrite=True)
+    cpu = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]["cpu_per_step_us"]
+    row: dict[str, Any] = {"loop_cpu_us_per_step": cpu}
+    if parts:
+        row["parts_us_per_step"] = profile_parts(world_dir, mission, runs, cpu)
+    print(json.dumps(row))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--missions", nargs="+", default=["gust", "spray"], help="missions of pipelines/missions/")
-    ap.add_argument("--parts", action="store_true", help="also profile each mission's loop by part")
+    ap.add_argument("--parts", action="store_true", help="also profile each mission's reference loop by part")
     ap.add_argument("--json", type=Path, help="write the figures as JSON")
+    ap.add_argument("--reference", nargs=3, type=Path, help=argparse.SUPPRESS)  # (internal) the subprocess
     args = ap.parse_args(argv)
+    if args.reference:
+        return _reference_main(*args.reference, args.parts)
 
+    from vinecli import native
     from vinecli.runs.mission import run_mission
     from vinecli.world import build_world, load_world
+    from vinecli.world.engine import reuse_terrain_engines
 
-    res: dict[str, Any] = {"missions": {}}
+    res: dict[str, Any] = {"kernel": native.state, "missions": {}}
+    print(f"kernel: {native.state}")
     with tempfile.TemporaryDirectory(prefix="vinecli-loop-") as tmp_s:
         tmp = Path(tmp_s)
         world_dir = build_world(REPO / "worlds" / "vineyard-sample.yaml", tmp / "world")
@@ -151,23 +186,30 @@ def main(argv: list[str] | None = None) -> int:
         res["floor_cpu_us_per_step"] = floor
         print(f"PyBullet floor (step + pose/velocity reads + 1 force + 1 torque), same world and body: "
               f"{floor:.1f} µs/step CPU")
+        reuse_terrain_engines()  # as a batch worker: the second run of a mission is a warm case
         for name in args.missions:
             mission = REPO / "pipelines" / "missions" / f"{name}.yaml"
             s = run_mission(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True)
-            timing = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]
-            cpu = timing["cpu_per_step_us"]
+            cpu = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]["cpu_per_step_us"]
+            t = time.perf_counter()
+            run_mission(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True)
+            warm = s.sim_time_s / (time.perf_counter() - t)
             rtf_proc, wall = whole_process_rtf(world_dir, mission, tmp / "runs")
+            ref = reference(world_dir, mission, tmp / "runs", args.parts)
+            ref_cpu = ref["loop_cpu_us_per_step"]
             row: dict[str, Any] = {"status": s.status, "sim_time_s": s.sim_time_s, "loop_cpu_us_per_step": cpu,
                                    "loop_over_floor": cpu / floor, "loop_rtf_cpu": 4000.0 / cpu,
-                                   "process_rtf": rtf_proc, "process_wall_s": wall}
+                                   "reference_cpu_us_per_step": ref_cpu, "kernel_speedup": ref_cpu / cpu,
+                                   "warm_case_rtf": warm, "process_rtf": rtf_proc, "process_wall_s": wall}
             print(f"{name:8s} {s.sim_time_s:6.1f} s sim, {s.status}: loop {cpu:5.1f} µs/step CPU "
-                  f"= {cpu / floor:4.1f}× floor (target <= 2.5), loop {4000.0 / cpu:4.0f}× real time; "
-                  f"whole `run mission` {rtf_proc:4.0f}× ({wall:.1f} s wall)")
+                  f"= {cpu / floor:4.1f}× floor (target <= 2.5), {4000.0 / cpu:4.0f}× real time; pure-Python "
+                  f"reference {ref_cpu:5.1f} µs/step ({ref_cpu / cpu:3.1f}× slower); whole case in a warm worker "
+                  f"{warm:4.0f}×; whole `run mission` process {rtf_proc:4.0f}× ({wall:.1f} s wall)")
             if args.parts:
-                parts = profile_parts(world_dir, mission, tmp / "runs", cpu)
-                row["parts_us_per_step"] = parts
-                for part, us in parts.items():
-                    print(f"    {part:28s} {us:6.1f} µs/step  ({us / cpu * 100:4.1f} %)")
+                row["reference_parts_us_per_step"] = ref["parts_us_per_step"]
+                print("    parts of the pure-Python reference loop:")
+                for part, us in ref["parts_us_per_step"].items():
+                    print(f"    {part:28s} {us:6.1f} µs/step  ({us / ref_cpu * 100:4.1f} %)")
             res["missions"][name] = row
     if args.json:
         args.json.write_text(json.dumps(res, indent=2))

@@ -20,6 +20,7 @@ the vehicle base so fast impacts on thin triangle meshes cannot pass through.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import math
 import threading
@@ -267,6 +268,7 @@ class _TerrainEngines(threading.local):
         self.enabled = False
         self.key: tuple[object, ...] | None = None
         self.engine: Engine | None = None
+        self.at_exit = False  # drop() registered to run at exit
 
     def drop(self) -> None:
         if self.engine is not None:
@@ -285,6 +287,9 @@ def reuse_terrain_engines(enabled: bool = True) -> None:
     _KEPT.enabled = enabled
     if not enabled:
         _KEPT.drop()
+    elif not _KEPT.at_exit:  # disconnect before the interpreter tears pybullet down (a noisy __del__ otherwise)
+        _KEPT.at_exit = True
+        atexit.register(_KEPT.drop)
 
 
 def _terrain_key(terrain: TerrainInfo, rate_hz: float, gravity: float) -> tuple[object, ...]:
