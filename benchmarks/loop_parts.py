@@ -128,7 +128,7 @@ def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: floa
 
 def whole_process_rtf(world_dir: Path, mission: Path, runs: Path) -> tuple[float, float]:
     """(simulated s / wall s, wall s) of ``vinecli run mission`` as a new process."""
-    out = runs / "cli"
+    out = runs / f"cli-{mission.stem}"  # one directory per mission: its own summary.json
     t = time.perf_counter()
     subprocess.run([sys.executable, "-m", "vinecli", "run", "mission", str(mission), "--world", str(world_dir),
                     "--out", str(out), "--seed", "0", "--overwrite"], check=False, capture_output=True, cwd=REPO)
