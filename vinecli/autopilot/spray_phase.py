@@ -104,7 +104,8 @@ class Spray(Phase):
                                                    "time_s": plan.time_s, "warnings": plan.warnings})
             self.announced = True
         flow = self.spec.flow_lps
-        assert flow is not None, 'rate_lpha is resolved to flow_lps at load'
+        if flow is None:  # the runner resolves rate_lpha against the vehicle's nozzles (missions/spray_rate.py)
+            raise InputError("spray phase: rate_lpha was not resolved to a flow")
         pts2, flows = plan.path(flow)
         h = self.spec.height_agl_m
         return [(x, y, h) for x, y in pts2], flows

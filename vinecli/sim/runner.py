@@ -367,7 +367,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     get_v = pb.getBaseVelocity
     apply_f = pb.applyExternalForce
     apply_t = pb.applyExternalTorque
-    contacts = engine.client.getContactPoints
+    contacts = pb.getContactPoints  # (bodyA, bodyB=-1, linkIndexA=-2, linkIndexB=-2, client)
     step_sim = pb.stepSimulation
     world_frame = pb.WORLD_FRAME
     # the terrain under the vehicle (= World.terrain_height, called here without its bound-method layer)
@@ -461,7 +461,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         if agl < _CONTACT_MARGIN_M:
             # PyBullet also lists points within its contact threshold (a few mm apart): count only
             # points that carried a normal force in the last step or are closer than 0.1 mm
-            for cp in contacts(bodyA=body):
+            for cp in contacts(body, -1, -2, -2, cid):
                 if cp[9] > 0.0 or cp[8] <= _TOUCH_M:
                     on_ground = True
                     break
