@@ -131,10 +131,11 @@ def install() -> str:
         state = "pure"
     else:
         stale = stale_sources()
-        if stale == []:
+        runner_so = PACKAGE_DIR / "sim" / ("runner" + importlib.machinery.EXTENSION_SUFFIXES[0])
+        if stale == [] and runner_so.is_file():
             state = "compiled"
             return state
-        state = "pure" if stale is None else "stale"  # no build (or a half-finished one): the sources
+        state = "stale" if stale else "pure"  # else no build, a half-finished one, or its extensions gone
         if stale:
             warnings.warn(f"vinecli: the compiled kernel is older than {', '.join(stale)}: running pure Python "
                           "(rebuild it with `make native`)", RuntimeWarning, stacklevel=2)
