@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Protocol
+from typing import Final, Protocol
 
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
@@ -47,6 +47,11 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
             "interrupted": "interrupted by the user",
             "error": "the run failed",
         }[self.value]
+
+
+#: ``RunStatus.RUNNING`` as a module constant: the loop and the autopilot test it every step, and an enum
+#: class attribute costs ~50 ns on Python 3.11
+RUNNING: Final = RunStatus.RUNNING
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, Final
+from typing import Any
 
-from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.base import RUNNING, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimator import Estimator
 from vinecli.autopilot.flight_phases import OpenLoop
 from vinecli.autopilot.geofence import Geofence
@@ -43,7 +43,6 @@ from vinecli.frames import Vec3, quat_to_euler, tilt_angle
 from vinecli.types import ActuatorCommand, Event, Observation
 
 _NAN = float("nan")
-_RUNNING: Final = RunStatus.RUNNING  # read every step: a constant, not an enum lookup (~50 ns on 3.11)
 
 
 class BuiltinAutopilot(FlightSupervisor):
@@ -157,7 +156,7 @@ class BuiltinAutopilot(FlightSupervisor):
     def step(self, obs: Observation) -> ActuatorCommand:
         """Commands for the next physics step."""
         st = self._status
-        if st.status is not _RUNNING:
+        if st.status is not RUNNING:
             return self._off
         self.t_us = obs.t_us
         if self.truth:
@@ -181,7 +180,7 @@ class BuiltinAutopilot(FlightSupervisor):
                 self._w_cmd = w
                 return ActuatorCommand(w, self.flow, True)
             self._end_phase()
-            if self._status.status is not _RUNNING:
+            if self._status.status is not RUNNING:
                 return self._off
             self._countdown = 0
             if isinstance(self._phase, OpenLoop):
@@ -200,7 +199,7 @@ class BuiltinAutopilot(FlightSupervisor):
         if self._countdown <= 0:
             self._countdown = self.n_pos
             self._outer(obs)
-            if self._status.status is not _RUNNING:
+            if self._status.status is not RUNNING:
                 return self._off
             if isinstance(self._phase, OpenLoop):
                 return self._command(obs)

@@ -41,9 +41,8 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from typing import Final
 
-from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.base import RUNNING, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimator import Estimator
 from vinecli.autopilot.flight_phases import Land, Loiter, OpenLoop, Rtl
 from vinecli.autopilot.geofence import GF_ACTION, Geofence
@@ -61,8 +60,6 @@ from vinecli.frames import QuatXYZW, Vec3, quat_to_euler, tilt_angle
 from vinecli.rows.plan import plan_accel
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import Event, ServiceRequest
-
-_RUNNING: Final = RunStatus.RUNNING  # read every step: a constant, not an enum lookup (~50 ns on 3.11)
 
 log = logging.getLogger(__name__)
 _NAN = float("nan")
@@ -239,7 +236,7 @@ class FlightSupervisor:
     def _finish(self, status: RunStatus, detail: str) -> None:
         """End the run with ``status`` (the first call wins; motors off for the fatal ones), event ``status``."""
         st = self._status
-        if st.status is not _RUNNING:
+        if st.status is not RUNNING:
             return
         if self.armed and status in (RunStatus.CANNOT_TAKE_OFF, RunStatus.LOST_CONTROL, RunStatus.GEOFENCE_TERMINATED):
             self.disarm()  # motors off; a completed or timed-out run just ends where it is
@@ -296,7 +293,7 @@ class FlightSupervisor:
                 return False
             if ph.update(self, dt):
                 self._end_phase()
-                if self._status.status is not _RUNNING:
+                if self._status.status is not RUNNING:
                     return False
                 if self._phase is not None and not isinstance(self._phase, OpenLoop):
                     self._phase.update(self, 0.0)
@@ -328,7 +325,7 @@ class FlightSupervisor:
                 log.debug("geofence breach (%s) during the failsafe: no new action", viol)
             elif viol:
                 self._on_geofence(viol)
-                if self._status.status is not _RUNNING:
+                if self._status.status is not RUNNING:
                     return False
         self._check_battery()
         return True

@@ -61,6 +61,7 @@ class Recorder:
         self._fill = 0  # rows used in the last chunk
         self.n = 0
         self._pending = array("d")  # rows not yet in a chunk, one after the other
+        self._block_values = self.BLOCK * len(self.columns)  # pending values that make a block
 
     @property
     def capacity(self) -> int:
@@ -77,7 +78,7 @@ class Recorder:
         if len(row) != len(self.columns):
             raise ValueError(f"a row of {len(row)} values for {len(self.columns)} columns")
         self._pending.extend(row)
-        if len(self._pending) >= self.BLOCK * len(self.columns):
+        if len(self._pending) >= self._block_values:
             self.flush()
 
     def flush(self) -> None:

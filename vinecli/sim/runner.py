@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vinecli.autopilot.base import Autopilot, AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.errors import AutopilotError
 from vinecli.frames import Vec3, quat_to_euler, tilt_angle
 from vinecli.physics.battery import Battery
@@ -400,7 +400,6 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     progress_every = max(1, int(round(1.0 / dt)))
     stop_every = max(1, int(round(0.1 / dt)))
 
-    RUNNING = RunStatus.RUNNING  # noqa: N806 - an enum member read every step (a local, not a class lookup)
     status = RUNNING
     detail = ""
     gnss_lat = gnss_lon = gnss_alt = math.nan

@@ -268,7 +268,6 @@ class _TerrainEngines(threading.local):
         self.enabled = False
         self.key: tuple[object, ...] | None = None
         self.engine: Engine | None = None
-        self.at_exit = False  # drop() registered to run at exit
 
     def drop(self) -> None:
         if self.engine is not None:
@@ -277,6 +276,7 @@ class _TerrainEngines(threading.local):
 
 
 _KEPT = _TerrainEngines()
+_DROP_AT_EXIT = False  # _KEPT.drop registered with atexit (the main thread's kept engine)
 
 
 def reuse_terrain_engines(enabled: bool = True) -> None:
@@ -284,11 +284,12 @@ def reuse_terrain_engines(enabled: bool = True) -> None:
     world skips connecting PyBullet and loading its tiles). Runs stay bit-identical to fresh engines: the
     engine is created with ``deterministicOverlappingPairs`` and only the vehicle body is removed between
     runs (checked against fresh engines in tests/sim/test_engine_reuse.py)."""
+    global _DROP_AT_EXIT
     _KEPT.enabled = enabled
     if not enabled:
         _KEPT.drop()
-    elif not _KEPT.at_exit:  # disconnect before the interpreter tears pybullet down (a noisy __del__ otherwise)
-        _KEPT.at_exit = True
+    elif not _DROP_AT_EXIT:  # disconnect before the interpreter tears pybullet down (a noisy __del__ otherwise)
+        _DROP_AT_EXIT = True
         atexit.register(_KEPT.drop)
 
 
