@@ -8,14 +8,37 @@ every source it compiled); until that manifest exists and matches, vinecli runs 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+@contextlib.contextmanager
+def _output_to(log: Path) -> Iterator[None]:
+    """Send this process's stdout and stderr, and its children's (gcc), to ``log``."""
+    log.parent.mkdir(parents=True, exist_ok=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    with log.open("w") as f:
+        os.dup2(f.fileno(), 1)
+        os.dup2(f.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
 
 
 def main() -> int:
@@ -34,9 +57,19 @@ def main() -> int:
 
     t0 = time.perf_counter()
     paths = [f"vinecli/{rel}" for rel in native.KERNEL]
-    setup(name="vinecli-kernel", packages=[], py_modules=[],
-          ext_modules=mypycify(paths, opt_level="3", separate=True, target_dir=str(build / "c")),
-          script_args=["-q", "build_ext", "--inplace", "--build-temp", str(build / "obj"), "-j", str(os.cpu_count() or 1)])
+    log = build / "build.log"
+    print(f"compiling the per-step kernel ({len(paths)} modules) with mypyc, ~1 min; log: {log.relative_to(REPO)}",
+          flush=True)
+    try:
+        with _output_to(log):  # mypyc's notes, setuptools' and gcc's output: only shown when the build fails
+            setup(name="vinecli-kernel", packages=[], py_modules=[],
+                  ext_modules=mypycify(paths, opt_level="3", separate=True, target_dir=str(build / "c")),
+                  script_args=["-q", "build_ext", "--inplace", "--build-temp", str(build / "obj"),
+                               "-j", str(os.cpu_count() or 1)])
+    except (Exception, SystemExit):  # noqa: BLE001 - whatever failed, the log says why
+        print("".join(log.read_text(errors="replace").splitlines(keepends=True)[-40:]), file=sys.stderr)
+        print(f"kernel build failed (whole log: {log}); vinecli still runs, on the pure-Python sources", file=sys.stderr)
+        return 1
     doc = {"compiler": f"mypyc {mypy_version}", "python": sys.version.split()[0],
            "sources": native.source_digests()}
     tmp = native.MANIFEST.with_suffix(".tmp")
