@@ -158,3 +158,23 @@ def test_periodic_gains_equal_the_step_by_step_riccati_iteration():
     for g, rg in zip(got, ref, strict=True):
         assert np.allclose(np.array(g), rg, rtol=1e-10, atol=1e-14)
     assert periodic_gains(dt, acc_psd, bias_psd, sensors) == got  # cached, same values
+
+
+@pytest.mark.parametrize(("dt", "acc_psd", "bias_psd"), [(0.004, 0.04, 4e-4), (0.02, 1.0, 1e-2), (1e-4, 0.3, 5e-6)])
+def test_discrete_model_equals_the_van_loan_matrix_exponential(dt: float, acc_psd: float, bias_psd: float) -> None:
+    """The closed-form F, Q equal scipy's Van Loan construction (expm of the 6x6 block matrix)."""
+    import numpy as np
+    from scipy.linalg import expm
+
+    from vinecli.autopilot.estimator import discrete_model
+
+    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])
+    vl = np.zeros((6, 6))
+    vl[:3, :3], vl[:3, 3:], vl[3:, 3:] = -a, np.diag([0.0, acc_psd, bias_psd]), a.T
+    e = expm(vl * dt)
+    f_ref = e[3:, 3:].T
+    q_ref = f_ref @ e[:3, 3:]
+    f, q = discrete_model(dt, acc_psd, bias_psd)
+    assert np.allclose(f, f_ref, rtol=1e-14, atol=0.0)
+    assert np.allclose(q, 0.5 * (q_ref + q_ref.T), rtol=1e-12, atol=0.0)
+    assert np.array_equal(q, q.T)

@@ -184,3 +184,25 @@ def test_dryden_terms_in_a_sum_are_independent_and_sigma_override() -> None:
     assert w.terms[0].params["sigma_mps"][2] == pytest.approx(sw / su)
     calm = make_wind(WindSpec(law=DrydenWind()), seed=1)  # no intensity, no mean: no turbulence
     assert calm.velocity(3.0) == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("T", [0.05, 0.7, 12.0, 400.0])
+def test_dryden_second_order_closed_form_equals_the_general_solvers(T: float) -> None:
+    """Φ, the stationary covariance and the noise factor of (1 + √3 T s)/(1 + T s)² equal scipy's
+    matrix exponential and Lyapunov solver (the closed form avoids importing scipy at start-up)."""
+    from scipy.linalg import expm, solve_continuous_lyapunov
+
+    from vinecli.physics.dryden import _second_order
+
+    dt = 0.004
+    a = np.array([[0.0, 1.0], [-1.0 / T**2, -2.0 / T]])
+    b = np.array([[0.0], [1.0]])
+    p = solve_continuous_lyapunov(a, -b @ b.T)
+    phi_ref = expm(a * dt)
+    phi, lq, c, lp = (np.array(m) for m in _second_order(T, dt))
+    assert np.allclose(phi, phi_ref, rtol=1e-12, atol=1e-15)
+    scale = float(np.abs(p).max())  # the solver's and the cancellation's error are relative to |p|
+    assert np.allclose(lp @ lp.T, p, rtol=1e-10, atol=1e-13 * scale)
+    q_ref = p - phi_ref @ p @ phi_ref.T
+    assert np.allclose(lq @ lq.T, q_ref, rtol=1e-6, atol=1e-12 * scale)
+    assert c @ (lp @ lp.T) @ c == pytest.approx(1.0, rel=1e-12)  # unit output variance

@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 import logging
 import math
+from typing import Any
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler
@@ -45,6 +46,25 @@ def periodic_gains(dt: float, acc_psd: float, bias_psd: float,
     return list(_periodic_gains(float(dt), float(acc_psd), float(bias_psd), key, float(horizon_s)))
 
 
+def discrete_model(dt: float, acc_psd: float, bias_psd: float) -> tuple[Any, Any]:
+    """(F, Q) of state (p, v, b) over ``dt`` s: p' = v, v' = a_meas - b + w_a, b' = w_b, with white-noise
+    densities ``acc_psd`` (m²/s³) and ``bias_psd`` (m²/s⁵).
+
+    Exact, in closed form: the system matrix is nilpotent (A³ = 0), so F = exp(A dt) and the Van Loan
+    integral Q = ∫ exp(A s) G exp(Aᵀ s) ds are polynomials in ``dt`` (no matrix exponential, and no scipy
+    import on a run's start-up).
+    """
+    import numpy as np
+
+    qa, qb = acc_psd, bias_psd
+    d2, d3 = dt * dt, dt * dt * dt
+    f = np.array([[1.0, dt, -0.5 * d2], [0.0, 1.0, -dt], [0.0, 0.0, 1.0]])
+    q = np.array([[qa * d3 / 3.0 + qb * d3 * d2 / 20.0, qa * d2 / 2.0 + qb * d2 * d2 / 8.0, -qb * d3 / 6.0],
+                  [qa * d2 / 2.0 + qb * d2 * d2 / 8.0, qa * dt + qb * d3 / 3.0, -qb * d2 / 2.0],
+                  [-qb * d3 / 6.0, -qb * d2 / 2.0, qb * dt]])
+    return f, q
+
+
 @functools.lru_cache(maxsize=64)
 def _periodic_gains(dt: float, acc_psd: float, bias_psd: float,
                     sensors: tuple[tuple[float, tuple[tuple[float, ...], ...], tuple[float, ...]], ...],
@@ -56,18 +76,8 @@ def _periodic_gains(dt: float, acc_psd: float, bias_psd: float,
     ``acc_psd`` (m²/s³) and ``bias_psd`` (m²/s⁵) are the continuous process-noise densities.
     """
     import numpy as np
-    from scipy.linalg import expm
 
-    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])
-    gq = np.diag([0.0, acc_psd, bias_psd])
-    vl = np.zeros((6, 6))  # Van Loan discretisation of the process noise
-    vl[:3, :3] = -a
-    vl[:3, 3:] = gq
-    vl[3:, 3:] = a.T
-    e = expm(vl * dt)
-    f = e[3:, 3:].T
-    q = f @ e[:3, 3:]
-    q = 0.5 * (q + q.T)
+    f, q = discrete_model(dt, acc_psd, bias_psd)
     p = np.diag([100.0, 10.0, 1.0])
     every = [max(1, round(1.0 / (rate * dt))) for rate, _, _ in sensors]
     hs = [np.array(h, dtype=float) for _, h, _ in sensors]

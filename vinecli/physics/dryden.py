@@ -54,18 +54,18 @@ def _second_order(T: float, dt: float) -> tuple[list[list[float]], list[list[flo
 
     Returns (Φ, L_q, c, L_p): x' = Φ x + L_q n, y = c·x, x0 = L_p n0.
     """
-    from scipy.linalg import cholesky, expm, solve_continuous_lyapunov
-
+    # closed form (no scipy import on a run's start-up): a has the double eigenvalue -1/T, so
+    # exp(a dt) = e^(-dt/T) (I + (a + I/T) dt); the stationary covariance (a p + p aᵀ + b bᵀ = 0) is
+    # diag(T³/4, T/4)
     a = np.array([[0.0, 1.0], [-1.0 / T**2, -2.0 / T]])
-    b = np.array([[0.0], [1.0]])
     c = np.array([1.0, math.sqrt(3.0) * T])
-    p = solve_continuous_lyapunov(a, -b @ b.T)
+    p = np.diag([T**3 / 4.0, T / 4.0])
     c = c / math.sqrt(float(c @ p @ c))
-    phi = expm(a * dt)
+    phi = math.exp(-dt / T) * (np.eye(2) + (a + np.eye(2) / T) * dt)
     q = p - phi @ p @ phi.T
     q = 0.5 * (q + q.T) + np.eye(2) * 1e-300
-    lq = cholesky(q, lower=True)
-    lp = cholesky(p, lower=True)
+    lq = np.linalg.cholesky(q)
+    lp = np.linalg.cholesky(p)
     return phi.tolist(), lq.tolist(), c.tolist(), lp.tolist()
 
 
