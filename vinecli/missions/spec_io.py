@@ -18,7 +18,7 @@ import yaml
 from vinecli.errors import SpecError
 from vinecli.missions.quantities import check_quantities
 from vinecli.outputs import write_text_atomic
-from vinecli.specs import read_yaml, resolve_base, validate_spec
+from vinecli.specs import YAML_DUMPER, read_yaml, resolve_base, validate_spec
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 
@@ -115,7 +115,7 @@ def _check_windows_syntax(mission: MissionSpec, path: Path | str) -> None:
 
 def dump_mission(mission: MissionSpec) -> str:
     """The mission as YAML text (resolved, every default written out)."""
-    return yaml.safe_dump(mission.model_dump(mode="json"), sort_keys=False)
+    return yaml.dump(mission.model_dump(mode="json"), Dumper=YAML_DUMPER, sort_keys=False)
 
 
 def write_mission(path: Path | str, mission: MissionSpec) -> None:
