@@ -42,6 +42,15 @@ def _context() -> Any:
     return ctx
 
 
+def start_fork_server() -> None:
+    """Start the local pools' fork server now: it imports :data:`WORKER_PRELOAD` while the caller goes on
+    (e.g. prepares the worlds), instead of when the first worker is needed."""
+    from multiprocessing import forkserver
+
+    _context()
+    forkserver.ensure_running()
+
+
 def make_local_executor(jobs: int, max_tasks_per_child: int = WORKER_CASES, stop_flag: Any = None) -> ProcessPoolExecutor:
     """Process pool, workers forked from the preloaded fork server and recycled every ``max_tasks_per_child``
     cases, stops handled as :func:`vinecli.batch.signals.worker_init` sets up (``stop_flag``: from

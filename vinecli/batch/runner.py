@@ -31,7 +31,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from vinecli.batch.executors import EXECUTORS, WORKER_CASES, dask_executor, local_stop_flag, make_local_executor
+from vinecli.batch.executors import (
+    EXECUTORS,
+    WORKER_CASES,
+    dask_executor,
+    local_stop_flag,
+    make_local_executor,
+    start_fork_server,
+)
 from vinecli.batch.job import CaseResult, RunSpec, run_one
 from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
@@ -139,6 +146,8 @@ def run_batch(
             raise InputError("PX4 binary not found (px4_bin)", path=pb)
         ap_opts["px4_bin"] = str(pb.resolve())
     t0 = time.perf_counter()
+    if executor == "local":
+        start_fork_server()  # its imports overlap with preparing the worlds
     with StopRequest() as stop:
         worlds: dict[str, str] = {}
         try:
@@ -219,18 +228,24 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
             ex: Executor = make_local_executor(jobs, max_tasks_per_child, flag)
         else:
             ex = stack.enter_context(dask_executor(jobs, scheduler, processes=dask_processes))
+
+        def refill() -> None:
+            while pending and not suspects and len(inflight) < jobs:
+                s = pending.popleft()
+                inflight[ex.submit(job, s)] = (s, time.monotonic(), False)
+
         try:
             while (pending or suspects or inflight) and stop.signum is None:
                 while suspects and not inflight:
                     s = suspects.popleft()
                     inflight[ex.submit(job, s)] = (s, time.monotonic(), True)
-                while pending and not suspects and len(inflight) < jobs:
-                    s = pending.popleft()
-                    inflight[ex.submit(job, s)] = (s, time.monotonic(), False)
+                refill()
                 done, _ = wait(list(inflight), timeout=0.5, return_when=FIRST_COMPLETED)
+                finished = [(f, inflight.pop(f)) for f in done]
+                if not any(isinstance(f.exception(), BrokenProcessPool) for f, _ in finished):
+                    refill()  # the freed worker gets its next case before this process writes batch.json
                 broken = False
-                for f in done:
-                    s, _t, alone = inflight.pop(f)
+                for f, (s, _t, alone) in finished:
                     try:
                         record(f.result())
                     except BrokenProcessPool:

@@ -124,6 +124,10 @@ def batch_cmd(
 
     Example: vinecli run batch pipelines/ci.yaml --out runs --jobs 2
     """
+    if executor == "local":  # the workers' fork server imports what a case needs while this process goes on
+        from vinecli.batch.executors import start_fork_server
+
+        start_fork_server()
     from vinecli.batch import run_batch
     from vinecli.batch.spec import pipeline_cases
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
