@@ -4,6 +4,7 @@ trajectory): attitude incl. heading, gyro bias, position and velocity."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import pytest
 
@@ -130,19 +131,12 @@ def test_periodic_gains_equal_the_step_by_step_riccati_iteration():
     """The period-compressed solver (predictions between corrections folded into F^m, Q_m, stopped
     at the periodic steady state) gives the gains of the plain step-by-step iteration over 30 s."""
     import numpy as np
-    from scipy.linalg import expm
 
     from vinecli.autopilot.estimator import periodic_gains
 
     dt, acc_psd, bias_psd = 0.004, 0.04, 0.0004
     sensors = [(50.0, ((1.0, 0.0, 0.0),), (0.007,)), (10.0, ((0.0, 1.0, 0.0),), (0.0025,))]
-    a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])
-    vl = np.zeros((6, 6))
-    vl[:3, :3], vl[:3, 3:], vl[3:, 3:] = -a, np.diag([0.0, acc_psd, bias_psd]), a.T
-    e = expm(vl * dt)
-    f = e[3:, 3:].T
-    q = f @ e[:3, 3:]
-    q = 0.5 * (q + q.T)
+    f, q = _van_loan(dt, acc_psd, bias_psd)
     p = np.diag([100.0, 10.0, 1.0])
     ref = [None, None]
     for k in range(1, int(30.0 / dt) + 1):
@@ -164,17 +158,25 @@ def test_periodic_gains_equal_the_step_by_step_riccati_iteration():
 def test_discrete_model_equals_the_van_loan_matrix_exponential(dt: float, acc_psd: float, bias_psd: float) -> None:
     """The closed-form F, Q equal scipy's Van Loan construction (expm of the 6x6 block matrix)."""
     import numpy as np
-    from scipy.linalg import expm
 
     from vinecli.autopilot.estimator import discrete_model
+
+    f_ref, q_ref = _van_loan(dt, acc_psd, bias_psd)
+    f, q = discrete_model(dt, acc_psd, bias_psd)
+    assert np.allclose(f, f_ref, rtol=1e-14, atol=0.0)
+    assert np.allclose(q, q_ref, rtol=1e-12, atol=0.0)
+    assert np.array_equal(q, q.T)
+
+
+def _van_loan(dt: float, acc_psd: float, bias_psd: float) -> tuple[Any, Any]:
+    """(F, Q) of the estimator's (p, v, b) model by Van Loan's method: scipy's expm of the 6x6 block matrix."""
+    import numpy as np
+    from scipy.linalg import expm
 
     a = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])
     vl = np.zeros((6, 6))
     vl[:3, :3], vl[:3, 3:], vl[3:, 3:] = -a, np.diag([0.0, acc_psd, bias_psd]), a.T
     e = expm(vl * dt)
-    f_ref = e[3:, 3:].T
-    q_ref = f_ref @ e[:3, 3:]
-    f, q = discrete_model(dt, acc_psd, bias_psd)
-    assert np.allclose(f, f_ref, rtol=1e-14, atol=0.0)
-    assert np.allclose(q, 0.5 * (q_ref + q_ref.T), rtol=1e-12, atol=0.0)
-    assert np.array_equal(q, q.T)
+    f = e[3:, 3:].T
+    q = f @ e[:3, 3:]
+    return f, 0.5 * (q + q.T)
