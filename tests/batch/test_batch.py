@@ -204,3 +204,17 @@ def test_world_as_a_sweep_axis(pipe_dir: Path, tmp_path: Path) -> None:
     res = run_batch(p, tmp_path / "runs", jobs=1, job=job_light)
     dirs = {json.loads((tmp_path / "runs" / c.run_id / "summary.json").read_text())["world_dir"] for c in res.cases}
     assert dirs == {str((pipe_dir / "world").resolve()), str(other.resolve())}
+
+
+def test_batch_counts_keep_interrupted_cases_apart() -> None:
+    """passed / failed checks / could not run / interrupted are disjoint: an interrupted case (partial run, or
+    never started) is neither a check failure nor an error, so the CLI can say which it was."""
+    from vinecli.batch.job import CaseResult
+    from vinecli.batch.runner import BatchResult
+
+    cases = [CaseResult("a", "a", "completed", True), CaseResult("b", "b", "completed", False),
+             CaseResult("c", "c", "error", False, "timeout: no result"),
+             CaseResult("d", "d", "interrupted", False), CaseResult("e", "e", "interrupted", False, "not run: stopped")]
+    r = BatchResult("p", "runs", cases)
+    assert (r.n_passed, r.n_failed, r.n_errors, r.n_interrupted) == (1, 1, 1, 2)
+    assert r.n_passed + r.n_failed + r.n_errors + r.n_interrupted == len(cases)

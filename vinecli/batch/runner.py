@@ -76,11 +76,13 @@ class BatchResult:
 
     @property
     def n_failed(self) -> int:
-        return sum((not c.passed) and c.error is None for c in self.cases)
+        """Cases that ran to their end and failed a check (an interrupted case is counted apart)."""
+        return sum((not c.passed) and c.error is None and c.status != "interrupted" for c in self.cases)
 
     @property
     def n_errors(self) -> int:
-        return sum(c.error is not None for c in self.cases)
+        """Cases that could not run (raised, crashed their worker, timed out); interrupted ones apart."""
+        return sum(c.error is not None and c.status != "interrupted" for c in self.cases)
 
     @property
     def passed(self) -> bool:

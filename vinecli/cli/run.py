@@ -144,16 +144,18 @@ def batch_cmd(
         result = run_batch(pipeline, out, jobs=jobs, executor=executor, scheduler=scheduler, resume=resume,
                            timeout_s=timeout, progress=on_case, mcap=mcap, world=world, px4_bin=px4_bin)
     _batch_table(result)
+    stopped = f", {result.n_interrupted} interrupted" if result.n_interrupted else ""
     out_console.print(f"{result.runs_dir}/batch.json  {result.n_passed} passed, {result.n_failed} failed, "
-                      f"{result.n_errors} errors in {result.wall_time_s:.1f} s")
+                      f"{result.n_errors} errors{stopped} in {result.wall_time_s:.1f} s")
     if result.signum is not None:
         import signal
 
         raise Interrupted(f"stopped by {signal.Signals(result.signum).name}: {result.n_interrupted} case(s) "
                           "interrupted (run again with --resume)", path=result.runs_dir, signum=result.signum)
-    if result.n_errors:
-        raise RuntimeFailure(f"{result.n_errors} case(s) could not run: "
-                             + ", ".join(c.case for c in result.cases if c.error), path=result.runs_dir)
+    if result.n_errors or result.n_interrupted:  # interrupted without a batch stop: a worker was stopped
+        raise RuntimeFailure(f"{result.n_errors + result.n_interrupted} case(s) could not run to their end: "
+                             + ", ".join(c.case for c in result.cases if c.error or c.status == "interrupted"),
+                             path=result.runs_dir)
     if result.n_failed:
         raise ChecksFailed(f"{result.n_failed} case(s) failed checks: "
                            + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
