@@ -96,6 +96,21 @@ def stale_sources(manifest: Path = MANIFEST, root: Path = PACKAGE_DIR) -> list[s
     return stale
 
 
+def _runner_extension() -> Path:
+    return PACKAGE_DIR / "sim" / ("runner" + importlib.machinery.EXTENSION_SUFFIXES[0])
+
+
+def _usable(stale: list[str] | None) -> bool:
+    """Built (the loop's extension is there) and no kernel source changed since (``stale`` = [])."""
+    return stale == [] and _runner_extension().is_file()
+
+
+def build_is_current() -> bool:
+    """True when the compiled kernel is built and every kernel source is the one it was built from (what
+    :func:`install` needs to use it, unless ``VINECLI_PURE_PYTHON=1`` asks for the sources)."""
+    return _usable(stale_sources())
+
+
 def is_compiled(module: ModuleType) -> bool:
     """True when ``module`` was loaded from a compiled extension."""
     return isinstance(getattr(module, "__loader__", None), importlib.machinery.ExtensionFileLoader)
@@ -131,8 +146,7 @@ def install() -> str:
         state = "pure"
     else:
         stale = stale_sources()
-        runner_so = PACKAGE_DIR / "sim" / ("runner" + importlib.machinery.EXTENSION_SUFFIXES[0])
-        if stale == [] and runner_so.is_file():
+        if _usable(stale):
             state = "compiled"
             return state
         state = "stale" if stale else "pure"  # else no build, a half-finished one, or its extensions gone
