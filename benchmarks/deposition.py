@@ -39,8 +39,8 @@ BUDGET_US = 3.0
 
 
 def _run(world, mission, deposition: bool) -> dict[str, float]:  # noqa: ANN001 - World, MissionSpec
-    from vinecli.autopilot.px4_options import make_run_autopilot
     from vinecli.sim.runner import run_simulation
+    from vinecli.sitl.options import make_run_autopilot
 
     ap = make_run_autopilot("builtin", truth=mission.truth)
     c0, w0 = time.process_time(), time.perf_counter()

@@ -17,6 +17,7 @@ LAYERS: list[set[str]] = [
     {"physics", "control", "terrain", "vehicle", "mavlink"},
     {"rows"},
     {"autopilot"},
+    {"sitl"},
     {"world"},
     {"sim"},
     {"missions"},

@@ -89,10 +89,10 @@ def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(fla
 
 
 def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Path) -> None:
-    from vinecli.autopilot.px4_options import make_run_autopilot
     from vinecli.missions.spec_io import load_mission
     from vinecli.physics.deposition import DepositionConfig
     from vinecli.sim.runner import run_simulation
+    from vinecli.sitl.options import make_run_autopilot
     from vinecli.world import load_world
 
     spec = load_mission(mission(tmp_path, "cells"))

@@ -19,7 +19,7 @@ from typing import Any
 import pytest
 
 from tests.repo_paths import REPO
-from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
+from vinecli.sitl.px4.backend import Px4SitlAutopilot
 
 SHARED_PX4 = Path(os.environ.get("VINECLI_SHARED_PX4", REPO.parent / "shared" / "px4"))
 

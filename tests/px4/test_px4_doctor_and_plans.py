@@ -9,12 +9,12 @@ import pytest
 from typer.testing import CliRunner
 
 from tests.px4.conftest import ORIGIN
-from vinecli.autopilot.px4_doctor import px4_doctor
-from vinecli.autopilot.px4_options import make_run_autopilot
 from vinecli.cli.app import app
 from vinecli.errors import InputError, SpecError
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.mission_items import PlanContext, degE7_to_enu, enu_to_degE7, items_to_phases, phases_to_items
+from vinecli.sitl.options import make_run_autopilot
+from vinecli.sitl.px4.doctor import px4_doctor
 from vinecli.specs.mission import GotoPhase, HoldPhase, LandPhase, MissionSpec, SprayerPhase, TakeoffPhase
 
 pytestmark = pytest.mark.timeout(60)
@@ -91,7 +91,7 @@ def test_doctor_finds_a_running_px4(tmp_path):
 def test_run_autopilot_factory():
     from vinecli.autopilot.builtin import BuiltinAutopilot
     from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot
-    from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
+    from vinecli.sitl.px4.backend import Px4SitlAutopilot
 
     assert isinstance(make_run_autopilot("builtin", truth=True), BuiltinAutopilot)
     ap = make_run_autopilot("px4", px4_instance=4, px4_connect_timeout_s=5)

@@ -8,8 +8,8 @@ import pytest
 
 from tests.px4.fake_px4 import FakePx4
 from vinecli.autopilot.base import RunStatus
-from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
 from vinecli.sim.runner import run_simulation
+from vinecli.sitl.px4.backend import Px4SitlAutopilot
 from vinecli.specs.mission import MissionSpec
 
 pytestmark = pytest.mark.timeout(240)

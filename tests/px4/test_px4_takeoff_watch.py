@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from vinecli.autopilot.px4_takeoff import TakeoffWatch
+from vinecli.sitl.takeoff import TakeoffWatch
 
 DT_US = 4000
 
@@ -41,8 +41,8 @@ def test_a_climb_or_a_disarmed_vehicle_is_fine():
 def test_boot_parameters_script_is_validated():
     import pytest
 
-    from vinecli.autopilot.px4_process import boot_params_script
     from vinecli.errors import InputError
+    from vinecli.sitl.px4.process import boot_params_script
 
     text = boot_params_script({"EKF2_HGT_REF": 0, "NAV_MC_ALT_RAD": 0.2})
     assert "param set EKF2_HGT_REF 0\n" in text and "param set NAV_MC_ALT_RAD 0.2\n" in text

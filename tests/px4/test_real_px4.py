@@ -91,7 +91,7 @@ def test_geofence_failsafe_ends_the_run_with_px4s_cause(real_px4, tmp_path):
     peak = max(leg, key=lambda i: vx[i])
     assert 4.0 < x[peak] < 8.0 and vx[peak] > 3.0, (x[peak], vx[peak])
     assert vx[-1] < vx[peak] and max(x) < 13.5, (vx[-1], max(x))
-    from vinecli.autopilot.px4_doctor import px4_doctor
+    from vinecli.sitl.px4.doctor import px4_doctor
 
     ap.close()  # PX4 stopped, sockets closed
     rep = px4_doctor(instance=ap.instance, probe_timeout_s=0.2)  # right after the run: ports reusable

@@ -22,7 +22,7 @@ GROUP = "vinecli.autopilots"
 #: built-in backends, "module:attribute"
 BUILTIN: dict[str, str] = {
     "builtin": "vinecli.autopilot.builtin:BuiltinAutopilot",
-    "px4": "vinecli.autopilot.px4_sitl:Px4SitlAutopilot",
+    "px4": "vinecli.sitl.px4.backend:Px4SitlAutopilot",
 }
 
 

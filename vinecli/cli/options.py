@@ -2,7 +2,7 @@
 
 Factories (``out_option("...")``) for flags whose help depends on the command, ready-made ``Annotated`` types
 for flags that mean the same everywhere. Defaults are never declared here: a command's signature takes them
-from the library (:data:`vinecli.autopilot.px4_options.PX4_DEFAULTS`,
+from the library (:data:`vinecli.sitl.options.PX4_DEFAULTS`,
 :data:`vinecli.spray_defaults.SPRAY_DEFAULTS`, :mod:`vinecli.terrain.defaults`). Only light modules
 are imported so ``vinecli --help`` stays fast.
 """

@@ -7,9 +7,9 @@ from typing import Annotated
 
 import typer
 
-from vinecli.autopilot.px4_options import PX4_DEFAULT_INSTANCE, PX4_DEFAULTS, PX4_PROBE_TIMEOUT_S
 from vinecli.cli.console import handles_errors, out_console
 from vinecli.cli.options import px4_bin_option
+from vinecli.sitl.options import PX4_DEFAULT_INSTANCE, PX4_DEFAULTS, PX4_PROBE_TIMEOUT_S
 
 app = typer.Typer(help="PX4 SITL helpers.", no_args_is_help=True)
 
@@ -32,8 +32,8 @@ def doctor_cmd(
     """
     from rich.table import Table
 
-    from vinecli.autopilot.px4_doctor import px4_doctor
     from vinecli.errors import ChecksFailed
+    from vinecli.sitl.px4.doctor import px4_doctor
 
     rep = px4_doctor(px4_bin, instance=instance, host=host, probe_timeout_s=timeout)
     table = Table(title=f"PX4 SITL instance {instance}", show_lines=False)

@@ -7,7 +7,6 @@ from typing import Annotated, Any
 
 import typer
 
-from vinecli.autopilot.px4_options import PX4_DEFAULTS
 from vinecli.cli.console import handles_errors, out_console, progress, sim_progress
 from vinecli.cli.options import (
     Px4AllowRemote,
@@ -23,6 +22,7 @@ from vinecli.cli.options import (
     px4_bin_option,
     world_option,
 )
+from vinecli.sitl.options import PX4_DEFAULTS
 
 app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is_help=True)
 
@@ -65,10 +65,10 @@ def mission_cmd(
 
     Example: vinecli run mission pipelines/missions/takeoff.yaml --world build/vineyard --out runs
     """
-    from vinecli.autopilot.px4_options import AutopilotOptions, px4_binary
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
     from vinecli.missions.spec_io import read_mission
     from vinecli.runs import run_mission
+    from vinecli.sitl.options import AutopilotOptions, px4_binary
 
     src = read_mission(mission)  # read once: run_mission takes it as it is
     spec = src.spec

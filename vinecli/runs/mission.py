@@ -178,7 +178,7 @@ def _run_prepared(
     """Fly a prepared run, evaluate its checks and write ``out`` (:func:`run_mission`, after the set-up)."""
     spec, world, vehicle = run.mission, run.world, run.vehicle
     check_quantities(spec.checks, mission_path or spec.name, n_rotors=vehicle.n_rotors)
-    from vinecli.autopilot.px4_options import make_run_autopilot
+    from vinecli.sitl.options import make_run_autopilot
 
     # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
     ap = make_run_autopilot(spec.autopilot, truth=spec.truth if spec.autopilot == "builtin" else None,

@@ -1,7 +1,7 @@
 """Mission control of PX4 over its API/offboard MAVLink link (PX4 sends to UDP 14540+i).
 
 :class:`Px4MissionClient` runs in a **background thread** so the lockstep loop never blocks:
-``step()`` of :class:`~vinecli.autopilot.px4_sitl.Px4SitlAutopilot` only reads the client's
+``step()`` of :class:`~vinecli.sitl.px4.backend.Px4SitlAutopilot` only reads the client's
 state (mode, current item, events, error, finished). Sequence, each with a wall-clock timeout
 (the simulation keeps stepping meanwhile):
 

@@ -72,7 +72,7 @@ def make_run_autopilot(
 
     * ``mavlink`` set: the built-in autopilot behind a MAVLink vehicle endpoint
       (:class:`vinecli.autopilot.mavlink_vehicle.MavlinkControlledAutopilot`), lockstep or ``realtime``;
-    * ``name == "px4"``: :class:`vinecli.autopilot.px4_sitl.Px4SitlAutopilot` on TCP
+    * ``name == "px4"``: :class:`vinecli.sitl.px4.backend.Px4SitlAutopilot` on TCP
       ``px4_host:4560+px4_instance``; with ``px4_bin`` vinecli starts PX4 itself (on a free
       instance unless ``px4_instance`` is given) and stops it after the run;
     * otherwise ``vinecli.autopilot.registry.make_autopilot(name)`` (``truth`` for the builtin).
@@ -88,7 +88,7 @@ def make_run_autopilot(
     if realtime:
         raise InputError("--realtime applies to --mavlink runs (PX4 runs pace themselves in lockstep)")
     if name == "px4":
-        from vinecli.autopilot.px4_sitl import Px4SitlAutopilot
+        from vinecli.sitl.px4.backend import Px4SitlAutopilot
 
         if px4_instance is None and px4_bin is None:
             px4_instance = PX4_DEFAULT_INSTANCE  # an external PX4 started by hand: instance 0 unless told

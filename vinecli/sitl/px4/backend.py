@@ -22,7 +22,7 @@ AutopilotError (PX4 stopped answering). Outputs map to rotor speeds with the veh
 the sprayer channel gives flow = clamp(u, 0, 1) * nozzle_max_flow.
 
 Mission control runs on PX4's API link (UDP 14540+i) in a background thread
-(:class:`vinecli.autopilot.px4_mission.Px4MissionClient`); ``step`` only polls its state, so
+(:class:`vinecli.sitl.px4.mission.Px4MissionClient`); ``step`` only polls its state, so
 the lockstep never blocks on mission traffic.
 """
 
@@ -36,12 +36,12 @@ import time
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
-from vinecli.autopilot.px4_takeoff import TakeoffWatch
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
+from vinecli.sitl.takeoff import TakeoffWatch
 from vinecli.specs.mission import TakeoffPhase
 from vinecli.types import ActuatorCommand, Event, Observation
 
@@ -136,7 +136,7 @@ class Px4SitlAutopilot:
 
     def reset(self, ctx: AutopilotContext) -> None:
         """Convert the mission, listen on TCP, wait for PX4 to connect (AutopilotTimeout otherwise)."""
-        from vinecli.autopilot.px4_mission import plan_for
+        from vinecli.sitl.px4.mission import plan_for
 
         self.ctx = ctx
         v = ctx.vehicle
@@ -179,7 +179,7 @@ class Px4SitlAutopilot:
             raise
 
     def _connect(self, ctx: AutopilotContext) -> None:
-        from vinecli.autopilot.px4_mission import Px4MissionClient
+        from vinecli.sitl.px4.mission import Px4MissionClient
 
         if self.px4_bin is not None:
             self._prepare_process()
@@ -206,7 +206,7 @@ class Px4SitlAutopilot:
 
     def _prepare_process(self) -> None:
         """Reserve an instance (auto) and create the PX4 process object (not started yet)."""
-        from vinecli.autopilot.px4_process import Px4Process, reserve_instance
+        from vinecli.sitl.px4.process import Px4Process, reserve_instance
 
         if self._auto_instance:
             self._instance_lock = reserve_instance()
@@ -286,7 +286,7 @@ class Px4SitlAutopilot:
         return cmd
 
     def _watch_saturation(self, obs: Observation, u: list[float]) -> None:
-        """``cannot_take_off`` (see :mod:`vinecli.autopilot.px4_takeoff`) from the motor outputs ``u`` (0..1)."""
+        """``cannot_take_off`` (see :mod:`vinecli.sitl.takeoff`) from the motor outputs ``u`` (0..1)."""
         if self._status.status is not RunStatus.RUNNING:
             return
         why = self._takeoff.update(obs.t_us, self.dt_us * 1e-6, self.armed, obs.truth.pos[2], obs.truth.vel[2], u)

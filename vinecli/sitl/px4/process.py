@@ -2,9 +2,8 @@
 
 PX4 v1.15 ``px4_sitl_default`` serves ONE simulator connection per process, so every run gets
 a fresh process with a fresh working directory (parameters from defaults). The instance number
-is reserved with an exclusive lock file (``$TMPDIR/vinecli-px4/instance-N.lock``) held for the
-life of the run, and only taken when PX4's UDP ports for it are free, so parallel batch workers
-(``run batch --jobs 2``) never share an instance. Command (PX4's own README)::
+is reserved under a lock file (:func:`vinecli.sitl.process.reserve_instance`) and only taken
+when PX4's TCP and UDP ports for it are free. Command (PX4's own README)::
 
     PX4_SIM_MODEL=none_iris <bin>/px4 -d -i N -w WORKDIR <bin>/../etc
 
@@ -15,7 +14,6 @@ a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` (:func:`boot_params
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import os
 import shutil
 import signal
@@ -24,14 +22,14 @@ import subprocess
 import tempfile
 import time
 from pathlib import Path
-from typing import IO
 
 from vinecli.errors import AutopilotError, InputError
+from vinecli.sitl.process import InstanceLock, die_with_parent, port_free
+from vinecli.sitl.process import reserve_instance as reserve_firmware_instance
 
 SIM_PORT_BASE = 4560
 #: UDP ports PX4 binds for instance i (GCS, API/offboard, payload, gimbal links)
 PX4_UDP_BASES = (18570, 14580, 14280, 13030)
-AUTO_INSTANCES = range(10, 100)  # 0..9 are left to people running PX4 by hand
 
 
 def etc_dir_for(px4_bin: Path) -> Path:
@@ -43,64 +41,14 @@ def etc_dir_for(px4_bin: Path) -> Path:
     return etc
 
 
-def port_free(port: int, kind: int, host: str = "127.0.0.1") -> tuple[bool, str]:
-    """Can vinecli bind ``port`` now (and if not, the OS's reason)? TCP with SO_REUSEADDR, as vinecli's
-    server binds: a connection of the last run in TIME_WAIT does not count, a listener does. UDP without
-    it (it would share a port)."""
-    s = socket.socket(socket.AF_INET, kind)
-    if kind == socket.SOCK_STREAM:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        s.bind((host, port))
-    except OSError as exc:
-        return False, exc.strerror or str(exc)
-    finally:
-        s.close()
-    return True, ""
+def _px4_ports_free(i: int) -> bool:
+    return port_free(SIM_PORT_BASE + i, socket.SOCK_STREAM)[0] and all(
+        port_free(b + i, socket.SOCK_DGRAM)[0] for b in PX4_UDP_BASES)
 
 
-class InstanceLock:
-    """An exclusive claim on one PX4 instance number (released by :meth:`release`)."""
-
-    def __init__(self, instance: int, fh: IO[str]) -> None:
-        self.instance = instance
-        self._fh: IO[str] | None = fh
-
-    def release(self) -> None:
-        """Drop the lock. Idempotent."""
-        if self._fh is not None:
-            with contextlib.suppress(OSError):
-                fcntl.flock(self._fh, fcntl.LOCK_UN)
-            self._fh.close()
-            self._fh = None
-
-
-def reserve_instance(candidates: range | list[int] = AUTO_INSTANCES) -> InstanceLock:
-    """Lock the first instance whose lock file is free and whose PX4 ports are unused."""
-    lock_dir = Path(tempfile.gettempdir()) / "vinecli-px4"
-    lock_dir.mkdir(exist_ok=True)
-    for i in candidates:
-        fh = (lock_dir / f"instance-{i}.lock").open("w")
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.close()
-            continue
-        if port_free(SIM_PORT_BASE + i, socket.SOCK_STREAM)[0] and all(
-                port_free(b + i, socket.SOCK_DGRAM)[0] for b in PX4_UDP_BASES):
-            return InstanceLock(i, fh)
-        fcntl.flock(fh, fcntl.LOCK_UN)
-        fh.close()
-    raise AutopilotError(f"no free PX4 instance in {candidates[0]}..{candidates[-1]} (all locked or ports in use)")
-
-
-def _die_with_parent() -> None:
-    """In the child before exec: SIGKILL when the process that started PX4 dies (Linux PR_SET_PDEATHSIG),
-    so a killed run or batch worker leaves no PX4 behind."""
-    import ctypes
-
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
+def reserve_instance() -> InstanceLock:
+    """Lock the first PX4 instance (10-99) whose lock file is free and whose PX4 ports are unused."""
+    return reserve_firmware_instance("PX4", _px4_ports_free)
 
 
 def boot_params_script(params: dict[str, int | float]) -> str:
@@ -164,7 +112,7 @@ class Px4Process:
             try:
                 self.proc = subprocess.Popen(self.command(), cwd=self.workdir / "rootfs", env=env, stdin=subprocess.DEVNULL,
                                              stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
-                                             preexec_fn=_die_with_parent if os.name == "posix" else None)
+                                             preexec_fn=die_with_parent if os.name == "posix" else None)
             except OSError as exc:
                 raise AutopilotError(f"cannot start PX4 {self.bin}: {exc.strerror or exc}") from None
 
@@ -199,4 +147,4 @@ class Px4Process:
         return self.returncode
 
 
-__all__ = ["InstanceLock", "Px4Process", "boot_params_script", "etc_dir_for", "reserve_instance"]
+__all__ = ["Px4Process", "boot_params_script", "etc_dir_for", "reserve_instance"]
