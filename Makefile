@@ -7,7 +7,7 @@ STAMP   := $(VENV)/.installed
 APT_PKGS := libusb-1.0-0 gdal-bin gcc
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test install native sysdeps lint bench clean
+.PHONY: demo test install native sysdeps lint bench clean goldens
 
 # the per-step kernel compiled with mypyc (vinecli/native.py); rebuilt when one of its sources changes
 KERNEL_SRC := $(addprefix vinecli/,$(shell grep -o '^    "[a-z_/]*\.py",' vinecli/native.py | tr -d '", '))
@@ -40,6 +40,11 @@ sysdeps:
 
 test: $(STAMP) $(NATIVE)
 	$(BIN)/python -m pytest -q
+
+# after a deliberate change of what runs produce: fly the golden runs on both kernels, rewrite
+# tests/golden/goldens.json and print what moved (commit it on its own, saying what moved and by how much)
+goldens: $(STAMP) $(NATIVE)
+	$(BIN)/python tests/golden/golden_runs.py
 
 demo: $(STAMP) $(NATIVE)
 	bash scripts/demo.sh $(DEMO_OUT)

@@ -32,3 +32,11 @@ def flat_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path
     from vinecli.world import build_world
 
     return build_world(repo / "worlds" / "flat.yaml", tmp_path_factory.mktemp("w") / "flat")
+
+
+@pytest.fixture(scope="session")
+def sample_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
+    """worlds/vineyard-sample.yaml (the CI missions' world) built once per session (read-only)."""
+    from vinecli.world import build_world
+
+    return build_world(repo / "worlds" / "vineyard-sample.yaml", tmp_path_factory.mktemp("w") / "vineyard-sample")
