@@ -15,7 +15,7 @@ LAYERS: list[set[str]] = [
     {"constants", "errors", "frames", "geo", "names", "native", "outputs", "spray_defaults", "types"},
     {"specs"},
     {"physics", "control", "terrain", "vehicle", "mavlink"},
-    {"rows"},
+    {"rows", "phase_items"},
     {"autopilot"},
     {"sitl"},
     {"world"},

@@ -1,4 +1,4 @@
-"""`vinecli px4 doctor`, the run-autopilot factory, and mission -> MAVLink item conversion."""
+"""`vinecli px4 doctor` and the run-autopilot factory (mission <-> item conversion: tests/missions/test_phase_items.py)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,10 @@ import threading
 import pytest
 from typer.testing import CliRunner
 
-from tests.px4.conftest import ORIGIN
 from vinecli.cli.app import app
-from vinecli.errors import InputError, SpecError
-from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.mission_items import PlanContext, degE7_to_enu, enu_to_degE7, items_to_phases, phases_to_items
+from vinecli.errors import InputError
 from vinecli.sitl.options import make_run_autopilot
 from vinecli.sitl.px4.doctor import px4_doctor
-from vinecli.specs.mission import GotoPhase, HoldPhase, LandPhase, MissionSpec, SprayerPhase, TakeoffPhase
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -102,66 +98,3 @@ def test_run_autopilot_factory():
         make_run_autopilot("px4", mavlink="udp:127.0.0.1:14540")
     with pytest.raises(InputError, match="--realtime"):
         make_run_autopilot("px4", realtime=True)
-
-
-# ---------------------------------------------------------------- mission -> items
-def plan_ctx(**kw):
-    return PlanContext(origin=ORIGIN, home_enu=(0.0, 0.0, 10.12), **kw)
-
-
-def mission(*phases, **kw):
-    return MissionSpec.model_validate({"name": "m", "phases": list(phases), **kw})
-
-
-def test_open_loop_and_spray_until_empty_are_not_possible_with_px4():
-    ol = {"type": "open_loop", "duration_s": 2, "rotor_speeds_rad_s": 500}
-    with pytest.raises(SpecError, match="not possible with PX4"):
-        phases_to_items(mission(ol), plan_ctx())
-    sp = {"type": "spray", "flow_lps": 0.05, "until": "empty", "rows": [[[0, 0], [0, 5]]]}
-    with pytest.raises(SpecError, match="not possible with PX4"):
-        phases_to_items(mission(sp), plan_ctx(nozzle_max_flow_lps=0.1))
-    with pytest.raises(SpecError, match="no tank"):
-        phases_to_items(mission({"type": "sprayer", "flow_lps": 0.05}), plan_ctx())
-
-
-def test_spray_rows_expand_to_waypoints_with_sprayer_on_along_rows_and_terrain_heights():
-    def terrain(x: float, y: float) -> float:
-        return 10.0 + 0.1 * y  # 10 % slope northwards
-
-    m = mission({"type": "takeoff", "altitude_agl_m": 3},
-                {"type": "spray", "height_agl_m": 2.0, "speed_mps": 1.2, "flow_lps": 0.03,
-                 "rows": [[[1, 0], [1, 10]], [[3, 0], [3, 10]]]},
-                {"type": "land"},
-                geofence={"polygon_enu": [[-20, -20], [20, -20], [20, 20]], "action": "rtl", "max_altitude_agl_m": 30})
-    plan = phases_to_items(m, plan_ctx(terrain_height=terrain, nozzle_max_flow_lps=0.1))
-    cmds = [it.command for it in plan.items]
-    assert cmds == [22, 178, 187, 16, 187, 16, 187, 16, 187, 16, 187, 21]
-    acts = [it.param1 for it in plan.items if it.command == 187]
-    assert acts == pytest.approx([0.0, 0.3, 0.0, 0.3, 0.0])  # off, on along row 1, off, on along row 2 (reversed), off
-    wps = [it for it in plan.items if it.command == 16]
-    xy = [degE7_to_enu(ORIGIN, it.x, it.y) for it in wps]
-    assert xy == [pytest.approx(p, abs=0.02) for p in [(1, 0), (1, 10), (3, 10), (3, 0)]]  # boustrophedon
-    # 2 m above the terrain under each waypoint, expressed above home (home ground z = 10.0)
-    assert [it.z for it in wps] == pytest.approx([2.0, 3.0, 3.0, 2.0])
-    assert all(it.frame == M.MAV_FRAME_GLOBAL_RELATIVE_ALT for it in wps)
-    assert plan.items[1].param2 == pytest.approx(1.2)
-    assert plan.params["MIS_TAKEOFF_ALT"] == 3.0 and plan.params["GF_ACTION"] == 3 and plan.params["GF_MAX_VER_DIST"] == 30
-    assert [f.command for f in plan.fence] == [5001] * 3 and all(f.param1 == 3 and f.mission_type == 1 for f in plan.fence)
-    assert plan.phase_of_item[0] == 0 and plan.phase_of_item[-1] == 2
-
-
-def test_items_round_trip_to_phases():
-    m = mission({"type": "takeoff", "altitude_agl_m": 4}, {"type": "goto", "position_enu": [5, 6], "yaw_deg": 0, "speed_mps": 3},
-                {"type": "hold", "duration_s": 2}, {"type": "sprayer", "flow_lps": 0.05}, {"type": "land"})
-    plan = phases_to_items(m, plan_ctx(nozzle_max_flow_lps=0.1))
-    yaw_item = next(it for it in plan.items if it.command == 16)
-    assert yaw_item.param4 == pytest.approx(90.0)  # ENU yaw 0 (east) = NED heading 90°
-    phases, src = items_to_phases(plan.items, ORIGIN, ORIGIN.alt + 10.12, 0.1)
-    kinds = [type(p) for p in phases]
-    assert kinds == [TakeoffPhase, GotoPhase, GotoPhase, HoldPhase, SprayerPhase, GotoPhase, LandPhase]
-    goto = phases[1]
-    assert goto.position_enu == pytest.approx((5, 6), abs=0.02) and goto.speed_mps == 3 and goto.yaw_deg == pytest.approx(0.0)
-    assert phases[3].duration_s == 2 and phases[4].flow_lps == pytest.approx(0.05)
-    assert len(src) == len(phases) and src[0] == 0
-    lat, lon = enu_to_degE7(ORIGIN, 100.0, -50.0)
-    assert degE7_to_enu(ORIGIN, lat, lon) == pytest.approx((100.0, -50.0), abs=0.02)

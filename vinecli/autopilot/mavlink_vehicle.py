@@ -36,8 +36,11 @@ from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, 
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.gcs_link import checked_address, open_vehicle_link
 from vinecli.mavlink.link import Link, parse_endpoint
-from vinecli.mavlink.mission_items import MissionItem, PlanContext, items_to_phases, phases_to_items
+from vinecli.mavlink.mission_items import MissionItem
+from vinecli.mavlink.px4params import mission_params
 from vinecli.mavlink.vehicle import DEFAULT_PARAMS, Telemetry, VehicleEndpoint
+from vinecli.phase_items import DO_SET_ACTUATOR, PlanContext, items_to_phases, phases_to_items
+from vinecli.rows.plan import plan_accel
 from vinecli.specs.limits import MAX_DURATION_S  # phase timeout = none: max_duration_s ends the run
 from vinecli.specs.mission import GotoPhase, LandPhase, RtlPhase, TakeoffPhase
 from vinecli.types import ActuatorCommand, Event, Observation
@@ -112,11 +115,11 @@ class MavlinkControlledAutopilot:
         params["MPC_XY_CRUISE"] = float(min(5.0, v.control.max_vel_xy))
         pc = PlanContext(ctx.origin, ctx.home_enu, ctx.vine_rows_enu,
                          ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
-                         v.tank.nozzle_max_flow_lps if v.tank is not None else None)
-        try:
-            preload = phases_to_items(ctx.mission, pc)
+                         v.tank.nozzle_max_flow_lps if v.tank is not None else None, accel_mps2=plan_accel(v))
+        try:  # the endpoint speaks PX4's dialect: DO_SET_ACTUATOR for the sprayer, PX4's parameter names
+            preload = phases_to_items(ctx.mission, pc, sprayer=DO_SET_ACTUATOR)
             items, fence = preload.items, preload.fence
-            params.update({k: val for k, val in preload.params.items() if k in params})
+            params.update({k: val for k, val in mission_params(ctx.mission).items() if k in params})
         except InputError as exc:
             log.info("mission not pre-loaded as a MAVLink mission: %s", exc)
             items, fence = [], []

@@ -31,7 +31,7 @@ WORKER_CASES = 32
 #: modules the fork server imports before forking workers: the case runner and what a case imports
 #: on first use (row coverage's KD-tree, the sprayer's filters, the Parquet writer)
 WORKER_PRELOAD = ["vinecli.batch.job", "vinecli.runs.mission", "vinecli.world.engine", "vinecli.missions.job",
-                  "vinecli.missions.spray_actions", "scipy.spatial", "scipy.ndimage", "pyarrow.parquet"]
+                  "vinecli.phase_items.spray_legs", "scipy.spatial", "scipy.ndimage", "pyarrow.parquet"]
 
 
 def _context() -> Any:

@@ -4,7 +4,8 @@ endpoint of the built-in autopilot (vinecli.autopilot.mavlink_vehicle).
 * :mod:`vinecli.mavlink.link` - MAVLink 2 over TCP (server/client) and UDP with a reader thread
   feeding a stateful pymavlink parser (TCP is a byte stream: never one message per ``recv``).
 * :mod:`vinecli.mavlink.px4modes` - PX4 custom modes (main/sub) and MAVLink constants.
-* :mod:`vinecli.mavlink.mission_items` - mission specs <-> MISSION_ITEM_INT items.
+* :mod:`vinecli.mavlink.mission_items` - MISSION_ITEM_INT on the wire (the phase <-> item converter is
+  :mod:`vinecli.phase_items`); :mod:`vinecli.mavlink.px4params` - the PX4 parameters a mission sets.
 * :mod:`vinecli.mavlink.vehicle` - the vehicle side of MAVLink (heartbeat, telemetry, commands,
   mission and parameter protocols) in front of any controller.
 """

@@ -429,7 +429,7 @@ def export_plan(
     row first, headland turns for ``accel_mps2``, rows clipped to the mission's geofence with a 1 m margin,
     DO_SET_ACTUATOR (p1 = flow / nozzle_max_flow_lps) on over each row and off after it. With ``surface``
     (ENU z of the DSM surface) the spray waypoints follow it (see :mod:`vinecli.missions.qgc_spray`)."""
-    from vinecli.missions.spray_actions import leg_actions
+    from vinecli.phase_items.spray_legs import leg_actions
     from vinecli.rows.plan import plan_rows
 
     built = PlanItems(origin)

@@ -1,5 +1,5 @@
 """One QGroundControl ``.plan`` per sortie (take-off, the sortie's rows, return to launch), as PX4 and
-QGC fly them; the waypoints and sprayer switches are :func:`vinecli.missions.spray_actions.leg_actions`."""
+QGC fly them; the waypoints and sprayer switches are :func:`vinecli.phase_items.spray_legs.leg_actions`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from vinecli.geo import GeoOrigin
-from vinecli.missions.spray_actions import leg_actions
+from vinecli.phase_items.spray_legs import leg_actions
 from vinecli.rows.plan import Leg
 
 __all__ = ["sortie_plan"]

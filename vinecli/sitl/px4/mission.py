@@ -39,7 +39,9 @@ from vinecli.autopilot.base import AutopilotContext, RunStatus
 from vinecli.errors import AutopilotError, AutopilotTimeout, VinecliError
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import UdpLink
-from vinecli.mavlink.mission_items import MissionItem, PlanContext, Px4Plan, phases_to_items
+from vinecli.mavlink.mission_items import MissionItem
+from vinecli.mavlink.px4params import mission_params
+from vinecli.phase_items import DO_SET_ACTUATOR, ItemPlan, PlanContext, phases_to_items
 
 log = logging.getLogger(__name__)
 
@@ -51,19 +53,23 @@ SEVERITY_WARNING = 4  # MAV_SEVERITY: 0 EMERGENCY ... 4 WARNING
 PARAM_SETTLE_US = 2_000_000
 
 
-def plan_for(ctx: AutopilotContext) -> Px4Plan:
-    """The PX4 plan (items, fence, parameters) for ``ctx.mission`` (SpecError if PX4 cannot fly it)."""
+def plan_for(ctx: AutopilotContext) -> ItemPlan:
+    """The PX4 plan (items, fence, parameters) for ``ctx.mission`` (SpecError if PX4 cannot fly it): the
+    items of :func:`vinecli.phase_items.phases_to_items` with the sprayer on DO_SET_ACTUATOR (set 1)."""
+    from vinecli.rows.plan import plan_accel
+
     v = ctx.vehicle
     pc = PlanContext(
         origin=ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
         terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
         nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
+        accel_mps2=plan_accel(v), firmware="PX4",
     )
     mission = ctx.mission
     if ctx.geofence is not None and mission.geofence is None:
         mission = mission.model_copy(update={"geofence": ctx.geofence})
-    plan = phases_to_items(mission, pc)
-    plan.params = {**v.px4.params, **plan.params}  # the airframe's, then the mission's
+    plan = phases_to_items(mission, pc, sprayer=DO_SET_ACTUATOR)
+    plan.params = {**v.px4.params, **mission_params(mission)}  # the airframe's, then the mission's
     if any(it.command == M.CMD_DO_SET_ACTUATOR for it in plan.items):
         plan.params[f"PWM_MAIN_FUNC{v.px4.sprayer_channel + 1}"] = 301
     return plan
@@ -72,7 +78,7 @@ def plan_for(ctx: AutopilotContext) -> Px4Plan:
 class Px4MissionClient:
     """GCS-side mission control of PX4 in a background thread (see the module docstring)."""
 
-    def __init__(self, plan: Px4Plan | None, ctx: AutopilotContext, *, host: str = "127.0.0.1", api_port: int = 14540,
+    def __init__(self, plan: ItemPlan | None, ctx: AutopilotContext, *, host: str = "127.0.0.1", api_port: int = 14540,
                  px4_port: int = 14580, target_system: int = 1, heartbeat_timeout_s: float = 60.0,
                  health_timeout_s: float = 120.0, command_timeout_s: float = 1.0) -> None:
         self.plan = plan

@@ -1,0 +1,18 @@
+"""THE converter between mission phases and MAVLink mission items (MISSION_ITEM_INT), for every firmware.
+
+* :func:`phases_to_items` (:mod:`~vinecli.phase_items.to_items`): a mission as the items a ground station
+  uploads, the sprayer switched with the command the caller chose (:data:`DO_SET_ACTUATOR` for PX4,
+  :data:`DO_SPRAYER` or :func:`do_set_servo` for ArduPilot), spray phases as THE spray plan;
+* :func:`items_to_phases` (:mod:`~vinecli.phase_items.to_phases`): items back to phases the built-in
+  autopilot flies (the MAVLink vehicle endpoint, an uploaded or imported mission).
+
+Firmware parameters (PX4: :mod:`vinecli.mavlink.px4params`) and the transport (upload, plan files) are the
+callers'. The wire type is :class:`vinecli.mavlink.mission_items.MissionItem`.
+"""
+
+from vinecli.phase_items.sprayer import DO_SET_ACTUATOR, DO_SPRAYER, SprayerCommand, do_set_servo, sprayer_fraction
+from vinecli.phase_items.to_items import ItemPlan, PlanContext, fence_items, phases_to_items
+from vinecli.phase_items.to_phases import items_to_phases
+
+__all__ = ["DO_SET_ACTUATOR", "DO_SPRAYER", "ItemPlan", "PlanContext", "SprayerCommand", "do_set_servo", "fence_items",
+           "items_to_phases", "phases_to_items", "sprayer_fraction"]

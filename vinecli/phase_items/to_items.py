@@ -1,0 +1,213 @@
+"""Mission phases -> MAVLink mission items (MISSION_ITEM_INT), for any firmware that flies MAVLink missions.
+
+:func:`phases_to_items` makes the item list a ground station uploads: take-off, waypoints, speed changes,
+loiter, land, RTL, and the sprayer switched with the command the caller chose
+(:class:`~vinecli.phase_items.sprayer.SprayerCommand`: DO_SET_ACTUATOR for PX4, DO_SPRAYER or
+DO_SET_SERVO for ArduPilot). A spray phase becomes THE spray plan (:func:`vinecli.rows.plan.plan_rows`:
+nearest row first, boustrophedon, headland turns for the vehicle's acceleration, rows clipped to the
+geofence with a 1 m margin) flown as terrain-following waypoints with the sprayer on over the rows only
+(:func:`~vinecli.phase_items.spray_legs.leg_actions`). The geofence polygon becomes fence items
+(mission_type 1). Firmware parameters (PX4's MIS_TAKEOFF_ALT, GF_*, ...) are the caller's
+(:mod:`vinecli.mavlink.px4params` for PX4).
+
+Geometry: x/y are degE7 of WGS84 lat/lon from the world's origin by the local-tangent approximation
+(:func:`~vinecli.mavlink.mission_items.enu_to_degE7`); altitudes in MAV_FRAME_GLOBAL_RELATIVE_ALT (3) are
+metres above home; spray heights are above the surface under each waypoint, expressed above home.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from vinecli.errors import SpecError
+from vinecli.frames import yaw_enu_to_heading_ned
+from vinecli.geo import GeoOrigin
+from vinecli.mavlink import px4modes as M
+from vinecli.mavlink.mission_items import MissionItem, enu_to_degE7
+from vinecli.phase_items.spray_legs import leg_actions
+from vinecli.phase_items.sprayer import SprayerCommand
+from vinecli.rows.plan import PATH_ACCEL_MPS2, plan_rows
+from vinecli.specs.mission import (
+    GeofenceSpec,
+    GotoPhase,
+    HoldPhase,
+    LandPhase,
+    MissionSpec,
+    OpenLoopPhase,
+    RtlPhase,
+    SprayerPhase,
+    SprayPhase,
+    TakeoffPhase,
+    WaypointsPhase,
+)
+
+__all__ = ["ItemPlan", "PlanContext", "fence_items", "phases_to_items"]
+
+NAN = math.nan
+
+
+@dataclass
+class PlanContext:
+    """What the conversion needs from the world and the vehicle."""
+
+    origin: GeoOrigin
+    home_enu: tuple[float, float, float]
+    vine_rows_enu: Sequence[Sequence[tuple[float, float]]] = ()
+    #: ENU z of the surface the spray heights follow (the world's terrain), None: flat at home
+    terrain_height: Callable[[float, float], float] | None = None
+    nozzle_max_flow_lps: float | None = None  # None: vehicle without a tank
+    accel_mps2: float = PATH_ACCEL_MPS2  # the spray plan's headland turns (rows.plan.plan_accel(vehicle))
+    firmware: str = "a firmware mission"  # named in the errors ("... not possible with PX4")
+
+    def home_ground_z(self) -> float:
+        hx, hy, hz = self.home_enu
+        return float(self.terrain_height(hx, hy)) if callable(self.terrain_height) else hz
+
+
+@dataclass
+class ItemPlan:
+    """A mission as items: what is uploaded (mission and fence), which phase each item comes from, and
+    the firmware parameters the caller adds (empty here)."""
+
+    items: list[MissionItem]
+    fence: list[MissionItem] = field(default_factory=list)
+    params: dict[str, float | int] = field(default_factory=dict)  # name -> value (int = INT32)
+    phase_of_item: list[int] = field(default_factory=list)
+
+
+def _flow_fraction(flow_lps: float, ctx: PlanContext, where: str) -> float:
+    if flow_lps <= 0.0:
+        return 0.0
+    if not ctx.nozzle_max_flow_lps:
+        raise SpecError(f"{where}: the vehicle has no tank, it cannot spray")
+    return min(1.0, flow_lps / ctx.nozzle_max_flow_lps)
+
+
+def _spray_rows(phase: SprayPhase, ctx: PlanContext, where: str) -> list[list[tuple[float, float]]]:
+    world = [list(map(tuple, r)) for r in ctx.vine_rows_enu]
+    if phase.rows == "world":
+        rows = world
+    elif phase.rows and isinstance(phase.rows[0], int):
+        try:
+            rows = [world[i] for i in phase.rows]  # type: ignore[index]
+        except IndexError:
+            raise SpecError(f"{where}: row index out of range (the world has {len(world)} rows)") from None
+    else:
+        rows = [list(r) for r in phase.rows]  # type: ignore[union-attr, arg-type]
+    rows = [r for r in rows if len(r) >= 2]
+    if not rows:
+        raise SpecError(f"{where}: no vine rows to spray")
+    return rows  # type: ignore[return-value]
+
+
+class _Items:
+    """The item list under construction and where the vehicle is after it (ENU x, y; altitude above home)."""
+
+    def __init__(self, ctx: PlanContext, sprayer: SprayerCommand) -> None:
+        self.ctx, self.sprayer = ctx, sprayer
+        self.items: list[MissionItem] = []
+        self.pos = (ctx.home_enu[0], ctx.home_enu[1])
+        self.alt = 0.0
+        self.phase = -1
+
+    def wp(self, x: float, y: float, z_rel: float, accept: float = 0.5, yaw_ned_deg: float = NAN,
+           cmd: int = M.CMD_NAV_WAYPOINT, p1: float = 0.0) -> None:
+        lat, lon = enu_to_degE7(self.ctx.origin, x, y)
+        self.items.append(MissionItem(cmd, M.MAV_FRAME_GLOBAL_RELATIVE_ALT, p1, accept, 0.0, yaw_ned_deg, lat, lon,
+                                      z_rel, phase_index=self.phase))
+        self.pos, self.alt = (x, y), z_rel
+
+    def here(self, cmd: int, p1: float = 0.0, z_rel: float | None = None) -> None:
+        """A position item at the current position (param2 0: the firmware's acceptance)."""
+        self.wp(self.pos[0], self.pos[1], self.alt if z_rel is None else z_rel, accept=0.0, cmd=cmd, p1=p1)
+
+    def speed(self, v: float) -> None:
+        self.items.append(MissionItem(M.CMD_DO_CHANGE_SPEED, M.MAV_FRAME_MISSION, 1.0, v, -1.0, 0.0,
+                                      phase_index=self.phase))
+
+    def spray(self, flow_lps: float, where: str) -> None:
+        self.items.append(self.sprayer.item(_flow_fraction(flow_lps, self.ctx, where), self.phase))
+
+
+def _spray_phase(ph: SprayPhase, out: _Items, fence: Sequence[tuple[float, float]] | None, where: str) -> None:
+    ctx = out.ctx
+    if ph.until == "empty":
+        raise SpecError(f"{where}: 'until: empty' is not possible with {ctx.firmware} (a mission is fixed at upload; "
+                        "use rows_done)")
+    if ph.refill is not None:
+        raise SpecError(f"{where}: refill sorties need the built-in autopilot (the simulated ground crew "
+                        f"serves its landings); with {ctx.firmware} export one plan per sortie (vinecli plan)")
+    if ph.flow_lps is None:  # rate_lpha: the runner resolves it against the vehicle (rows/spray_rate.py)
+        raise SpecError(f"{where}: a spray phase given as rate_lpha needs its flow from the vehicle's nozzles; "
+                        "resolve it first (vinecli.rows.spray_rate.resolve_spray_rates) or give flow_lps")
+    _flow_fraction(ph.flow_lps, ctx, where)  # a vehicle without a tank cannot spray
+    plan = plan_rows(_spray_rows(ph, ctx, where), out.pos, speed_mps=ph.speed_mps, accel_mps2=ctx.accel_mps2,
+                     fence_enu=fence)
+    if not plan.legs:
+        raise SpecError(f"{where}: no rows left inside the geofence")
+    out.speed(ph.speed_mps)
+    out.spray(0.0, where)  # off during the transit, whatever an earlier phase left on
+    surface = ctx.terrain_height if callable(ctx.terrain_height) else None
+    for kind, a, b, c in leg_actions(plan.legs, height_m=ph.height_agl_m, flow_lps=ph.flow_lps, surface=surface,
+                                     home_z=ctx.home_ground_z()):
+        if kind == "wp":
+            out.wp(a, b, c)
+        else:
+            out.spray(a, where)
+
+
+def phases_to_items(mission: MissionSpec, ctx: PlanContext, *, sprayer: SprayerCommand) -> ItemPlan:
+    """``mission`` as mission items (module doc); SpecError for phases a firmware mission cannot fly."""
+    out = _Items(ctx, sprayer)
+    gf = mission.geofence
+    fence = gf.polygon_enu if gf is not None and gf.polygon_enu else None
+    for pi, ph in enumerate(mission.phases):
+        out.phase = pi
+        where = f"mission {mission.name!r} phase {pi + 1} ({ph.type})"
+        if isinstance(ph, OpenLoopPhase):
+            raise SpecError(f"{where}: open-loop phases are not possible with {ctx.firmware} (use --autopilot builtin)")
+        if isinstance(ph, TakeoffPhase):
+            out.here(M.CMD_NAV_TAKEOFF, z_rel=ph.altitude_agl_m)
+        elif isinstance(ph, HoldPhase):
+            out.here(M.CMD_NAV_LOITER_TIME, p1=ph.duration_s)
+        elif isinstance(ph, GotoPhase):
+            if ph.speed_mps is not None:
+                out.speed(ph.speed_mps)
+            yaw = NAN if ph.yaw_deg is None else math.degrees(yaw_enu_to_heading_ned(math.radians(ph.yaw_deg)))
+            alt = ph.altitude_agl_m if ph.altitude_agl_m is not None else out.alt
+            out.wp(ph.position_enu[0], ph.position_enu[1], alt, accept=ph.acceptance_radius_m, yaw_ned_deg=yaw)
+        elif isinstance(ph, WaypointsPhase):
+            out.speed(ph.speed_mps)
+            if ph.flow_lps is not None:
+                out.spray(ph.flow_lps, where)
+            for x, y, a in ph.waypoints:
+                out.wp(x, y, a, accept=ph.acceptance_radius_m)
+        elif isinstance(ph, SprayPhase):
+            _spray_phase(ph, out, fence, where)
+        elif isinstance(ph, SprayerPhase):
+            out.spray(ph.flow_lps, where)
+        elif isinstance(ph, LandPhase):
+            out.here(M.CMD_NAV_LAND, z_rel=0.0)
+        elif isinstance(ph, RtlPhase):
+            out.items.append(MissionItem(M.CMD_NAV_RETURN_TO_LAUNCH, M.MAV_FRAME_MISSION, phase_index=pi))
+            out.pos, out.alt = (ctx.home_enu[0], ctx.home_enu[1]), 0.0
+        else:  # pragma: no cover - exhaustive over the Phase union
+            raise SpecError(f"{where}: unsupported phase type")
+    items = out.items
+    return ItemPlan(items=items, fence=fence_items(gf, ctx.origin), phase_of_item=[it.phase_index for it in items])
+
+
+def fence_items(fence: GeofenceSpec | None, origin: GeoOrigin) -> list[MissionItem]:
+    """The geofence's inclusion polygon as fence items (mission_type 1, NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+    param1 = the vertex count); the distance and altitude limits are firmware parameters (the caller's)."""
+    if fence is None or not fence.polygon_enu:
+        return []
+    n = len(fence.polygon_enu)
+    items = []
+    for x, y in fence.polygon_enu:
+        lat, lon = enu_to_degE7(origin, x, y)
+        items.append(MissionItem(M.CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, M.MAV_FRAME_GLOBAL, float(n), 0.0, 0.0, 0.0,
+                                 lat, lon, 0.0, mission_type=M.MAV_MISSION_TYPE_FENCE))
+    return items
