@@ -53,7 +53,8 @@ PARTS: list[tuple[str, str]] = [
     ("vinecli/control/", "control + phases"),
     ("vinecli/autopilot/", "control + phases"),
     ("vinecli/sim/recorder", "recorder"),
-    ("vinecli/sim/runner", "loop body"),
+    ("vinecli/sim/vehicle_physics", "physics models"),
+    ("vinecli/sim/", "loop body"),
     ("vinecli/frames", "frames (shared)"),
     ("vinecli/types", "types (shared)"),
 ]
@@ -109,20 +110,20 @@ def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: floa
     from vinecli.runs.mission import run_mission
 
     prof = cProfile.Profile()
-    loop = runner._loop  # noqa: SLF001 - profile the per-step loop only, not set-up and writing
+    fly = runner.fly  # profile the per-step loop only, not set-up and writing
 
-    def profiled_loop(*a: Any, **kw: Any) -> Any:
+    def profiled_fly(*a: Any, **kw: Any) -> Any:
         prof.enable()
         try:
-            return loop(*a, **kw)
+            return fly(*a, **kw)
         finally:
             prof.disable()
 
-    runner._loop = profiled_loop  # noqa: SLF001
+    runner.fly = profiled_fly  # type: ignore[assignment]
     try:
         s = run_mission(mission, world_dir, runs, seed=0, run_id="profiled", overwrite=True)
     finally:
-        runner._loop = loop  # noqa: SLF001
+        runner.fly = fly
     steps = s.sim_time_s * 250.0
     stats = pstats.Stats(prof)
     totals: dict[str, float] = {}

@@ -134,3 +134,14 @@ def test_known_rotations() -> None:
     assert fr.tilt_angle(fr.quat_from_euler(0.3, 0.0, 1.0)) == pytest.approx(0.3)
     assert fr.cross((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)) == (0.0, 0.0, 1.0)
     assert fr.norm((3.0, 4.0, 12.0)) == 13.0
+
+
+@given(unit_quat(), vec3)
+def test_body_frame_matrix_rotates_as_the_quaternion(q: fr.QuatXYZW, v: fr.Vec3) -> None:
+    frame = fr.BodyFrame()
+    assert frame.to_world(*v) == v  # identity before any attitude is set
+    frame.set(*q)
+    rows = ((frame.r00, frame.r01, frame.r02), (frame.r10, frame.r11, frame.r12), (frame.r20, frame.r21, frame.r22))
+    assert all(_close(a, b) for a, b in zip(rows, fr.quat_to_matrix(q), strict=True))
+    assert _close(frame.to_world(*v), fr.quat_rotate(q, v))
+    assert _close(frame.to_body(*v), fr.quat_rotate_inv(q, v))

@@ -16,7 +16,7 @@ numpy call on a 3-vector costs 10× a few float operations (design.md §8).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, final
 
 if TYPE_CHECKING:
     import numpy as np
@@ -125,6 +125,36 @@ def quat_to_matrix(q: QuatXYZW) -> Mat3:
         (2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx)),
         (2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy)),
     )
+
+
+@final
+class BodyFrame:
+    """The rotation body FLU -> world ENU of one attitude as a matrix (rows ``r0*``, ``r1*``, ``r2*``): set
+    once (:meth:`set`), then rotate many vectors cheaply (the loop: once per physics step)."""
+
+    def __init__(self) -> None:
+        self.r00, self.r01, self.r02 = 1.0, 0.0, 0.0
+        self.r10, self.r11, self.r12 = 0.0, 1.0, 0.0
+        self.r20, self.r21, self.r22 = 0.0, 0.0, 1.0
+
+    def set(self, qx: float, qy: float, qz: float, qw: float) -> None:
+        """The attitude: unit quaternion (x, y, z, w) body FLU -> world ENU."""
+        xx, yy, zz = qx * qx, qy * qy, qz * qz
+        xy, xz, yz = qx * qy, qx * qz, qy * qz
+        wx, wy, wz = qw * qx, qw * qy, qw * qz
+        self.r00, self.r01, self.r02 = 1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)
+        self.r10, self.r11, self.r12 = 2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)
+        self.r20, self.r21, self.r22 = 2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)
+
+    def to_world(self, x: float, y: float, z: float) -> Vec3:
+        """Body FLU vector -> world ENU (``R v``)."""
+        return (self.r00 * x + self.r01 * y + self.r02 * z, self.r10 * x + self.r11 * y + self.r12 * z,
+                self.r20 * x + self.r21 * y + self.r22 * z)
+
+    def to_body(self, x: float, y: float, z: float) -> Vec3:
+        """World ENU vector -> body FLU (``Rᵀ v``)."""
+        return (self.r00 * x + self.r10 * y + self.r20 * z, self.r01 * x + self.r11 * y + self.r21 * z,
+                self.r02 * x + self.r12 * y + self.r22 * z)
 
 
 def quat_from_axis_angle(axis: Vec3, angle: float) -> QuatXYZW:

@@ -36,8 +36,13 @@ PURE_ENV = "VINECLI_PURE_PYTHON"
 #: modules run every physics step (paths relative to the package), compiled by mypyc
 KERNEL: tuple[str, ...] = (
     "sim/runner.py",
+    "sim/loop.py",
+    "sim/vehicle_physics.py",
+    "sim/ground_events.py",
+    "sim/spray_groups.py",
     "sim/recorder.py",
     "physics/motor.py",
+    "physics/aero.py",
     "physics/sensors.py",
     "physics/tank.py",
     "physics/battery.py",

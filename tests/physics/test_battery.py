@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from vinecli.physics.battery import Battery, electrical_power_w, ocv_chen_rincon_mora
+from vinecli.physics.battery import Battery, ElectricalLoad, ocv_chen_rincon_mora
 from vinecli.specs.vehicle import BatterySpec
 from vinecli.vehicle import load_vehicle
 
@@ -70,7 +70,10 @@ def test_ocv_table_and_threshold_order_validated() -> None:
 
 def test_electrical_load_adds_motor_losses_avionics_and_pump() -> None:
     s = _spec(motor_efficiency=0.8, avionics_w=10.0, pump_w_at_max_flow=24.0)
-    assert electrical_power_w(s, 400.0, 0.05, 0.1) == pytest.approx(400.0 / 0.8 + 10.0 + 12.0)
+    load = ElectricalLoad(s, 0.1)
+    assert load.pump_w(0.05) == pytest.approx(24.0 * 0.05 / 0.1) and load.pump_w(0.0) == 0.0
+    assert load.power_w(400.0, 0.05) == pytest.approx(400.0 / 0.8 + 10.0 + 12.0, rel=1e-15)
+    assert ElectricalLoad(s, None).power_w(400.0, 0.0) == pytest.approx(400.0 / 0.8 + 10.0)  # no tank, no pump
 
 
 @pytest.mark.parametrize("name", ["x500", "x500-sprayer", "hex-sprayer"])

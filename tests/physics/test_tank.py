@@ -7,7 +7,8 @@ import math
 import pytest
 
 from vinecli.errors import SpecError
-from vinecli.physics.tank import XI1, Tank, slosh_parameters
+from vinecli.frames import BodyFrame
+from vinecli.physics.tank import XI1, Tank, TankCoupling, contact_force, mount_acceleration, slosh_parameters
 from vinecli.specs.vehicle import TankSpec
 
 G = (0.0, 0.0, -9.80665)
@@ -143,3 +144,43 @@ def test_no_slosh_force_when_disabled() -> None:
     tank.update(0.0, 0.004)
     tank.force_world(G, (3.0, 0.0, 0.0))
     assert tank.slosh_force == (0.0, 0.0, 0.0)
+
+
+def test_contact_force_from_the_finite_difference_acceleration() -> None:
+    """F_c = M (a - g) - F_ext - F_tank: at rest (a = 0, no thrust) the ground carries the rigid weight
+    and the liquid's push; in free fall (a = g) there is none."""
+    m, f_tank = 2.3, (0.0, 0.0, -9.80665)
+    assert contact_force(m, (0.0, 0.0, 0.0), G, (0.0, 0.0, 0.0), f_tank) == pytest.approx((0.0, 0.0, m * 9.80665 + 9.80665))
+    assert contact_force(m, G, G, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) == (0.0, 0.0, 0.0)
+    assert contact_force(m, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.5, 0.0, 0.0), (0.2, 0.0, 0.0)) == pytest.approx((1.6, 0, 0))
+
+
+def test_mount_acceleration_is_rigid_body_kinematics() -> None:
+    """a = (F + F_c) / (M + m) + g + α × r + ω × (ω × r)."""
+    f, fc, inv_m = (3.0, -1.0, 40.0), (0.0, 0.0, -5.0), 1.0 / 3.3
+    alpha, omega, r = (0.5, -0.2, 0.1), (0.3, 0.4, -1.0), (0.01, -0.02, -0.06)
+
+    def cross(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float]:
+        return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+    want = tuple((fi + ci) * inv_m + gi + ai + wi for fi, ci, gi, ai, wi in
+                 zip(f, fc, G, cross(alpha, r), cross(omega, cross(omega, r)), strict=True))
+    assert mount_acceleration(f, fc, inv_m, G, alpha, omega, r) == pytest.approx(want, rel=1e-12)
+    # spinning about z at ω, a mount at radius R feels the centripetal ω² R towards the axis
+    a = mount_acceleration((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 2.0),
+                           (0.5, 0.0, 0.0))
+    assert a == pytest.approx((-2.0, 0.0, 0.0))
+
+
+def test_coupling_gives_the_weight_at_rest_and_nothing_in_free_fall() -> None:
+    frame = BodyFrame()
+    still = (0.0, 0.0, 0.0)
+    rest = TankCoupling(Tank(SPEC, 1.0), 2.3, G, airborne=False)
+    for _ in range(3):  # at rest the finite-difference acceleration is zero and no other force acts
+        f, r = rest.force(frame, still, still, still, still)
+        assert f == pytest.approx((0.0, 0.0, -9.80665)) and r == SPEC.mount_m
+    fall = TankCoupling(Tank(SPEC, 1.0), 2.3, G, airborne=True)
+    f, _ = fall.force(frame, still, still, still, still)
+    assert f == pytest.approx((0.0, 0.0, 0.0))
+    f, _ = fall.force(frame, G, still, still, still)  # falling: a = g, no contact
+    assert f == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)

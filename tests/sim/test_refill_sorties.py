@@ -11,7 +11,8 @@ from sim_helpers import mission
 
 from vinecli.autopilot.builtin import BuiltinAutopilot
 from vinecli.missions.job import rows_sprayed, sorties
-from vinecli.sim.runner import _serve, run_simulation
+from vinecli.sim.loop import serve_ground_request
+from vinecli.sim.runner import run_simulation
 from vinecli.specs.mission import SprayPhase
 from vinecli.types import Event, ServiceRequest
 
@@ -133,9 +134,9 @@ def test_crew_refuses_a_flying_vehicle():
 
     tank = Tank(load_vehicle("x500-sprayer").tank, 0.0)
     events: list[Event] = []
-    _serve(ServiceRequest(1.0, True), False, False, tank, None, 0, events, True)
+    serve_ground_request(ServiceRequest(1.0, True), False, False, tank, None, 0, events, True)
     assert tank.level_l == 0.0 and events[-1].kind == "service_refused"
-    _serve(ServiceRequest(1.0, True), False, True, tank, None, 0, events, True)
+    serve_ground_request(ServiceRequest(1.0, True), False, True, tank, None, 0, events, True)
     assert tank.level_l == pytest.approx(1.0) and events[-1].kind == "refill"
 
 

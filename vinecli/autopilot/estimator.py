@@ -22,10 +22,10 @@ import math
 from typing import Any
 
 from vinecli.constants import STANDARD_GRAVITY
-from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler
+from vinecli.frames import BodyFrame, QuatXYZW, Vec3, ned_to_enu, quat_from_euler
 from vinecli.geo import GeoOrigin
 from vinecli.specs.vehicle import VehicleSpec
-from vinecli.types import Observation
+from vinecli.types import BaroSample, GnssSample, MagSample, Observation
 
 log = logging.getLogger(__name__)
 G = STANDARD_GRAVITY
@@ -191,6 +191,7 @@ class Estimator:
         self._t_ready_us: int | None = None
         self._a_ref = [0.0, 0.0, 0.0]  # low-passed GNSS acceleration, ENU
         self._gnss_prev: tuple[int, Vec3] | None = None
+        self._frame = BodyFrame()  # the attitude at the start of the step, as a matrix
 
     @property
     def gyro_bias(self) -> Vec3:
@@ -230,18 +231,35 @@ class Estimator:
         mag = obs.mag
         if not self._att_init:
             self._init_attitude(imu.accel_flu, mag.field_flu_gauss if mag is not None else None)
+        frame = self._frame
         x, y, z, w = self.quat
-        # rotation matrix rows
-        r00 = 1.0 - 2.0 * (y * y + z * z)
-        r01 = 2.0 * (x * y - w * z)
-        r02 = 2.0 * (x * z + w * y)
-        r10 = 2.0 * (x * y + w * z)
-        r11 = 1.0 - 2.0 * (x * x + z * z)
-        r12 = 2.0 * (y * z - w * x)
-        r20 = 2.0 * (x * z - w * y)
-        r21 = 2.0 * (y * z + w * x)
-        r22 = 1.0 - 2.0 * (x * x + y * y)
-        gx, gy, gz = imu.gyro_flu
+        frame.set(x, y, z, w)
+        self._fuse_attitude(fx, fy, fz, imu.gyro_flu, mag, dt)
+        self._propagate(fx, fy, fz, dt)
+        gn = obs.gnss
+        if gn is not None:
+            self._fuse_gnss(gn)
+        ba = obs.baro
+        if ba is not None:
+            self._fuse_baro(ba)
+        p, v = self._p, self._v
+        self.pos = (p[0], p[1], p[2])
+        self.vel = (v[0], v[1], v[2])
+        if not self.ready and self._gnss_init and self._baro_init and self._gnss_quality_ok:
+            if self._t_ready_us is None:
+                self.not_ready_reason = "settling"
+                self._t_ready_us = t
+            elif t - self._t_ready_us >= self.settle_us:
+                self.ready = True
+                self.not_ready_reason = ""
+
+    def _fuse_attitude(self, fx: float, fy: float, fz: float, gyro: Vec3, mag: MagSample | None, dt: float) -> None:
+        """Complementary filter: the gyro (bias-corrected) integrated, corrected towards the accelerometer's
+        gravity (minus the GNSS-derived acceleration) and the magnetometer's heading; the bias integral."""
+        f = self._frame
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = f.r00, f.r01, f.r02, f.r10, f.r11, f.r12, f.r20, f.r21, f.r22
+        x, y, z, w = self.quat
+        gx, gy, gz = gyro
         gb = self._gyro_bias
         gx += gb[0]
         gy += gb[1]
@@ -299,7 +317,12 @@ class Estimator:
             nw = w - h * (x * ox + y * oy + z * oz)
             n = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
             self.quat = (nx * n, ny * n, nz * n, nw * n)
-        # ---------------------------------------------------------- translation
+
+    def _propagate(self, fx: float, fy: float, fz: float, dt: float) -> None:
+        """Translation: the specific force (body FLU) rotated to the world, gravity and the estimated
+        accelerometer bias removed, integrated into position and velocity over ``dt``."""
+        f = self._frame
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = f.r00, f.r01, f.r02, f.r10, f.r11, f.r12, f.r20, f.r21, f.r22
         awx = r00 * fx + r01 * fy + r02 * fz
         awy = r10 * fx + r11 * fy + r12 * fz
         awz = r20 * fx + r21 * fy + r22 * fz - G
@@ -316,63 +339,59 @@ class Estimator:
             v[0] += awx * dt
             v[1] += awy * dt
             v[2] += awz * dt
-        gn = obs.gnss
-        if gn is not None:
-            if not self.ready:
-                problem = gnss_quality_problem(gn.fix_type, gn.satellites, gn.eph_m, gn.epv_m)
-                self._gnss_quality_ok = not problem
-                if problem:
-                    self.not_ready_reason = problem
-                    self._t_ready_us = None  # the settle time restarts once the quality is good
-            gp = self._gnss_prev
-            if gp is not None and gn.t_us > gp[0]:
-                tg = (gn.t_us - gp[0]) * 1e-6
-                al = tg / (self.acc_ref_tau + tg)
-                ar = self._a_ref
-                for i in (0, 1, 2):
-                    ar[i] += al * ((gn.vel_enu[i] - gp[1][i]) / tg - ar[i])
-            self._gnss_prev = (gn.t_us, gn.vel_enu)
-            e_m = (gn.lon_deg - self.origin.lon) * self.m_lon
-            n_m = (gn.lat_deg - self.origin.lat) * self.m_lat
-            gv = gn.vel_enu
-            if not self._gnss_init:
-                p[0], p[1] = e_m, n_m
-                v[0], v[1] = gv[0], gv[1]
-                self._gnss_init = True
-                if not self._baro_init:
-                    p[2] = gn.alt_m - self.origin.alt
-                    v[2] = gv[2]
-            else:
-                kg = self.k_gnss
-                for i, pm, vm in ((0, e_m, gv[0]), (1, n_m, gv[1])):
-                    rp = pm - p[i]
-                    rv = vm - v[i]
-                    p[i] += kg[0][0] * rp + kg[0][1] * rv
-                    v[i] += kg[1][0] * rp + kg[1][1] * rv
-                    b[i] += kg[2][0] * rp + kg[2][1] * rv
-                kg = self.k_gnss_vz
-                rv = gv[2] - v[2]
-                p[2] += kg[0][0] * rv
-                v[2] += kg[1][0] * rv
-                b[2] += kg[2][0] * rv
-        ba = obs.baro
-        if ba is not None:
-            zm = ba.altitude_m - self.origin.alt
+
+    def _fuse_gnss(self, gn: GnssSample) -> None:
+        """A GNSS sample: quality gate while not ready, the low-passed GNSS acceleration, then position and
+        velocity (horizontal) and vertical velocity fused with their fixed gains (the first sample initialises)."""
+        p, v, b = self._p, self._v, self._b
+        if not self.ready:
+            problem = gnss_quality_problem(gn.fix_type, gn.satellites, gn.eph_m, gn.epv_m)
+            self._gnss_quality_ok = not problem
+            if problem:
+                self.not_ready_reason = problem
+                self._t_ready_us = None  # the settle time restarts once the quality is good
+        gp = self._gnss_prev
+        if gp is not None and gn.t_us > gp[0]:
+            tg = (gn.t_us - gp[0]) * 1e-6
+            al = tg / (self.acc_ref_tau + tg)
+            ar = self._a_ref
+            for i in (0, 1, 2):
+                ar[i] += al * ((gn.vel_enu[i] - gp[1][i]) / tg - ar[i])
+        self._gnss_prev = (gn.t_us, gn.vel_enu)
+        e_m = (gn.lon_deg - self.origin.lon) * self.m_lon
+        n_m = (gn.lat_deg - self.origin.lat) * self.m_lat
+        gv = gn.vel_enu
+        if not self._gnss_init:
+            p[0], p[1] = e_m, n_m
+            v[0], v[1] = gv[0], gv[1]
+            self._gnss_init = True
             if not self._baro_init:
-                p[2] = zm
-                self._baro_init = True
-            else:
-                kg = self.k_baro
-                r = zm - p[2]
-                p[2] += kg[0][0] * r
-                v[2] += kg[1][0] * r
-                b[2] += kg[2][0] * r
-        self.pos = (p[0], p[1], p[2])
-        self.vel = (v[0], v[1], v[2])
-        if not self.ready and self._gnss_init and self._baro_init and self._gnss_quality_ok:
-            if self._t_ready_us is None:
-                self.not_ready_reason = "settling"
-                self._t_ready_us = t
-            elif t - self._t_ready_us >= self.settle_us:
-                self.ready = True
-                self.not_ready_reason = ""
+                p[2] = gn.alt_m - self.origin.alt
+                v[2] = gv[2]
+        else:
+            kg = self.k_gnss
+            for i, pm, vm in ((0, e_m, gv[0]), (1, n_m, gv[1])):
+                rp = pm - p[i]
+                rv = vm - v[i]
+                p[i] += kg[0][0] * rp + kg[0][1] * rv
+                v[i] += kg[1][0] * rp + kg[1][1] * rv
+                b[i] += kg[2][0] * rp + kg[2][1] * rv
+            kg = self.k_gnss_vz
+            rv = gv[2] - v[2]
+            p[2] += kg[0][0] * rv
+            v[2] += kg[1][0] * rv
+            b[2] += kg[2][0] * rv
+
+    def _fuse_baro(self, ba: BaroSample) -> None:
+        """A barometer sample: altitude fused with its fixed gains (the first sample initialises)."""
+        p, v, b = self._p, self._v, self._b
+        zm = ba.altitude_m - self.origin.alt
+        if not self._baro_init:
+            p[2] = zm
+            self._baro_init = True
+        else:
+            kg = self.k_baro
+            r = zm - p[2]
+            p[2] += kg[0][0] * r
+            v[2] += kg[1][0] * r
+            b[2] += kg[2][0] * r

@@ -13,18 +13,19 @@ Model (one equivalent cell times ``cells`` in series, SI units):
 * the chemical energy drawn, ``E I dt`` (= load + ``I² R`` heat), lowers ``soc``: so the integral of
   ``power_drawn_w`` over a run equals ``capacity_wh (soc_0 - soc_end)`` by construction.
 
-Electrical load (``electrical_power_w``): shaft power of the rotors (``k_m T w`` summed,
+Electrical load (:class:`ElectricalLoad`): shaft power of the rotors (``k_m T w`` summed,
 :class:`~vinecli.physics.motor.MotorBank`) over the motor+ESC efficiency, plus avionics, plus the
-pump in proportion to the flow.
+pump in proportion to the flow (``pump_w_at_max_flow`` at the nozzles' maximum flow).
 """
 
 from __future__ import annotations
 
 import math
+from typing import final
 
 from vinecli.specs.vehicle import BatterySpec
 
-__all__ = ["Battery", "electrical_power_w", "ocv_chen_rincon_mora"]
+__all__ = ["Battery", "ElectricalLoad", "ocv_chen_rincon_mora"]
 
 
 def ocv_chen_rincon_mora(soc: float) -> float:
@@ -33,10 +34,23 @@ def ocv_chen_rincon_mora(soc: float) -> float:
     return -1.031 * math.exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + s * 0.3201))
 
 
-def electrical_power_w(spec: BatterySpec, shaft_power_w: float, flow_lps: float, max_flow_lps: float) -> float:
-    """Power the pack must deliver, W: shaft / motor efficiency + avionics + pump (linear in flow)."""
-    pump = spec.pump_w_at_max_flow * (flow_lps / max_flow_lps) if max_flow_lps > 0.0 else 0.0
-    return shaft_power_w / spec.motor_efficiency + spec.avionics_w + pump
+@final
+class ElectricalLoad:
+    """What the pack must deliver (module doc). ``max_flow_lps``: the nozzles' maximum flow, L/s (None: no
+    tank, no pump)."""
+
+    def __init__(self, spec: BatterySpec, max_flow_lps: float | None) -> None:
+        self.inv_efficiency = 1.0 / spec.motor_efficiency
+        self.avionics_w = float(spec.avionics_w)
+        self.pump_w_per_lps = spec.pump_w_at_max_flow / max_flow_lps if max_flow_lps is not None else 0.0
+
+    def pump_w(self, flow_lps: float) -> float:
+        """Electrical power of the pump at ``flow_lps`` L/s, W (linear in the flow)."""
+        return self.pump_w_per_lps * flow_lps
+
+    def power_w(self, shaft_power_w: float, flow_lps: float) -> float:
+        """Load power, W: ``shaft / efficiency + avionics + pump(flow)``."""
+        return shaft_power_w * self.inv_efficiency + self.avionics_w + self.pump_w(flow_lps)
 
 
 class Battery:

@@ -22,18 +22,25 @@ The bob's horizontal displacement x (world ENU, small angles) obeys
 component of g - a), integrated semi-implicitly at the step of the last :meth:`Tank.update`.
 The bob adds ``-m1 ẍ`` to the force; its moment about the hinge is neglected (the force acts
 at the mount). At rest and in steady flight the model reduces to the thesis' ``m (g - a)``.
+
+Coupling to the rigid body (:class:`TankCoupling`, every physics step): the liquid is not part of the
+rigid body, so the mount's acceleration is that of vehicle + liquid under this step's forces,
+``a_mount = a_cm + α × r + ω × (ω × r)`` with ``a_cm = g + (F_ext + F_c) / (M + m)``
+(:func:`mount_acceleration`); the ground-contact force of the last step comes from the finite-difference
+acceleration, ``F_c = M (a - g) - F_ext,prev - F_tank,prev`` (:func:`contact_force`, M the rigid mass).
 """
 
 from __future__ import annotations
 
 import math
+from typing import final
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import SpecError
-from vinecli.frames import Vec3
+from vinecli.frames import BodyFrame, Vec3
 from vinecli.specs.vehicle import TankSpec
 
-__all__ = ["EMPTY_EPS_KG", "Tank", "slosh_parameters"]
+__all__ = ["EMPTY_EPS_KG", "Tank", "TankCoupling", "contact_force", "mount_acceleration", "slosh_parameters"]
 
 XI1 = 1.841
 #: liquid mass below which the tank counts as empty (floating-point residue of the drain sum), kg
@@ -172,3 +179,61 @@ class Tank:
         self._x = [x0, x1]
         self._v = [v0, v1]
         return (-m1 * a0, -m1 * a1)
+
+
+def contact_force(rigid_mass: float, acc: Vec3, g: Vec3, f_ext: Vec3, f_tank: Vec3) -> Vec3:
+    """Ground-contact force on the rigid body over the last step, N ENU: ``M (a - g) - F_ext - F_tank``
+    (``acc`` its finite-difference acceleration, ``f_ext`` and ``f_tank`` the forces applied then)."""
+    return (rigid_mass * (acc[0] - g[0]) - f_ext[0] - f_tank[0], rigid_mass * (acc[1] - g[1]) - f_ext[1] - f_tank[1],
+            rigid_mass * (acc[2] - g[2]) - f_ext[2] - f_tank[2])
+
+
+def mount_acceleration(f_ext: Vec3, f_contact: Vec3, inv_mass: float, g: Vec3, alpha: Vec3, omega: Vec3,
+                       r: Vec3) -> Vec3:
+    """Acceleration of the point ``r`` (m from the centre of mass, ENU) of vehicle + liquid under
+    ``f_ext + f_contact`` (N) with ``inv_mass`` = 1 / (M + m): ``a_cm + α × r + ω × (ω × r)``, m/s² ENU."""
+    ox, oy, oz = omega
+    lx, ly, lz = alpha
+    rx, ry, rz = r
+    cx, cy, cz = oy * rz - oz * ry, oz * rx - ox * rz, ox * ry - oy * rx  # ω × r
+    return ((f_ext[0] + f_contact[0]) * inv_mass + g[0] + (ly * rz - lz * ry) + (oy * cz - oz * cy),
+            (f_ext[1] + f_contact[1]) * inv_mass + g[1] + (lz * rx - lx * rz) + (oz * cx - ox * cz),
+            (f_ext[2] + f_contact[2]) * inv_mass + g[2] + (lx * ry - ly * rx) + (ox * cy - oy * cx))
+
+
+@final
+class TankCoupling:
+    """The liquid's force on the frame, step after step (module doc): remembers the forces of the last
+    step to recover the ground contact. ``airborne``: the vehicle starts in the air (no contact at t = 0;
+    on the ground the contact carries everything at first)."""
+
+    def __init__(self, tank: Tank, rigid_mass: float, g: Vec3, airborne: bool) -> None:
+        self.tank = tank
+        self.rigid_mass = rigid_mass
+        self.g = g
+        self.mount: Vec3 = tank.mount_m
+        self.first = True
+        self.airborne = airborne
+        self.f_ext: Vec3 = (0.0, 0.0, 0.0)
+        self.f_tank: Vec3 = (0.0, 0.0, 0.0)
+
+    def force(self, frame: BodyFrame, acc: Vec3, alpha: Vec3, omega: Vec3, f_ext: Vec3) -> tuple[Vec3, Vec3]:
+        """(force N, mount position m from the centre of mass), world ENU, for this step: the body at attitude
+        ``frame`` with finite-difference acceleration ``acc`` and angular acceleration ``alpha``, turning at
+        ``omega`` (world), under ``f_ext`` (N: every force of this step but the liquid's)."""
+        tank, g, m_rigid = self.tank, self.g, self.rigid_mass
+        if not self.first:
+            cc = contact_force(m_rigid, acc, g, self.f_ext, self.f_tank)
+        elif self.airborne:
+            cc = (0.0, 0.0, 0.0)
+        else:  # resting: the ground carries everything
+            m_all = m_rigid + tank.mass_kg
+            cc = (-m_all * g[0], -m_all * g[1], -m_all * g[2])
+        self.first = False
+        self.f_ext = f_ext
+        inv_m = 1.0 / (m_rigid + tank.mass_kg)
+        mx, my, mz = self.mount
+        r = frame.to_world(mx, my, mz)
+        f = tank.force_world(g, mount_acceleration(f_ext, cc, inv_m, g, alpha, omega, r))
+        self.f_tank = f
+        return f, r

@@ -12,13 +12,13 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import yaml
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from vinecli.errors import SpecError
 
 #: libyaml's C parser and emitter when PyYAML was built with it (~20× faster than the pure-Python ones)
 YAML_LOADER: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 YAML_DUMPER: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
-from pydantic import BaseModel, ConfigDict, ValidationError
-
-from vinecli.errors import SpecError
 
 M = TypeVar("M", bound=BaseModel)
 

@@ -1,0 +1,126 @@
+"""The vehicle's physics models composed for one physics step (sim/runner.py module doc, step 4).
+
+:meth:`VehiclePhysics.step` calls each law once, in this order, and sums what they push into ONE world
+force at the centre of mass and ONE world torque (the loop's two PyBullet calls; equivalent to per-link
+forces because the links are rigidly fixed):
+
+1. motor lag (:meth:`MotorBank.update <vinecli.physics.motor.MotorBank.update>`) and the wind
+   (:meth:`WindField.velocity <vinecli.physics.wind.WindField.velocity>`) at the CoM;
+2. rotors: thrust, rotor drag, reaction torque and rolling moment from the air at each rotor
+   (:meth:`MotorBank.wrench_com <vinecli.physics.motor.MotorBank.wrench_com>`, body FLU -> world);
+3. link drag with its lever arm (:class:`~vinecli.physics.aero.BodyDrag`);
+4. the tank drains at the commanded flow and the liquid pushes at its mount
+   (:class:`~vinecli.physics.tank.Tank`, :class:`~vinecli.physics.tank.TankCoupling`);
+5. the battery delivers the electrical load (:class:`~vinecli.physics.battery.ElectricalLoad`: shaft
+   power / efficiency + avionics + pump) over the step (:class:`~vinecli.physics.battery.Battery`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import final
+
+from vinecli.frames import BodyFrame, Vec3
+from vinecli.physics.aero import BodyDrag, apparent_velocity
+from vinecli.physics.battery import Battery, ElectricalLoad
+from vinecli.physics.motor import MotorBank
+from vinecli.physics.tank import Tank, TankCoupling
+from vinecli.physics.wind import WindField
+from vinecli.types import ActuatorCommand
+
+__all__ = ["VehiclePhysics"]
+
+_NO_TANK = (0.0,) * 11
+
+
+@final
+class VehiclePhysics:
+    """Motors, wind, drag, tank and battery of one vehicle (module doc); after :meth:`step`, ``wind``
+    (m/s ENU at the CoM), ``drag`` (N ENU), ``flow_cmd_lps`` and ``energy_j`` hold this step's values."""
+
+    def __init__(self, motors: MotorBank, wind: WindField, drag: BodyDrag, tank: Tank | None,
+                 coupling: TankCoupling | None, battery: Battery | None, load: ElectricalLoad | None,
+                 rigid_mass_kg: float) -> None:
+        self.motors = motors
+        self.wind_field = wind
+        self.body_drag = drag
+        self.tank = tank
+        self.coupling = coupling
+        self.battery = battery
+        self.load = load
+        self.rigid_mass = rigid_mass_kg
+        self.wind: Vec3 = (0.0, 0.0, 0.0)
+        self.drag: Vec3 = (0.0, 0.0, 0.0)
+        self.flow_cmd_lps = 0.0
+        self.energy_j = 0.0  # drawn from the battery so far, J
+
+    def mass_kg(self) -> float:
+        """Rigid body + liquid, kg."""
+        tank = self.tank
+        return self.rigid_mass + (tank.mass_kg if tank is not None else 0.0)
+
+    def step(self, frame: BodyFrame, t: float, pos: Vec3, vel: Vec3, omega: Vec3, omega_body: Vec3, acc: Vec3,
+             alpha: Vec3, cmd: ActuatorCommand, dt: float) -> tuple[Vec3, Vec3]:
+        """(force N, torque N m), world ENU about the CoM, for the step ``t`` -> ``t + dt`` of the body at
+        ``pos``, attitude ``frame``, velocity ``vel``, rates ``omega`` (world) / ``omega_body`` (FLU), with
+        finite-difference accelerations ``acc`` and ``alpha``, flying the command ``cmd`` (module doc)."""
+        motors = self.motors
+        motors.update(cmd.rotor_speed_cmd, dt)
+        wind = self.wind_field.velocity(t, pos)
+        self.wind = wind
+        ax, ay, az = apparent_velocity(wind, vel)
+        bx, by, bz = frame.to_body(ax, ay, az)  # the air at the CoM, body FLU
+        obx, oby, obz = omega_body
+        (fbx, fby, fbz), (tbx, tby, tbz) = motors.wrench_com(bx, by, bz, obx, oby, obz)
+        fx, fy, fz = frame.to_world(fbx, fby, fbz)
+        drag, (tx, ty, tz) = self.body_drag.wrench(frame, vel, omega, wind, frame.to_world(tbx, tby, tbz))
+        self.drag = drag
+        fx += drag[0]
+        fy += drag[1]
+        fz += drag[2]
+        tank = self.tank
+        flow = 0.0
+        if tank is not None and self.coupling is not None:
+            self.flow_cmd_lps = cmd.spray_flow_lps
+            tank.update(self.flow_cmd_lps, dt)
+            flow = tank.flow_lps
+            (f0, f1, f2), (rx, ry, rz) = self.coupling.force(frame, acc, alpha, omega, (fx, fy, fz))
+            fx += f0
+            fy += f1
+            fz += f2
+            tx += ry * f2 - rz * f1
+            ty += rz * f0 - rx * f2
+            tz += rx * f1 - ry * f0
+        battery = self.battery
+        if battery is not None and self.load is not None:
+            battery.update(self.load.power_w(motors.shaft_power, flow), dt)
+            self.energy_j += battery.power_drawn_w * dt
+        return (fx, fy, fz), (tx, ty, tz)
+
+    def record(self, row: list[float], cmd_w: Sequence[float], vel: Vec3) -> None:
+        """Append this step's vehicle columns to a time-series row (rotors .. total mass, sim/recorder.py)."""
+        motors = self.motors
+        w, thr = motors.w_start, motors.thrust  # the speeds at the row's time
+        for i in range(motors.n):
+            row += (w[i], cmd_w[i], thr[i])
+        wx, wy, wz = self.wind
+        dx, dy, dz = self.drag
+        rd = motors.rotor_drag_body
+        row += (motors.thrust_total, wx, wy, wz, wx - vel[0], wy - vel[1], wz - vel[2], dx, dy, dz, rd[0], rd[1], rd[2])
+        tank = self.tank
+        if tank is not None:
+            tf, tgf, tif = tank.force, tank.gravity_force, tank.inertial_force
+            row += (tank.level_l, tank.mass_kg, tank.flow_lps, self.flow_cmd_lps, tf[0], tf[1], tf[2], tgf[2],
+                    tif[0], tif[1], tif[2], self.rigid_mass + tank.mass_kg)
+        else:
+            row += _NO_TANK
+            row.append(self.rigid_mass)
+
+    def record_battery(self, row: list[float]) -> None:
+        """Append the battery columns (state of charge at the row's time, voltage, current, power; NaN without one)."""
+        b = self.battery
+        if b is not None:
+            row += (b.soc_start, b.voltage_v, b.current_a, b.power_drawn_w)
+        else:
+            row += (math.nan, math.nan, math.nan, math.nan)
