@@ -187,3 +187,38 @@ def test_the_rule_catches_a_private_import(tmp_path: Path) -> None:
     names = sorted(n for _, n in _private_uses(f, "vinecli.physics.m", modules))
     assert names == ["vinecli.outputs._jsonable", "vinecli.outputs._x", "vinecli.report.baseline._fmt",
                      "vinecli.report.loader._load_run"]
+
+
+#: small files with one job, short functions (issue 24): limits for every file and function of vinecli/
+MAX_FILE_LINES = 500
+MAX_FUNCTION_LINES = 120
+#: temporary exceptions, each with who removes it and when; an exception that is no longer needed fails
+SIZE_EXCEPTIONS: dict[str, str] = {
+    "vinecli/missions/qgc_plan.py": "502 lines: the gis engineer splits it by job (issue 21) and removes this entry",
+}
+
+
+def _sizes() -> tuple[dict[str, int], list[tuple[str, str, int]]]:
+    """Lines per file (repo-relative) and (file, function, lines) of every function over the limit."""
+    files: dict[str, int] = {}
+    long: list[tuple[str, str, int]] = []
+    for path in sorted(PKG.rglob("*.py")):
+        rel = path.relative_to(REPO).as_posix()
+        text = path.read_text()
+        files[rel] = len(text.splitlines())
+        for node in ast.walk(ast.parse(text, rel)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                n = (node.end_lineno or node.lineno) - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    long.append((rel, node.name, n))
+    return files, long
+
+
+def test_files_and_functions_stay_small() -> None:
+    files, long = _sizes()
+    big = {f: n for f, n in files.items() if n > MAX_FILE_LINES and f not in SIZE_EXCEPTIONS}
+    assert not big, f"files over {MAX_FILE_LINES} lines (split them by job): {big}"
+    long = [x for x in long if x[0] not in SIZE_EXCEPTIONS]
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
+    stale = [f for f in SIZE_EXCEPTIONS if f not in files or files[f] <= MAX_FILE_LINES]
+    assert not stale, f"remove these size exceptions, they are no longer needed: {stale}"
