@@ -159,6 +159,39 @@ def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: P
     }
 
 
+def _pipeline_name(runs_dir: Path) -> str | None:
+    """The pipeline a batch's runs directory comes from (its batch.json), None for loose runs."""
+    if not (runs_dir / BATCH_JSON).is_file():
+        return None
+    import json
+
+    try:
+        return json.loads((runs_dir / BATCH_JSON).read_text(encoding="utf-8")).get("pipeline")
+    except (OSError, ValueError):
+        return None
+
+
+def _figure_notes(runs: Sequence[Any], chosen: Sequence[Any], want_figs: bool, figures: str,
+                  max_figure_runs: int) -> tuple[dict[str, str], str]:
+    """(per-case note of why a run has no figures, the figure policy's note for the report; "" when every run
+    has them)."""
+    chosen_cases = {r.case for r in chosen}
+    notes = {}
+    policy_note = ""
+    if want_figs and len(chosen) < sum(r.dir is not None for r in runs):
+        policy_note = (f"Figures rendered for {len(chosen)} of {len(runs)} runs (policy '{figures}', budget "
+                       f"{max_figure_runs}: errored/failing/regressed runs first, then one run per mission). "
+                       f"Use --figures all to render every run.")
+        for r in runs:
+            if r.case not in chosen_cases:
+                notes[r.case] = ("figures not rendered for this run: " + policy_note) if r.dir is not None else \
+                    "no figures: the case did not produce a run directory"
+    for r in runs:
+        if r.dir is None:
+            notes[r.case] = "no figures: the case did not produce a run directory"
+    return notes, policy_note
+
+
 def build_report(
     runs_dir: str | Path,
     out_dir: str | Path,
@@ -212,34 +245,14 @@ def build_report(
             for r in base_runs:
                 r.report_metrics = compute_report_metrics(r)
             comparison = compare(runs, base_runs, str(baseline), tolerances)
-    pipeline = None
-    if (runs_dir / BATCH_JSON).is_file():
-        import json
-
-        try:
-            pipeline = json.loads((runs_dir / BATCH_JSON).read_text(encoding="utf-8")).get("pipeline")
-        except (OSError, ValueError):
-            pipeline = None
+    pipeline = _pipeline_name(runs_dir)
     want_figs = "html" in fmts
     chosen = select_figure_runs(runs, figures, max_figure_runs, comparison) if want_figs else []
     figs: dict[str, dict[str, dict[str, Any]]] = {}
     with manifest.stage("figures"):
         if chosen:
             figs = render_all(chosen, jobs, (lambda i, n: progress("figures", i, n)) if progress else None)
-    chosen_cases = {r.case for r in chosen}
-    notes = {}
-    policy_note = ""
-    if want_figs and len(chosen) < sum(r.dir is not None for r in runs):
-        policy_note = (f"Figures rendered for {len(chosen)} of {len(runs)} runs (policy '{figures}', budget "
-                       f"{max_figure_runs}: errored/failing/regressed runs first, then one run per mission). "
-                       f"Use --figures all to render every run.")
-        for r in runs:
-            if r.case not in chosen_cases:
-                notes[r.case] = ("figures not rendered for this run: " + policy_note) if r.dir is not None else \
-                    "no figures: the case did not produce a run directory"
-    for r in runs:
-        if r.dir is None:
-            notes[r.case] = "no figures: the case did not produce a run directory"
+    notes, policy_note = _figure_notes(runs, chosen, want_figs, figures, max_figure_runs)
     ttl = title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
     result = ReportResult(out_dir=Path(out_dir), n_runs=len(runs), n_errors=sum(r.errored for r in runs),
                           n_failed=sum((not r.passed) and not r.errored for r in runs),

@@ -231,38 +231,16 @@ def _run_prepared(
     )
     checks = evaluate_checks(spec.checks, data)
     passed = all(c.passed for c in checks)
-    metrics: dict[str, float | None] = {k: _num(v) for k, v in {**result.metrics, **dep_metrics}.items()}
-    for kind in ("liftoff", "tank_empty"):  # as the checks see them (first event, else the simulator metric)
-        try:
-            metrics[f"{kind}_s"] = data.event_time(kind)
-        except EventMissing:
-            metrics.setdefault(f"{kind}_s", None)
-    for name in SUMMARY_METRICS:
-        if name not in metrics:
-            try:
-                metrics[name] = _num(METRICS[name].fn(data, None))
-            except (KeyError, ValueError, IndexError):
-                metrics[name] = None
+    metrics = _summary_metrics(data)
     sim_time = float(result.sim_time_s)
     rtf = sim_time / wall if wall > 0 else 0.0
-    loop = result.timing  # machine-dependent: kept out of the (deterministic) metrics
-    timing = {"wall_time_s": round(wall, 4), "real_time_factor": round(rtf, 3),
-              **{k: _num(v) for k, v in loop.items() if k != "real_time_factor"},
-              "loop_real_time_factor": _num(loop.get("real_time_factor"))}
-    geofence = run.geofence
     summary = {
         "run_id": run_id,
         "case": case or run_id,
         "mission": spec.name,
         "description": spec.description,
         "vehicle": vehicle.name,
-        "world": {
-            "name": world.name,
-            "dir": str(world_dir.resolve()),
-            "origin": world.origin.to_dict(),
-            "rows_enu": [[list(p) for p in row] for row in world.vine_rows_enu],
-            "geofence": geofence.model_dump(mode="json") if geofence is not None else None,
-        },
+        "world": _world_doc(run, world_dir),
         "autopilot": spec.autopilot,
         "truth": spec.truth,
         "seed": seed,
@@ -275,7 +253,7 @@ def _run_prepared(
         "checks": [c.to_dict() for c in checks],
         "metrics": metrics,
         "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
-        "timing": timing,
+        "timing": _timing_doc(result.timing, wall, rtf),
         "started_utc": started,
     }
     manifest = Manifest(
@@ -286,6 +264,39 @@ def _run_prepared(
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
+    _write_run_dir(out, manifest, result, run, summary, dep_doc, world_dir, mcap=mcap, overwrite=overwrite)
+    log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
+    return RunSummary(
+        run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
+        wall_time_s=round(wall, 4), real_time_factor=round(rtf, 3), checks=summary["checks"], metrics=metrics,
+        status_message=status_message, stop_signal=stop.signum,
+    )
+
+
+def _world_doc(run: PreparedRun, world_dir: Path) -> dict[str, Any]:
+    """summary.json's ``world``: name, directory, geodetic origin, rows, the run's geofence."""
+    world, geofence = run.world, run.geofence
+    return {
+        "name": world.name,
+        "dir": str(world_dir.resolve()),
+        "origin": world.origin.to_dict(),
+        "rows_enu": [[list(p) for p in row] for row in world.vine_rows_enu],
+        "geofence": geofence.model_dump(mode="json") if geofence is not None else None,
+    }
+
+
+def _timing_doc(loop: dict[str, float], wall: float, rtf: float) -> dict[str, float | None]:
+    """summary.json's ``timing``: machine-dependent, kept out of the (deterministic) metrics."""
+    return {"wall_time_s": round(wall, 4), "real_time_factor": round(rtf, 3),
+            **{k: _num(v) for k, v in loop.items() if k != "real_time_factor"},
+            "loop_real_time_factor": _num(loop.get("real_time_factor"))}
+
+
+def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun, summary: dict[str, Any],
+                   dep_doc: dict[str, Any] | None, world_dir: Path, *, mcap: bool, overwrite: bool) -> None:
+    """Write the run directory ``out`` atomically: time series, events, the resolved mission, the terrain
+    preview, run.mcap (``mcap``), the deposition outputs, summary.json last."""
+    spec, run_id, seed = run.mission, summary["run_id"], summary["seed"]
     t1 = time.perf_counter()
     with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
         rundir.write_timeseries(tmp / rundir.TIMESERIES, result.timeseries,
@@ -300,15 +311,27 @@ def _run_prepared(
         if dep_doc is not None:
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
-            write_deposition(tmp, result.deposition, world, dsm_crs(world_dir), dep_doc)
+            write_deposition(tmp, result.deposition, run.world, dsm_crs(world_dir), dep_doc)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
-    log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
-    return RunSummary(
-        run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
-        wall_time_s=round(wall, 4), real_time_factor=round(rtf, 3), checks=summary["checks"], metrics=metrics,
-        status_message=status_message, stop_signal=stop.signum,
-    )
+
+
+def _summary_metrics(data: RunData) -> dict[str, float | None]:
+    """The metrics summary.json records (NaN -> None): the simulator's and the deposition model's, the event
+    times as the checks see them (first event, else the simulator metric) and :data:`SUMMARY_METRICS`."""
+    metrics: dict[str, float | None] = {k: _num(v) for k, v in data.metrics.items()}
+    for kind in ("liftoff", "tank_empty"):
+        try:
+            metrics[f"{kind}_s"] = data.event_time(kind)
+        except EventMissing:
+            metrics.setdefault(f"{kind}_s", None)
+    for name in SUMMARY_METRICS:
+        if name not in metrics:
+            try:
+                metrics[name] = _num(METRICS[name].fn(data, None))
+            except (KeyError, ValueError, IndexError):
+                metrics[name] = None
+    return metrics
 
 
 def _rows_for_metrics(spec: MissionSpec, world_rows_enu: Sequence[Sequence[Sequence[float]]]) -> list[list[tuple[float, float]]]:

@@ -1,0 +1,134 @@
+"""Figure 16: the flown path over the terrain (top view with hillshade, contours, vine rows, wind arrows,
+geofence; and a 3D view)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vinecli.missions.metrics import airborne_mask
+from vinecli.report.figure_base import (
+    C_FAIL,
+    DPI,
+    SIZES,
+    PlotData,
+    png_bytes,
+    set_title,
+)
+from vinecli.report.figure_marks import need
+
+
+def fig16_path(data: PlotData) -> bytes:
+    """Flown path over the terrain: top view (hillshade + contours, vine rows, wind arrows, geofence) and 3D view."""
+    need(data, "pos_enu_x_m", "pos_enu_y_m", "pos_enu_z_m", what="position")
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import LightSource
+
+    c = data.cols
+    x, y, z = c["pos_enu_x_m"], c["pos_enu_y_m"], c["pos_enu_z_m"]
+    world = data.summary.get("world") or {}
+    rows = world.get("rows_enu") or []
+    fence = (world.get("geofence") or {}).get("polygon_enu") or []
+    pts = [np.column_stack([x, y])] + [np.asarray(r, float) for r in rows if len(r)]
+    if len(fence) >= 3:
+        pts.append(np.asarray(fence, float))
+    allp = np.vstack(pts)
+    lo, hi = np.nanmin(allp, axis=0) - 4.0, np.nanmax(allp, axis=0) + 4.0
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=SIZES["fig16"], dpi=DPI)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.05, 0.15, 0.47, 0.74))
+    ax3 = fig.add_axes((0.56, 0.04, 0.42, 0.86), projection="3d")
+    pv = data.preview
+    if pv is not None:
+        ext = (pv["x"][0], pv["x"][-1], pv["y"][0], pv["y"][-1])
+        dx = abs(pv["x"][1] - pv["x"][0]) if pv["x"].size > 1 else 1.0
+        dy = abs(pv["y"][1] - pv["y"][0]) if pv["y"].size > 1 else 1.0
+        shade = LightSource(azdeg=315, altdeg=45).hillshade(pv["z"], vert_exag=3.0, dx=dx, dy=dy)
+        ax.imshow(shade, extent=ext, origin="lower", cmap="gray", alpha=0.55, aspect="equal", zorder=0)
+        from scipy.ndimage import gaussian_filter
+
+        # contours of the smoothed surface (a DSM's canopy would otherwise turn them into noise)
+        zs = gaussian_filter(pv["z"], sigma=max(1.0, min(pv["z"].shape) / 40.0), mode="nearest")
+        cs = ax.contour(pv["x"], pv["y"], zs, levels=8, colors="#8c6d31", linewidths=0.6, zorder=1)
+        ax.clabel(cs, fontsize=6, fmt="%.1f m")
+    for i, r in enumerate(rows):
+        r = np.asarray(r, float)
+        if r.ndim == 2 and len(r) >= 2:
+            ax.plot(r[:, 0], r[:, 1], color="#2e7d32", lw=1.0, alpha=0.7, zorder=2, label="vine rows" if i == 0 else None)
+    if len(fence) >= 3:
+        f = np.asarray(fence + fence[:1], float)
+        ax.plot(f[:, 0], f[:, 1], color=C_FAIL, ls="--", lw=1.2, zorder=2, label="geofence")
+    agl = c["height_agl_m"] if data.has("height_agl_m") else z - np.nanmin(z)
+    seg = np.stack([np.column_stack([x[:-1], y[:-1]]), np.column_stack([x[1:], y[1:]])], axis=1)
+    lc = LineCollection(seg, cmap="plasma", linewidths=2.6, zorder=6)
+    lc.set_array(agl[:-1])
+    ax.add_collection(lc)
+    fig.colorbar(lc, ax=ax, fraction=0.05, pad=0.02, label="path height above terrain, m")
+    bps = [s["breakpoint_enu"] for s in data.summary.get("sorties") or [] if s.get("breakpoint_enu")]
+    if bps:  # where each sortie of a refill job stopped spraying (and the next one resumed)
+        b = np.asarray(bps, float)
+        ax.plot(b[:, 0], b[:, 1], marker="X", color="#0d47a1", ms=8, mec="w", ls="", zorder=7,
+                label=f"sortie breakpoints ({len(bps) + 1} sorties)")
+        for i, (bx, by) in enumerate(b[:, :2], start=1):
+            ax.annotate(str(i), (bx, by), xytext=(4, 3), textcoords="offset points", fontsize=7, color="#0d47a1",
+                        zorder=7)
+    ax.plot(x[0], y[0], marker="^", color="k", ms=7, ls="", zorder=4, label="start")
+    ax.plot(x[-1], y[-1], marker="s", color="k", ms=5, ls="", zorder=4, label="end")
+    if float(np.max(np.nanmax(np.column_stack([x, y]), axis=0) - np.nanmin(np.column_stack([x, y]), axis=0))) < 3.0:
+        # hover-like flight: the drift is invisible at field scale, show it in an inset
+        air = airborne_mask(c)
+        ins = ax.inset_axes((0.6, 0.5, 0.38, 0.38))
+        ins.plot(x[air], y[air], color="#d62728", lw=0.8)
+        if data.has("sp_pos_enu_x_m", "sp_pos_enu_y_m"):
+            ins.plot(c["sp_pos_enu_x_m"][air], c["sp_pos_enu_y_m"][air], marker="+", color="k", ms=8, ls="",
+                     label="setpoint")
+        ins.set_aspect("equal", adjustable="datalim")
+        ins.tick_params(labelsize=6)
+        ins.set_title("airborne path detail, m (ENU)", fontsize=7)
+        ins.grid(alpha=0.3)
+    if data.has("wind_enu_x_mps", "wind_enu_y_mps"):
+        wx, wy = c["wind_enu_x_mps"], c["wind_enu_y_mps"]
+        air = airborne_mask(c)
+        idx = np.flatnonzero(air) if air.any() else np.arange(x.size)
+        k = idx[np.linspace(0, idx.size - 1, min(14, idx.size)).astype(int)]
+        if np.nanmax(np.hypot(wx, wy)) > 0.05:
+            q = ax.quiver(x[k], y[k], wx[k], wy[k], color="#1565c0", angles="xy", scale_units="inches", scale=6.0,
+                          width=0.004, zorder=5)
+            ax.quiverkey(q, 0.97, 1.03, 3.0, "wind 3 m/s", labelpos="W", fontproperties={"size": 7})
+        else:
+            ax.text(0.02, 0.97, "no horizontal wind", transform=ax.transAxes, fontsize=7, va="top")
+    # top view: zoomed on the flown path (the 3D view keeps the whole field for context)
+    plo, phi = np.nanmin(np.column_stack([x, y]), axis=0), np.nanmax(np.column_stack([x, y]), axis=0)
+    margin = max(8.0, 0.15 * float(np.max(phi - plo)))
+    vlo, vhi = np.maximum(plo - margin, lo), np.minimum(phi + margin, hi)
+    ax.set_xlim(vlo[0], vhi[0])
+    ax.set_ylim(vlo[1], vhi[1])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("east x, m (ENU)")
+    ax.set_ylabel("north y, m (ENU)")
+    ax.set_title("top view", fontsize=9, loc="left")
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="lower left", bbox_to_anchor=(0.01, 0.0), ncol=4,
+               frameon=False)
+    # 3D view: terrain surface (downsampled) and the path
+    if pv is not None:
+        sx = max(1, pv["x"].size // 40)
+        sy = max(1, pv["y"].size // 40)
+        xx, yy = np.meshgrid(pv["x"][::sx], pv["y"][::sy])
+        zz = pv["z"][::sy, ::sx]
+        keep = (xx >= lo[0]) & (xx <= hi[0]) & (yy >= lo[1]) & (yy <= hi[1])
+        zz = np.where(keep, zz, np.nan)
+        ax3.plot_surface(xx, yy, zz, cmap="terrain", alpha=0.45, linewidth=0, antialiased=False, rstride=1, cstride=1)
+    ax3.computed_zorder = False  # draw the path over the terrain surface
+    ax3.plot(x, y, z, color="#d62728", lw=1.8, zorder=10, label="path (CoM)")
+    ax3.set_xlabel("east x, m")
+    ax3.set_ylabel("north y, m")
+    ax3.set_zlabel("up z, m (ENU)")
+    ax3.set_xlim(lo[0], hi[0])
+    ax3.set_ylim(lo[1], hi[1])
+    ax3.view_init(elev=28, azim=-60)
+    ax3.set_title("3D view", fontsize=9)
+    ax3.tick_params(labelsize=7)
+    set_title(fig, data, "Fig. 16  Flown path over the terrain")
+    return png_bytes(fig)
