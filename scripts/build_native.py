@@ -62,15 +62,17 @@ def main() -> int:
           flush=True)
     try:
         with _output_to(log):  # mypyc's notes, setuptools' and gcc's output: only shown when the build fails
-            setup(name="vinecli-kernel", packages=[], py_modules=[],
-                  ext_modules=mypycify(paths, opt_level="3", separate=True, target_dir=str(build / "c")),
+            exts = mypycify(paths, opt_level="3", separate=True, target_dir=str(build / "c"))
+            for ext in exts:  # the floating-point contract of the pure-Python loop: no fused multiply-add
+                ext.extra_compile_args = [*ext.extra_compile_args, *native.CFLAGS]
+            setup(name="vinecli-kernel", packages=[], py_modules=[], ext_modules=exts,
                   script_args=["-q", "build_ext", "--inplace", "--build-temp", str(build / "obj"),
                                "-j", str(os.cpu_count() or 1)])
     except (Exception, SystemExit):  # noqa: BLE001 - whatever failed, the log says why
         print("".join(log.read_text(errors="replace").splitlines(keepends=True)[-40:]), file=sys.stderr)
         print(f"kernel build failed (whole log: {log}); vinecli still runs, on the pure-Python sources", file=sys.stderr)
         return 1
-    doc = {"compiler": f"mypyc {mypy_version}", "python": sys.version.split()[0],
+    doc = {"compiler": f"mypyc {mypy_version}", "python": sys.version.split()[0], "cflags": list(native.CFLAGS),
            "sources": native.source_digests()}
     tmp = native.MANIFEST.with_suffix(".tmp")
     tmp.write_text(json.dumps(doc, indent=1) + "\n")

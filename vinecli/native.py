@@ -32,6 +32,9 @@ from types import ModuleType
 PACKAGE_DIR = Path(__file__).resolve().parent
 MANIFEST = PACKAGE_DIR / "native.json"
 PURE_ENV = "VINECLI_PURE_PYTHON"
+#: extra C compiler flags of the kernel: IEEE double operations one by one, as CPython evaluates them (no
+#: contraction of a * b + c into a fused multiply-add), so compiled and pure runs agree bit for bit by construction
+CFLAGS: tuple[str, ...] = ("-ffp-contract=off",)
 
 #: modules run every physics step (paths relative to the package), compiled by mypyc
 KERNEL: tuple[str, ...] = (
@@ -142,6 +145,25 @@ class _SourcesFirst:
 
 #: what :func:`install` decided for this process: ``compiled``, ``pure`` (asked for, or no build) or ``stale``
 state = "pure"
+
+
+def identity() -> dict[str, object]:
+    """Which kernel this process runs and its build identity, as every run records it (summary.json ``kernel``):
+    ``kind`` "compiled" or "pure" (``state`` says why: asked for, no build, or stale), ``sources_sha256`` (one
+    digest of every kernel source this process runs: the same in both kernels of one checkout) and, compiled,
+    the compiler, Python and C flags of the build."""
+    h = hashlib.sha256()
+    for rel in KERNEL:
+        h.update(f"{rel} {_digest(PACKAGE_DIR / rel)}\n".encode())
+    doc: dict[str, object] = {"kind": "compiled" if state == "compiled" else "pure", "state": state,
+                              "sources_sha256": h.hexdigest()}
+    if state == "compiled":
+        try:
+            built = json.loads(MANIFEST.read_text())
+        except (OSError, ValueError):
+            built = {}
+        doc.update({k: built.get(k) for k in ("compiler", "python", "cflags")})
+    return doc
 
 
 def install() -> str:

@@ -63,6 +63,9 @@ def test_compiled_and_pure_python_runs_are_bit_identical(compiled: None, sample_
     sa, sb = (json.loads((r / "summary.json").read_text()) for r in (fast, ref))
     for key in ("status", "detail", "metrics", "checks", "failsafes"):
         assert sa.get(key) == sb.get(key), key
+    ka, kb = sa["kernel"], sb["kernel"]  # each run says which kernel ran, built from the same sources
+    assert (ka["kind"], kb["kind"]) == ("compiled", "pure") and ka["sources_sha256"] == kb["sources_sha256"]
+    assert "-ffp-contract=off" in ka["cflags"] and ka["compiler"].startswith("mypyc")
     ta, tb = sa["timing"]["cpu_per_step_us"], sb["timing"]["cpu_per_step_us"]
     assert ta < tb, (ta, tb)  # and the kernel is the faster of the two
 

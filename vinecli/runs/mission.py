@@ -22,6 +22,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from vinecli import native
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
 from vinecli.missions.checks import evaluate_checks
@@ -255,6 +256,7 @@ def _run_prepared(
         "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
         "timing": _timing_doc(result.timing, wall, rtf),
         "started_utc": started,
+        "kernel": native.identity(),  # which kernel ran: compiled or pure, and its build identity
     }
     manifest = Manifest(
         command="run mission",
