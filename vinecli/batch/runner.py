@@ -40,6 +40,7 @@ from vinecli.batch.executors import (
     start_fork_server,
 )
 from vinecli.batch.job import CaseResult, RunSpec, run_one
+from vinecli.batch.preflight import check_cases_memory
 from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
 from vinecli.errors import InputError, OutputError, SpecError
@@ -157,6 +158,8 @@ def run_batch(
                 worlds = prepare_worlds(cases, runs_dir)
         except BatchInterrupted:
             log.warning("%s: batch stopped while preparing the worlds", stop.name)
+        if stop.signum is None:
+            check_cases_memory(cases, worlds, ppath)
         run_specs = [RunSpec(c.name, c.name, c.mission, c.mission_path, worlds.get(c.world, c.world), str(runs_dir),
                              c.seed, limit, mcap, ap_opts if c.mission.get("autopilot") == "px4" else {}) for c in cases]
         hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))

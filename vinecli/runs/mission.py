@@ -148,12 +148,15 @@ def run_mission(
     inputs = [p for p in (mission_path, Path(world_dir), *map(Path, protect)) if p is not None]
     check_output_target(out, overwrite=overwrite, inputs=inputs)
 
+    from vinecli.sim.memory import check_run_memory
     from vinecli.sim.setup import RunOverrides, prepare_run
     from vinecli.world import load_world
 
     overrides = RunOverrides(autopilot=autopilot, truth=truth, record_rate_hz=record_rate)
     with prepare_run(load_world(Path(world_dir)), src.spec, vehicle=src.vehicle, overrides=overrides,
                      source=mission_path) as run:
+        check_run_memory(run.mission, run.vehicle, run.world, path=mission_path or run.mission.name,
+                         config=run.deposition_config)
         return _run_prepared(run, Path(world_dir), run_id, out, seed=seed, mission_path=mission_path, mcap=mcap,
                              progress=progress, should_stop=should_stop, wall_timeout_s=wall_timeout_s, case=case,
                              autopilot_options=autopilot_options, overwrite=overwrite)
