@@ -75,6 +75,11 @@ def _heights(value: Any, key: str = "") -> Iterator[float]:
         yield float(value)
 
 
+def _sprays(mission: MissionSpec) -> bool:
+    """Can the mission switch the sprayer on (a spray phase, or a phase with a flow above 0)?"""
+    return any(ph.type == "spray" or (getattr(ph, "flow_lps", None) or 0.0) > 0.0 for ph in mission.phases)
+
+
 def _flown_area(mission: MissionSpec, world: World) -> list[tuple[float, float]]:
     """Corners of where the vehicle may fly (ENU m): the geofence polygon (mission > world), else the terrain."""
     fence = mission.geofence or world.geofence
@@ -95,7 +100,7 @@ def estimate_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World
     base_mb = BASE_MB + (3 * grid.z.nbytes / MB if grid is not None else 0.0)
     spray_mb = grid_mb = cell = 0.0
     height = max(_heights([ph.model_dump() for ph in mission.phases]), default=0.0)
-    if vehicle.tank is not None:
+    if vehicle.tank is not None and _sprays(mission):
         cfg = config or DepositionConfig()
         zmin, zmax = world.terrain.z_range
         height += max(zmax - zmin, 0.0)
