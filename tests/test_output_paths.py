@@ -4,7 +4,6 @@ probed before the work. Real worlds, the real loop, real run and report director
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import stat
