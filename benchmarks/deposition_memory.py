@@ -1,10 +1,11 @@
 """Peak memory (RSS) of a whole spraying run against the spray height, with the same run unsprayed as baseline.
 
-Each case is one ``vinecli run mission`` in a fresh process on the flat world: take off to the spray
-height, spray one 20 m row at ``height_agl_m`` = H (flow 0.02 L/s), land. The peak resident set of
-that process (``wait4``'s ``ru_maxrss``) is compared with the same mission flown with the sprayer off
-(``flow_lps: 0``: no deposition), run right after it: the difference is what the deposition model
-(records, transport, grid, writing deposition.tif) adds at that height. Issue 20 item 5: no accepted
+Each case is one ``vinecli run mission`` in a fresh process on the flat world (the mission's own 180 m
+fence with a 1 km ceiling): take off to the spray height, spray one 20 m row at ``height_agl_m`` = H
+(flow 0.02 L/s), land. The peak resident set of
+that process (``wait4``'s ``ru_maxrss``) is compared with the same flight along the row without the
+sprayer (a waypoints phase: no deposition), run right after it: the difference is what the deposition
+model (records, transport, grid, writing deposition.tif) adds at that height. Issue 20 item 5: no accepted
 mission peaks above 1.5 GB; the deposition grid keeps its convolution inside a cell budget
 (:mod:`vinecli.physics.deposit_grid`), so the peak must not grow with the height.
 
@@ -34,11 +35,14 @@ vehicle: x500-sprayer
 tank_fill_l: 1.0
 max_duration_s: {duration}
 record_rate_hz: 10
+geofence: {{polygon_enu: [[-90, -90], [90, -90], [90, 90], [-90, 90]], max_altitude_agl_m: 1000}}
 phases:
-  - {{type: takeoff, altitude_agl_m: {height}}}
-  - {{type: spray, rows: [[[0.0, 0.0], [20.0, 0.0]]], height_agl_m: {height}, speed_mps: 3.0, flow_lps: {flow}}}
-  - {{type: land}}
+  - {{type: takeoff, altitude_agl_m: {height}, timeout_s: {duration}}}
+  - {fly}
+  - {{type: land, timeout_s: {duration}}}
 """
+SPRAY = "{{type: spray, rows: [[[0.0, 0.0], [20.0, 0.0]]], height_agl_m: {height}, speed_mps: 3.0, flow_lps: 0.02}}"
+DRY = "{{type: waypoints, waypoints: [[0.0, 0.0, {height}], [20.0, 0.0, {height}]], speed_mps: 3.0}}"
 
 
 def _vinecli() -> str:
@@ -72,9 +76,10 @@ def main() -> int:
         for h in args.heights:
             duration = 60.0 + 2.0 * h  # climb (~3 m/s up), the row, the descent
             res = {}
-            for label, flow in (("spray", 0.02), ("dry", 0.0)):
+            for label, fly in (("spray", SPRAY), ("dry", DRY)):
                 name = f"h{int(h)}-{label}"
-                (work / f"{name}.yaml").write_text(MISSION.format(name=name, height=h, flow=flow, duration=duration))
+                (work / f"{name}.yaml").write_text(MISSION.format(name=name, height=h, duration=duration,
+                                                                  fly=fly.format(height=h)))
                 res[label] = peak_rss_mb([exe, "run", "mission", f"{name}.yaml", "--world", "world", "--out", "runs"],
                                          work)
             (mb, rc, wall), (base, _rc, _w) = res["spray"], res["dry"]

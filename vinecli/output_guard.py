@@ -1,10 +1,11 @@
 """What vinecli may write where: ``--out`` holds only what vinecli made (issue 20 items 1, 2, 7).
 
-* Every folder vinecli creates carries a marker file, :data:`MARKER` (``.vinecli``: the tool, what the
-  folder is, the version). ``--overwrite`` and ``run batch`` replace only a marked folder, and only when
-  it holds nothing but what its manifest lists (:func:`replaceable_problem`); a user's file or folder in
-  the way is named and kept (OutputError, exit 2). Folders written before markers existed are
-  recognised by their vinecli ``manifest.json``.
+* Every folder vinecli creates carries a marker: the vinecli ``manifest.json`` every output folder gets
+  last (a run, a world, a report, terrain), or, on the folders that hold outputs (a runs folder,
+  ``_worlds``), the marker file :data:`MARKER` (``.vinecli``: the tool, what the folder is, the version).
+  ``--overwrite`` and ``run batch`` replace only a marked folder, and only when it holds nothing but what
+  its manifest lists (:func:`replaceable_problem`); a user's file or folder in the way is named and kept
+  (OutputError, exit 2).
 * Paths built from names stay inside their root and never pass through a symbolic link below it
   (:func:`contained_path`): a ``_worlds`` link planted in ``--out`` cannot send a write elsewhere.
 * An output may not be, contain or lie inside an input of the command (:mod:`vinecli.inputs`).

@@ -2,8 +2,8 @@
 
 Every command writes its results through :func:`atomic_output_dir`: it holds the output's lock
 (:func:`vinecli.locks.output_lock`: a second writer exits 2, ``in use by pid N``), files go to a hidden
-temporary sibling directory, the marker and the manifest are written last, and the directory is
-swapped into place in one step (``renameat2(RENAME_EXCHANGE)`` where the kernel has it, SIGINT/SIGTERM
+temporary sibling directory, the manifest (which marks the folder as vinecli's) is written last, and the
+directory is swapped into place in one step (``renameat2(RENAME_EXCHANGE)`` where the kernel has it, SIGINT/SIGTERM
 held back for the moment of the swap) only when everything succeeded. On any error the temporary
 directory is removed, so a failed or interrupted command leaves nothing half-written in ``--out``;
 temporary siblings left by a process that was killed (``kill -9``) are removed by the next writer of the
@@ -48,8 +48,8 @@ from vinecli.output_guard import (
 
 __all__ = [
     "MANIFEST", "MARKER", "Manifest", "atomic_output_dir", "check_output_file", "check_output_target",
-    "contained_path", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file", "timed_stage",
-    "write_json", "write_text_atomic",
+    "contained_path", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file",
+    "timed_stage", "write_json", "write_text_atomic",
 ]
 
 
@@ -138,7 +138,7 @@ class Manifest:
         """Manifest as a JSON-able dict; outputs are every file under ``root`` with hashes."""
         outputs = []
         for p in sorted(root.rglob("*")):
-            if p.is_file() and p.name not in (MANIFEST, MARKER):
+            if p.is_file() and p.name != MANIFEST:
                 outputs.append({"path": p.relative_to(root).as_posix(), "bytes": p.stat().st_size,
                                 "sha256": sha256_file(p)})
         inputs = []

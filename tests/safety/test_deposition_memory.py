@@ -54,8 +54,9 @@ vehicle: x500-sprayer
 tank_fill_l: 0.3
 max_duration_s: 420
 record_rate_hz: 5
+geofence: {polygon_enu: [[-90, -90], [90, -90], [90, 90], [-90, 90]], max_altitude_agl_m: 1000}
 phases:
-  - {type: takeoff, altitude_agl_m: 400}
+  - {type: takeoff, altitude_agl_m: 400, timeout_s: 400}
   - {type: spray, rows: [[[0.0, 0.0], [10.0, 0.0]]], height_agl_m: 400, speed_mps: 3.0, flow_lps: 0.02}
   - {type: land}
 """

@@ -17,6 +17,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from vinecli.errors import InputError
 from vinecli.physics.deposit_grid import FFT_BYTES_PER_CELL, fft_cells, grid_for
 from vinecli.physics.deposition import DepositionConfig
@@ -109,7 +111,7 @@ def estimate_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World
         spray_mb = (records * EMIT_RECORD_BYTES + parcels * PARCEL_BYTES) / MB
         tan_half = max(math.tan(math.radians(n.cone_angle_deg) / 2.0) for n in vehicle.sprayer.nozzles)
         footprint = height * tan_half
-        g = grid_for(_flown_area(mission, world), [], world.terrain.bounds, cfg.cell_m, cfg.margin_m, cfg.max_cells,
+        g = grid_for(np.asarray(_flown_area(mission, world), dtype=np.float64), [], world.terrain.bounds, cfg.cell_m, cfg.margin_m, cfg.max_cells,
                      footprint_m=footprint, max_fft_cells=cfg.max_fft_cells)
         cell = g.cell
         grid_mb = (g.nx * g.ny * GRID_BYTES_PER_CELL + fft_cells(g.nx, g.ny, footprint, g.cell) * FFT_BYTES_PER_CELL) / MB
