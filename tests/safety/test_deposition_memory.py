@@ -52,8 +52,8 @@ MISSION = """\
 name: high
 vehicle: x500-sprayer
 tank_fill_l: 0.3
-max_duration_s: 420
-record_rate_hz: 5
+max_duration_s: 200
+record_rate_hz: 2
 geofence: {polygon_enu: [[-90, -90], [90, -90], [90, 90], [-90, 90]], max_altitude_agl_m: 1000}
 phases:
   - {type: takeoff, altitude_agl_m: 400, timeout_s: 400}

@@ -31,8 +31,9 @@ __all__ = ["RUN_MEMORY_LIMIT_MB", "MemoryEstimate", "check_run_memory", "estimat
 
 #: the most one run may hold (peak resident set), MB
 RUN_MEMORY_LIMIT_MB = 1536.0
-#: what a run process holds before its own data: interpreter, PyBullet, numpy/scipy/pyarrow, the world, MB
-BASE_MB = 420.0
+#: what a run process holds besides its own data: interpreter, PyBullet, numpy/scipy/pyarrow (measured 112-121 MB
+#: for a whole run without the sprayer, benchmarks/deposition_memory.py), MB
+BASE_MB = 250.0
 #: copies of the time series alive at the end of a run (recorder chunks, the columns for the writer)
 TIMESERIES_COPIES = 2
 #: one spray record of the loop (a tuple of 17 floats), bytes; one every 0.04 s of spraying at most
