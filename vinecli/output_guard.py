@@ -63,8 +63,8 @@ def is_vinecli_dir(folder: str | Path) -> bool:
 def replaceable_problem(folder: Path) -> str | None:
     """Why ``folder`` must not be replaced (it is not vinecli's, or holds a user's file), or None.
 
-    A marked folder with a manifest may hold only what the manifest lists, plus vinecli's own hidden
-    files; a marked folder without one (a runs folder) may not be replaced at all.
+    A marked folder with a manifest may hold only what the manifest lists (and the ``.aux.xml`` GDAL writes
+    beside a GeoTIFF it opened); a marked folder without one (a runs folder) may not be replaced at all.
     """
     if folder.is_symlink():
         return "is a symbolic link, not a folder vinecli made (kept)"
@@ -73,7 +73,7 @@ def replaceable_problem(folder: Path) -> str | None:
     listed = _manifest_outputs(folder)
     if listed is None:
         return "is a vinecli folder that holds other outputs (kept)"
-    files = set(listed) | {MANIFEST, MARKER}
+    files = set(listed) | {MANIFEST, MARKER} | {f + ".aux.xml" for f in listed}  # + GDAL's sidecars of ours
     dirs = {parent.as_posix() for f in listed for parent in Path(f).parents}
     for p in sorted(folder.rglob("*")):
         rel = p.relative_to(folder).as_posix()

@@ -51,14 +51,19 @@ def _refuse(target: Path, pipeline: Path, *, what: str) -> None:
 
 
 def check_case_targets(cases: Sequence[Case], runs_dir: Path, pipeline: Path, *, batch_json: str,
-                       worlds_dir: str) -> None:
+                       worlds_dir: str, resume: bool = False) -> None:
     """OutputError/InputError (exit 2) naming the pipeline when a case or world folder, or ``batch_json``,
-    must not be written (see the module docstring); ``worlds_dir``: where world specs are built."""
+    must not be written (see the module docstring); ``worlds_dir``: where world specs are built. With
+    ``resume`` the complete runs, which are kept as they are, are not targets."""
+    from vinecli.runs.rundir import is_complete_run
+
     for c in cases:
         if c.name in (batch_json, worlds_dir):
             raise InputError(f"case name {c.name!r} is a name the batch writes itself ({batch_json}, {worlds_dir})",
                              path=pipeline)
-        _refuse(contained_path(runs_dir, c.name), pipeline, what=f"case {c.name}:")
+        target = contained_path(runs_dir, c.name)
+        if not (resume and is_complete_run(target)):
+            _refuse(target, pipeline, what=f"case {c.name}:")
     for ref in dict.fromkeys(c.world for c in cases):
         if Path(ref).suffix in (".yaml", ".yml"):
             _refuse(contained_path(runs_dir, worlds_dir, Path(ref).stem), pipeline, what="world folder")

@@ -147,7 +147,7 @@ def run_batch(
             note_input(pb, "PX4 binary")
             ap_opts["px4_bin"] = str(pb.resolve())
         note_case_inputs(cases, ppath)
-        check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR)
+        check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR, resume=resume)
         with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
             remove_stale_temps(runs_dir)
             try:
