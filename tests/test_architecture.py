@@ -12,7 +12,8 @@ from tests.repo_paths import REPO
 
 #: the layers, ground floor first; a unit is a top-level module or a package of vinecli
 LAYERS: list[set[str]] = [
-    {"constants", "errors", "frames", "geo", "names", "native", "outputs", "spray_defaults", "types"},
+    {"constants", "errors", "frames", "geo", "inputs", "lifeline", "locks", "names", "native", "output_guard", "outputs",
+     "spray_defaults", "types"},
     {"specs"},
     {"physics", "control", "terrain", "vehicle", "mavlink"},
     {"rows", "phase_items"},

@@ -4,7 +4,6 @@ probed before the work. Real worlds, the real loop, real run and report director
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import stat
@@ -177,14 +176,14 @@ def test_check_output_target_refuses_inputs(tmp_path: Path) -> None:
 
 
 def test_batch_case_dir_never_replaces_its_mission(flat_world_dir: Path, tmp_path: Path) -> None:
-    """A case named like the folder holding its mission, with --out at the pipeline: the case errors, the
+    """A case named like the folder holding its mission, with --out at the pipeline: the batch is refused at
+    load (issue 20: every case's folder is checked against every input before anything is written), the
     mission survives."""
     (tmp_path / "missions").mkdir()
     (tmp_path / "missions" / "m.yaml").write_text(MISSION.format(name="quick"))
     p = tmp_path / "p.yaml"
     p.write_text(f"name: p\nworld: {flat_world_dir}\nmissions: [{{mission: missions/m.yaml, name: missions}}]\n")
     r = runner.invoke(app, ["run", "batch", str(p), "--out", str(tmp_path)])
-    assert r.exit_code == 3
+    assert r.exit_code == 2 and "input" in r.stderr and "m.yaml" in r.stderr
     assert (tmp_path / "missions" / "m.yaml").read_text() == MISSION.format(name="quick")
-    case = json.loads((tmp_path / "batch.json").read_text())["cases"][0]
-    assert case["status"] == "error" and "input" in case["error"]
+    assert not (tmp_path / "batch.json").exists()

@@ -1,23 +1,31 @@
-"""Atomic output directories with a ``manifest.json``.
+"""Atomic output directories with a ``manifest.json``, locked and marked (issue 20 items 2 and 3).
 
-Every command writes its results through :func:`atomic_output_dir`: files go to a hidden
-temporary sibling directory, the manifest is written last, and the directory is renamed
-into place only when everything succeeded. On any error the temporary directory is
-removed, so a failed command leaves nothing half-written in ``--out``.
+Every command writes its results through :func:`atomic_output_dir`: it holds the output's lock
+(:func:`vinecli.locks.output_lock`: a second writer exits 2, ``in use by pid N``), files go to a hidden
+temporary sibling directory, the manifest (which marks the folder as vinecli's) is written last, and the
+directory is swapped into place in one step (``renameat2(RENAME_EXCHANGE)`` where the kernel has it, SIGINT/SIGTERM
+held back for the moment of the swap) only when everything succeeded. On any error the temporary
+directory is removed, so a failed or interrupted command leaves nothing half-written in ``--out``;
+temporary siblings left by a process that was killed (``kill -9``) are removed by the next writer of the
+same output. Single files go through :func:`write_text_atomic`. What may be written where (markers,
+inputs, links) is :mod:`vinecli.output_guard`'s.
 """
 
 from __future__ import annotations
 
-import errno
+import contextlib
+import ctypes
 import hashlib
 import json
 import os
 import platform
-import secrets
+import re
 import shutil
+import signal
 import sys
+import threading
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterator, Mapping
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,9 +33,24 @@ from typing import Any
 
 from vinecli import __version__
 from vinecli.errors import OutputError
+from vinecli.inputs import current_inputs
+from vinecli.lifeline import pid_alive
+from vinecli.locks import output_lock, remove_if_free
+from vinecli.output_guard import (
+    MANIFEST,
+    MARKER,
+    check_output_file,
+    check_output_target,
+    contained_path,
+    make_unique_dir,
+    write_marker,
+)
 
-#: the file every output directory gets last (what was read, configured and written)
-MANIFEST = "manifest.json"
+__all__ = [
+    "MANIFEST", "MARKER", "Manifest", "atomic_output_dir", "check_output_file", "check_output_target",
+    "contained_path", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file",
+    "timed_stage", "write_json", "write_text_atomic",
+]
 
 
 def sha256_file(path: Path, chunk: int = 1 << 20) -> str:
@@ -51,13 +74,22 @@ def write_text_atomic(path: Path | str, text: str) -> None:
     raised; ``path`` is then left as it was.
     """
     path = Path(path)
+    inputs = current_inputs()
+    if inputs is not None:
+        inputs.refuse(path)
+    if path.is_symlink():
+        raise OutputError("is a symbolic link (kept)", path=path)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
         tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
+        with _signals_held():
+            os.replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def jsonable(obj: Any) -> Any:
@@ -131,20 +163,6 @@ class Manifest:
         }
 
 
-def contained_path(root: Path, *parts: str) -> Path:
-    """``root/parts...``, proven (after resolving symlinks and ``..``) to stay strictly inside ``root``.
-
-    OutputError (exit 2) otherwise: the one guard every run, case and page path goes through.
-    """
-    root = Path(root)
-    target = root.joinpath(*parts)
-    base = root.resolve()
-    resolved = target.resolve()
-    if resolved == base or not resolved.is_relative_to(base):
-        raise OutputError(f"refusing to write outside the output directory {root}", path=target)
-    return target
-
-
 def manifest_problem(root: Path) -> str | None:
     """Why the directory ``root`` does not hold exactly what its ``manifest.json`` lists, or None.
 
@@ -168,72 +186,133 @@ def manifest_problem(root: Path) -> str | None:
     return None
 
 
-def check_output_target(out: Path, *, overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> None:
-    """Fail early (OutputError, exit 2), before any heavy work, if ``out`` cannot or must not be written.
-
-    Refused: ``out`` exists and is not a directory, exists non-empty without ``overwrite``, equals or
-    contains one of ``inputs`` (replacing it would delete the input), or its nearest existing ancestor
-    is not writable. Writability is probed for real (a directory is created and removed there), which
-    catches read-only file systems and mounts where ``os.access`` says yes.
-    """
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise OutputError("exists and is not a directory", path=out)
-    resolved = out.resolve()
-    for inp in inputs:
-        rin = Path(inp).resolve()
-        if rin == resolved or rin.is_relative_to(resolved):
-            raise OutputError(f"the output directory would replace the input {inp}", path=out)
-    if out.exists() and any(out.iterdir()) and not overwrite:
-        raise OutputError("output directory exists and is not empty (use --overwrite)", path=out)
-    probe = resolved.parent
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        raise OutputError(f"output location is not writable ({probe} is not a directory)", path=out)
-    try:
-        _make_unique_dir(probe, ".vinecli-probe-").rmdir()
-    except OSError as exc:
-        raise OutputError(f"output location is not writable ({exc.strerror})", path=out) from None
+_LEFTOVER_RE = re.compile(r"\.(?P<name>.+)\.(?:(?:tmp|old)-(?P<pid>\d+)(?:-[0-9a-f]+)?|lock)")
 
 
-def _make_unique_dir(parent: Path, prefix: str) -> Path:
-    """Create a new, uniquely named directory in ``parent`` with the umask's permissions (not mkdtemp's 0700)."""
-    for _ in range(100):
-        d = parent / f"{prefix}{os.getpid()}-{secrets.token_hex(4)}"
-        try:
-            d.mkdir(mode=0o777)
-        except FileExistsError:
+def remove_stale_temps(folder: Path, name: str | None = None) -> list[Path]:
+    """Remove what killed writers left in ``folder``: temporary siblings (``.NAME.tmp-PID-...``,
+    ``.NAME.old-PID``) whose process is dead and lock files (``.NAME.lock``) no process holds; only those of
+    ``NAME`` = ``name`` when given. Returns what was removed."""
+    folder = Path(folder)
+    removed: list[Path] = []
+    if not folder.is_dir():
+        return removed
+    for p in folder.glob(f".{name}.*" if name is not None else ".*"):
+        m = _LEFTOVER_RE.fullmatch(p.name)
+        if m is None or (name is not None and m["name"] != name):
             continue
-        return d
-    raise FileExistsError(errno.EEXIST, "no free temporary name", str(parent))
+        if m["pid"] is None:
+            if remove_if_free(p):
+                removed.append(p)
+            continue
+        if int(m["pid"]) == os.getpid() or pid_alive(int(m["pid"])):
+            continue
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
+        removed.append(p)
+    return removed
+
+
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the names ``a`` and ``b`` atomically (Linux renameat2 RENAME_EXCHANGE); False when unsupported."""
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    rc = fn(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE)
+    return rc == 0
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM back (main thread) for a few system calls that must not be split by a signal."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _commit(tmp: Path, out: Path) -> None:
+    """Put the finished ``tmp`` at ``out``: one atomic step, the replaced folder removed after."""
+    with _signals_held():
+        if not out.exists():
+            tmp.rename(out)
+            return
+        if _exchange(tmp, out):
+            old = tmp
+        else:
+            old = out.with_name(f".{out.name}.old-{os.getpid()}")
+            out.rename(old)
+            tmp.rename(out)
+    shutil.rmtree(old, ignore_errors=True)
 
 
 @contextmanager
 def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary directory; on success write ``manifest.json`` and rename it to ``out``.
+    """Yield a temporary directory; on success write ``manifest.json`` (the folder's vinecli marker) and swap it
+    in at ``out``.
 
-    On any exception the temporary directory is deleted and ``out`` is left untouched. ``out`` may not
-    equal or contain one of ``manifest.inputs`` (see :func:`check_output_target`). Directories are
-    created with the process umask.
+    Holds ``out``'s lock (a second writer: OutputError ``in use by pid N``, exit 2) from the checks to
+    the swap. On any exception the temporary directory is deleted and ``out`` is left untouched. ``out``
+    may not be, contain or lie inside an input (``manifest.inputs`` and the command's,
+    :mod:`vinecli.inputs`), and is replaced only when vinecli made it and it holds only its outputs
+    (:func:`check_output_target`, run again just before the swap). Directories follow the umask.
     """
     out = Path(out)
     check_output_target(out, overwrite=overwrite, inputs=manifest.inputs)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = _make_unique_dir(out.parent, f".{out.name}.tmp-")
     except OSError as exc:
         raise OutputError(f"cannot create output directory ({exc.strerror})", path=out) from exc
+    with output_lock(out):
+        remove_stale_temps(out.parent, out.name)
+        try:
+            tmp = make_unique_dir(out.parent, f".{out.name}.tmp-")
+        except OSError as exc:
+            raise OutputError(f"cannot create output directory ({exc.strerror})", path=out) from exc
+        try:
+            yield tmp
+            write_json(tmp / MANIFEST, manifest.to_dict(tmp))
+            check_output_target(out, overwrite=overwrite, inputs=manifest.inputs)
+            _commit(tmp, out)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+
+
+@contextmanager
+def output_folder(folder: Path, kind: str) -> Iterator[Path]:
+    """Make sure the folder outputs go into exists (created with its missing parents and marked ``kind`` when
+    vinecli creates it); on an exception the folders this call created are removed again if they hold
+    nothing but the marker, so a refused command leaves nothing behind."""
+    folder = Path(folder)
+    missing: list[Path] = []
+    p = folder
+    while not p.exists() and not p.is_symlink():
+        missing.append(p)
+        p = p.parent
     try:
-        yield tmp
-        write_json(tmp / MANIFEST, manifest.to_dict(tmp))
-        if out.exists():
-            old = out.with_name(f".{out.name}.old-{os.getpid()}")
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            tmp.rename(out)
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the output folder ({exc.strerror})", path=folder) from None
+    if missing:
+        write_marker(folder, kind)
+    try:
+        yield folder
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        for d in missing:  # deepest first
+            with contextlib.suppress(OSError):
+                if {c.name for c in d.iterdir()} <= {MARKER}:
+                    (d / MARKER).unlink(missing_ok=True)
+                    d.rmdir()
         raise

@@ -155,7 +155,8 @@ def test_interrupted_run_is_a_valid_partial_run(flat_world_dir: Path, tmp_path: 
 def test_run_batch_cli_on_a_small_pipeline(flat_world_dir: Path, tmp_path: Path) -> None:
     quick_mission(tmp_path, name="ok.yaml")
     # idle on the ground for hours (a flight would end within minutes on its battery, seconds of wall time)
-    (tmp_path / "slow.yaml").write_text("name: slow\nvehicle: x500-sprayer\nmax_duration_s: 36000\n"
+    # (recorded at 2 Hz: 10 h at the default 50 Hz could need more memory than a run may use, refused at load)
+    (tmp_path / "slow.yaml").write_text("name: slow\nvehicle: x500-sprayer\nmax_duration_s: 36000\nrecord_rate_hz: 2\n"
                                         "phases:\n  - {type: open_loop, duration_s: 36000, rotor_speeds_rad_s: 0}\n")
     bad = yaml.safe_load(QUICK.format(high=50, hold=1, maxdur=40))
     bad["name"] = "fails"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+import os
 from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
@@ -54,10 +55,10 @@ def start_fork_server() -> None:
 def make_local_executor(jobs: int, max_tasks_per_child: int = WORKER_CASES, stop_flag: Any = None) -> ProcessPoolExecutor:
     """Process pool, workers forked from the preloaded fork server and recycled every ``max_tasks_per_child``
     cases, stops handled as :func:`vinecli.batch.signals.worker_init` sets up (``stop_flag``: from
-    :func:`local_stop_flag`)."""
+    :func:`local_stop_flag`; the workers follow this process when it dies, ``kill -9`` included)."""
     return ProcessPoolExecutor(max_workers=jobs, mp_context=_context(),
                                max_tasks_per_child=max_tasks_per_child, initializer=worker_init,
-                               initargs=(stop_flag,))
+                               initargs=(stop_flag, os.getpid()))
 
 
 def local_stop_flag() -> Any:

@@ -16,7 +16,7 @@ import traceback
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from vinecli.batch.signals import worker_should_stop
+from vinecli.batch.signals import case_running, worker_should_stop
 
 log = logging.getLogger(__name__)
 
@@ -72,10 +72,11 @@ def run_one(spec: RunSpec) -> CaseResult:
         reuse_terrain_engines()  # a worker keeps its world's terrain loaded from one case to the next
 
         mission = MissionSpec.model_validate(spec.mission)
-        s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
-                        mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case,
-                        overwrite=True, should_stop=worker_should_stop,
-                        protect=[spec.mission_path], autopilot_options=spec.autopilot_options or None)
+        with case_running():
+            s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
+                            mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case,
+                            overwrite=True, should_stop=worker_should_stop,
+                            protect=[spec.mission_path], autopilot_options=spec.autopilot_options or None)
     except BaseException as exc:  # noqa: BLE001 - a worker reports, it never dies with the case
         if isinstance(exc, KeyboardInterrupt):
             raise

@@ -19,7 +19,6 @@ import hashlib
 import json
 import logging
 import math
-import os
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -40,10 +39,13 @@ from vinecli.batch.executors import (
     start_fork_server,
 )
 from vinecli.batch.job import CaseResult, RunSpec, run_one
+from vinecli.batch.preflight import check_case_targets, check_cases_memory, note_case_inputs
 from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
-from vinecli.errors import InputError, OutputError, SpecError
-from vinecli.outputs import contained_path, write_json
+from vinecli.errors import InputError, SpecError
+from vinecli.inputs import note_input, reading_inputs
+from vinecli.locks import output_lock
+from vinecli.outputs import contained_path, jsonable, output_folder, remove_stale_temps, write_text_atomic
 from vinecli.runs import rundir
 from vinecli.specs.limits import MAX_DURATION_S
 
@@ -125,28 +127,42 @@ def run_batch(
         raise InputError("--scheduler needs --executor dask")
     if timeout_s is not None and not (math.isfinite(timeout_s) and 0 < timeout_s <= MAX_DURATION_S):
         raise InputError(f"--timeout must be a number of seconds in (0, {MAX_DURATION_S:g}], got {timeout_s}")
-    if isinstance(pipeline, PipelineSpec):
-        spec, ppath = pipeline, Path.cwd() / "pipeline.yaml"
-    else:
-        ppath = Path(pipeline)
-        spec = load_pipeline(ppath)
-    if world is not None:
-        if not Path(world).exists():
-            raise InputError("world not found", path=world)
-        spec = with_world(spec, world)
-    cases = expand_cases(spec, ppath)
     runs_dir = Path(runs_dir)
-    try:
-        runs_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create the runs directory ({exc.strerror})", path=runs_dir) from None
+    with reading_inputs():  # every file the batch reads, known before anything is written
+        if isinstance(pipeline, PipelineSpec):
+            spec, ppath = pipeline, Path.cwd() / "pipeline.yaml"
+        else:
+            ppath = Path(pipeline)
+            spec = load_pipeline(ppath)
+        if world is not None:
+            if not Path(world).exists():
+                raise InputError("world not found", path=world)
+            spec = with_world(spec, world)
+        cases = expand_cases(spec, ppath)
+        ap_opts: dict[str, Any] = {}
+        if px4_bin is not None or spec.px4_bin is not None:
+            pb = Path(px4_bin) if px4_bin is not None else (ppath.parent / str(spec.px4_bin))
+            if not pb.is_file():
+                raise InputError("PX4 binary not found (px4_bin)", path=pb)
+            note_input(pb, "PX4 binary")
+            ap_opts["px4_bin"] = str(pb.resolve())
+        note_case_inputs(cases, ppath)
+        check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR, resume=resume)
+        with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
+            remove_stale_temps(runs_dir)
+            try:
+                return _run(spec, ppath, cases, runs_dir, jobs, executor, scheduler, resume, timeout_s, progress,
+                            job, dask_processes, max_tasks_per_child, grace_s, mcap, ap_opts)
+            finally:  # what workers killed by a second signal left half-written
+                remove_stale_temps(runs_dir)
+
+
+def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, jobs: int, executor: str,
+         scheduler: str | None, resume: bool, timeout_s: float | None, progress: ProgressFn | None,
+         job: Callable[[RunSpec], CaseResult], dask_processes: bool, max_tasks_per_child: int, grace_s: float | None,
+         mcap: bool, ap_opts: dict[str, Any]) -> BatchResult:
+    """:func:`run_batch` once its inputs are read and its outputs checked (the runs folder locked)."""
     limit = timeout_s if timeout_s is not None else spec.timeout_s
-    ap_opts: dict[str, Any] = {}
-    if px4_bin is not None or spec.px4_bin is not None:
-        pb = Path(px4_bin) if px4_bin is not None else (ppath.parent / str(spec.px4_bin))
-        if not pb.is_file():
-            raise InputError("PX4 binary not found (px4_bin)", path=pb)
-        ap_opts["px4_bin"] = str(pb.resolve())
     t0 = time.perf_counter()
     if executor == "local":
         start_fork_server()  # its imports overlap with preparing the worlds
@@ -157,6 +173,8 @@ def run_batch(
                 worlds = prepare_worlds(cases, runs_dir)
         except BatchInterrupted:
             log.warning("%s: batch stopped while preparing the worlds", stop.name)
+        if stop.signum is None:
+            check_cases_memory(cases, worlds, ppath)
         run_specs = [RunSpec(c.name, c.name, c.mission, c.mission_path, worlds.get(c.world, c.world), str(runs_dir),
                              c.seed, limit, mcap, ap_opts if c.mission.get("autopilot") == "px4" else {}) for c in cases]
         hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
@@ -365,9 +383,7 @@ def _write_batch_json(runs_dir: Path, spec: PipelineSpec, ppath: Path, executor:
         "passed": all(c.get("passed") for c in cases),
         "cases": cases,
     }
-    tmp = runs_dir / f".{BATCH_JSON}.tmp-{os.getpid()}"
-    write_json(tmp, data)
-    os.replace(tmp, runs_dir / BATCH_JSON)
+    write_text_atomic(runs_dir / BATCH_JSON, json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n")
 
 
 # ---------------------------------------------------------------- worlds
@@ -388,17 +404,19 @@ def prepare_worlds(cases: Sequence[Case], runs_dir: Path) -> dict[str, str]:
 
 
 def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
-    """Build a world spec into ``worlds_root/<stem>/`` unless a build of the same spec is there."""
+    """Build a world spec into ``worlds_root/<stem>/`` unless a build of the same spec is there (the paths
+    proven free of symbolic links below the runs folder, the folder replaced only when vinecli made it)."""
     digest = hashlib.sha256(spec_path.read_bytes()).hexdigest()
-    out = contained_path(worlds_root, spec_path.stem)
-    stamp = contained_path(worlds_root, f".{spec_path.stem}.spec-sha256")
+    out = contained_path(worlds_root.parent, worlds_root.name, spec_path.stem)
+    stamp = contained_path(worlds_root.parent, worlds_root.name, f".{spec_path.stem}.spec-sha256")
     if (out / "world.json").is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
     from vinecli.world import build_world
 
     log.info("building world %s into %s", spec_path, out)
-    build_world(spec_path, out, overwrite=True)
-    stamp.write_text(digest + "\n")
+    with output_folder(worlds_root, "worlds"):
+        build_world(spec_path, out, overwrite=True)
+        write_text_atomic(stamp, digest + "\n")
     return out
 
 

@@ -11,18 +11,26 @@
   simulation loop (polled every step: a plain read of shared memory), which ends the run as
   ``interrupted`` and writes it. The shared flag reaches workers still starting up, where a signal
   would kill them.
+* A worker whose batch process dies without a word (``kill -9``) follows it
+  (:func:`vinecli.lifeline.watch_process`): a case in flight is stopped and written ``interrupted``
+  if that takes less than :data:`PARENT_GRACE_S`, then the worker kills itself; an idle worker goes
+  at once. The fork server exits by itself once the batch and its workers are gone.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
 from typing import Any
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT)
+#: seconds a worker whose batch process died gives its running case to write itself ``interrupted``
+PARENT_GRACE_S = 2.0
 
 
 class BatchInterrupted(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
@@ -77,6 +85,8 @@ class StopRequest:
 
 _WORKER_STOP = False
 _SHARED_STOP: Any = None
+_IN_CASE = False
+_FORK_SERVER: int | None = None  # the process that forked this worker, when it is not the batch itself
 
 
 def make_stop_flag(ctx: Any) -> Any:
@@ -89,13 +99,42 @@ def _worker_sigterm(signum: int, frame: FrameType | None) -> None:
     _WORKER_STOP = True
 
 
-def worker_init(stop_flag: Any = None) -> None:
+def _batch_gone() -> None:
+    """The batch process died: the fork server that started this worker goes at once (it would wait for the
+    last worker and then take seconds to exit); the case in flight is stopped and given
+    :data:`PARENT_GRACE_S` to be written; then this worker goes."""
+    global _WORKER_STOP
+    _WORKER_STOP = True
+    if _FORK_SERVER is not None and os.getppid() == _FORK_SERVER:  # still our parent: never another process
+        os.kill(_FORK_SERVER, signal.SIGKILL)
+    if _IN_CASE:
+        time.sleep(PARENT_GRACE_S)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def worker_init(stop_flag: Any = None, batch_pid: int | None = None) -> None:
     """Process-pool initializer: SIGINT ignored (between runs), SIGTERM or ``stop_flag`` set ->
-    :func:`worker_should_stop`."""
-    global _SHARED_STOP
+    :func:`worker_should_stop`; the worker follows the batch process ``batch_pid`` when it dies."""
+    global _SHARED_STOP, _FORK_SERVER
     _SHARED_STOP = stop_flag
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_sigterm)
+    if batch_pid is not None:
+        _FORK_SERVER = os.getppid() if os.getppid() != batch_pid else None
+        from vinecli.lifeline import watch_process
+
+        watch_process(batch_pid, _batch_gone)
+
+
+@contextmanager
+def case_running() -> Iterator[None]:
+    """Mark the worker busy with a case (a dying batch then leaves it time to write the case)."""
+    global _IN_CASE
+    _IN_CASE = True
+    try:
+        yield
+    finally:
+        _IN_CASE = False
 
 
 def worker_should_stop() -> bool:

@@ -39,11 +39,13 @@ from typing import Any
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from vinecli.constants import MAX_SEED
 from vinecli.errors import SpecError
 from vinecli.missions.spec_io import mission_from_dict
 from vinecli.names import SafeName, check_name
 from vinecli.specs import StrictModel, load_spec, read_yaml, resolve_base
-from vinecli.specs.limits import MAX_DURATION_S, MAX_RATE_HZ
+from vinecli.specs.limits import MAX_DURATION_S, MAX_RATE_HZ, SeedInt
+from vinecli.specs.refs import SPEC_SUFFIXES, spec_reference
 
 #: most cases one pipeline may expand to
 MAX_CASES = 100_000
@@ -55,7 +57,7 @@ class MissionEntry(StrictModel):
     mission: str = Field(description="mission YAML, relative to the pipeline file")
     name: SafeName | None = Field(None, description="case name (default: the mission's name)")
     world: str | None = Field(None, description="world spec or built world dir for this case (default: the pipeline's)")
-    seed: int | None = Field(None, ge=0, description="explicit seed (default: derived from the root seed)")
+    seed: SeedInt | None = Field(None, description="explicit seed (default: derived from the root seed)")
     seeds: int = Field(1, ge=1, le=MAX_CASES, description="number of replicates with derived seeds")
     set: dict[str, Any] = Field(default_factory=dict, description="dotted-path overrides of the mission")
 
@@ -84,7 +86,7 @@ class PipelineSpec(StrictModel):
     name: SafeName
     description: str = ""
     world: str | None = Field(None, description="default world: a world spec (worlds/*.yaml) or a built world dir")
-    seed: int = Field(0, ge=0, description="root seed")
+    seed: SeedInt = Field(0, description="root seed")
     autopilot: str | None = Field(None, description="override every mission's autopilot")
     px4_bin: str | None = Field(None, description="PX4 SITL binary (relative to the pipeline file): every PX4 case "
                                 "starts its own PX4 process on a free instance")
@@ -182,23 +184,34 @@ def set_dotted(data: dict[str, Any], dotted: str, value: Any) -> None:
         cur[last] = value
 
 
-def _read_mission(path: Path, pipeline_path: Path) -> dict[str, Any]:
-    if not path.is_file():
-        raise SpecError(f"mission file not found: {path}", path=pipeline_path)
-    return resolve_base(path.resolve(), read_yaml(path))
+def _read_mission(ref: str, pipeline_path: Path, where: str) -> tuple[Path, dict[str, Any]]:
+    """The mission file a pipeline entry names (confined, :func:`vinecli.specs.refs.spec_reference`), read."""
+    path = spec_reference(ref, pipeline_path, where)
+    return path, resolve_base(path, read_yaml(path))
 
 
 def _abs_vehicle(data: dict[str, Any], mission_path: Path) -> None:
+    """A vehicle file the mission names, made absolute (confined to where the mission may refer to)."""
     v = data.get("vehicle")
-    if isinstance(v, str) and v.endswith((".yaml", ".yml")) and not Path(v).is_absolute():
-        cand = mission_path.parent / v
-        if cand.is_file():
-            data["vehicle"] = str(cand.resolve())
+    if isinstance(v, str) and (v.endswith(SPEC_SUFFIXES) or "/" in v):
+        data["vehicle"] = str(spec_reference(v, mission_path, "vehicle"))
 
 
-def _resolve_world(ref: str | None, base: Path, pipeline_path: Path, where: str) -> str:
+def _seed(value: Any, pipeline_path: Path, where: str) -> int:
+    """A seed from the pipeline: an integer in [0, MAX_SEED] (SpecError otherwise: no folding, no collisions)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SEED:
+        raise SpecError(f"{where}: a seed is an integer in [0, {MAX_SEED}], got {value!r}", path=pipeline_path)
+    return value
+
+
+def _resolve_world(ref: Any, base: Path, pipeline_path: Path, where: str) -> str:
+    """A pipeline's world: a built world folder, or a world spec (confined like every spec reference)."""
     if ref is None:
         raise SpecError(f"{where}: no world (set 'world' in the pipeline or the entry)", path=pipeline_path)
+    if not isinstance(ref, str) or not ref:
+        raise SpecError(f"{where}: world: expected a path, got {type(ref).__name__}", path=pipeline_path)
+    if ref.endswith(SPEC_SUFFIXES):
+        return str(spec_reference(ref, pipeline_path, f"{where}.world"))
     p = Path(ref)
     if not p.is_absolute():
         p = base / p
@@ -239,21 +252,20 @@ def expand_cases(pipeline: PipelineSpec, pipeline_path: Path | str) -> list[Case
 
     for i, entry in enumerate(pipeline.missions):
         e = entry
-        mpath = base / e.mission
-        raw = _read_mission(mpath, pipeline_path)
+        mpath, raw = _read_mission(e.mission, pipeline_path, f"missions.{i}.mission")
         name = e.name or str(raw.get("name") or mpath.stem)
         world = _resolve_world(e.world or pipeline.world, base, pipeline_path, f"missions.{i}")
         for r in range(e.seeds):
             if e.seed is not None and e.seeds == 1:
                 seed = e.seed
             else:
-                seed = derive_seed(pipeline.seed, name, r) if e.seed is None else e.seed + r
+                seed = derive_seed(pipeline.seed, name, r) if e.seed is None else _seed(e.seed + r, pipeline_path,
+                                                                                       f"missions.{i}.seed")
             cname = name if e.seeds == 1 else f"{name}-s{seed}"
             cases.append(make(cname, mpath, raw, e.set, world, seed, {"set": e.set}))
 
     for j, sw in enumerate(pipeline.sweeps()):
-        mpath = base / sw.mission
-        raw = _read_mission(mpath, pipeline_path)
+        mpath, raw = _read_mission(sw.mission, pipeline_path, f"sweep.{j}.mission")
         prefix = sw.name or str(raw.get("name") or mpath.stem)
         axes = list(sw.matrix)
         for combo in itertools.product(*(sw.matrix[a] for a in axes)):
@@ -263,7 +275,7 @@ def expand_cases(pipeline: PipelineSpec, pipeline_path: Path | str) -> list[Case
             explicit_seed = point.pop("seed", None)
             key_params = {**point, "world": str(world_ref)} if "world" in sw.matrix else dict(point)
             h = params_hash(key_params)
-            reps = [int(explicit_seed)] if explicit_seed is not None else [
+            reps = [_seed(explicit_seed, pipeline_path, f"sweep.{j}.matrix.seed")] if explicit_seed is not None else [
                 derive_seed(pipeline.seed, f"{prefix}-{h}", r) for r in range(sw.seeds)
             ]
             for seed in reps:

@@ -11,18 +11,51 @@ from __future__ import annotations
 import functools
 import logging
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
 import typer
-from rich.console import Console
+from rich.console import Console, ConsoleOptions, ConsoleRenderable, RenderHook
 from rich.logging import RichHandler
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.segment import Segment
+from rich.table import Table
+from rich.text import Text
 
 from vinecli.errors import VinecliError
 
+
+class _ShowControls(RenderHook):
+    """Every renderable printed is rendered with the control characters of its text shown as ``\\xNN``: a
+    terminal escape in a check name, a case name or a file's metadata never reaches the terminal. Rich's own
+    styles and cursor moves are separate (style and control segments) and pass unchanged."""
+
+    def process_renderables(self, renderables: list[ConsoleRenderable]) -> list[ConsoleRenderable]:
+        return [_Escaped(r) for r in renderables]
+
+
+class _Escaped:
+    def __init__(self, renderable: ConsoleRenderable) -> None:
+        self.renderable = renderable
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> Iterator[Segment]:
+        from vinecli.report.text import printable
+
+        for seg in console.render(self.renderable, options):
+            yield seg if seg.control else Segment(printable(seg.text), seg.style)
+
+
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 out_console = Console(highlight=False, soft_wrap=True)
+for _c in (err_console, out_console):
+    _c.push_render_hook(_ShowControls())
+
+
+class PlainTable(Table):
+    """A table whose string cells are shown as written (no Rich markup: text from files and names stays text)."""
+
+    def add_row(self, *renderables: Any, **kwargs: Any) -> None:  # type: ignore[override]
+        super().add_row(*(Text(r) if isinstance(r, str) else r for r in renderables), **kwargs)
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -56,8 +89,11 @@ def handles_errors(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from vinecli.inputs import reading_inputs
+
         try:
-            return fn(*args, **kwargs)
+            with reading_inputs():  # every file the command reads is an input its outputs may not touch
+                return fn(*args, **kwargs)
         except typer.Exit:
             raise
         except VinecliError as exc:
@@ -78,10 +114,19 @@ def handles_errors(fn: F) -> F:
 
 
 def _escape(text: str) -> str:
-    """Escape Rich markup and fold to one line."""
+    """Escape Rich markup, show control characters as ``\\xNN`` (a terminal escape in a name or a file's
+    text must not reach the terminal) and fold to one line."""
+    return safe(" ".join(str(text).split()))
+
+
+def safe(text: Any) -> str:
+    """User text (names, messages, anything read from a file) for a Rich console: control characters shown
+    as ``\\xNN`` escapes, Rich markup escaped."""
     from rich.markup import escape
 
-    return escape(" ".join(str(text).split()))
+    from vinecli.report.text import printable
+
+    return escape(printable(text))
 
 
 def progress(*, transient: bool | None = None) -> Progress:

@@ -13,6 +13,8 @@ from typing import Annotated, Any
 
 import typer
 
+from vinecli.constants import MAX_SEED
+
 
 def out_option(help: str) -> Any:  # noqa: A002 - typer's name
     """``--out/-o``: where a command writes (a directory or file; the help says which)."""
@@ -45,7 +47,7 @@ def px4_bin_option(help: str) -> Any:  # noqa: A002
 
 
 #: ``--seed``: the run seed
-Seed = Annotated[int, typer.Option("--seed", help="Run seed (sensor noise, turbulence).")]
+Seed = Annotated[int, typer.Option("--seed", min=0, max=MAX_SEED, help="Run seed (sensor noise, turbulence).")]
 #: ``--px4-instance``: PX4 SITL instance of a run
 Px4Instance = Annotated[int | None, typer.Option(
     "--px4-instance", help="PX4 SITL instance (px4 -i N): TCP 4560+N (default 0, or a free one with --px4-bin).")]

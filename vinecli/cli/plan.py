@@ -6,9 +6,10 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from vinecli.cli.console import err_console, handles_errors, out_console
-from vinecli.cli.options import out_option, world_option
+from vinecli.cli.options import out_option, overwrite_option, world_option
 from vinecli.spray_defaults import SPRAY_DEFAULTS
 
 app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> mission.", no_args_is_help=True)
@@ -33,6 +34,7 @@ def rows_cmd(
     fence_margin: Annotated[float | None, typer.Option("--fence-margin", help="Keep the path this far inside the geofence, m (default 1; DSM source: inside its data extent, default 0).")] = None,
     home: Annotated[tuple[float, float] | None, typer.Option("--home", help="Take-off point X Y (ENU m of the source; default: the world's spawn / a corner row end).")] = None,
     mission_out: Annotated[Path | None, typer.Option("--mission", help="Also write the plan as a mission YAML.")] = None,
+    overwrite: Annotated[bool, overwrite_option("Replace files of these names that exist.")] = False,
 ) -> None:
     """Detect vine rows (count, spacing, direction, confidence) and write an operator-style spray .plan:
     nearest row first, boustrophedon with headland turns sized from the vehicle's speed and acceleration,
@@ -45,21 +47,21 @@ def rows_cmd(
 
     job = plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
                         detect=detect, world_rows=use_world_rows, vehicle=vehicle, tank_l=tank,
-                        fence_margin=fence_margin, home=home, mission_out=mission_out)
+                        fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
     if job.detection is not None:
-        out_console.print(f"rows: {job.detection.summary()}")
+        out_console.print(escape(f"rows: {job.detection.summary()}"))
         if job.detection.confidence < 0.5:
             err_console.print(f"warning: no clear rows (confidence {job.detection.confidence:.2f})")
     else:
         out_console.print(f"rows: {len(job.rows)} rows of the world")
     for w in job.warnings:
-        err_console.print(f"warning: {w}")
-    out_console.print(job.plan.summary())
+        err_console.print(escape(f"warning: {w}"))
+    out_console.print(escape(job.plan.summary()))
     sorties = f", {job.sorties} sorties (one .plan each)" if job.sorties > 1 else ""
     names = [p.name for p in job.files if ".sortie-" not in p.name]
     if job.sorties > 1:
         names.append(f"{out.stem}.sortie-{{1..{job.sorties}}}.plan")
-    out_console.print(f"{out}: {len(job.plan.order)} rows{sorties}; wrote {', '.join(names)}")
+    out_console.print(escape(f"{out}: {len(job.plan.order)} rows{sorties}; wrote {', '.join(names)}"))
 
 
 @app.command("import")
@@ -70,6 +72,7 @@ def import_cmd(
     out: Annotated[Path, out_option("Mission YAML to write.")],
     spray_flow: Annotated[float | None, typer.Option("--spray-flow", help="Flow of DO_SPRAYER 'on', L/s.")] = None,
     name: Annotated[str | None, typer.Option("--name", help="Mission name (default: the file name).")] = None,
+    overwrite: Annotated[bool, overwrite_option("Replace an existing OUT.")] = False,
 ) -> None:
     """Import a QGroundControl .plan as a mission YAML (DO_SET_ACTUATOR switches the sprayer).
 
@@ -77,6 +80,6 @@ def import_cmd(
     """
     from vinecli.missions.qgc_plan import import_plan_for_world
 
-    mission = import_plan_for_world(plan, world, out, spray_flow_lps=spray_flow, name=name)
-    out_console.print(f"{out}: {len(mission.phases)} phases"
-                      + (", with geofence" if mission.geofence is not None else ""))
+    mission = import_plan_for_world(plan, world, out, spray_flow_lps=spray_flow, name=name, overwrite=overwrite)
+    out_console.print(escape(f"{out}: {len(mission.phases)} phases"
+                             + (", with geofence" if mission.geofence is not None else "")))

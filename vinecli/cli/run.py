@@ -184,33 +184,35 @@ def checks_cmd(
 
 
 def _checks_table(checks: list[dict[str, Any]], title: str) -> None:
+    from rich.markup import escape
     from rich.table import Table
 
     from vinecli.report.text import format_value
 
-    t = Table(title=title, title_justify="left")
+    t = Table(title=escape(title), title_justify="left")
     for col in ("check", "value", "op", "bound", "result"):
         t.add_column(col)
-    for c in checks:
+    for c in checks:  # names, values and messages come from the mission and the run: shown as text
         ok = "[green]pass[/]" if c["passed"] else "[red]FAIL[/]"
-        t.add_row(c["name"], format_value(c["value"]), c["op"], format_value(c["bound"]), ok)
+        t.add_row(escape(str(c["name"])), escape(format_value(c["value"])), escape(str(c["op"])),
+                  escape(format_value(c["bound"])), ok)
     out_console.print(t)
     for c in checks:
         if not c["passed"]:
-            out_console.print(f"  [red]{c['name']}[/]: {c['message']}", markup=True)
+            out_console.print(f"  [red]{escape(str(c['name']))}[/]: {escape(str(c['message']))}", markup=True)
 
 
 def _batch_table(result: Any) -> None:
+    from rich.markup import escape
     from rich.table import Table
 
-    t = Table(title=f"batch {result.pipeline}", title_justify="left")
+    t = Table(title=escape(f"batch {result.pipeline}"), title_justify="left")
     for col in ("case", "status", "result", "sim s", "RTF", "failed checks / error"):
         t.add_column(col)
     for c in result.cases:
         res = "[yellow]error[/]" if c.error else ("[green]pass[/]" if c.passed else "[red]FAIL[/]")
         if c.skipped:
             res += " (resumed)"
-        t.add_row(c.case, c.status, res, f"{c.sim_time_s:.1f}", f"{c.real_time_factor:.1f}",
-                  c.error or ", ".join(c.failed_checks))
+        t.add_row(escape(c.case), escape(c.status), res, f"{c.sim_time_s:.1f}", f"{c.real_time_factor:.1f}",
+                  escape(c.error or ", ".join(c.failed_checks)))
     out_console.print(t)
-

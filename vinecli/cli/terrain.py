@@ -6,8 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
-from vinecli.cli.console import handles_errors, out_console
+from vinecli.cli.console import PlainTable, handles_errors, out_console
 from vinecli.cli.options import out_option, overwrite_option
 from vinecli.terrain.defaults import FILL, HEIGHTMAP_METHOD, RECONSTRUCT_METHOD, TILE_FORMAT, TILE_PX
 
@@ -55,16 +56,14 @@ def reconstruct(
 
 def _render_reconstruct(stats: dict, out: Path) -> None:
     """One rich table with what reconstruct did."""
-    from rich.markup import escape
-    from rich.table import Table
 
     p, m, b = stats["points"], stats["mesh"], stats["mesh_before_fill"]
-    t = Table(title=escape(f"terrain reconstruct -> {out}"), show_header=False, title_justify="left")
+    t = PlainTable(title=escape(f"terrain reconstruct -> {out}"), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
     t.add_row("points", f"{p['in']:,} in, -{p['nan_dropped']:,} NaN, -{p['duplicates_removed']:,} duplicates, "
                         f"-{p['class_filtered_out'] + p['bbox_filtered_out']:,} filtered, {p['used']:,} used")
-    t.add_row("units / CRS", escape(f"{stats['units']['xy_unit']} -> metres / {(stats['crs'] or {}).get('name', 'none')}"))
+    t.add_row("units / CRS", f"{stats['units']['xy_unit']} -> metres / {(stats['crs'] or {}).get('name', 'none')}")
     t.add_row("offset (m)", ", ".join(f"{v:.0f}" for v in stats["offset_m"]))
     t.add_row("voxel / spacing d", f"{stats['voxel_m']:.3f} m / {stats['spacing_m']['d']:.3f} m")
     if stats.get("radii_m"):
@@ -139,9 +138,8 @@ def _origin_text(geo: dict | None) -> str:
 
 def _render_heightmap(m: dict, out: Path) -> None:
     """One rich table about a written heightmap."""
-    from rich.table import Table
 
-    t = Table(title=f"terrain convert --to heightmap -> {out}", show_header=False, title_justify="left")
+    t = PlainTable(title=escape(f"terrain convert --to heightmap -> {out}"), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
     n = m["size_px"]
@@ -164,10 +162,9 @@ def _render_heightmap(m: dict, out: Path) -> None:
 
 def _render_tiles(m: dict, out: Path) -> None:
     """One rich table about written mesh tiles."""
-    from rich.table import Table
 
     tot = m["totals"]
-    t = Table(title=f"terrain convert --to tiles -> {out}", show_header=False, title_justify="left")
+    t = PlainTable(title=escape(f"terrain convert --to tiles -> {out}"), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
     t.add_row("tiles", f"{tot['tiles']} ({m['tile_grid'][0]} x {m['tile_grid'][1]}), {m['mesh_format']}, "
@@ -212,9 +209,8 @@ def info(
 
 
 def _render_raster_info(f: dict) -> None:
-    from rich.table import Table
 
-    t = Table(title=f"terrain info {f['file']}", show_header=False, title_justify="left")
+    t = PlainTable(title=escape(f"terrain info {f['file']}"), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
     u = f["units"]
@@ -249,9 +245,8 @@ def _render_raster_info(f: dict) -> None:
 
 
 def _render_generic(f: dict) -> None:
-    from rich.table import Table
 
-    t = Table(title=f"terrain info {f.get('file', '')}", show_header=False, title_justify="left")
+    t = PlainTable(title=escape(f"terrain info {f.get('file', '')}"), show_header=False, title_justify="left")
     t.add_column(style="bold")
     t.add_column()
     for k, v in f.items():

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from vinecli.cli.console import handles_errors, out_console
 from vinecli.cli.options import out_option, overwrite_option
@@ -34,12 +35,12 @@ def build(
     n_tiles = sum(f.suffix.lower() in (".obj", ".stl") for f in w.terrain.files)
     tiles = f", {n_tiles} tiles" if n_tiles else ""
     out_console.print(
-        f"world [bold]{w.name}[/] -> {path}: terrain {w.terrain.kind} "
+        f"world [bold]{w.name}[/] -> {escape(str(path))}: terrain {w.terrain.kind} "
         f"({xmax - xmin:.1f} m × {ymax - ymin:.1f} m{tiles}), vehicle {w.vehicle.name}, "
         f"origin {w.origin.lat:.6f}, {w.origin.lon:.6f}, {w.origin.alt:.1f} m, {len(w.vine_rows_enu)} rows",
         markup=True,
     )
     if w.rows_detection:
         d = w.rows_detection
-        out_console.print(f"rows (auto, from the {d['source']}): {d['count']} rows, spacing {d['spacing_m']:.3f} m, "
-                          f"direction {d['direction_deg']:.1f} deg from east, confidence {d['confidence']:.2f}")
+        out_console.print(escape(f"rows (auto, from the {d['source']}): {d['count']} rows, spacing {d['spacing_m']:.3f} m, "
+                                 f"direction {d['direction_deg']:.1f} deg from east, confidence {d['confidence']:.2f}"))

@@ -38,10 +38,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from vinecli.errors import SpecError
+from vinecli.errors import InputError, SpecError
 from vinecli.geo import GeoOrigin
+from vinecli.inputs import note_input, read_input_text, reading_inputs
 from vinecli.names import check_name, name_from
-from vinecli.outputs import write_text_atomic
+from vinecli.outputs import check_output_file, write_text_atomic
 from vinecli.specs import format_validation_error
 from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import (
@@ -143,11 +144,9 @@ def read_plan(path: Path | str) -> Plan:
     """Parse and validate a .plan file; SpecError naming the file and field."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError("file not found", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"cannot read: {exc}", path=path) from None
+        data = json.loads(read_input_text(path, "file"))
+    except InputError as exc:
+        raise SpecError(exc.problem, path=path) from None
     except json.JSONDecodeError as exc:
         raise SpecError(f"invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}", path=path) from None
     try:
@@ -189,16 +188,20 @@ def vehicle_nozzle_flow_lps(vehicle: VehicleSpec) -> float:
 
 
 def import_plan_for_world(plan: Path | str, world: Path | str, out: Path | str, *, spray_flow_lps: float | None = None,
-                          name: str | None = None) -> MissionSpec:
+                          name: str | None = None, overwrite: bool = False) -> MissionSpec:
     """``vinecli plan import``: the .plan ``plan`` as a mission of the built world ``world`` (its geodetic origin,
-    actuator values scaled to its vehicle's nozzle, see :func:`import_plan`), written to ``out`` as mission YAML."""
+    actuator values scaled to its vehicle's nozzle, see :func:`import_plan`), written to ``out`` as mission YAML
+    (an existing ``out`` only with ``overwrite``; never an input: OutputError, exit 2)."""
     from vinecli.missions.spec_io import write_mission
     from vinecli.world import load_world
 
-    w = load_world(world)
-    mission = import_plan(plan, w.origin, nozzle_max_flow_lps=vehicle_nozzle_flow_lps(w.vehicle),
-                          spray_flow_lps=spray_flow_lps, name=name)
-    write_mission(out, mission)
+    with reading_inputs():
+        note_input(plan, "plan")
+        w = load_world(world)
+        mission = import_plan(plan, w.origin, nozzle_max_flow_lps=vehicle_nozzle_flow_lps(w.vehicle),
+                              spray_flow_lps=spray_flow_lps, name=name)
+        check_output_file(Path(out), overwrite=overwrite)
+        write_mission(out, mission)
     return mission
 
 

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.outputs import write_text_atomic
+from vinecli.inputs import note_input, reading_inputs
+from vinecli.outputs import check_output_file, write_text_atomic
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
 from vinecli.rows.source import RowFrame, rows_geojson
@@ -54,10 +55,32 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
                   speed: float = SPRAY_DEFAULTS.speed_mps, flow: float = SPRAY_DEFAULTS.flow_lps,
                   takeoff: float = SPRAY_DEFAULTS.takeoff_m, detect: bool = False, world_rows: bool = False,
                   vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
-                  home: tuple[float, float] | None = None, mission_out: Path | None = None) -> RowsJob:
+                  home: tuple[float, float] | None = None, mission_out: Path | None = None,
+                  overwrite: bool = False) -> RowsJob:
     """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
     (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
-    rows are flown, only the headland turns are kept over the surveyed ground)."""
+    rows are flown, only the headland turns are kept over the surveyed ground). Every file is checked before
+    the first is written: none may be an input, or replace an existing file without ``overwrite``
+    (OutputError, exit 2, nothing written)."""
+    with reading_inputs():
+        note_input(source, "world" if source.is_dir() else "DSM")
+        for t in (out, _geojson_path(out), mission_out):  # refused before the detection, not after
+            if t is not None:
+                check_output_file(t, overwrite=overwrite)
+        return _plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
+                              detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
+                              fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
+
+
+def _geojson_path(out: Path) -> Path:
+    """The rows' GeoJSON written beside the plan ``out``."""
+    return out.with_name("rows.geojson")
+
+
+def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: float, speed: float, flow: float,
+                   takeoff: float, detect: bool, world_rows: bool, vehicle: str | None, tank_l: float | None,
+                   fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
+                   overwrite: bool) -> RowsJob:
     from vinecli.missions.patterns import spray_mission
     from vinecli.missions.qgc_plan import export_plan, vehicle_nozzle_flow_lps, write_plan
     from vinecli.missions.qgc_spray import sortie_plan
@@ -133,26 +156,25 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     nozzle = vehicle_nozzle_flow_lps(veh)
     tank = tank_l if tank_l is not None else (veh.tank.capacity_l if veh.tank is not None else 0.0)
     job = RowsJob(rows, det, plan, 1, warnings=list(plan.warnings))
+    sorties = split_sorties(plan, flow, tank) if tank > 0 else [plan.legs]
+    job.sorties = len(sorties)
+    gj = _geojson_path(out)
+    sortie_files = [out.with_name(f"{out.stem}.sortie-{k}.plan") for k in range(1, len(sorties) + 1)] \
+        if len(sorties) > 1 else []
+    targets = [out, gj, *sortie_files, *([mission_out] if mission_out is not None else [])]
+    for t in targets:  # all checked before the first is written
+        check_output_file(t, overwrite=overwrite)
     # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
     # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
-    job.files.append(out)
-    gj = out.with_name("rows.geojson")
     write_text_atomic(gj, json.dumps(rows_geojson(rows, frame)) + "\n")
-    job.files.append(gj)
-    sorties = split_sorties(plan, flow, tank) if tank > 0 else [plan.legs]
-    job.sorties = len(sorties)
-    if len(sorties) > 1:
-        for k, legs in enumerate(sorties, 1):
-            p = out.with_name(f"{out.stem}.sortie-{k}.plan")
-            write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
-                                      nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface,
-                                      fence_enu=fence))
-            job.files.append(p)
+    for p, legs in zip(sortie_files, sorties, strict=True):
+        write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
+                                  nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))
     if mission_out is not None:
         from vinecli.missions.spec_io import write_mission
 
         write_mission(mission_out, mission)
-        job.files.append(mission_out)
+    job.files = targets
     return job

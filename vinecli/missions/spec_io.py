@@ -74,11 +74,16 @@ def read_mission(mission: Path | str | MissionSpec | MissionFile) -> MissionFile
 
 
 def resolve_vehicle(name_or_path: str, *, relative_to: Path | None = None, path: Path | str | None = None) -> VehicleSpec:
-    """Load the vehicle a mission names; SpecError ``path: vehicle: ...`` if it cannot be found."""
-    if relative_to is not None:
-        cand = relative_to / name_or_path
-        if cand.suffix in (".yaml", ".yml") and cand.is_file():
-            name_or_path = str(cand)
+    """Load the vehicle a mission names; SpecError ``path: vehicle: ...`` if it cannot be found.
+
+    With ``relative_to`` (the folder of the mission file ``path``) a vehicle file is a reference from that
+    file: resolved relative to it and confined (:func:`vinecli.specs.refs.spec_reference`); a name is one of
+    vinecli's vehicles."""
+    from vinecli.specs.refs import SPEC_SUFFIXES, spec_reference
+
+    if relative_to is not None and (name_or_path.endswith(SPEC_SUFFIXES) or "/" in name_or_path):
+        naming = Path(path) if path is not None else relative_to / "mission.yaml"
+        name_or_path = str(spec_reference(name_or_path, naming, "vehicle"))
     from vinecli.vehicle import load_vehicle
 
     try:

@@ -8,6 +8,11 @@ a parcel whose stencil leaves the grid counts entirely as off-grid, so
 :func:`rasterise_discs` spreads each parcel uniformly over a disc (the spray cone's footprint):
 parcels are splatted onto a padded grid per footprint-radius bin and convolved (FFT) with the
 normalised disc; what the convolution puts outside the grid is counted as off-grid.
+
+Memory is bounded by two cell budgets (:func:`grid_for`): the grid itself, and the padded domain the
+disc convolution works on, which grows with the largest footprint (a spray height of 400 m spreads a
+parcel over a disc of ~340 m). When either would be exceeded the cell doubles, so the peak stays near
+:data:`FFT_BYTES_PER_CELL` × ``max_fft_cells`` at any height and field size.
 """
 
 from __future__ import annotations
@@ -18,9 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["GridSpec", "disc_kernel", "grid_for", "flat_height", "rasterise", "rasterise_discs"]
+__all__ = ["GridSpec", "disc_kernel", "fft_cells", "grid_for", "flat_height", "rasterise", "rasterise_discs"]
 
 HeightFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+#: spacing of the log-spaced footprint radii :func:`rasterise_discs` convolves with (relative)
+REL_BIN = 0.1
+#: peak bytes :func:`rasterise_discs` holds per cell of its padded FFT domain (measured 26-43 B, with margin)
+FFT_BYTES_PER_CELL = 48
 
 
 @dataclass(frozen=True)
@@ -46,12 +56,28 @@ class GridSpec:
         return {"x0_m": self.x0, "y0_m": self.y0, "cell_m": self.cell, "nx": self.nx, "ny": self.ny}
 
 
+def kernel_half_width(footprint_m: float, cell: float, rel_bin: float = REL_BIN) -> int:
+    """Half width (cells) of the largest disc kernel :func:`rasterise_discs` builds for footprints up to
+    ``footprint_m`` (m) on cells of ``cell`` m: radii are rounded up to the next log-spaced node."""
+    return int(math.ceil(max(footprint_m, 0.0) / cell * math.exp(rel_bin))) + 1
+
+
+def fft_cells(nx: int, ny: int, footprint_m: float, cell: float) -> int:
+    """Upper bound of the padded FFT domain (cells) :func:`rasterise_discs` uses on an ``nx`` × ``ny`` grid
+    for footprints up to ``footprint_m`` (m): the parcels' window (at most the grid + k each side) + k
+    padding each side, rounded up to a fast FFT length."""
+    k = kernel_half_width(footprint_m, cell)
+    return _fft_len(nx + 4 * k) * _fft_len(ny + 4 * k)
+
+
 def grid_for(points_xy: np.ndarray, extra_xy: Sequence[tuple[float, float]], terrain_bounds: tuple[float, float, float, float],
-             cell_m: float, margin_m: float, max_cells: int) -> GridSpec:
+             cell_m: float, margin_m: float, max_cells: int, *, footprint_m: float = 0.0,
+             max_fft_cells: int | None = None) -> GridSpec:
     """Grid over ``points_xy`` (N, 2) and ``extra_xy`` (e.g. row vertices) grown by ``margin_m``, inside the terrain.
 
-    Snapped to multiples of ``cell_m`` (m); a larger cell is used (with a log line by the caller) only
-    when the area would exceed ``max_cells``.
+    Snapped to multiples of ``cell_m`` (m); a larger cell (doubling) is used only when the area would
+    exceed ``max_cells`` or, with ``max_fft_cells``, when the padded domain the disc convolution needs for
+    footprints up to ``footprint_m`` (m, the largest cone radius on the ground) would exceed it.
     """
     pts = np.asarray(points_xy, dtype=np.float64).reshape(-1, 2)
     if len(extra_xy):
@@ -66,7 +92,10 @@ def grid_for(points_xy: np.ndarray, extra_xy: Sequence[tuple[float, float]], ter
     if xmax <= xmin or ymax <= ymin:  # everything outside the terrain: a one-cell grid at the terrain corner
         xmin, ymin, xmax, ymax = txmin, tymin, txmin + cell_m, tymin + cell_m
     cell = float(cell_m)
-    while math.ceil((xmax - xmin) / cell) * math.ceil((ymax - ymin) / cell) > max_cells:
+    while True:
+        nx_, ny_ = math.ceil((xmax - xmin) / cell), math.ceil((ymax - ymin) / cell)
+        if nx_ * ny_ <= max_cells and (max_fft_cells is None or fft_cells(nx_, ny_, footprint_m, cell) <= max_fft_cells):
+            break
         cell *= 2.0
     x0 = math.floor(xmin / cell) * cell
     y0 = math.floor(ymin / cell) * cell
@@ -100,13 +129,20 @@ def rasterise(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarray) -> 
 
 
 def disc_kernel(radius_cells: float, sub: int = 4) -> np.ndarray:
-    """Square kernel (2k+1)² of a uniform disc of ``radius_cells`` (cell units), area-weighted, sum 1."""
+    """Square kernel (2k+1)² of a uniform disc of ``radius_cells`` (cell units), area-weighted, sum 1.
+
+    Each cell's weight is the count of its ``sub`` × ``sub`` sample points inside the disc, counted one
+    sample offset pair at a time (memory: a few (2k+1)² arrays, not (2k·sub)²)."""
     k = int(math.ceil(radius_cells)) + 1
     off = (np.arange(sub) + 0.5) / sub - 0.5
     c = np.arange(-k, k + 1)
-    xs = (c[:, None] + off[None, :]).ravel()
-    inside = (xs[:, None] ** 2 + xs[None, :] ** 2) <= max(radius_cells, 0.5 / sub) ** 2
-    ker = inside.reshape(2 * k + 1, sub, 2 * k + 1, sub).sum(axis=(1, 3)).astype(np.float64)
+    r2 = max(radius_cells, 0.5 / sub) ** 2
+    sq = [(c + o) ** 2 for o in off]  # (2k+1,) per sample offset
+    counts = np.zeros((2 * k + 1, 2 * k + 1), dtype=np.int64)
+    for sy in sq:
+        for sx in sq:
+            counts += (sy[:, None] + sx[None, :]) <= r2
+    ker = counts.astype(np.float64)
     return ker / ker.sum()
 
 
@@ -127,7 +163,7 @@ def _fft_len(n: int) -> int:
 
 
 def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.ndarray,
-                    rel_bin: float = 0.1) -> tuple[np.ndarray, float]:
+                    rel_bin: float = REL_BIN) -> tuple[np.ndarray, float]:
     """Volume per cell (ny, nx) with each parcel spread over its disc (radius m), and the off-grid volume.
 
     Radii are interpolated between log-spaced nodes ``rel_bin`` apart: each parcel's volume is shared

@@ -51,6 +51,7 @@ class DepositionConfig:
     cell_m: float = 0.1  # deposition grid cell, m
     margin_m: float = 15.0  # grid extends this far beyond the sprayed path and the rows, m
     max_cells: int = 6_000_000  # the cell doubles when the area needs more
+    max_fft_cells: int = 8_000_000  # ... or when the padded disc convolution (footprint) needs more
     group_s: float = 0.04  # emission steps binned per transport group, s
     downwash: bool = True
     diffusion: bool = True

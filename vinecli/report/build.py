@@ -216,7 +216,8 @@ def build_report(
     batches up to this size put every run in report.html, larger ones get runs/<id>.html pages and an overview
     paginated by ``page_size``; ``jobs``: figure processes (default min(4, CPUs)).
     Raises InputError (exit 2) for a bad runs/baseline directory or option, OutputError (exit 2, before any
-    work) when ``out_dir`` is not writable, exists without ``overwrite`` or equals/contains the runs or baseline.
+    work) when ``out_dir`` is not writable or exists without ``overwrite``, and before anything is written when it
+    is, contains or lies inside a run folder it reads (a report may go into the runs folder itself).
     """
     fmts = parse_formats(formats)
     if figures not in FIGURE_POLICIES:
@@ -224,8 +225,8 @@ def build_report(
     if max_figure_runs < 0 or inline_limit < 0 or page_size < 1:
         raise InputError("max_figure_runs and inline_limit must be >= 0, page_size >= 1")
     runs_dir = Path(runs_dir)
-    check_output_target(Path(out_dir), overwrite=overwrite,
-                        inputs=[runs_dir, *([Path(baseline)] if baseline is not None else [])])
+    tops = [d / name for d in (runs_dir, *([Path(baseline)] if baseline is not None else [])) for name in (BATCH_JSON, SUMMARY)]
+    check_output_target(Path(out_dir), overwrite=overwrite, inputs=tops)  # before reading the runs
     jobs = jobs if jobs is not None else max(1, min(4, os.cpu_count() or 1))
     manifest = Manifest(command="report", parameters={
         "runs_dir": str(runs_dir), "formats": list(fmts), "baseline": str(baseline) if baseline else None,
@@ -245,6 +246,10 @@ def build_report(
             for r in base_runs:
                 r.report_metrics = compute_report_metrics(r)
             comparison = compare(runs, base_runs, str(baseline), tolerances)
+    # the inputs are the run folders read (and batch.json): the report may go into the runs folder, not
+    # over or into a run, nor contain one
+    read = [r.dir for r in [*runs, *(base_runs if baseline is not None else [])] if r.dir is not None]
+    check_output_target(Path(out_dir), overwrite=overwrite, inputs=[*read, runs_dir / BATCH_JSON])
     pipeline = _pipeline_name(runs_dir)
     want_figs = "html" in fmts
     chosen = select_figure_runs(runs, figures, max_figure_runs, comparison) if want_figs else []

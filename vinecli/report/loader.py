@@ -21,7 +21,9 @@ import numpy as np
 
 from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
+from vinecli.inputs import read_input_text, require_regular_file
 from vinecli.missions.metrics import airborne_mask
+from vinecli.names import check_name
 from vinecli.outputs import MANIFEST
 from vinecli.runs.failsafes import describe_failsafes
 from vinecli.runs.rundir import EVENTS, PREVIEW, SUMMARY, SUMMARY_KEYS, TIMESERIES
@@ -167,17 +169,17 @@ def load_runs(runs_dir: str | Path) -> list[Run]:
 def _from_batch(root: Path) -> list[Run]:
     p = root / BATCH_JSON
     try:
-        batch = json.loads(p.read_text(encoding="utf-8"))
+        batch = json.loads(read_input_text(p, BATCH_JSON))
         cases = batch["cases"]
         if not isinstance(cases, list):
             raise TypeError("'cases' is not a list")
-    except (OSError, json.JSONDecodeError, KeyError, TypeError) as exc:
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise InputError(f"corrupt batch.json: {exc}", path=p) from None
     runs = []
     for i, c in enumerate(cases):
         if not isinstance(c, dict) or "run_id" not in c:
             raise InputError(f"corrupt batch.json: case #{i} has no run_id", path=p)
-        run_id = str(c["run_id"])
+        run_id = check_name(str(c["run_id"]), f"batch.json case #{i}: run_id", path=p)  # never a path elsewhere
         case = str(c.get("case") or run_id)
         d = root / run_id
         if c.get("error") or c.get("status") in ("error", "pending"):
@@ -196,15 +198,15 @@ def _from_batch(root: Path) -> list[Run]:
 def _is_report_dir(d: Path) -> bool:
     """A ``vinecli report`` output (its own summary.json) placed inside the runs directory."""
     try:
-        return json.loads((d / MANIFEST).read_text(encoding="utf-8")).get("command") == "report"
-    except (OSError, ValueError, AttributeError):
+        return json.loads(read_input_text(d / MANIFEST, MANIFEST)).get("command") == "report"
+    except (InputError, ValueError, AttributeError):
         return False
 
 
 def _mission_of(d: Path, fallback: str) -> str:
     try:
-        return str(json.loads((d / SUMMARY).read_text(encoding="utf-8")).get("mission") or fallback)
-    except (OSError, json.JSONDecodeError):
+        return str(json.loads(read_input_text(d / SUMMARY, SUMMARY)).get("mission") or fallback)
+    except (InputError, json.JSONDecodeError, AttributeError):
         return fallback
 
 
@@ -213,11 +215,11 @@ def load_run(d: Path, case: str | None = None) -> Run:
     something is missing or corrupt. ``case``: the batch's case name (default: the summary's, else the run id)."""
     import pyarrow.parquet as pq
 
+    if not (d / SUMMARY).exists():
+        raise InputError(f"missing {SUMMARY}", path=d)
     try:
-        summary = json.loads((d / SUMMARY).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"missing {SUMMARY}", path=d) from None
-    except (OSError, json.JSONDecodeError) as exc:
+        summary = json.loads(read_input_text(d / SUMMARY, SUMMARY))
+    except json.JSONDecodeError as exc:
         raise InputError(f"corrupt run: unreadable {SUMMARY} ({exc})", path=d) from None
     if not isinstance(summary, dict):
         raise InputError(f"corrupt run: {SUMMARY} is not an object", path=d)
@@ -230,8 +232,9 @@ def load_run(d: Path, case: str | None = None) -> Run:
         if not isinstance(c, dict) or any(k not in c for k in CHECK_KEYS):
             raise InputError(f"corrupt run: check #{i} in {SUMMARY} lacks one of {', '.join(CHECK_KEYS)}", path=d)
     for name in (TIMESERIES, EVENTS):
-        if not (d / name).is_file():
+        if not (d / name).exists():
             raise InputError(f"missing {name}", path=d)
+        require_regular_file(d / name, name)
     try:
         schema = pq.read_schema(d / TIMESERIES)
     except Exception as exc:  # noqa: BLE001 - ArrowInvalid, OSError...
@@ -250,7 +253,7 @@ def load_run(d: Path, case: str | None = None) -> Run:
 
 def _read_events(path: Path) -> list[dict[str, Any]]:
     out = []
-    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+    for n, line in enumerate(read_input_text(path, EVENTS).splitlines(), 1):
         if not line.strip():
             continue
         try:

@@ -106,9 +106,10 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
     (as ``terrain convert --to tiles``); ``kw`` go to :func:`detect_rows_grid`."""
     import rasterio
 
-    from vinecli.terrain.raster import crs_label, to_lonlat
+    from vinecli.terrain.raster import check_suffix, crs_label, to_lonlat
 
     path = Path(path)
+    check_suffix(path)
     try:
         with rasterio.open(path) as ds:
             f = max(1, math.ceil(math.sqrt(ds.width * ds.height / max_cells)))
@@ -118,7 +119,7 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
             tr = ds.transform @ ds.transform.scale(ds.width / shape[1], ds.height / shape[0])
             crs = ds.crs
             b = ds.bounds
-    except rasterio.errors.RasterioIOError as exc:
+    except rasterio.errors.RasterioError as exc:
         raise TerrainError(f"cannot read raster: {exc}", path=path) from None
     if abs(tr.b) > 1e-12 or abs(tr.d) > 1e-12:
         raise TerrainError("rotated/skewed geotransform: row detection needs a north-up raster", path=path)

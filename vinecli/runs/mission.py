@@ -23,8 +23,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vinecli import native
-from vinecli.constants import STANDARD_GRAVITY
-from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
+from vinecli.constants import MAX_SEED, STANDARD_GRAVITY
+from vinecli.errors import ChecksFailed, InputError, RuntimeFailure, SpecError, VinecliError
+from vinecli.inputs import note_input, reading_inputs
+from vinecli.locks import output_lock
 from vinecli.missions.checks import evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
@@ -32,7 +34,7 @@ from vinecli.missions.quantities import check_quantities
 from vinecli.missions.rundata import EventMissing, MetricContext, RunData
 from vinecli.missions.spec_io import MissionFile, dump_mission, load_mission, read_mission
 from vinecli.names import check_name
-from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path
+from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path, output_folder
 from vinecli.runs import rundir
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
@@ -136,28 +138,40 @@ def run_mission(
     mcap : also write ``run.mcap`` (Foxglove)
     progress : called as ``progress(sim_time_s, wall_time_s)`` by the loop
     should_stop : extra stop predicate (polled every step); ``wall_timeout_s``: stop after this wall time
-    overwrite : replace an existing ``runs_dir/<run_id>/`` (otherwise OutputError, exit 2, before simulating)
-    protect : more inputs the run directory may not equal or contain (the mission file and world always)
+    overwrite : replace an existing ``runs_dir/<run_id>/`` made by vinecli (otherwise OutputError, exit 2, before
+        simulating; a folder vinecli did not make, or holding files it did not write, is never replaced)
+    protect : more inputs the run directory may not be, contain or lie inside (the mission file, its ``base:``
+        chain, the vehicle and the world always). The run holds the lock of its run id from the checks to the
+        write: a second writer of the same id exits 2 (``in use by pid N``).
 
     Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
     Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
     """
-    src = read_mission(mission)  # the file is read and the vehicle it names loaded here, once
-    mission_path = src.path
-    run_id = check_name(run_id or default_run_id(src.spec, seed), "run id")
-    out = contained_path(Path(runs_dir), run_id)
-    inputs = [p for p in (mission_path, Path(world_dir), *map(Path, protect)) if p is not None]
-    check_output_target(out, overwrite=overwrite, inputs=inputs)
-
+    from vinecli.sim.memory import check_run_memory
     from vinecli.sim.setup import RunOverrides, prepare_run
     from vinecli.world import load_world
 
-    overrides = RunOverrides(autopilot=autopilot, truth=truth, record_rate_hz=record_rate)
-    with prepare_run(load_world(Path(world_dir)), src.spec, vehicle=src.vehicle, overrides=overrides,
-                     source=mission_path) as run:
-        return _run_prepared(run, Path(world_dir), run_id, out, seed=seed, mission_path=mission_path, mcap=mcap,
-                             progress=progress, should_stop=should_stop, wall_timeout_s=wall_timeout_s, case=case,
-                             autopilot_options=autopilot_options, overwrite=overwrite)
+    with reading_inputs():  # every file the run reads, known before anything is written
+        src = read_mission(mission)  # the file, its base: chain and the vehicle it names, read here once
+        mission_path = src.path
+        for p in (mission_path, *protect):
+            if p is not None:
+                note_input(p, "mission")
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+            raise InputError(f"seed: an integer in [0, {MAX_SEED}], got {seed!r}")
+        run_id = check_name(run_id or default_run_id(src.spec, seed), "run id")
+        runs_dir = Path(runs_dir)
+        out = contained_path(runs_dir, run_id)
+        world = load_world(Path(world_dir))
+        check_output_target(out, overwrite=overwrite)
+        overrides = RunOverrides(autopilot=autopilot, truth=truth, record_rate_hz=record_rate)
+        with output_folder(runs_dir, "runs"), output_lock(out), \
+                prepare_run(world, src.spec, vehicle=src.vehicle, overrides=overrides, source=mission_path) as run:
+            check_run_memory(run.mission, run.vehicle, run.world, path=mission_path or run.mission.name,
+                             config=run.deposition_config)
+            return _run_prepared(run, Path(world_dir), run_id, out, seed=seed, mission_path=mission_path, mcap=mcap,
+                                 progress=progress, should_stop=should_stop, wall_timeout_s=wall_timeout_s,
+                                 case=case, autopilot_options=autopilot_options, overwrite=overwrite)
 
 
 def _run_prepared(

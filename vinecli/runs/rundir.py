@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError, VinecliError
+from vinecli.inputs import read_input_text
 from vinecli.outputs import jsonable, manifest_problem, write_json
 
 SUMMARY = "summary.json"
@@ -67,9 +68,15 @@ def write_events(path: Path, events: Sequence[Any]) -> None:
 def read_events(path: Path) -> list[dict[str, Any]]:
     """Events of a run as dicts."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         return []
-    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+    try:
+        events = [json.loads(line) for line in read_input_text(path, "events.jsonl").splitlines() if line.strip()]
+    except json.JSONDecodeError as exc:
+        raise InputError(f"corrupt events.jsonl (line {exc.lineno})", path=path) from None
+    if not all(isinstance(e, dict) for e in events):
+        raise InputError("corrupt events.jsonl (an event is not a mapping)", path=path)
+    return events
 
 
 def write_preview(path: Path, preview: Mapping[str, Any] | None) -> None:
@@ -90,20 +97,23 @@ def write_summary(path: Path, summary: Mapping[str, Any]) -> None:
 def read_summary(run_dir: Path) -> dict[str, Any]:
     """``summary.json`` of a run directory; InputError if missing or invalid."""
     p = Path(run_dir) / SUMMARY
+    if not p.exists():
+        raise InputError("not a run directory (no summary.json)", path=run_dir)
     try:
-        return json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError("not a run directory (no summary.json)", path=run_dir) from None
-    except (OSError, json.JSONDecodeError) as exc:
+        doc = json.loads(read_input_text(p, SUMMARY))
+    except json.JSONDecodeError as exc:
         raise InputError(f"unreadable summary.json: {exc}", path=run_dir) from None
+    if not isinstance(doc, dict):
+        raise InputError(f"corrupt summary.json: expected a mapping, got {type(doc).__name__}", path=run_dir)
+    return doc
 
 
 def is_complete_run(run_dir: Path) -> bool:
     """True if ``run_dir`` holds a finished run: summary.json with every key, not interrupted, and every file
     the manifest lists (summary.json among them) present with its recorded size and sha256."""
     try:
-        s = json.loads((Path(run_dir) / SUMMARY).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
+        s = json.loads(read_input_text(Path(run_dir) / SUMMARY, SUMMARY))
+    except (InputError, json.JSONDecodeError):
         return False
     if not isinstance(s, dict) or not all(k in s for k in SUMMARY_KEYS) or s.get("status") in ("interrupted", "running"):
         return False

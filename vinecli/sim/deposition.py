@@ -60,7 +60,9 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     geo = SprayerGeometry.from_vehicle(veh, world.air_density)
     parcels = transport(emitter.array(), geo, height, wind_spec, world.air_density, seed, cfg, float(world.gravity))
     rows_xy = [tuple(p) for row in world.vine_rows_enu for p in row]
-    grid = grid_for(parcels.path_xy, rows_xy, tuple(ter.bounds), cfg.cell_m, cfg.margin_m, cfg.max_cells)
+    footprint = float(parcels.radius.max()) if parcels.radius.size else 0.0
+    grid = grid_for(parcels.path_xy, rows_xy, tuple(ter.bounds), cfg.cell_m, cfg.margin_m, cfg.max_cells,
+                    footprint_m=footprint, max_fft_cells=cfg.max_fft_cells)
     vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, parcels.radius)
     xc, yc = grid.centres()
     bx0, by0, bx1, by1 = ter.bounds

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import signal
 import socket
 import tempfile
 from collections.abc import Callable
@@ -18,6 +17,7 @@ from pathlib import Path
 from typing import IO
 
 from vinecli.errors import AutopilotError
+from vinecli.lifeline import die_with_parent  # the firmware's preexec_fn: SIGKILL when its parent dies
 
 AUTO_INSTANCES = range(10, 100)  # 0..9 are left to people running a firmware by hand
 
@@ -72,15 +72,6 @@ def reserve_instance(firmware: str, ports_free: Callable[[int], bool],
         fh.close()
     raise AutopilotError(f"no free {firmware} instance in {candidates[0]}..{candidates[-1]} "
                          "(all locked or ports in use)")
-
-
-def die_with_parent() -> None:
-    """In the child before exec: SIGKILL when the process that started the firmware dies (Linux
-    PR_SET_PDEATHSIG), so a killed run or batch worker leaves no firmware behind."""
-    import ctypes
-
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
 
 
 __all__ = ["AUTO_INSTANCES", "InstanceLock", "die_with_parent", "port_free", "reserve_instance"]

@@ -14,7 +14,8 @@ from typing import Any, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from vinecli.errors import SpecError
+from vinecli.errors import InputError, SpecError
+from vinecli.inputs import note_input, read_input_text
 
 #: libyaml's C parser and emitter when PyYAML was built with it (~20× faster than the pure-Python ones)
 YAML_LOADER: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -25,6 +26,8 @@ M = TypeVar("M", bound=BaseModel)
 
 #: most values a spec file may expand to (YAML aliases counted every time they are used)
 MAX_YAML_VALUES = 1_000_000
+#: largest spec file read, bytes
+MAX_YAML_BYTES = 64 << 20
 
 
 class StrictModel(BaseModel):
@@ -35,19 +38,22 @@ class StrictModel(BaseModel):
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
-    """Read a YAML mapping; SpecError if missing, unreadable, invalid YAML or not a mapping."""
+    """Read a YAML mapping (noted as an input of the running command, :mod:`vinecli.inputs`); SpecError if
+    missing, not a regular file (a FIFO is refused without blocking), unreadable, invalid YAML or not a
+    mapping. Messages never quote the file's content."""
     path = Path(path)
-    if not path.is_file():
-        raise SpecError("file not found", path=path)
     try:
-        data = yaml.load(path.read_text(encoding="utf-8"), Loader=YAML_LOADER)  # noqa: S506 - a safe loader
+        text = read_input_text(path, "spec file", max_bytes=MAX_YAML_BYTES)
+    except InputError as exc:
+        raise SpecError(exc.problem.replace("spec file not found", "file not found"), path=path) from None
+    note_input(path, "spec")
+    try:
+        data = yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise SpecError(f"invalid YAML{where}: {problem}", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"cannot read: {exc}", path=path) from None
     except RecursionError:
         raise SpecError("invalid YAML: nested too deeply", path=path) from None
     if data is None:
@@ -107,16 +113,19 @@ def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
 
 
 def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
-    """Resolve a ``base:`` key (recursively) and return the merged mapping without it."""
+    """Resolve a ``base:`` key (recursively) and return the merged mapping without it.
+
+    The base is a spec file relative to ``path`` (``.yaml`` may be left out) inside the folders specs may
+    refer to (:func:`vinecli.specs.refs.spec_reference`): ``base: /etc/shadow`` is refused unread."""
+    from vinecli.specs.refs import spec_reference
+
     base = data.get("base")
     if base is None:
         return data
     data = {k: v for k, v in data.items() if k != "base"}
-    candidates = [path.parent / str(base), path.parent / f"{base}.yaml"]
-    base_path = next((c for c in candidates if c.is_file()), None)
-    if base_path is None:
-        raise SpecError(f"base: {base!r} not found next to the file", path=path)
-    base_path = base_path.resolve()
+    if not isinstance(base, str) or not base:
+        raise SpecError(f"base: expected a file name, got {type(base).__name__}", path=path)
+    base_path = spec_reference(base, path, "base", try_suffix=True)
     if base_path in _seen:
         raise SpecError(f"base: {base!r} is circular", path=path)
     base_data = resolve_base(base_path, read_yaml(base_path), (*_seen, base_path))

@@ -17,11 +17,13 @@ from vinecli.specs import StrictModel
 from vinecli.specs.limits import (
     MAX_DISTANCE_M,
     MAX_DURATION_S,
+    MAX_HEIGHT_M,
     MAX_RATE_HZ,
     MAX_SPEED_MPS,
     Vec2Coord,
     Vec3Coord,
     Vec3Speed,
+    WaypointEnu,
 )
 from vinecli.specs.wind import WindSpec
 from vinecli.spray_defaults import SPRAY_DEFAULTS
@@ -32,7 +34,7 @@ Vec3L = Vec3Coord
 
 class TakeoffPhase(StrictModel):
     type: Literal["takeoff"] = "takeoff"
-    altitude_agl_m: float = Field(gt=0, le=MAX_DISTANCE_M, description="target height above home, m")
+    altitude_agl_m: float = Field(gt=0, le=MAX_HEIGHT_M, description="target height above home, m")
     climb_speed_mps: float | None = Field(None, gt=0, le=MAX_SPEED_MPS, description="default: vehicle max_vel_up")
     tolerance_m: float = Field(0.3, gt=0, le=MAX_DISTANCE_M, description="phase ends when within this of the target")
     timeout_s: float = Field(30.0, gt=0, le=MAX_DURATION_S)
@@ -46,7 +48,7 @@ class HoldPhase(StrictModel):
 class GotoPhase(StrictModel):
     type: Literal["goto"] = "goto"
     position_enu: Vec2L = Field(description="target x east, y north, m")
-    altitude_agl_m: float | None = Field(None, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M, description="default: keep the current altitude")
+    altitude_agl_m: float | None = Field(None, ge=-MAX_HEIGHT_M, le=MAX_HEIGHT_M, description="default: keep the current altitude")
     speed_mps: float | None = Field(None, gt=0, le=MAX_SPEED_MPS)
     acceptance_radius_m: float = Field(0.5, gt=0, le=MAX_DISTANCE_M)
     yaw_deg: float | None = Field(None, description="ENU yaw, deg from east CCW; default: keep")
@@ -57,7 +59,7 @@ class WaypointsPhase(StrictModel):
     """Fly through waypoints (ENU x, y, altitude AGL) at a speed; optional sprayer flow."""
 
     type: Literal["waypoints"] = "waypoints"
-    waypoints: list[Vec3L] = Field(min_length=1, description="(x east m, y north m, altitude AGL m)")
+    waypoints: list[WaypointEnu] = Field(min_length=1, description="(x east m, y north m, altitude AGL m)")
     speed_mps: float = Field(2.0, gt=0, le=MAX_SPEED_MPS)
     acceptance_radius_m: float = Field(0.5, gt=0, le=MAX_DISTANCE_M)
     flow_lps: float | None = Field(None, ge=0, description="sprayer flow during the phase, L/s (None = unchanged)")
@@ -87,7 +89,7 @@ class SprayPhase(StrictModel):
     rows: Literal["world"] | list[int] | list[list[Vec2L]] = Field(
         "world", description="'world' = all rows of the world, indices into them, or explicit polylines (ENU)"
     )
-    height_agl_m: float = Field(SPRAY_DEFAULTS.height_m, gt=0, le=MAX_DISTANCE_M,
+    height_agl_m: float = Field(SPRAY_DEFAULTS.height_m, gt=0, le=MAX_HEIGHT_M,
                                 description="height above the terrain under the drone, m")
     speed_mps: float = Field(SPRAY_DEFAULTS.speed_mps, gt=0, le=MAX_SPEED_MPS)
     flow_lps: float | None = Field(None, gt=0, description="nozzle flow while over a row, L/s (or give rate_lpha)")
@@ -127,14 +129,14 @@ class LandPhase(StrictModel):
 
 class RtlPhase(StrictModel):
     type: Literal["rtl"] = "rtl"
-    return_altitude_agl_m: float = Field(5.0, gt=0, le=MAX_DISTANCE_M)
+    return_altitude_agl_m: float = Field(5.0, gt=0, le=MAX_HEIGHT_M)
     timeout_s: float = Field(180.0, gt=0, le=MAX_DURATION_S)
 
 
 class InitialState(StrictModel):
     """State an open-loop test starts from (default: at rest on the ground at the spawn pose)."""
 
-    position_enu: Vec3L | None = Field(None, description="m; z is height above terrain")
+    position_enu: WaypointEnu | None = Field(None, description="m; z is height above terrain")
     velocity_enu: Vec3Speed = (0.0, 0.0, 0.0)
     rpy_deg: Vec3L = (0.0, 0.0, 0.0)
     angular_velocity_flu: Vec3L = (0.0, 0.0, 0.0)
@@ -171,7 +173,7 @@ class GeofenceSpec(StrictModel):
     """Polygon (ENU, m) + max altitude + cylinder around home; action as PX4's GF_ACTION."""
 
     polygon_enu: list[Vec2L] | None = Field(None, description="inclusion polygon vertices, m")
-    max_altitude_agl_m: float | None = Field(None, gt=0, le=MAX_DISTANCE_M)
+    max_altitude_agl_m: float | None = Field(None, gt=0, le=MAX_HEIGHT_M)
     max_horizontal_distance_m: float | None = Field(None, gt=0, le=MAX_DISTANCE_M, description="GF_MAX_HOR_DIST from home")
     action: Literal["none", "warn", "hold", "rtl", "land", "terminate"] = "hold"
 

@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from vinecli.specs import StrictModel
-from vinecli.specs.limits import MAX_DISTANCE_M, MAX_DURATION_S, MAX_SPEED_MPS, Speed, Vec3Speed
+from vinecli.specs.limits import MAX_DISTANCE_M, MAX_DURATION_S, MAX_SPEED_MPS, SeedInt, Speed, Vec3Speed
 
 #: relative change of wind speed per metre (±1 = doubles or vanishes within a metre)
 Gradient = Annotated[float, Field(ge=-1.0, le=1.0)]
@@ -58,7 +58,7 @@ class DrydenWind(StrictModel):
     sigma_mps: float | None = Field(None, ge=0, le=MAX_SPEED_MPS, description="overrides intensity: horizontal σ, m/s")
     airspeed_mps: float = Field(5.0, gt=0, le=MAX_SPEED_MPS, description="reference airspeed for the spatial-to-temporal frequency, m/s")
     altitude_m: float = Field(5.0, gt=0, le=MAX_DISTANCE_M, description="height above ground used for scale lengths, m")
-    seed_offset: int = Field(0, description="added to the run seed")
+    seed_offset: SeedInt = Field(0, description="added to the run seed")
 
 
 class SpatialShear(StrictModel):

@@ -12,6 +12,10 @@ HEIGHTMAP_METHOD: Final = "bilinear"
 FILL: Final = "idw"
 #: mesh tiles: tile step in pixels (neighbours share a border row/column)
 TILE_PX: Final = 256
+#: mesh tiles: smallest tile step, px, and most tiles one conversion may make (a 2 px step on a survey
+#: would make hundreds of thousands of 3×3-sample meshes)
+MIN_TILE_PX: Final = 8
+MAX_TILES: Final = 10_000
 #: mesh tiles: file format
 TILE_FORMAT: Final = "obj"
 #: point-cloud meshing method (ball pivoting)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError, TerrainError
+from vinecli.inputs import note_input, require_regular_file
 
 log = logging.getLogger(__name__)
 
@@ -66,10 +67,8 @@ def read_cloud(path: str | Path) -> RawCloud:
         known = ", ".join(sorted(CLOUD_EXTENSIONS))
         raise InputError(f"unknown point-cloud extension '{path.suffix or '(none)'}' (expected one of {known})",
                          path=path)
-    if not path.exists():
-        raise InputError("file not found", path=path)
-    if not path.is_file():
-        raise InputError("not a regular file", path=path)
+    require_regular_file(path, "file")
+    note_input(path, "point cloud")
     fmt = CLOUD_EXTENSIONS[ext]
     reader = {"las": _read_las, "laz": _read_las, "ply": _read_ply, "pcd": _read_pcd, "xyz": _read_xyz}[fmt]
     cloud = reader(path)

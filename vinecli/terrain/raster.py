@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError, TerrainError
+from vinecli.inputs import note_input, require_regular_file
 
 log = logging.getLogger(__name__)
 
@@ -273,16 +274,15 @@ def detect_units(crs: Any, band_unit: str | None, z_unit: str | None = None,
 
 # ------------------------------------------------------------------ opening and validating
 def check_suffix(path: Path, allowed: tuple[str, ...] = RASTER_SUFFIXES) -> None:
-    """InputError if ``path`` does not exist or its extension is not one of ``allowed``."""
+    """InputError if ``path`` is not a regular file (a FIFO would block GDAL) or its extension is not one of
+    ``allowed``; the DSM is noted as an input of the running command (:mod:`vinecli.inputs`)."""
     if path.suffix.lower() not in allowed:
         raise InputError(
             f"unknown extension {path.suffix or '(none)'!r}: expected a GeoTIFF DSM ({'/'.join(RASTER_SUFFIXES)})",
             path=path,
         )
-    if not path.exists():
-        raise InputError("file not found", path=path)
-    if not path.is_file():
-        raise InputError("not a file", path=path)
+    require_regular_file(path, "file")
+    note_input(path, "DSM")
 
 
 def check_out_dir(out: Path, *, overwrite: bool = False, inputs: Sequence[Path] = ()) -> None:

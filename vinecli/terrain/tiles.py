@@ -35,7 +35,7 @@ import numpy as np
 from vinecli.errors import InputError, RuntimeFailure
 from vinecli.geo import GeoOrigin
 from vinecli.outputs import Manifest, atomic_output_dir, write_json
-from vinecli.terrain.defaults import FILL, TILE_FORMAT, TILE_PX
+from vinecli.terrain.defaults import FILL, MAX_TILES, MIN_TILE_PX, TILE_FORMAT, TILE_PX
 from vinecli.terrain.fill import fill_nodata, parse_fill
 from vinecli.terrain.raster import (
     check_out_dir,
@@ -178,8 +178,8 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
     fill = parse_fill(fill, path=dsm)
     if fmt not in MESH_FORMATS:
         raise InputError(f"--format {fmt!r}: choose {' or '.join(MESH_FORMATS)}", path=dsm)
-    if tile_px < 2:
-        raise InputError(f"--tile-px {tile_px}: need at least 2", path=dsm)
+    if tile_px < MIN_TILE_PX:
+        raise InputError(f"--tile-px {tile_px}: need at least {MIN_TILE_PX}", path=dsm)
     if max_error is not None and not (max_error > 0 and math.isfinite(max_error)):
         raise InputError(f"--max-error {max_error}: need a positive number of metres", path=dsm)
     if max_triangles is not None and max_triangles < 2:
@@ -193,6 +193,10 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
         "z_unit": z_unit})
     with manifest.stage("read"), gdal_env(), open_raster(dsm) as src:
         meta = inspect_dsm(src, z_unit=z_unit)
+        n_tiles = (len(split_edges(meta.width - 1, tile_px)) - 1) * (len(split_edges(meta.height - 1, tile_px)) - 1)
+        if n_tiles > MAX_TILES:
+            raise InputError(f"--tile-px {tile_px} cuts the {meta.width} x {meta.height} px raster into {n_tiles:,} "
+                             f"tiles (at most {MAX_TILES:,}): use a larger --tile-px", path=dsm)
         z, valid = read_heights(src, meta)
     del valid
     with manifest.stage("fill"):

@@ -17,13 +17,16 @@ from typing import Any
 from vinecli.autopilot.preflight import PreflightFailure, check_spawn_fence, check_tilt, fence_margins_m
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
+from vinecli.inputs import note_input, reading_inputs
 from vinecli.outputs import Manifest, atomic_output_dir, contained_path, write_json
 from vinecli.specs import load_spec
+from vinecli.specs.refs import SPEC_SUFFIXES, spec_reference
+from vinecli.specs.vehicle import VehicleSpec
 from vinecli.terrain.grid import TerrainGrid
 from vinecli.world.model import SCHEMA, TerrainInfo, rest_position
 from vinecli.world.spec import DsmTerrain, FlatTerrain, WorldSpec
 
-__all__ = ["build_world"]
+__all__ = ["build_world", "world_spec_inputs"]
 
 log = logging.getLogger(__name__)
 
@@ -41,23 +44,38 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
     ``control.preflight_max_tilt_deg`` at rest) raises SpecError (nothing is written) unless
     ``allow_unsafe_spawn`` (then a warning).
     """
+    spec_path = Path(spec_path)
+    out = Path(out)
+    with reading_inputs() as inputs:  # the spec, its base: chain, the vehicle and terrain it names
+        spec, vehicle = world_spec_inputs(spec_path)
+        return _build(spec_path, spec, vehicle, out, [i.path for i in inputs], overwrite, allow_unsafe_spawn)
+
+
+def world_spec_inputs(spec_path: Path) -> tuple[WorldSpec, VehicleSpec]:
+    """Read a world spec and the vehicle it names, noting every file it reads or names (the spec and its
+    ``base:`` chain, the vehicle file, the terrain source) as inputs of the running command
+    (:mod:`vinecli.inputs`)."""
     from vinecli.vehicle import load_vehicle
+
+    spec = load_spec(spec_path, WorldSpec)
+    base = spec_path.resolve().parent
+    for src in _terrain_sources(spec.terrain):
+        note_input(_resolve(base, Path(src)), "terrain source")
+    veh_arg: str | Path = spec.vehicle
+    if spec.vehicle.endswith(SPEC_SUFFIXES) or "/" in spec.vehicle:
+        veh_arg = spec_reference(spec.vehicle, spec_path, "vehicle")
+    return spec, load_vehicle(veh_arg)
+
+
+def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, inputs: list[Path], overwrite: bool,
+           allow_unsafe_spawn: bool) -> Path:
+    """:func:`build_world` once the spec and its inputs are read."""
     from vinecli.vehicle.urdf import write_urdf
     from vinecli.world.sdf import world_sdf
 
-    spec_path = Path(spec_path)
-    out = Path(out)
-    spec = load_spec(spec_path, WorldSpec)
     base = spec_path.resolve().parent
-    man = Manifest(command="world build", parameters={"spec": str(spec_path), "out": str(out)}, inputs=[spec_path])
+    man = Manifest(command="world build", parameters={"spec": str(spec_path), "out": str(out)}, inputs=inputs)
     given_origin = GeoOrigin(spec.origin.lat, spec.origin.lon, spec.origin.alt) if spec.origin else None
-    veh_arg: str | Path = spec.vehicle
-    if spec.vehicle.endswith((".yaml", ".yml")):
-        veh_arg = _resolve(base, Path(spec.vehicle))
-    vehicle = load_vehicle(veh_arg)
-    man.inputs += [_resolve(base, Path(src)) for src in _terrain_sources(spec.terrain)]
-    if isinstance(veh_arg, Path):
-        man.inputs.append(veh_arg)
     unsafe = _refuse_unsafe(spec_path, allow_unsafe_spawn)
     if spec.geofence is not None:  # horizontal check only: no terrain needed, nothing written yet
         unsafe(check_spawn_fence(spec.geofence, (spec.spawn.x_m, spec.spawn.y_m, 0.0), fence_margins_m(vehicle)[0]))

@@ -30,6 +30,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -37,9 +38,10 @@ from typing import Any, Literal
 from pydantic import ValidationError
 
 from vinecli.constants import STANDARD_GRAVITY
-from vinecli.errors import SpecError
+from vinecli.errors import InputError, SpecError
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
+from vinecli.inputs import note_input, read_input_text
 from vinecli.specs import format_validation_error
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import VehicleSpec
@@ -119,42 +121,63 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
     """Read ``DIR/world.json`` (written by :func:`vinecli.world.build_world`)."""
     root = Path(dir)
     wj = root / "world.json"
-    if not wj.is_file():
+    if not wj.exists():
         raise SpecError("not a built world (no world.json; run `vinecli world build`)", path=root)
+    note_input(root, "world")
     try:
-        d = json.loads(wj.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
+        d = json.loads(read_input_text(wj, "world.json"))
+    except InputError as exc:
+        raise SpecError(exc.problem, path=wj) from None
+    except json.JSONDecodeError as exc:
         raise SpecError(f"cannot read world.json: {exc}", path=wj) from None
+    if not isinstance(d, dict):
+        raise SpecError(f"corrupt world.json: expected a mapping, got {type(d).__name__}", path=wj)
     if d.get("schema") != SCHEMA:
         raise SpecError(f"unsupported world schema {d.get('schema')!r} (expected {SCHEMA})", path=wj)
     try:
-        vehicle = VehicleSpec.model_validate(d["vehicle"]["spec"])
-        wind = WindSpec.model_validate(d.get("wind") or {})
-        geofence = GeofenceSpec.model_validate(d["geofence"]) if d.get("geofence") else None
+        return _parse_world(root, wj, d)
     except ValidationError as exc:
         raise SpecError(format_validation_error(exc), path=wj) from None
     except KeyError as exc:
         raise SpecError(f"missing key {exc}", path=wj) from None
+    except (TypeError, ValueError, IndexError, AttributeError) as exc:  # a list where a mapping belongs...
+        raise SpecError(f"corrupt world.json ({type(exc).__name__}: {exc})", path=wj) from None
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:  # a truncated grid.npz
+        raise SpecError(f"cannot read the terrain grid ({type(exc).__name__})", path=wj) from None
+
+
+def _inside(root: Path, rel: str, wj: Path) -> Path:
+    """``root/rel``, refused (SpecError) when it leaves the world folder (``..``, an absolute path, a link)."""
+    p = root / str(rel)
+    if not p.resolve().is_relative_to(root.resolve()):
+        raise SpecError(f"a world file lies outside the world folder: {rel!r}", path=wj)
+    return p
+
+
+def _parse_world(root: Path, wj: Path, d: dict[str, Any]) -> World:
+    vehicle = VehicleSpec.model_validate(d["vehicle"]["spec"])
+    wind = WindSpec.model_validate(d.get("wind") or {})
+    geofence = GeofenceSpec.model_validate(d["geofence"]) if d.get("geofence") else None
     t = d["terrain"]
-    files = [root / f for f in t.get("files", [])]
+    files = [_inside(root, f, wj) for f in t.get("files", [])]
     for f in files:
         if not f.is_file():
             raise SpecError(f"terrain file missing: {f.relative_to(root)}", path=wj)
-    grid = TerrainGrid.load(root / t["grid"]) if t.get("grid") else None
+    grid = TerrainGrid.load(_inside(root, t["grid"], wj)) if t.get("grid") else None
     terrain = TerrainInfo(
         kind=t["kind"],
         files=files,
-        bounds=tuple(t["bounds_enu"]),  # type: ignore[arg-type]
-        z_range=tuple(t["z_range_enu"]),  # type: ignore[arg-type]
+        bounds=tuple(float(c) for c in t["bounds_enu"]),  # type: ignore[arg-type]
+        z_range=tuple(float(c) for c in t["z_range_enu"]),  # type: ignore[arg-type]
         grid=grid,
         flat_z=float(t.get("flat_z", 0.0)),
         offset=tuple(float(c) for c in t.get("offset_enu", (0.0, 0.0, 0.0))),  # type: ignore[arg-type]
     )
-    urdf = root / d["vehicle"]["urdf"]
+    urdf = _inside(root, d["vehicle"]["urdf"], wj)
     if not urdf.is_file():
         raise SpecError(f"vehicle URDF missing: {d['vehicle']['urdf']}", path=wj)
     return World(
-        name=d["name"],
+        name=str(d["name"]),
         dir=root.resolve(),
         origin=GeoOrigin.from_dict(d["origin"]),
         terrain=terrain,
@@ -170,7 +193,7 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         geofence=geofence,
         rows_auto=bool(d.get("rows_auto", False)),
         rows_detection=d.get("rows_detection"),
-        description=d.get("description", ""),
+        description=str(d.get("description", "")),
         canopy_width_m=float(d.get("canopy_width_m", 0.6)),
     )
 

@@ -14,10 +14,11 @@ from pydantic import Field
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
-from vinecli.specs.limits import MAX_DISTANCE_M, Coord, Vec2Coord
+from vinecli.specs.limits import MAX_DISTANCE_M, MAX_ORIGIN_ALT_M, MIN_ORIGIN_ALT_M, Coord, Vec2Coord
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
 from vinecli.specs.wind import WindSpec
+from vinecli.terrain.defaults import MIN_TILE_PX
 
 __all__ = [
     "DsmTerrain",
@@ -61,7 +62,7 @@ class DsmTerrain(StrictModel):
     path: Path
     format: Literal["tiles", "heightmap"] = Field("tiles", description="what to convert the DSM into")
     max_error_m: float = Field(0.03, gt=0, description="tiles: maximum vertical error of the triangulation, m")
-    tile_px: int = Field(256, ge=2, description="tiles: tile step in raster pixels (tiles share borders)")
+    tile_px: int = Field(256, ge=MIN_TILE_PX, description="tiles: tile step in raster pixels (tiles share borders)")
     size: int | None = Field(513, ge=3, description="heightmap: side in samples (2^n + 1); None = suggested")
     options: dict[str, Any] = Field(
         default_factory=dict,
@@ -78,7 +79,7 @@ class OriginSpec(StrictModel):
 
     lat: float = Field(ge=-90, le=90)
     lon: float = Field(ge=-180, le=180)
-    alt: Coord = 0.0
+    alt: float = Field(0.0, ge=MIN_ORIGIN_ALT_M, le=MAX_ORIGIN_ALT_M, description="m above mean sea level")
 
 
 class SpawnSpec(StrictModel):
