@@ -14,8 +14,8 @@ from tests.repo_paths import REPO
 LAYERS: list[set[str]] = [
     {"constants", "errors", "frames", "geo", "names", "native", "outputs", "spray_defaults", "types"},
     {"specs"},
-    {"physics", "control", "terrain", "vehicle", "mavlink"},
-    {"rows", "phase_items"},
+    {"physics", "control", "terrain", "vehicle", "mavlink", "flightlog"},
+    {"rows", "phase_items", "identify"},
     {"autopilot"},
     {"sitl"},
     {"world"},

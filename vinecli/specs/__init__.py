@@ -12,13 +12,13 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import yaml
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from vinecli.errors import SpecError
 
 #: libyaml's C parser and emitter when PyYAML was built with it (~20× faster than the pure-Python ones)
 YAML_LOADER: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 YAML_DUMPER: type[yaml.SafeDumper] = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
-from pydantic import BaseModel, ConfigDict, ValidationError
-
-from vinecli.errors import SpecError
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -106,20 +106,23 @@ def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
-    """Resolve a ``base:`` key (recursively) and return the merged mapping without it."""
+def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = (),
+                 search: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """Resolve a ``base:`` key (recursively) and return the merged mapping without it. ``base`` is looked up
+    next to the file, then in the ``search`` folders (e.g. the shipped vehicles for a fitted vehicle's
+    ``base: x500``)."""
     base = data.get("base")
     if base is None:
         return data
     data = {k: v for k, v in data.items() if k != "base"}
-    candidates = [path.parent / str(base), path.parent / f"{base}.yaml"]
+    candidates = [d / name for d in (path.parent, *search) for name in (str(base), f"{base}.yaml")]
     base_path = next((c for c in candidates if c.is_file()), None)
     if base_path is None:
         raise SpecError(f"base: {base!r} not found next to the file", path=path)
     base_path = base_path.resolve()
     if base_path in _seen:
         raise SpecError(f"base: {base!r} is circular", path=path)
-    base_data = resolve_base(base_path, read_yaml(base_path), (*_seen, base_path))
+    base_data = resolve_base(base_path, read_yaml(base_path), (*_seen, base_path), search)
     return deep_merge(base_data, data)
 
 
@@ -143,8 +146,8 @@ def validate_spec(model: type[M], data: dict[str, Any], path: Path | str) -> M:
         raise SpecError(format_validation_error(exc), path=path) from None
 
 
-def load_spec(path: Path | str, model: type[M]) -> M:
-    """Read, resolve ``base:``, and validate a YAML spec file."""
+def load_spec(path: Path | str, model: type[M], base_dirs: tuple[Path, ...] = ()) -> M:
+    """Read, resolve ``base:`` (next to the file, then in ``base_dirs``), and validate a YAML spec file."""
     path = Path(path)
-    data = resolve_base(path.resolve(), read_yaml(path))
+    data = resolve_base(path.resolve(), read_yaml(path), search=base_dirs)
     return validate_spec(model, data, path)
