@@ -109,7 +109,7 @@ def _collect(path: str) -> tuple[Rows, dict[str, float], Formats]:
     last_t = math.nan
     early: list[dict[str, Any]] = []  # untimed messages before the first clock: at its time
     try:
-        with contextlib.redirect_stdout(io.StringIO()):
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             reader = DFReader.DFReader_binary(path, zero_time_base=False)
             while (m := reader.recv_match(type=TYPES)) is not None:
                 kind = m.get_type()

@@ -51,9 +51,9 @@ def read_flight_log(path: str | Path) -> FlightLog:
 
 def _check(log: FlightLog, path: str) -> None:
     """Every required stream has enough finite samples."""
-    streams = {"motor outputs": (log.motors.t_s, log.motors.pwm_us), "IMU": (log.imu.t_s, log.imu.accel_flu),
+    streams = {"motor-output": (log.motors.t_s, log.motors.pwm_us), "IMU": (log.imu.t_s, log.imu.accel_flu),
                "attitude": (log.attitude.t_s, log.attitude.quat_xyzw),
-               "local position": (log.position.t_s, log.position.vel_enu)}
+               "local-position": (log.position.t_s, log.position.vel_enu)}
     for name, (t, v) in streams.items():
         good = np.isfinite(v).all(axis=1).sum() if len(t) else 0
         if good < MIN_SAMPLES:

@@ -61,6 +61,7 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
             ulog = ULog(path, TOPICS)
     except Exception as exc:  # noqa: BLE001 - pyulog raises many kinds on a corrupt file
         raise InputError(f"not a readable ULog ({type(exc).__name__}: {exc})", path=path) from None
+    require(bool(ulog.data_list), path, "the ULog holds no logged data (truncated before its data section?)")
     t0 = int(ulog.start_timestamp)
     topics: dict[tuple[str, int], dict[str, np.ndarray]] = {(d.name, d.multi_id): d.data for d in ulog.data_list}
     params = {str(k): float(v) for k, v in ulog.initial_parameters.items()}
@@ -71,13 +72,13 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
         return np.maximum(ts - t0, 0).astype(float) * 1e-6
 
     motors = _motors(topics, config, chans, secs, path)
-    sc = _topic(topics, "sensor_combined", path, "the IMU (sensor_combined)")
+    sc = _topic(topics, "sensor_combined", path, "IMU (sensor_combined)")
     t, acc, gyr = sorted_stream(secs(sc), _vec(sc, "accelerometer_m_s2[{}]"), _vec(sc, "gyro_rad[{}]"))
     imu = Imu(t, frd_to_flu_array(acc), frd_to_flu_array(gyr))
-    va = _topic(topics, "vehicle_attitude", path, "the attitude (vehicle_attitude)")
+    va = _topic(topics, "vehicle_attitude", path, "attitude (vehicle_attitude)")
     t, q = sorted_stream(secs(va), _vec(va, "q[{}]", 4))
     attitude = Attitude(t, attitude_from_quat_ned(q))
-    lp = _topic(topics, "vehicle_local_position", path, "the local position (vehicle_local_position)")
+    lp = _topic(topics, "vehicle_local_position", path, "local position (vehicle_local_position)")
     pos = np.column_stack([lp["x"], lp["y"], lp["z"]])
     vel = np.column_stack([lp["vx"], lp["vy"], lp["vz"]])
     t, pos, vel = sorted_stream(secs(lp), pos, vel)
@@ -90,14 +91,16 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
         ok = v > 0.5
         battery = BatteryLog(t[ok], v[ok], i[ok])
     state = _state(topics, secs, motors)
-    version = ulog.get_version_info_str() or "?"
+    info_d = ulog.msg_info_dict
+    version = None
     ver = ulog.get_version_info()
     if ver is not None:
         kind = RELEASE_TYPE.get(ver[3], "dev")
         version = f"{ver[0]}.{ver[1]}.{ver[2]}{'-' + kind if kind else ''}"
-    info_d = ulog.msg_info_dict
-    branch = f" ({info_d['ver_sw_branch']})" if info_d.get("ver_sw_branch") else ""
-    firmware = f"PX4 {version}{branch} {str(info_d.get('ver_sw', ''))[:8]}".strip()
+    sw = str(info_d.get("ver_sw", ""))
+    parts = [str(info_d.get("sys_name", "PX4")), version, f"({info_d['ver_sw_branch']})" if info_d.get("ver_sw_branch")
+             else None, (sw[:8] if version else sw) or None]
+    firmware = " ".join(p for p in parts if p)
     end = max(float(s.t_s[-1]) for s in (motors, imu, attitude, position) if len(s.t_s))
     info = LogInfo(path=path, format="ulog", firmware=firmware, hardware=str(info_d.get("ver_hw", "?")),
                    date_utc=_date(topics, info_d), duration_s=end, sha256=sha256)
@@ -168,7 +171,7 @@ def _motors(topics: Topics, config: LogConfig, chans: list[int], secs: Callable[
             continue
         pwm = np.column_stack([d[f"output[{c}]"].astype(float) for c in chans])
         in_range = (pwm >= config.pwm_min_us - 50.0) & (pwm <= config.pwm_max_us + 50.0)
-        score = float(in_range.mean() + pwm.std(axis=0).mean() * 1e-6)
+        score = float(in_range.mean() + np.nan_to_num(np.nanstd(pwm, axis=0)).mean() * 1e-6)
         if best is None or score > best[0]:
             best = (score, d)
     require(best is not None and best[0] > 0.05, path,

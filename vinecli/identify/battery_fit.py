@@ -90,8 +90,7 @@ def fit_battery(b: BatteryLog, config: LogConfig, base: BatterySpec) -> BatteryF
                  if n else fixed(base.cells, "1", f"rest voltage {e0:.2f} V fits no LiPo cell count: base vehicle's"))
     nc = cells.value
     soc0 = soc_at_ocv(cell_curve, e0 / nc)
-    dsoc = 1e-3
-    slope = (cell_curve.ocv_cell(min(soc0 + dsoc, 1.0)) - cell_curve.ocv_cell(max(soc0 - dsoc, 0.0))) / (2 * dsoc)
+    slope = _curve_slope(cell_curve, soc0, soc0)
     soc_std = std[0] / max(nc * slope, 1e-6)
     if has_i and x[2] > 0.0:
         r = Param(float(x[2]), "ohm", float(std[2]), "fit", f"pack resistance from {int(ok.sum())} samples, "
@@ -103,21 +102,37 @@ def fit_battery(b: BatteryLog, config: LogConfig, base: BatterySpec) -> BatteryF
         k = Param(float(x[1]), "V/Ah", float(std[1]), "fit", f"open-circuit fall over {q[-1] * 1000:.0f} mAh drawn")
     else:
         k = fixed(math.nan, "V/Ah", "no current in the log", source="none")
-    cap = _capacity(config, nc, k, slope, e0, base)
+    cap = _capacity(config, nc, k, cell_curve, soc0, float(q[-1]), e0, base)
     return BatteryFit(cells=cells, ocv_start_v=Param(e0, "V", float(std[0]), "fit", "open-circuit voltage at the start"),
                       soc_start=Param(soc0, "1", soc_std, "derived", "state of charge on the base's open-circuit curve"),
                       resistance_ohm=r, ocv_slope_v_per_ah=k, capacity_wh=cap, rms_v=rms, samples=int(ok.sum()),
                       current_logged=has_i)
 
 
-def _capacity(config: LogConfig, cells: float, k: Param, slope: float, e0: float, base: BatterySpec) -> Param:
-    """From the log's parameter, else from the open-circuit slope when identified, else the base's."""
+def _curve_slope(cell: Battery, soc_a: float, soc_b: float) -> float:
+    """Slope of the open-circuit curve (V per unit of charge) between two states of charge (the secant; at a
+    point when they are equal)."""
+    lo, hi = min(soc_a, soc_b), max(soc_a, soc_b)
+    if hi - lo < 2e-3:
+        lo, hi = max(lo - 1e-3, 0.0), min(hi + 1e-3, 1.0)
+    return (cell.ocv_cell(hi) - cell.ocv_cell(lo)) / (hi - lo)
+
+
+def _capacity(config: LogConfig, cells: float, k: Param, cell: Battery, soc0: float, q_ah: float, e0: float,
+              base: BatterySpec) -> Param:
+    """From the log's parameter, else from the open-circuit slope when identified, else the base's. The
+    slope ``k`` is the curve's mean slope over the charge the flight drew: its secant between the start's
+    state of charge and the end's (found from the capacity, so twice round)."""
     from_slope = None
     if k.source == "fit" and k.value > 0.0:
+        slope = _curve_slope(cell, soc0, soc0)
+        for _ in range(3):
+            c = cells * slope * e0 / k.value
+            slope = _curve_slope(cell, soc0, max(soc0 - q_ah * e0 / c, 0.0))
         c = cells * slope * e0 / k.value
         c_std = c * k.std / k.value
         from_slope = Param(c, "Wh", c_std, "fit", f"from the open-circuit slope {k.value:.3f} V/Ah and the curve's "
-                           f"slope {slope:.3f} V per unit of charge at the start")
+                           f"mean slope {slope:.3f} V per unit of charge over the flight")
     if config.capacity_mah:
         wh = config.capacity_mah / 1000.0 * NOMINAL_CELL_V * cells
         check = f"; the voltage's slope says {from_slope.value:.0f} ± {from_slope.std:.0f} Wh" if from_slope else ""

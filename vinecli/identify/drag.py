@@ -53,6 +53,11 @@ class DragFit:
         """Steady horizontal wind (east, north), m/s."""
         return (self.wind_e.value, self.wind_n.value)
 
+    def body_drag_z(self, s: FlightSamples) -> np.ndarray:
+        """The body drag's specific force along body z at the samples in the fitted wind, m/s²."""
+        v = air_body(s, self.wind)
+        return self.c_per_mass.value * np.linalg.norm(v, axis=1) * v[:, 2]
+
     def specific_force_xy(self, s: FlightSamples, r: float) -> np.ndarray:
         """Model in-plane specific force (N, 2) at the samples ``s`` in the fitted wind, m/s² body FLU."""
         v = air_body(s, self.wind)

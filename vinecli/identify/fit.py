@@ -72,11 +72,13 @@ def fit_flight_log(log_path: str | Path, *, base: str = "x500", mass_kg: float |
     say("thrust curve")
     motor, px4 = b.spec.motor, b.spec.px4
     r_base = px4.w_min_rad_s / (motor.w_max - px4.w_min_rad_s)
+    c_base = sum(d.coefficient(AIR_DENSITY) for d in b.spec.drag.values()) / mass.value
     thrust = fit_thrust(s, r_base, path=log.info.path)
     say("drag")
-    dw = motor.w_max / (1.0 + thrust.r.value)
-    c_base = sum(d.coefficient(AIR_DENSITY) for d in b.spec.drag.values())
-    drag = fit_drag(s, thrust, c_base / mass.value, motor.k_d * dw / mass.value)
+    # the curve, the drag, then the curve again without the body drag along z, and the drag on that curve
+    drag = fit_drag(s, thrust, c_base, motor.k_d * motor.w_max / (1.0 + thrust.r.value) / mass.value)
+    thrust = fit_thrust(s, r_base, path=log.info.path, drag_z=drag.body_drag_z(s))
+    drag = fit_drag(s, thrust, c_base, motor.k_d * motor.w_max / (1.0 + thrust.r.value) / mass.value)
     battery = power = None
     if log.battery is not None and b.spec.battery is not None:
         say("battery and power")

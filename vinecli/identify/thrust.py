@@ -34,6 +34,8 @@ R_MAX = 0.4 / 0.6
 #: r counts as identified when its bootstrap std is below this and it is not at a bound
 R_STD_MAX = 0.15
 MIN_SAMPLES = 20
+#: the curve is fitted on block means over this long (the _Blocks docstring says why), s
+BLOCK_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -62,24 +64,49 @@ class ThrustFit:
         return np.sqrt(np.maximum(f_z, 0.0) / (self.n_rotors * self.theta.value)) - self.r.value
 
 
-def _theta(u: np.ndarray, fz: np.ndarray, r: float) -> tuple[float, float]:
-    """Closed-form theta at offset ``r`` and the residual sum of squares."""
-    s = np.sum((u + r) ** 2, axis=1)
-    th = float(s @ fz / (s @ s))
-    return th, float(np.sum((fz - th * s) ** 2))
+class _Blocks:
+    """Consecutive used samples averaged over blocks of at most :data:`BLOCK_S`: per block the means of
+    ``sum u_i²``, ``sum u_i`` and ``f_z``, so ``mean sum (u_i + r)² = S2 + 2 r S1 + n r²`` for any ``r``.
+
+    A motor output in a log is a snapshot of a command whose fast part (the attitude loop's) the motors'
+    lag filters out of the thrust: regressed sample by sample, that noise in the regressor flattens the
+    curve (the known-truth flight: r +45 %). Averaging both sides over half a second divides that noise
+    and keeps the slow variation (climbs, descents, manoeuvres) the shape is fitted on."""
+
+    def __init__(self, s: FlightSamples, used: np.ndarray, fz: np.ndarray) -> None:
+        idx = np.flatnonzero(used)
+        groups: list[list[int]] = []
+        for i in idx:
+            if groups and i == groups[-1][-1] + 1 and s.t_s[i] - s.t_s[groups[-1][0]] < BLOCK_S:
+                groups[-1].append(int(i))
+            else:
+                groups.append([int(i)])
+        self.n = s.u.shape[1]
+        self.s2 = np.array([np.mean(np.sum(s.u[g] ** 2, axis=1)) for g in groups])
+        self.s1 = np.array([np.mean(np.sum(s.u[g], axis=1)) for g in groups])
+        self.f = np.array([np.mean(fz[g]) for g in groups])
+        self.t = np.array([np.mean(s.t_s[g]) for g in groups])
+        self.u_mean = self.s1 / self.n
+
+    def theta(self, r: float, i: np.ndarray | slice = slice(None)) -> tuple[float, float]:
+        """Closed-form theta at offset ``r`` and the residual sum of squares (over blocks ``i``)."""
+        x = self.s2[i] + 2.0 * r * self.s1[i] + self.n * r * r
+        th = float(x @ self.f[i] / (x @ x))
+        return th, float(np.sum((self.f[i] - th * x) ** 2))
+
+    def solve(self, r_fixed: float | None, i: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """(theta, r): theta in closed form, r by a bounded scalar search of the residual's profile on
+        [0, R_MAX]; ``r_fixed``: theta only."""
+        if r_fixed is None:
+            r_fixed = float(minimize_scalar(lambda r: self.theta(r, i)[1], bounds=(0.0, R_MAX), method="bounded",
+                                            options={"xatol": 1e-5}).x)
+        return np.array([self.theta(r_fixed, i)[0], r_fixed])
 
 
-def _solve(u: np.ndarray, fz: np.ndarray, r_fixed: float | None) -> np.ndarray:
-    """(theta, r) by least squares: theta in closed form, r by a bounded scalar search on [0, R_MAX]
-    (the profile of the residual); ``r_fixed``: theta only."""
-    if r_fixed is None:
-        r_fixed = float(minimize_scalar(lambda r: _theta(u, fz, r)[1], bounds=(0.0, R_MAX), method="bounded",
-                                        options={"xatol": 1e-5}).x)
-    return np.array([_theta(u, fz, r_fixed)[0], r_fixed])
-
-
-def fit_thrust(s: FlightSamples, r_base: float, *, path: str = "") -> ThrustFit:
-    """Fit the curve on ``s``; ``r_base`` is the base vehicle's ``w_min / (w_max - w_min)``."""
+def fit_thrust(s: FlightSamples, r_base: float, *, path: str = "", drag_z: np.ndarray | None = None) -> ThrustFit:
+    """Fit the curve on ``s``; ``r_base`` is the base vehicle's ``w_min / (w_max - w_min)``. ``drag_z``: the
+    body drag's specific force along body z at each sample (m/s², from a drag fit), taken off the measured
+    ``f_z`` first (a climb meets air from above: without it the curve comes out too flat)."""
     n_rot = s.u.shape[1]
     air = s.airborne
     if air.sum() < MIN_SAMPLES:
@@ -90,23 +117,23 @@ def fit_thrust(s: FlightSamples, r_base: float, *, path: str = "") -> ThrustFit:
     if used.sum() < MIN_SAMPLES:
         used = air
         notes.append(f"fewer than {MIN_SAMPLES} samples below {SLOW_MPS:g} m/s: the curve uses every airborne sample")
-    u, fz, t = s.u[used], s.f_body[used, 2], s.t_s[used]
-    free = _solve(u, fz, None)
-    std = block_bootstrap(t, lambda i: _solve(u[i], fz[i], None))
+    fz_all = s.f_body[:, 2] - (0.0 if drag_z is None else drag_z)
+    b = _Blocks(s, used, fz_all)
+    free = b.solve(None)
+    std = block_bootstrap(b.t, lambda i: b.solve(None, i))
     at_bound = free[1] < 1e-3 or free[1] > R_MAX - 1e-3
-    u_mean = u.mean(axis=1)
-    span = f"outputs {np.percentile(u_mean, 5):.2f}-{np.percentile(u_mean, 95):.2f}"
+    span = f"outputs {np.percentile(b.u_mean, 5):.2f}-{np.percentile(b.u_mean, 95):.2f}"
     if at_bound or not std[1] < R_STD_MAX:
         why = f"at the edge of 0..{R_MAX:.2f}" if at_bound else f"std {std[1]:.2f}"
-        p = _solve(u, fz, r_base)
-        std = np.array([block_bootstrap(t, lambda i: _solve(u[i], fz[i], r_base))[0], math.nan])
+        p = b.solve(r_base)
+        std = np.array([block_bootstrap(b.t, lambda i: b.solve(r_base, i))[0], math.nan])
         r = fixed(r_base, "1", f"the curve's shape is not identified by this log ({span}, free fit r = {free[1]:.3f}, "
                   f"{why}): w_min / (w_max - w_min) of the base vehicle")
     else:
         p = free
         r = Param(float(p[1]), "1", float(std[1]), "fit", f"w_min / (w_max - w_min), shape over {span}")
-    theta = Param(float(p[0]), "m/s^2", float(std[0]), "fit",
-                  f"k_f (w_max - w_min)^2 / m from {len(fz)} samples below {SLOW_MPS:g} m/s")
+    theta = Param(float(p[0]), "m/s^2", float(std[0]), "fit", f"k_f (w_max - w_min)^2 / m from {int(used.sum())} "
+                  f"samples below {SLOW_MPS:g} m/s ({len(b.t)} blocks of {BLOCK_S:g} s)")
     g = STANDARD_GRAVITY
     uh = math.sqrt(g / (n_rot * p[0])) - p[1]
     d_theta = 0.5 * math.sqrt(g / n_rot) * p[0] ** -1.5 * std[0]
@@ -118,12 +145,13 @@ def fit_thrust(s: FlightSamples, r_base: float, *, path: str = "") -> ThrustFit:
         hover_throttle=Param(uh, "1", uh_std, "derived", "output giving thrust = weight, level"),
         thrust_to_weight=Param(tw, "1", tw_std, "derived", "thrust at full output / weight"),
         used=used, rms_mps2=0.0, fast_residual_mps2=None, notes=tuple(notes))
-    resid = s.f_body[air, 2] - fit.specific_thrust(s.u[air])
+    resid = fz_all[air] - fit.specific_thrust(s.u[air])
     fast = air & (s.speed >= SLOW_MPS)
-    fast_res = float(np.mean(s.f_body[fast, 2] - fit.specific_thrust(s.u[fast]))) if fast.sum() >= 5 else None
+    fast_res = float(np.mean(fz_all[fast] - fit.specific_thrust(s.u[fast]))) if fast.sum() >= 5 else None
     if fast_res is not None:
-        notes.append(f"above {SLOW_MPS:g} m/s the measured body-z specific force is {fast_res:+.2f} m/s² off the "
-                     "curve on average (axial inflow and body drag along z)")
+        notes.append(f"above {SLOW_MPS:g} m/s the thrust is {fast_res:+.2f} m/s² off the curve on average"
+                     + (" after the body drag along z" if drag_z is not None else "")
+                     + " (axial inflow: vinecli's rotors have none)")
     return replace(fit, rms_mps2=float(np.sqrt(np.mean(resid**2))), fast_residual_mps2=fast_res,
                    hover_check=_hover_check(s, fit), notes=tuple(notes))
 

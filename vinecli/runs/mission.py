@@ -256,6 +256,8 @@ def _run_prepared(
         "mission": spec.name,
         "description": spec.description,
         "vehicle": vehicle.name,
+        # a fitted vehicle (vinecli vehicle fit): its log, firmware, date and replay errors; None otherwise
+        "vehicle_fit": vehicle.provenance.model_dump(mode="json") if vehicle.provenance is not None else None,
         "world": {
             "name": world.name,
             "dir": str(world_dir.resolve()),
