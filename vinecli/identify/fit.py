@@ -17,8 +17,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from vinecli import __version__
 from vinecli.errors import InputError
 from vinecli.flightlog.read import read_flight_log
@@ -31,7 +29,7 @@ from vinecli.identify.power import fit_power
 from vinecli.identify.replay import replay_log
 from vinecli.identify.replay_model import AIR_DENSITY
 from vinecli.identify.result import FitResult
-from vinecli.identify.samples import FlightSamples, make_samples
+from vinecli.identify.samples import make_samples
 from vinecli.identify.thrust import fit_thrust
 from vinecli.identify.vehicle_io import replay_summary, write_outputs
 from vinecli.names import name_from
@@ -47,14 +45,6 @@ def _mass(base: BaseVehicle, mass_kg: float | None) -> Param:
             raise InputError(f"--mass {mass_kg} kg is not a multicopter's mass (0.05-500 kg)")
         return Param(float(mass_kg), "kg", math.nan, "user", "take-off mass given with --mass")
     return Param(base.spec.dry_mass(), "kg", math.nan, "base", "the base vehicle's dry mass (not in a log)")
-
-
-def _span(s: FlightSamples) -> tuple[float, float]:
-    run = np.flatnonzero(s.running)
-    t1 = float(s.t_s[run[-1]])
-    if s.upset_t_s is not None:
-        t1 = min(t1, s.upset_t_s - 1.0)
-    return float(s.t_s[run[0]]), t1
 
 
 def fit_flight_log(log_path: str | Path, *, base: str = "x500", mass_kg: float | None = None,
@@ -84,7 +74,7 @@ def fit_flight_log(log_path: str | Path, *, base: str = "x500", mass_kg: float |
         say("battery and power")
         battery = fit_battery(log.battery, log.config, b.spec.battery)
         if battery.current_logged:
-            power = fit_power(s, log.battery, thrust, _span(s), b.spec.battery.avionics_w)
+            power = fit_power(s, log.battery, thrust, s.span(), b.spec.battery.avionics_w)
     stem = name_from(Path(log_path).stem, "log")
     vname = name or f"{stem}-fit"
     desc = f"fitted to {Path(log_path).name} ({log.info.firmware}{', ' + log.info.date_utc[:10] if log.info.date_utc else ''})"
@@ -109,6 +99,7 @@ def fit_report(r: FitResult) -> dict[str, Any]:
     th, cfg = r.thrust, r.log.config
     params: dict[str, Param] = {"thrust_theta_mps2": th.theta, "thrust_curve_offset_r": th.r,
                                 "hover_throttle": th.hover_throttle, "thrust_to_weight": th.thrust_to_weight,
+                                "thrust_expo_equivalent": th.expo,
                                 "body_drag_per_mass": r.drag.c_per_mass, "rotor_drag_per_mass": r.drag.kd_per_mass,
                                 "imu_offset_x_mps2": r.drag.bias_x, "imu_offset_y_mps2": r.drag.bias_y,
                                 "wind_east_mps": r.drag.wind_e, "wind_north_mps": r.drag.wind_n}
@@ -140,6 +131,10 @@ def fit_report(r: FitResult) -> dict[str, Any]:
         "fixed_from_base": r.vehicle.fixed_from_base,
         "notes": [*r.samples.notes, *th.notes, *r.vehicle.notes, *cfg.notes],
     }
+    if cfg.thrust_expo is not None and th.r.source == "fit":
+        e = th.expo
+        out["notes"].append(f"the firmware models thrust with {cfg.thrust_expo_source} = {cfg.thrust_expo:g}; this "
+                            f"log's curve is {e.value:.2f} ± {e.std:.2f} in the same terms")
     if r.replay is not None:
         out["replay"] = replay_summary(r.replay)
     return out

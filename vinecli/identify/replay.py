@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.errors import InputError
 from vinecli.flightlog.model import FlightLog
 from vinecli.identify.battery_fit import soc_at_ocv
 from vinecli.identify.replay_model import BATTERY_DT, RATE_HZ, RigidState6, VehicleReplay
@@ -111,8 +112,6 @@ def replay_log(log: FlightLog, vehicle: VehicleSpec, base: VehicleSpec | None, *
     s = make_samples(log)
     wins = _windows(s, window_s)
     if not wins:
-        from vinecli.errors import InputError
-
         raise InputError(f"no airborne stretch of {0.5 * window_s:g} s or more to replay", path=log.info.path)
     h = 0.5 * float(np.median(np.diff(s.t_s)))
     pos = np.column_stack([np.interp(s.t_s, log.position.t_s, log.position.pos_enu[:, k]) for k in range(3)])
@@ -126,7 +125,7 @@ def replay_log(log: FlightLog, vehicle: VehicleSpec, base: VehicleSpec | None, *
     ends = np.array([j for _, j in wins])
     starts = np.array([i for i, _ in wins])
     dur = s.t_s[ends] - s.t_s[starts]
-    span = _span(s)
+    span = s.span()
     series: dict[str, Any] = {"t_s": s.t_s, "f_log": f_log, "gyro_log": s.gyro_body, "in_window": in_win,
                               "windows": [(float(s.t_s[i]), float(s.t_s[j])) for i, j in wins]}
     errors: dict[str, dict[str, Any]] = {}
@@ -151,15 +150,6 @@ def replay_log(log: FlightLog, vehicle: VehicleSpec, base: VehicleSpec | None, *
              f"{int(hov.sum())} hover samples, is removed from the log's specific force before comparing",)
     return ReplayResult(errors=errors, windows=series["windows"], series=series,
                         imu_offset_xy=(float(offset[0]), float(offset[1])), span_s=span, notes=notes + s.notes)
-
-
-def _span(s: FlightSamples) -> tuple[float, float]:
-    """The flight the battery is replayed over: first to last running sample, up to the upset margin."""
-    run = np.flatnonzero(s.running)
-    t0, t1 = float(s.t_s[run[0]]), float(s.t_s[run[-1]])
-    if s.upset_t_s is not None:
-        t1 = min(t1, s.upset_t_s - 1.0)
-    return t0, t1
 
 
 def _flight_errors(f_m: np.ndarray, w_m: np.ndarray, f_log: np.ndarray, s: FlightSamples, in_win: np.ndarray,

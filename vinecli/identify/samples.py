@@ -66,6 +66,15 @@ class FlightSamples:
         return (self.airborne & (np.linalg.norm(self.vel_enu[:, :2], axis=1) < vh)
                 & (np.abs(self.vel_enu[:, 2]) < vz) & (self.tilt_deg < tilt))
 
+    def span(self) -> tuple[float, float]:
+        """The flight the pack and the energy are judged over, s: first to last sample with the motors
+        running, ending :data:`UPSET_MARGIN_S` before an upset."""
+        run = np.flatnonzero(self.running)
+        t1 = float(self.t_s[run[-1]])
+        if self.upset_t_s is not None:
+            t1 = min(t1, self.upset_t_s - UPSET_MARGIN_S)
+        return float(self.t_s[run[0]]), t1
+
     def u_filled(self) -> np.ndarray:
         """``u`` with stopped motors (NaN) as 0."""
         return np.where(np.isfinite(self.u), self.u, 0.0)

@@ -53,6 +53,16 @@ class ThrustFit:
     hover_check: dict[str, Any] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
 
+    @property
+    def expo(self) -> Param:
+        """The firmware's thrust expo of this curve: ``(u + r)² - r²`` normalised is ``(1 - e) u + e u²`` with
+        ``e = 1 / (1 + 2 r)`` exactly (PX4 THR_MDL_FAC, ArduPilot MOT_THST_EXPO describe thrust that way)."""
+        r = self.r
+        e = 1.0 / (1.0 + 2.0 * r.value)
+        std = 2.0 * r.std / (1.0 + 2.0 * r.value) ** 2 if math.isfinite(r.std) else math.nan
+        return Param(e, "1", std, "derived" if r.source == "fit" else r.source,
+                     "equivalent thrust expo 1 / (1 + 2 r): THR_MDL_FAC / MOT_THST_EXPO of this curve")
+
     def specific_thrust(self, u: np.ndarray) -> np.ndarray:
         """Body-z specific force (m/s²) of outputs ``u`` (N, n); NaN outputs (stopped) give no thrust."""
         uu = np.asarray(u, dtype=float)
