@@ -103,6 +103,10 @@ def fitted_vehicle(base: VehicleSpec, base_ref: str, mass: Param, thrust: Thrust
     if power is not None:
         fits["avionics power"] = power.avionics_w
     fixed_from_base += [f"{k} ({v.note})" for k, v in fits.items() if v.source == "base"]
+    if battery is None:
+        fixed_from_base.append("battery and power (no battery voltage in the log)")
+    elif power is None:
+        fixed_from_base.append("battery.motor_efficiency, battery.avionics_w (no battery current in the log: no power fit)")
     if power is not None and battery is not None:
         _figure_of_merit(base, m, n, power, p, notes)
     return FittedVehicle(params=p, overrides=over, fixed_from_base=fixed_from_base, notes=notes)
