@@ -30,7 +30,7 @@ from vinecli.identify.thrust import ThrustFit
 __all__ = ["DragFit", "air_body", "fit_drag"]
 
 #: bootstrap resamples of the wind (each one a small nonlinear fit)
-WIND_RESAMPLES = 60
+WIND_RESAMPLES = 40
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,8 @@ def _solve(a: np.ndarray, b: np.ndarray, fix: dict[int, float]) -> np.ndarray:
     while True:
         free = [j for j in range(a.shape[1]) if j not in fix]
         rhs = b - sum((a[:, j] * v for j, v in fix.items()), np.zeros_like(b))
-        x = np.linalg.lstsq(a[:, free], rhs, rcond=None)[0]
+        af = a[:, free]
+        x = np.linalg.solve(af.T @ af, af.T @ rhs)  # normal equations: 2-4 columns, solved thousands of times
         neg = [j for j, v in zip(free, x, strict=True) if j >= 2 and v < 0.0]
         if not neg:
             break
@@ -130,14 +131,17 @@ class _Problem:
         return np.asarray(least_squares(lambda w: self.residual(w, idx), start, x_scale=1.0, diff_step=1e-3).x)
 
 
-def fit_drag(s: FlightSamples, thrust: ThrustFit, base_c_per_mass: float, base_kd_per_mass: float) -> DragFit:
-    """Fit (module docstring); ``base_*`` are the base vehicle's values per unit mass, used when not identified."""
+def fit_drag(s: FlightSamples, thrust: ThrustFit, base_c_per_mass: float, base_kd_per_mass: float, *,
+             wind_std: bool = True) -> DragFit:
+    """Fit (module docstring); ``base_*`` are the base vehicle's values per unit mass, used when not identified.
+    ``wind_std=False`` skips the wind's bootstrap (a first pass: the wind is then kept as fitted)."""
     mask = s.airborne
     prob = _Problem(s, mask, thrust.r.value)
     t = s.t_s[mask]
     n = prob.n
     w = prob.wind()
-    w_std = block_bootstrap(t, lambda i: prob.wind(i, w), resamples=WIND_RESAMPLES)
+    w_std = (block_bootstrap(t, lambda i: prob.wind(i, w), resamples=WIND_RESAMPLES) if wind_std
+             else np.zeros(2))
     rms_still = float(np.sqrt(np.mean(prob.residual(np.zeros(2)) ** 2)))
     significant = bool(np.hypot(*w) > 2.0 * np.hypot(*w_std))
     if not significant:

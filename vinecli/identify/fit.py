@@ -66,7 +66,7 @@ def fit_flight_log(log_path: str | Path, *, base: str = "x500", mass_kg: float |
     thrust = fit_thrust(s, r_base, path=log.info.path)
     say("drag")
     # the curve, the drag, then the curve again without the body drag along z, and the drag on that curve
-    drag = fit_drag(s, thrust, c_base, motor.k_d * motor.w_max / (1.0 + thrust.r.value) / mass.value)
+    drag = fit_drag(s, thrust, c_base, motor.k_d * motor.w_max / (1.0 + thrust.r.value) / mass.value, wind_std=False)
     thrust = fit_thrust(s, r_base, path=log.info.path, drag_z=drag.body_drag_z(s))
     drag = fit_drag(s, thrust, c_base, motor.k_d * motor.w_max / (1.0 + thrust.r.value) / mass.value)
     battery = power = None
