@@ -24,6 +24,7 @@ from vinecli.report.loader import Run
 from vinecli.report.markdown import run_order
 from vinecli.report.plots import FIGURES, check_spans
 from vinecli.report.text import format_value, printable
+from vinecli.report.vehicle_fit import vehicle_fit_text
 from vinecli.runs.failsafes import describe_failsafe
 
 TEMPLATE = "report.html.j2"
@@ -102,6 +103,7 @@ def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison:
     return {
         "anchor": anchor, "case": run.case, "run_id": run.run_id, "mission": run.mission,
         "description": s.get("description") or "", "vehicle": s.get("vehicle", "-"), "world": _world(run),
+        "vehicle_fit": vehicle_fit_text(s),
         "autopilot": s.get("autopilot", "-"), "seed": s.get("seed", "-"), "status": run.status,
         "status_message": s.get("status_message") or "", "sim_time": _secs(s.get("sim_time_s")),
         "wall_time": _secs(run.timing.get("wall_time_s")), "rtf": _rtf(run.timing.get("real_time_factor")),

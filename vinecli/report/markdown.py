@@ -12,6 +12,7 @@ from typing import Any
 from vinecli.report.baseline import Comparison
 from vinecli.report.loader import Run
 from vinecli.report.text import format_value, md_text
+from vinecli.report.vehicle_fit import vehicle_fit_text
 
 
 def _cell(v: Any) -> str:
@@ -62,6 +63,10 @@ def render_markdown(runs: Sequence[Run], comparison: Comparison | None = None, *
             f"{float(s.get('sim_time_s') or 0):.1f} s", f"{float(r.timing.get('real_time_factor') or 0):.1f}×")) + " |")
     if n > max_rows:
         lines.append(f"\n… and {n - max_rows} more runs (all passing ones listed last); see the HTML report.")
+    fitted = [(r, t) for r in ordered if (t := vehicle_fit_text(r.summary))]
+    if fitted:
+        lines += ["", "### Fitted vehicles", "", "| case | vehicle model |", "|---|---|"]
+        lines += [f"| {_cell(r.case)} | {_cell(t)} |" for r, t in fitted[:max_rows]]
     safes = [r for r in ordered if r.failsafes]
     if safes:
         lines += ["", "### Failsafes", "", "| case | status | failsafe |", "|---|---|---|"]

@@ -255,6 +255,8 @@ def _run_prepared(
         "mission": spec.name,
         "description": spec.description,
         "vehicle": vehicle.name,
+        # a fitted vehicle (vinecli vehicle fit): its log, firmware, date and replay errors; None otherwise
+        "vehicle_fit": vehicle.provenance.model_dump(mode="json") if vehicle.provenance is not None else None,
         "world": _world_doc(run, world_dir),
         "autopilot": spec.autopilot,
         "truth": spec.truth,

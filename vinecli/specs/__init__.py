@@ -112,11 +112,25 @@ def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+def _search_base(base: str, search: tuple[Path, ...]) -> Path | None:
+    """The spec file ``base`` names inside one of the ``search`` folders (never outside them), or None."""
+    for folder in search:
+        root = folder.resolve()
+        for cand in (root / base, root / f"{base}.yaml"):
+            resolved = cand.resolve()
+            if resolved.is_relative_to(root) and resolved.suffix in (".yaml", ".yml") and resolved.is_file():
+                return resolved
+    return None
+
+
+def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = (),
+                 search: tuple[Path, ...] = ()) -> dict[str, Any]:
     """Resolve a ``base:`` key (recursively) and return the merged mapping without it.
 
     The base is a spec file relative to ``path`` (``.yaml`` may be left out) inside the folders specs may
-    refer to (:func:`vinecli.specs.refs.spec_reference`): ``base: /etc/shadow`` is refused unread."""
+    refer to (:func:`vinecli.specs.refs.spec_reference`): ``base: /etc/shadow`` is refused unread. Not found
+    there, it is looked up inside the ``search`` folders (e.g. the shipped vehicles for a fitted vehicle's
+    ``base: x500``)."""
     from vinecli.specs.refs import spec_reference
 
     base = data.get("base")
@@ -125,10 +139,15 @@ def resolve_base(path: Path, data: dict[str, Any], _seen: tuple[Path, ...] = ())
     data = {k: v for k, v in data.items() if k != "base"}
     if not isinstance(base, str) or not base:
         raise SpecError(f"base: expected a file name, got {type(base).__name__}", path=path)
-    base_path = spec_reference(base, path, "base", try_suffix=True)
+    try:
+        base_path = spec_reference(base, path, "base", try_suffix=True)
+    except SpecError:
+        base_path = _search_base(base, search)
+        if base_path is None:
+            raise
     if base_path in _seen:
         raise SpecError(f"base: {base!r} is circular", path=path)
-    base_data = resolve_base(base_path, read_yaml(base_path), (*_seen, base_path))
+    base_data = resolve_base(base_path, read_yaml(base_path), (*_seen, base_path), search)
     return deep_merge(base_data, data)
 
 
@@ -152,8 +171,8 @@ def validate_spec(model: type[M], data: dict[str, Any], path: Path | str) -> M:
         raise SpecError(format_validation_error(exc), path=path) from None
 
 
-def load_spec(path: Path | str, model: type[M]) -> M:
-    """Read, resolve ``base:``, and validate a YAML spec file."""
+def load_spec(path: Path | str, model: type[M], base_dirs: tuple[Path, ...] = ()) -> M:
+    """Read, resolve ``base:`` (next to the file, then in ``base_dirs``), and validate a YAML spec file."""
     path = Path(path)
-    data = resolve_base(path.resolve(), read_yaml(path))
+    data = resolve_base(path.resolve(), read_yaml(path), search=base_dirs)
     return validate_spec(model, data, path)

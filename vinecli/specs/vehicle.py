@@ -279,6 +279,27 @@ class Px4MappingSpec(StrictModel):
                                            "(integers as INT32, others as REAL32)")
 
 
+class FitProvenance(StrictModel):
+    """Where a fitted vehicle came from (``vinecli vehicle fit``) and how far its replay of that log was from
+    the flight; runs flown with it carry this into summary.json and the report."""
+
+    log: str = Field(description="flight log file name")
+    log_sha256: str = Field("", description="sha256 of the log's bytes")
+    format: str = Field(description="ulog | dataflash")
+    firmware: str = Field("", description="firmware and version the log names")
+    hardware: str = Field("", description="flight controller the log names")
+    flight_date_utc: str | None = Field(None, description="UTC time of the flight (GNSS), ISO 8601")
+    fitted_utc: str = Field(description="when the fit ran, ISO 8601")
+    vinecli_version: str = ""
+    base: str = Field(description="the vehicle the unidentified parameters come from")
+    mass_source: str = Field("", description="where the mass came from (a log gives forces per unit mass only)")
+    fixed_from_base: list[str] = Field(default_factory=list, description="parameters the log could not identify")
+    replay: dict[str, float | None] = Field(default_factory=dict, description="errors of this vehicle replaying the "
+                                            "log: accel_rms_mps2, velocity_rms_mps, voltage_rms_v, energy_error_fraction")
+    replay_baselines: dict[str, dict[str, float | None]] = Field(default_factory=dict,
+                                                                 description="the same errors of the baselines")
+
+
 class VehicleSpec(StrictModel):
     """A multicopter: frame, rotors, drag, tank, payload, sensors and controller gains."""
 
@@ -296,6 +317,7 @@ class VehicleSpec(StrictModel):
     sensors: SensorsSpec = SensorsSpec()
     control: ControlSpec = ControlSpec()
     px4: Px4MappingSpec = Px4MappingSpec()
+    provenance: FitProvenance | None = Field(None, description="set by `vinecli vehicle fit`: the log it was fitted to")
 
     @property
     def n_rotors(self) -> int:

@@ -23,14 +23,15 @@ def known_vehicles() -> list[str]:
 def load_vehicle(name_or_path: str | Path) -> VehicleSpec:
     """A vehicle by name (``vehicles/<name>.yaml`` of the repo) or by path to a YAML file.
 
-    Unknown names raise :class:`~vinecli.errors.SpecError` listing the known names.
+    Unknown names raise :class:`~vinecli.errors.SpecError` listing the known names. A file's ``base:`` is
+    looked up next to it, then among the shipped vehicles (a fitted vehicle's ``base: x500``).
     """
     s = str(name_or_path)
     p = Path(s)
     if p.suffix in (".yaml", ".yml") or p.is_file() or "/" in s:
         if not p.is_file():
             raise SpecError("vehicle file not found", path=p)
-        return load_spec(p, VehicleSpec)
+        return load_spec(p, VehicleSpec, base_dirs=(VEHICLES_DIR,))
     candidate = VEHICLES_DIR / f"{s}.yaml"
     if not candidate.is_file():
         raise SpecError(f"unknown vehicle {s!r}; known: {', '.join(known_vehicles()) or '(none)'}", path=VEHICLES_DIR)
