@@ -24,7 +24,7 @@ import numpy as np
 
 from vinecli.errors import TerrainError
 from vinecli.geo import GeoOrigin
-from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
+from vinecli.rows.detect import NoRowsError, Polyline, RowDetection, detect_rows_grid
 from vinecli.rows.geometry import polyline_length
 
 __all__ = ["DsmRows", "RowFrame", "detect_rows_in_dsm", "detect_rows_on_grid", "dsm_rows_in_frame", "rows_geojson",
@@ -137,8 +137,10 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
         z, y = z[::-1], y[::-1]
     try:
         det = detect_rows_grid(z, x, y, **kw)
+    except NoRowsError as exc:
+        raise NoRowsError(exc.problem, exc.evidence, path=path) from None
     except TerrainError as exc:
-        raise TerrainError(str(exc), path=path) from None
+        raise TerrainError(exc.problem, path=path) from None
     return DsmRows(det, frame, origin, {"x": x, "y": y, "z": z})
 
 
