@@ -15,7 +15,7 @@ LAYERS: list[set[str]] = [
     {"constants", "errors", "frames", "geo", "names", "native", "outputs", "spray_defaults", "types"},
     {"specs"},
     {"physics", "control", "terrain", "vehicle", "mavlink"},
-    {"rows", "phase_items"},
+    {"rows", "phase_items", "gis"},
     {"autopilot"},
     {"sitl"},
     {"world"},

@@ -192,7 +192,8 @@ def test_detection_is_deterministic() -> None:
 
 
 def test_plan_rows_cli_on_the_unseen_drone_dsm(tmp_path: Path) -> None:
-    """`plan rows DSM`: every row planned (edge rows too), rows.geojson beside the plan in the DSM's CRS, one
+    """`plan rows DSM`: every row planned (edge rows too), rows.rows.geojson (named after the plan) beside it in
+    RFC 7946 WGS84 longitude/latitude (no ``crs`` member), no fixed-name side file, one
     .plan per sortie, count / spacing / orientation / confidence printed."""
     import json
 
@@ -211,11 +212,16 @@ def test_plan_rows_cli_on_the_unseen_drone_dsm(tmp_path: Path) -> None:
     assert "8 rows, spacing 0.750 m, direction 0.0 deg from east" in r.output
     assert float(r.output.split("confidence ")[1][:4]) >= 0.9
     assert "plan: 8 rows from row 0" in r.output
-    gj = json.loads((out.parent / "rows.geojson").read_text())
-    assert gj["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::32633"
+    assert not (out.parent / "rows.geojson").exists()
+    gj = json.loads((out.parent / "rows.rows.geojson").read_text())
+    assert "crs" not in gj
     assert [ft["properties"]["index"] for ft in gj["features"]] == list(range(8))
+    from pyproj import Transformer
+
+    to_utm = Transformer.from_crs("EPSG:4326", "EPSG:32633", always_xy=True)
     for ft in gj["features"]:
-        xs = [c[0] - cx for c in ft["geometry"]["coordinates"]]
+        assert all(12.0 < lon < 16.0 and 40.0 < lat < 50.0 for lon, lat in ft["geometry"]["coordinates"])
+        xs = [to_utm.transform(*c)[0] - cx for c in ft["geometry"]["coordinates"]]
         assert ft["properties"]["length_m"] >= 8.5 and min(xs) < -4.0 and max(xs) > 4.0
     sorties = sorted(out.parent.glob("rows.sortie-*.plan"))
     assert len(sorties) >= 2

@@ -1,8 +1,8 @@
 """``vinecli plan rows``: rows of a DSM or a built world -> spray plan files (library side of the command).
 
 Writes ``OUT`` (the whole field as one QGroundControl ``.plan``: take-off, the operator plan of
-:func:`~vinecli.rows.plan.plan_rows`, land), ``rows.geojson`` beside it (one LineString per row in
-the source's CRS, or local metres x east / y north without one; properties ``index``, ``length_m``), and
+:func:`~vinecli.rows.plan.plan_rows`, land), ``OUT-stem.rows.geojson`` beside it (RFC 7946: one LineString
+per row in WGS84 longitude/latitude, through the source's CRS; properties ``index``, ``length_m``), and
 when the rows need more than one tank ``OUT-stem.sortie-N.plan`` (take-off, that sortie's rows, RTL).
 
 Sources: a DSM GeoTIFF (rows detected on it; frame: local metres along the CRS axes about the raster
@@ -13,17 +13,17 @@ the detector on the world's height grid; fence: the world's geofence, else its t
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.outputs import write_text_atomic
+from vinecli.gis.georef import Georef
+from vinecli.gis.write import rows_features, write_features
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
-from vinecli.rows.source import RowFrame, rows_geojson
+from vinecli.rows.source import RowFrame
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
 from vinecli.spray_defaults import SPRAY_DEFAULTS
 
@@ -138,8 +138,8 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
     job.files.append(out)
-    gj = out.with_name("rows.geojson")
-    write_text_atomic(gj, json.dumps(rows_geojson(rows, frame)) + "\n")
+    gj = out.with_name(f"{out.stem}.rows.geojson")  # named after OUT: never a fixed name beside the user's files
+    write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows")
     job.files.append(gj)
     sorties = split_sorties(plan, flow, tank) if tank > 0 else [plan.legs]
     job.sorties = len(sorties)
