@@ -18,6 +18,7 @@ relief (m above the ground estimated from the DSM itself). The field is cut into
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,8 @@ __all__ = ["Comb", "RowKnots", "Strips", "comb_of", "eval_row", "fit_row", "make
 
 #: a window whose comb explains less of the relief variance than this is not part of a row field
 MIN_WINDOW_R2 = 0.25
+#: a strip whose windows explain less than this share of the relief has no comb phase of its own
+MIN_PHASE_R2 = 0.1
 
 
 @dataclass
@@ -67,6 +70,12 @@ class Comb:
     region: np.ndarray
     w_edges: np.ndarray
     r2_field: float
+    t_centre: np.ndarray
+
+    def shift(self, t: np.ndarray) -> np.ndarray:
+        """The shift all rows share (m across) at positions ``t`` along the rows: ``delta`` between the strip
+        centres, held beyond the first and last."""
+        return np.interp(t, self.t_centre, self.delta)
 
     def in_region(self, k: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Whether lateral positions ``s`` in strips ``k`` lie in the row field or within a spacing of it (the
@@ -116,7 +125,11 @@ def _comb_pass(st: Strips, p: float, skew: np.ndarray) -> Comb:
     have = cnt >= 16
     r2_field = float(np.median(r2[have])) if have.any() else 0.0
     amp = np.where(region, a, 0.0).sum(axis=1)  # each strip's comb from its row windows only
-    good = np.abs(amp) > 0
+    # a strip has a phase of its own where a good part of it shows the comb, even faintly (rows ending inside it);
+    # elsewhere (past the rows' ends, a corner of the grid) its shift is interpolated from its neighbours
+    per_strip = cnt.sum(axis=1)
+    combed = np.where(r2 >= MIN_PHASE_R2, cnt, 0).sum(axis=1)
+    good = (np.abs(amp) > 0) & (combed >= 0.25 * float(np.median(per_strip[per_strip > 0])))
     phase = -np.angle(amp)
     delta = np.zeros(n_k)
     if good.any():
@@ -124,7 +137,7 @@ def _comb_pass(st: Strips, p: float, skew: np.ndarray) -> Comb:
         unwrapped = np.unwrap(phase[ks])
         delta = np.interp(np.arange(n_k), ks, unwrapped) * p / (2 * np.pi)
     skew = np.gradient(delta, st.t_centre) if n_k >= 2 else np.zeros(n_k)
-    return Comb(p, delta, skew, r2, region, edges, r2_field)
+    return Comb(p, delta, skew, r2, region, edges, r2_field, st.t_centre)
 
 
 def _strip_means(st: Strips) -> np.ndarray:
@@ -198,6 +211,8 @@ def row_knots(st: Strips, comb: Comb) -> RowKnots:
         pred = comb.delta[j] + ks * p
         c = np.round((pred - st.s0) / st.bin_m - 0.5).astype(int)
         for r, ci in enumerate(c):
+            if not 0 <= ci < pj.size:
+                continue
             lo, hi = max(ci - reach, 1), min(ci + reach + 1, pj.size - 1)
             seg = pj[lo:hi]
             if seg.size < 3 or not np.isfinite(seg).all():
@@ -294,9 +309,13 @@ def _knot_sigma(t: np.ndarray, s: np.ndarray) -> float:
     return max(0.005, float(1.4826 * np.median(np.abs(r - np.median(r)))) / 1.5)
 
 
-def eval_row(t: np.ndarray, s: np.ndarray, sigma: float, tq: np.ndarray, p: float) -> np.ndarray:
+def eval_row(t: np.ndarray, s: np.ndarray, sigma: float, tq: np.ndarray, p: float,
+             shift: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     """The centre line's lateral offset at ``tq``: a cubic smoothing spline through the knots (smoothing =
-    their noise), refitted without knots beyond 3 sigma; straight on along the end slope beyond the knots."""
+    their noise), refitted without knots beyond 3 sigma. Beyond the knots (a row ending inside a strip, whose
+    contrast there is diluted by the bare ground past its end) the line follows ``shift`` (the comb's shared
+    shift, :meth:`Comb.shift`) from the last fitted knot: the curvature all rows share, measured on the whole
+    field; without ``shift``, straight on along the end slope."""
     from scipy.interpolate import UnivariateSpline
 
     o = np.argsort(t)
@@ -312,9 +331,12 @@ def eval_row(t: np.ndarray, s: np.ndarray, sigma: float, tq: np.ndarray, p: floa
     if 4 <= ok.sum() < t.size:
         t, s = t[ok], s[ok]
         spl = UnivariateSpline(t, s, k=3, s=t.size * sigma ** 2)
-    fitted = spl(t)  # beyond the knots (less than a strip): the parabola through the last three fitted knots
     out = spl(np.clip(tq, t[0], t[-1]))
-    for sel, end in ((tq < t[0], slice(0, 3)), (tq > t[-1], slice(-3, None))):
+    for sel, end in ((tq < t[0], t[0]), (tq > t[-1], t[-1])):
         if sel.any():
-            out[sel] = np.polyval(np.polyfit(t[end], fitted[end], 2), tq[sel])
+            e = np.array([end])
+            if shift is not None:
+                out[sel] = float(spl(e)[0]) + shift(tq[sel]) - float(shift(e)[0])
+            else:
+                out[sel] = float(spl(e)[0]) + float(spl.derivative()(e)[0]) * (tq[sel] - end)
     return out

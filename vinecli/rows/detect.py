@@ -261,15 +261,16 @@ def _fit_rows(kn: RowKnots, comb: Comb, st: Any, to_xy: Any, relief: np.ndarray,
         if js.size < 2:
             continue
         for run in np.split(js, np.flatnonzero(np.diff(js) > gap_strips + 1) + 1):
-            f = _fit_run(kn, r, run, st, to_xy, relief, x, y, p, thr, min_len, step)
+            f = _fit_run(kn, r, run, st, comb, to_xy, relief, x, y, thr, min_len, step)
             if f is not None:
                 out.append(f)
     return out
 
 
-def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, to_xy: Any, relief: np.ndarray, x: np.ndarray,
-             y: np.ndarray, p: float, thr: float, min_len: float, step: float) -> _Found | None:
+def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, comb: Comb, to_xy: Any, relief: np.ndarray,
+             x: np.ndarray, y: np.ndarray, thr: float, min_len: float, step: float) -> _Found | None:
     """One stretch of a row: robust centre line, ends trimmed to the canopy, support and confidence."""
+    p = comb.spacing
     if run.size < 2:
         return None
     tk, sk = kn.t[r, run], kn.s[r, run]
@@ -280,7 +281,7 @@ def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, to_xy: Any, relief:
     tk, sk = tk[keep], sk[keep]
     t0, t1 = float(st.t_centre[run[0]] - st.length), float(st.t_centre[run[-1]] + st.length)
     tl = np.arange(t0, t1 + step / 2, step)
-    sl = eval_row(tk, sk, sigma, tl, p)
+    sl = eval_row(tk, sk, sigma, tl, p, comb.shift)
     trimmed = _trim_ends(tl, sl, to_xy, relief, x, y, p)
     if trimmed is None or trimmed[0][-1] - trimmed[0][0] < min_len:
         return None
