@@ -8,13 +8,15 @@ a raster without CRS but with a given origin) is the topocentric ENU frame of it
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from vinecli.geo import GeoOrigin
-from vinecli.rows.source import RowFrame
+from vinecli.rows.source import RowFrame, terrain_frame
 
-__all__ = ["Georef"]
+__all__ = ["Georef", "world_georef", "world_dir_georef"]
 
 Points = list[tuple[float, float]]
 
@@ -82,3 +84,17 @@ class Georef:
     def from_lonlat(self, pts: Points) -> Points:
         """WGS84 (lon, lat) degrees -> local metres."""
         return self.from_crs(pts, "EPSG:4326")
+
+
+def world_georef(terrain: dict[str, Any], terrain_dir: Path, origin: GeoOrigin) -> Georef:
+    """The georeference of a world: its terrain's CRS frame (world.json ``terrain`` and the terrain directory;
+    a world built from a DSM with a CRS), else the topocentric frame of its geodetic ``origin``."""
+    frame = terrain_frame(terrain, terrain_dir)
+    return Georef(frame if frame is not None and frame.crs is not None else None, origin)
+
+
+def world_dir_georef(world_dir: Path | str) -> Georef:
+    """:func:`world_georef` of a built world directory."""
+    root = Path(world_dir)
+    doc = json.loads((root / "world.json").read_text(encoding="utf-8"))
+    return world_georef(doc["terrain"], root / "terrain", GeoOrigin.from_dict(doc["origin"]))

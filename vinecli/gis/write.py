@@ -12,17 +12,18 @@ from typing import Any
 from vinecli.gis.georef import Georef
 from vinecli.outputs import write_text_atomic
 
-__all__ = ["LocalFeature", "feature_collection", "rows_features", "write_features"]
+__all__ = ["LocalFeature", "feature_collection", "rows_features", "write_features", "write_layers"]
 
 
 @dataclass
 class LocalFeature:
     """One feature in local metres: ``kind`` "LineString" | "Polygon" | "Point", ``coords`` [(x, y)] (a polygon's
-    exterior ring, not closed), ``properties``."""
+    exterior ring, not closed), ``properties``, a polygon's ``holes`` (rings, not closed)."""
 
     kind: str
     coords: list[tuple[float, float]]
     properties: dict[str, Any] = field(default_factory=dict)
+    holes: list[list[tuple[float, float]]] = field(default_factory=list)
 
 
 def rows_features(rows: list[list[tuple[float, float]]]) -> list[LocalFeature]:
@@ -33,10 +34,15 @@ def rows_features(rows: list[list[tuple[float, float]]]) -> list[LocalFeature]:
             for i, r in enumerate(rows)]
 
 
+def _lonlat(coords: list[tuple[float, float]], georef: Georef) -> list[list[float]]:
+    return [[round(lon, 9), round(lat, 9)] for lon, lat in georef.to_lonlat(coords)]
+
+
 def _geometry(f: LocalFeature, georef: Georef) -> dict[str, Any]:
-    ll = [[round(lon, 9), round(lat, 9)] for lon, lat in georef.to_lonlat(f.coords)]
+    ll = _lonlat(f.coords, georef)
     if f.kind == "Polygon":
-        return {"type": "Polygon", "coordinates": [ll + [ll[0]]]}
+        rings = [ll, *(_lonlat(h, georef) for h in f.holes)]
+        return {"type": "Polygon", "coordinates": [r + [r[0]] for r in rings]}
     if f.kind == "Point":
         return {"type": "Point", "coordinates": ll[0]}
     return {"type": "LineString", "coordinates": ll}
@@ -64,6 +70,31 @@ def write_features(path: Path | str, features: list[LocalFeature], georef: Geore
     return path
 
 
+def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef: Georef) -> Path:
+    """Write several layers to ``path``: ``.gpkg`` one GeoPackage layer each (EPSG:4326; empty layers left out),
+    ``.geojson``/``.json`` one RFC 7946 FeatureCollection whose features carry their layer name in the
+    ``layer`` property (GeoJSON has no layers; QGIS splits it by geometry type and filters by property).
+    Atomically: a temporary file, then rename."""
+    import os
+
+    path = Path(path)
+    if path.suffix.lower() != ".gpkg":
+        feats = [LocalFeature(f.kind, f.coords, {"layer": name, **f.properties}, f.holes)
+                 for name, fs in layers.items() for f in fs]
+        write_text_atomic(path, json.dumps(feature_collection(feats, georef, path.stem)) + "\n")
+        return path
+    tmp = path.with_name(f".{path.name}.tmp.gpkg")
+    tmp.unlink(missing_ok=True)
+    try:
+        for name, fs in layers.items():
+            if fs:
+                _write_gpkg_layer(tmp, feature_collection(fs, georef, name), name)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
 def _column(values: list[Any]) -> Any:
     """A field's values as a typed array: integers, floats, else strings."""
     import numpy as np
@@ -78,6 +109,14 @@ def _column(values: list[Any]) -> Any:
 def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
     import os
 
+    tmp = path.with_name(f".{path.name}.tmp.gpkg")
+    tmp.unlink(missing_ok=True)
+    _write_gpkg_layer(tmp, fc, layer)
+    os.replace(tmp, path)
+
+
+def _write_gpkg_layer(path: Path, fc: dict[str, Any], layer: str) -> None:
+    """Add ``fc`` as layer ``layer`` (EPSG:4326) to the GeoPackage ``path`` (created when absent)."""
     import numpy as np
     import pyogrio.raw
     from shapely.geometry import shape
@@ -87,8 +126,5 @@ def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
     geoms = np.array([shape(f["geometry"]).wkb for f in feats], dtype=object)
     cols = [_column([f["properties"].get(k) for f in feats]) for k in names]
     kinds = {f["geometry"]["type"] for f in feats}
-    tmp = path.with_name(f".{path.name}.tmp.gpkg")
-    tmp.unlink(missing_ok=True)
-    pyogrio.raw.write(tmp, geoms, cols, names, driver="GPKG", layer=layer, crs="EPSG:4326",
-                  geometry_type=kinds.pop() if len(kinds) == 1 else "Unknown")
-    os.replace(tmp, path)
+    pyogrio.raw.write(path, geoms, cols, names, driver="GPKG", layer=layer, crs="EPSG:4326",
+                      geometry_type=kinds.pop() if len(kinds) == 1 else "Unknown", append=path.exists())
