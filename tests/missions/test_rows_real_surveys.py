@@ -18,6 +18,8 @@ from vinecli.rows.source import detect_rows_in_dsm
 SURVEYS = {
     "fieldimager-potato-dsm1": (REPO / "worlds" / "sample" / "fieldimager_potato_plots_dsm_3cm_utm16n.tif",
                                 TEST_DATA / "rows_truth_fieldimager_dsm1.geojson", (16, 0.05, 0.15)),
+    "fieldimager-potato-bare-dsm0": (TEST_DATA / "fieldimager_potato_bare_dsm0_3cm_utm16n.tif",
+                                     TEST_DATA / "rows_truth_fieldimager_dsm0.geojson", (16, 0.05, 0.15)),
 }
 
 

@@ -214,6 +214,7 @@ def detect_rows_grid(
     min_len = min_length_m if min_length_m is not None else max(3 * p, 2 * st.length)
     found = _fit_rows(kn, comb, st, to_xy, relief, x, y, max(1, int(math.floor(max_gap_m / st.length))),
                       min_prominence, min_len, max(cell, 0.05))
+    found = _rows_of_the_field(found)
     if not found:
         raise NoRowsError(f"no row found: {ev.describe()}", ev)
     order_sign = 1.0 if n[0] + n[1] >= 0 else -1.0  # number rows from west / south
@@ -243,6 +244,23 @@ class _Found:
     confidence: float
     t: np.ndarray
     s: np.ndarray
+    contrast: float = 0.0  # median relief of the row over the ground beside it, m
+
+
+#: a ridge with less than this share of the field's median row contrast is not one of its rows (a guard ridge,
+#: a wheel track, the ridges of a bare neighbouring plot), README "Rows and spray plans"
+MIN_ROW_CONTRAST = 0.5
+
+
+def _rows_of_the_field(found: list[_Found]) -> list[_Found]:
+    """The rows whose contrast is at least :data:`MIN_ROW_CONTRAST` x the length-weighted median contrast of all."""
+    if len(found) < 3:
+        return found
+    c = np.array([f.contrast for f in found])
+    w = np.array([float(f.t[-1] - f.t[0]) for f in found])
+    o = np.argsort(c)
+    med = float(c[o][np.searchsorted(np.cumsum(w[o]), 0.5 * w.sum())])
+    return [f for f in found if f.contrast >= MIN_ROW_CONTRAST * med]
 
 
 def _fit_rows(kn: RowKnots, comb: Comb, st: Any, to_xy: Any, relief: np.ndarray, x: np.ndarray, y: np.ndarray,
@@ -293,7 +311,7 @@ def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, comb: Comb, to_xy: 
     support = float(keep.sum()) / span
     contrast = float(np.median(kn.contrast[r, run][keep]))
     conf = support * min(1.0, contrast / (2 * thr)) * max(0.0, 1.0 - sigma / (p / 4))
-    return _Found(line, float(np.mean(sl)), support, conf, tl, sl)
+    return _Found(line, float(np.mean(sl)), support, conf, tl, sl, contrast)
 
 
 def _mean_direction(rows: list[Polyline]) -> float:
