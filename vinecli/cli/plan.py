@@ -75,7 +75,7 @@ def import_cmd(
 
     Example: vinecli plan import survey.plan --world build/vineyard --out missions/survey.yaml
     """
-    from vinecli.missions.qgc_plan import import_plan_for_world
+    from vinecli.missions.qgc_import import import_plan_for_world
 
     mission = import_plan_for_world(plan, world, out, spray_flow_lps=spray_flow, name=name)
     out_console.print(f"{out}: {len(mission.phases)} phases"

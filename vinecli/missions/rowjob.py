@@ -59,7 +59,8 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
     rows are flown, only the headland turns are kept over the surveyed ground)."""
     from vinecli.missions.patterns import spray_mission
-    from vinecli.missions.qgc_plan import export_plan, vehicle_nozzle_flow_lps, write_plan
+    from vinecli.missions.qgc_export import export_plan
+    from vinecli.missions.qgc_format import vehicle_nozzle_flow_lps, write_plan
     from vinecli.missions.qgc_spray import sortie_plan
     from vinecli.names import name_from
     from vinecli.vehicle import load_vehicle
