@@ -10,7 +10,9 @@ import pytest
 
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
-from vinecli.missions.qgc_plan import export_plan, import_plan, write_plan
+from vinecli.missions.qgc_export import export_plan
+from vinecli.missions.qgc_format import write_plan
+from vinecli.missions.qgc_import import import_plan
 from vinecli.specs.mission import (
     GotoPhase,
     HoldPhase,

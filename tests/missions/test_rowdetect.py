@@ -139,9 +139,43 @@ def test_shared_crop_row_dsms_present_or_skipped() -> None:
 
 
 @pytest.mark.parametrize("tif", NO_ROW_DSMS, ids=lambda p: p.name)
-def test_dsms_without_crop_rows_have_low_confidence(tif: Path) -> None:
-    d = detect_rows_in_dsm(tif).detection
-    assert d.confidence < 0.5
+def test_dsms_without_crop_rows_are_refused_with_the_evidence(tif: Path) -> None:
+    """Woodland, buildings, fields (AHN LiDAR DSM) and a plain DEM (lidR DTM): exit-2 error naming the file, the
+    best periodic pattern and why it is not rows (the comb explains a few % of the relief; rows: >= 30 %)."""
+    from vinecli.rows.detect import NoRowsError
+
+    with pytest.raises(NoRowsError, match="no row pattern") as exc:
+        detect_rows_in_dsm(tif)
+    ev = exc.value.evidence
+    assert ev is not None and ev.r2_field < 0.1 and ev.row_area_fraction < 0.05
+    assert exc.value.exit_code == 2 and tif.name in str(exc.value)
+
+
+def test_flat_field_is_refused() -> None:
+    """A flat, noisy field (grass): no spectral peak above the noise, nothing invented."""
+    from vinecli.rows.detect import NoRowsError
+
+    f = Field(canopy_m=0.0, noise_m=0.05)
+    with pytest.raises(NoRowsError, match="no row pattern"):
+        detect_rows_grid(*f.heights())
+
+
+def test_only_part_of_the_field_has_rows() -> None:
+    """Rows over the west half, woodland over the east half (random crowns ~5 m across, 5 m height spread): the
+    rows are found where they are, none in the woodland."""
+    f = Field(width_m=60.0, height_m=40.0, direction_deg=90.0, spacing_m=2.5, n_rows=10, offset_m=15.0,
+              t_range=(-18.0, 18.0))
+    z, x, y = f.heights()
+    rng = np.random.default_rng(3)
+    X, _ = np.meshgrid(x, y)
+    from scipy.ndimage import gaussian_filter
+
+    wood = gaussian_filter(rng.normal(0.0, 1.0, z.shape), 20.0)
+    z = z + np.where(X > 5.0, 5.0 * wood / wood.std(), 0.0)
+    d = detect_rows_grid(z, x, y)
+    assert len(d.rows) == f.n_rows
+    assert max(max(p[0] for p in r) for r in d.rows) < 5.0
+    assert max(e for _, e, _ in match_rows(d.rows, f.truth())) <= 0.10
 
 
 def test_geographic_dem_too_coarse_for_rows() -> None:
@@ -158,7 +192,8 @@ def test_detection_is_deterministic() -> None:
 
 
 def test_plan_rows_cli_on_the_unseen_drone_dsm(tmp_path: Path) -> None:
-    """`plan rows DSM`: every row planned (edge rows too), rows.geojson beside the plan in the DSM's CRS, one
+    """`plan rows DSM`: every row planned (edge rows too), rows.rows.geojson (named after the plan) beside it in
+    RFC 7946 WGS84 longitude/latitude (no ``crs`` member), no fixed-name side file, one
     .plan per sortie, count / spacing / orientation / confidence printed."""
     import json
 
@@ -174,13 +209,19 @@ def test_plan_rows_cli_on_the_unseen_drone_dsm(tmp_path: Path) -> None:
     r = CliRunner().invoke(app, ["plan", "rows", str(tmp_path / "drone.tif"), "--out", str(out), "--speed", "1.0",
                                  "--tank", "0.5"])
     assert r.exit_code == 0, r.output
-    assert "8 rows, spacing 0.750 m, direction 0.0 deg from east" in r.output and "confidence 1.00" in r.output
+    assert "8 rows, spacing 0.750 m, direction 0.0 deg from east" in r.output
+    assert float(r.output.split("confidence ")[1][:4]) >= 0.9
     assert "plan: 8 rows from row 0" in r.output
-    gj = json.loads((out.parent / "rows.geojson").read_text())
-    assert gj["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::32633"
+    assert not (out.parent / "rows.geojson").exists()
+    gj = json.loads((out.parent / "rows.rows.geojson").read_text())
+    assert "crs" not in gj
     assert [ft["properties"]["index"] for ft in gj["features"]] == list(range(8))
+    from pyproj import Transformer
+
+    to_utm = Transformer.from_crs("EPSG:4326", "EPSG:32633", always_xy=True)
     for ft in gj["features"]:
-        xs = [c[0] - cx for c in ft["geometry"]["coordinates"]]
+        assert all(12.0 < lon < 16.0 and 40.0 < lat < 50.0 for lon, lat in ft["geometry"]["coordinates"])
+        xs = [to_utm.transform(*c)[0] - cx for c in ft["geometry"]["coordinates"]]
         assert ft["properties"]["length_m"] >= 8.5 and min(xs) < -4.0 and max(xs) > 4.0
     sorties = sorted(out.parent.glob("rows.sortie-*.plan"))
     assert len(sorties) >= 2

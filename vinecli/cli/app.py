@@ -1,6 +1,7 @@
 """Root Typer application: global flags and the command groups.
 
-Groups: ``terrain``, ``world``, ``run``, ``plan``, ``px4``, ``vehicle``; ``report`` is a top-level command.
+Groups: ``terrain``, ``world``, ``run``, ``plan``, ``px4``, ``vehicle``, ``gis``; ``report`` is a top-level
+command. Library imports live inside command bodies so ``vinecli --help`` stays fast.
 Library imports live inside command bodies so ``vinecli --help`` stays fast.
 """
 
@@ -11,7 +12,7 @@ from typing import Annotated
 import typer
 
 from vinecli import __version__
-from vinecli.cli import plan, px4, report, run, terrain, vehicle, world
+from vinecli.cli import gis, plan, px4, report, run, terrain, vehicle, world
 from vinecli.cli.console import setup_logging
 
 app = typer.Typer(
@@ -27,6 +28,7 @@ app.add_typer(run.app, name="run")
 app.add_typer(plan.app, name="plan")
 app.add_typer(px4.app, name="px4")
 app.add_typer(vehicle.app, name="vehicle")
+app.add_typer(gis.app, name="gis")
 app.add_typer(report.app)
 
 

@@ -19,7 +19,7 @@ app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> miss
 @handles_errors
 def rows_cmd(
     source: Annotated[Path, typer.Argument(help="A DSM GeoTIFF or a built world directory.")],
-    out: Annotated[Path, out_option("The .plan file to write (rows.geojson goes beside it).")],
+    out: Annotated[Path, out_option("The .plan file to write (OUT-stem.rows.geojson, WGS84, goes beside it).")],
     spacing: Annotated[float | None, typer.Option("--spacing", help="Expected row spacing, m (default: search 0.5-6 m).")] = None,
     height: Annotated[float, typer.Option("--height", help="Spray height above the canopy surface, m.")
                       ] = SPRAY_DEFAULTS.height_m,
@@ -78,7 +78,7 @@ def import_cmd(
 
     Example: vinecli plan import survey.plan --world build/vineyard --out missions/survey.yaml
     """
-    from vinecli.missions.qgc_plan import import_plan_for_world
+    from vinecli.missions.qgc_import import import_plan_for_world
 
     mission = import_plan_for_world(plan, world, out, spray_flow_lps=spray_flow, name=name, overwrite=overwrite)
     out_console.print(escape(f"{out}: {len(mission.phases)} phases"

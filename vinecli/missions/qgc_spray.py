@@ -17,7 +17,8 @@ def sortie_plan(legs: Sequence[Leg], origin: GeoOrigin, home_enu: tuple[float, f
                 surface: Callable[[float, float], float] | None = None,
                 fence_enu: Sequence[tuple[float, float]] | None = None) -> dict[str, Any]:
     """One sortie as a ``.plan``: take-off at home, transit to the first row, the legs, return to launch."""
-    from vinecli.missions.qgc_plan import (
+    from vinecli.missions.qgc_export import PlanItems, plan_document
+    from vinecli.missions.qgc_format import (
         DO_CHANGE_SPEED,
         DO_SET_ACTUATOR,
         FRAME_GLOBAL_RELATIVE_ALT,
@@ -25,8 +26,6 @@ def sortie_plan(legs: Sequence[Leg], origin: GeoOrigin, home_enu: tuple[float, f
         NAV_RTL,
         NAV_TAKEOFF,
         NAV_WAYPOINT,
-        PlanItems,
-        plan_document,
     )
 
     built = PlanItems(origin)

@@ -1,8 +1,8 @@
 """``vinecli plan rows``: rows of a DSM or a built world -> spray plan files (library side of the command).
 
 Writes ``OUT`` (the whole field as one QGroundControl ``.plan``: take-off, the operator plan of
-:func:`~vinecli.rows.plan.plan_rows`, land), ``rows.geojson`` beside it (one LineString per row in
-the source's CRS, or local metres x east / y north without one; properties ``index``, ``length_m``), and
+:func:`~vinecli.rows.plan.plan_rows`, land), ``OUT-stem.rows.geojson`` beside it (RFC 7946: one LineString
+per row in WGS84 longitude/latitude, through the source's CRS; properties ``index``, ``length_m``), and
 when the rows need more than one tank ``OUT-stem.sortie-N.plan`` (take-off, that sortie's rows, RTL).
 
 Sources: a DSM GeoTIFF (rows detected on it; frame: local metres along the CRS axes about the raster
@@ -13,18 +13,19 @@ the detector on the world's height grid; fence: the world's geofence, else its t
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from vinecli.errors import InputError
+from vinecli.gis.georef import Georef
+from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
-from vinecli.outputs import check_output_file, write_text_atomic
+from vinecli.outputs import check_output_file
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
-from vinecli.rows.source import RowFrame, rows_geojson
+from vinecli.rows.source import RowFrame
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
 from vinecli.spray_defaults import SPRAY_DEFAULTS
 
@@ -73,8 +74,9 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
 
 
 def _geojson_path(out: Path) -> Path:
-    """The rows' GeoJSON written beside the plan ``out``."""
-    return out.with_name("rows.geojson")
+    """The rows' GeoJSON written beside the plan ``out``, named after it (never a fixed name beside the user's
+    files)."""
+    return out.with_name(f"{out.stem}.rows.geojson")
 
 
 def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: float, speed: float, flow: float,
@@ -82,7 +84,8 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
                    fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
                    overwrite: bool) -> RowsJob:
     from vinecli.missions.patterns import spray_mission
-    from vinecli.missions.qgc_plan import export_plan, vehicle_nozzle_flow_lps, write_plan
+    from vinecli.missions.qgc_export import export_plan
+    from vinecli.missions.qgc_format import vehicle_nozzle_flow_lps, write_plan
     from vinecli.missions.qgc_spray import sortie_plan
     from vinecli.names import name_from
     from vinecli.vehicle import load_vehicle
@@ -168,7 +171,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
-    write_text_atomic(gj, json.dumps(rows_geojson(rows, frame)) + "\n")
+    write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows")
     for p, legs in zip(sortie_files, sorties, strict=True):
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
                                   nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))

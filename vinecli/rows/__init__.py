@@ -1,7 +1,7 @@
 """Vine rows: detection on a DSM or height grid, the spray plan over them, and spray rates.
 
 * :mod:`vinecli.rows.detect` - THE row detector (``detect_rows_grid``), row spacing.
-* :mod:`vinecli.rows.spectrum`, :mod:`vinecli.rows.track` - its direction/spacing spectrum and row tracking.
+* :mod:`vinecli.rows.spectrum`, :mod:`vinecli.rows.comb` - its direction/spacing spectrum and the comb model.
 * :mod:`vinecli.rows.source` - rows from a DSM (with the CRS frame) or a world's height grid; GeoJSON.
 * :mod:`vinecli.rows.plan` - THE spray plan (legs, turns, sorties).
 * :mod:`vinecli.rows.spray_rate` - flow for an application rate (L/ha) over a track width.

@@ -1,22 +1,22 @@
 """Crop/vine row detection on a regular height grid (local metres: x east, y north; heights m).
 
 The one row detector of vinecli (``world build`` with ``rows: auto``, ``plan rows`` and the run-time
-detection all call :func:`detect_rows_grid`). Deterministic; steps:
+detection all call :func:`detect_rows_grid`). It fits a model of the whole row pattern, not rows one by one:
 
-1. dominant row direction and spacing from the 2-D spectrum of the plane-detrended heights
-   (:mod:`~vinecli.rows.spectrum`);
-2. canopy relief = heights minus a NaN-aware Gaussian background (sigma = one spacing): slopes and
-   terrain undulations drop out, rows stand out;
-3. the field is cut into strips along the rows (about 1.5 spacings long); each strip's mean relief
-   profile across the rows gives row peaks (:func:`scipy.signal.find_peaks`, prominence at least
-   ``min_prominence`` x the field's 90th percentile), each placed where along the strip its relief is;
-4. peaks are linked strip to strip into rows along the local row slope (first from each strip's
-   gradient structure tensor, then from the rows found), within 0.3 spacing, canopy gaps up to
-   ``max_gap_m`` bridged; later passes de-skew every strip by that slope so curved rows stay sharp
-   (:mod:`~vinecli.rows.track`);
-5. each row's centre line is a cubic spline through its peaks, extended straight on and trimmed to
-   where the canopy ends (relief at least half the row's median, data on both sides of the line), an
-   end beyond the last strip peak located from the cells there, simplified to 2 cm (Douglas-Peucker).
+1. direction and spacing: the peak of the 2-D spectrum of the plane-detrended heights in the spacing band,
+   refined by the sharpest lateral profile (:mod:`~vinecli.rows.spectrum`);
+2. canopy relief (a canopy height model without a DTM): heights minus a NaN-aware Gaussian estimate of the
+   ground one spacing wide, so slopes and undulations drop out and young vines, hills and hedges stand out;
+3. the comb: rows at ``s = delta(t) + k x spacing`` across the rows, its phase and explained variance
+   measured strip by strip and window by window (:mod:`~vinecli.rows.comb`); the windows where it explains
+   the relief are the row field (a DSM that is only partly a vineyard), its unwrapped phase along the rows
+   the shift all rows share (gentle common curvature);
+4. refusal: no clear spectral peak, a comb explaining too little of the relief, or too small a row field
+   -> :class:`NoRowsError` with that evidence (flat fields, woodland, buildings, plain DEMs);
+5. each row: its own centre in every strip (the profile peak within a third of a spacing of the comb's
+   prediction), a robust fit through them (RANSAC, then a smoothing spline at the knots' own noise),
+   stretches without canopy over ``max_gap_m`` split, ends trimmed to where the canopy ends, simplified to
+   2 cm; a confidence per row (support x contrast x fit).
 
 Directions are angles in degrees from east (x), counter-clockwise, folded to [0, 180) (the rows' mean
 direction); every row polyline runs along it; rows are numbered from west (rows running north-south)
@@ -25,29 +25,23 @@ or from south (rows running east-west).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from vinecli.errors import TerrainError
+from vinecli.rows.comb import Comb, RowKnots, comb_of, eval_row, fit_row, make_strips, row_knots
 from vinecli.rows.geometry import polyline_length
-from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, gradients, relief_of
-from vinecli.rows.track import (
-    Strips,
-    chain_skew,
-    make_strips,
-    strip_peaks,
-    strip_profiles,
-    tensor_skew,
-    track_peaks,
-)
+from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, relief_of
 
 Polyline = list[tuple[float, float]]
 
-__all__ = ["Polyline", "RowDetection", "detect_rows_grid"]
+__all__ = ["NoRowsError", "Polyline", "RowDetection", "RowEvidence", "detect_rows_grid"]
 
 
 @dataclass
@@ -62,6 +56,8 @@ class RowDetection:
     strength: float = 0.0
     confidence: float = 0.0
     support: list[float] = field(default_factory=list)  # per row: fraction of its strips where it was seen
+    row_confidence: list[float] = field(default_factory=list)  # per row, 0-1: support x contrast x fit
+    evidence: RowEvidence | None = None
 
     @property
     def lengths_m(self) -> list[float]:
@@ -82,79 +78,9 @@ class RowDetection:
         return {"count": len(self.rows), "direction_deg": self.direction_deg, "spacing_m": self.spacing_m,
                 "strength": self.strength, "confidence": self.confidence,
                 "lengths_m": [round(v, 3) for v in self.lengths_m], "support": self.support,
+                "row_confidence": self.row_confidence,
+                "evidence": dataclasses.asdict(self.evidence) if self.evidence is not None else None,
                 "rows_enu": [[list(p) for p in r] for r in self.rows]}
-
-
-# ---------------------------------------------------------------- rows as polylines
-def _line(t: np.ndarray, s: np.ndarray, extend: float, step: float) -> tuple[np.ndarray, np.ndarray]:
-    """(t, s) every ``step`` m through knots (t, s): a cubic spline, extended ``extend`` m at both ends
-    straight on along the end slope of a quadratic fit of the last five knots (trimmed later)."""
-    from scipy.interpolate import CubicSpline
-
-    order = np.argsort(t)
-    t, s = t[order], s[order]
-    keep = np.concatenate([[True], np.diff(t) > 1e-6])
-    t, s = t[keep], s[keep]
-    tt = np.arange(t[0] - extend, t[-1] + extend + step / 2, step)
-    if s.size >= 4:
-        cs = CubicSpline(t, s)
-        inner = np.clip(tt, t[0], t[-1])
-        deg = 2 if s.size >= 5 else 1
-        g0 = np.polyval(np.polyder(np.polyfit(t[:5], s[:5], deg)), t[0])
-        g1 = np.polyval(np.polyder(np.polyfit(t[-5:], s[-5:], deg)), t[-1])
-        return tt, cs(inner) + np.where(tt < t[0], g0, g1) * (tt - inner)
-    g = np.polyfit(t, s, 1) if s.size >= 2 else np.array([0.0, s[0]])  # two or three knots: a straight line
-    return tt, np.polyval(g, tt)
-
-
-@dataclass
-class _Cells:
-    """Field cells sorted along the rows: ``t`` (m, ascending), ``s`` (m), relief ``h`` (m)."""
-
-    t: np.ndarray
-    s: np.ndarray
-    h: np.ndarray
-
-
-def _end_knot(cells: _Cells, tl: np.ndarray, sl: np.ndarray, t0: float, t1: float, spacing: float
-              ) -> tuple[float, float] | None:
-    """A knot for a row end beyond the last strip peak: relief-weighted centroid of the cells within
-    ``[t0, t1]`` and half a spacing of the line (tl, sl)."""
-    i0, i1 = np.searchsorted(cells.t, [min(t0, t1), max(t0, t1)])
-    t, s, h = cells.t[i0:i1], cells.s[i0:i1], cells.h[i0:i1]
-    if t.size == 0:
-        return None
-    d = s - np.interp(t, tl, sl)
-    w = np.where(np.abs(d) < spacing / 2, np.maximum(h, 0.0), 0.0) ** 2
-    if w.sum() <= 0:
-        return None
-    tm = float((w * t).sum() / w.sum())
-    return tm, float(np.interp(tm, tl, sl) + (w * d).sum() / w.sum())
-
-
-def _row_line(c: list[tuple[int, float, float]], cells: _Cells, st: Strips, to_xy: Any, relief: np.ndarray,
-              x: np.ndarray, y: np.ndarray, spacing: float, step: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """Centre line (t, s) of a chain of strip peaks, ends where the row ends; an end more than a quarter
-    strip beyond the last peak gets one more knot from the cells there (partial strips at the row ends)."""
-    kt = np.array([q[1] for q in c])
-    ks = np.array([q[2] for q in c])
-    tl, sl = _line(kt, ks, st.length, step)
-    trimmed = _trim_ends(tl, sl, to_xy, relief, x, y, spacing)
-    if trimmed is None:
-        return None
-    ta, tb = float(trimmed[0][0]), float(trimmed[0][-1])
-    extra = []
-    if kt.min() - ta > st.length / 4:
-        extra.append(_end_knot(cells, tl, sl, ta, kt.min() - st.length / 4, spacing))
-    if tb - kt.max() > st.length / 4:
-        extra.append(_end_knot(cells, tl, sl, kt.max() + st.length / 4, tb, spacing))
-    extra = [e for e in extra if e is not None]
-    if extra:
-        kt = np.concatenate([kt, [e[0] for e in extra]])
-        ks = np.concatenate([ks, [e[1] for e in extra]])
-        tl, sl = _line(kt, ks, st.length, step)
-    keep = (tl >= ta - step / 2) & (tl <= tb + step / 2)
-    return tl[keep], sl[keep]
 
 
 def _trim_ends(t: np.ndarray, s: np.ndarray, to_xy: Any, relief: np.ndarray, x: np.ndarray, y: np.ndarray,
@@ -198,6 +124,42 @@ def _simplify(pts: np.ndarray, tol: float) -> np.ndarray:
     return np.asarray(LineString(pts).simplify(tol, preserve_topology=False).coords)
 
 
+@dataclass
+class RowEvidence:
+    """What the detector measured about the row pattern, whether or not it found rows: the spectral peak
+    (``strength``: its power over the median power of all directions at its wavelength), the share of the relief variance the
+    comb explains (median over the field's windows, ``r2_field``; over the row field alone, ``r2_rows``), the
+    share of the field's windows that form the row field (``row_area_fraction``)."""
+
+    spacing_m: float
+    direction_deg: float
+    strength: float
+    r2_field: float
+    r2_rows: float
+    row_area_fraction: float
+
+    def describe(self) -> str:
+        """The evidence in one phrase."""
+        return (f"best periodic pattern {self.spacing_m:.2f} m at {self.direction_deg:.0f} deg from east: spectral "
+                f"peak {self.strength:.0f}x the median power at its wavelength (rows: >= {MIN_STRENGTH:.0f}x), the comb explains "
+                f"{100 * self.r2_field:.0f} % of the relief variance (rows: >= {100 * MIN_R2:.0f} %), "
+                f"{100 * self.row_area_fraction:.0f} % of the area row-like")
+
+
+#: refusal thresholds (calibrated on the real surveys and the no-row rasters, README "Rows and spray plans")
+MIN_STRENGTH = 100.0
+MIN_R2 = 0.3
+MIN_ROW_AREA = 0.05
+
+
+class NoRowsError(TerrainError):
+    """The height grid shows no row pattern (exit 2); ``evidence`` says what was measured."""
+
+    def __init__(self, message: str, evidence: RowEvidence | None = None, *, path: str | Path | None = None) -> None:
+        super().__init__(message, path=path)
+        self.evidence = evidence
+
+
 def detect_rows_grid(
     z: np.ndarray,
     x: np.ndarray,
@@ -214,10 +176,10 @@ def detect_rows_grid(
     """Detect rows in a regular height grid ``z[j, i]`` at ``x[i]``, ``y[j]`` (m, uniform; NaN = no data).
 
     ``spacing_m`` fixes the expected spacing (searched within ±25 %). Rows shorter than ``min_length_m``
-    (default: 3 spacings or two strips) are dropped; gaps in a row up to ``max_gap_m`` are bridged. Grids
-    larger than ``max_cells`` are block-averaged first. ``confidence`` = support (length-weighted fraction
-    of strips where each row was seen) x regularity (1 - 2 x mean deviation of neighbour distances from a
-    whole number of spacings) x min(1, log10(strength) / 4) (clear rows: strength > 10^4).
+    (default: 3 spacings or two strips) are dropped; a row with no canopy over more than ``max_gap_m`` is two
+    rows. A row is seen in a strip where its contrast (peak over the inter-row ground) is at least
+    ``min_prominence`` x the field's 90th percentile. Grids larger than ``max_cells`` are block-averaged first.
+    Raises :class:`NoRowsError` (with the evidence) on land without a row pattern.
     """
     z = np.asarray(z, dtype=float)
     x = np.asarray(x, dtype=float)
@@ -227,74 +189,150 @@ def detect_rows_grid(
     z, x, y = decimate(z, x, y, max_cells)
     zz, valid = fill_and_detrend(z)
     lo, hi = (spacing_m * 0.75, spacing_m * 1.25) if spacing_m else (min_spacing_m, max_spacing_m)
-    nvec, spacing, strength = direction_and_spacing(zz, valid, x, y, lo, hi)
+    nvec, p, strength = direction_and_spacing(zz, valid, x, y, lo, hi)
     cell = min(abs(float(x[1] - x[0])), abs(float(y[1] - y[0])))
-    relief = relief_of(np.where(valid, z, np.nan), valid, spacing / cell)
-    gx, gy, gmask = gradients(relief, valid, spacing / 6 / cell)
+    relief = relief_of(np.where(valid, z, np.nan), valid, p / cell)
     u = np.array([-nvec[1], nvec[0]])
     if math.atan2(u[1], u[0]) < -1e-9 or math.atan2(u[1], u[0]) >= math.pi - 1e-9:
         u = -u
     n = np.array([-u[1], u[0]])  # left normal of u
     direction = math.degrees(math.atan2(u[1], u[0])) % 180.0
     X, Y = np.meshgrid(x, y)
-    h = relief[valid]
-    s = X[valid] * n[0] + Y[valid] * n[1]
-    t = X[valid] * u[0] + Y[valid] * u[1]
-    st = make_strips(s, t, h, max(1.5 * spacing, 4 * cell), min(cell, spacing / 8))
-    gap_strips = int(math.floor(max_gap_m / st.length))
-    skew = tensor_skew(gx[valid], gy[valid], gmask[valid], st, n, u)
-    for _ in range(3):  # later passes: strips de-skewed along the local row slope
-        peaks = strip_peaks(strip_profiles(st, skew, spacing), st, skew, spacing, min_prominence)
-        chains = track_peaks(peaks, spacing, gap_strips, skew)
-        skew = chain_skew(chains, st)
-    min_len = min_length_m if min_length_m is not None else max(3 * spacing, 2 * st.length)
+    ok = valid & np.isfinite(relief)
+    s, t, h = X[ok] * n[0] + Y[ok] * n[1], X[ok] * u[0] + Y[ok] * u[1], relief[ok]
+    st = make_strips(s, t, h, max(1.5 * p, 4 * cell), min(cell, p / 8))
+    comb = comb_of(st, p)
+    ev = RowEvidence(round(p, 3), round(direction, 1), round(strength, 1), round(comb.r2_field, 3),
+                     round(float(np.median(comb.r2[comb.region])) if comb.region.any() else 0.0, 3),
+                     round(float(comb.region.mean()), 3))
+    _refuse_without_rows(ev)
+    kn = row_knots(st, comb)
 
     def to_xy(ss: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return ss * n[0] + tt * u[0], ss * n[1] + tt * u[1]
 
-    order = np.argsort(t, kind="stable")
-    cells = _Cells(t[order], s[order], h[order])
-    found: list[tuple[float, Polyline, float, np.ndarray, np.ndarray]] = []
-    for c in chains:
-        if len(c) < 2:
-            continue
-        line_ts = _row_line(c, cells, st, to_xy, relief, x, y, spacing, max(cell, 0.05))
-        if line_ts is None or line_ts[0][-1] - line_ts[0][0] < min_len:
-            continue
-        tl, sl = line_ts
-        px, py = to_xy(sl, tl)
-        pts = _simplify(np.column_stack([px, py]), 0.02)
-        line = [(round(float(a), 3), round(float(b), 3)) for a, b in pts]
-        support = len(c) / (c[-1][0] - c[0][0] + 1)
-        found.append((float(np.mean(sl)), line, support, tl, sl))
+    min_len = min_length_m if min_length_m is not None else max(3 * p, 2 * st.length)
+    found = _fit_rows(kn, comb, st, to_xy, relief, x, y, max(1, int(math.floor(max_gap_m / st.length))),
+                      min_prominence, min_len, max(cell, 0.05))
+    found = _rows_of_the_field(found)
+    if not found:
+        raise NoRowsError(f"no row found: {ev.describe()}", ev)
     order_sign = 1.0 if n[0] + n[1] >= 0 else -1.0  # number rows from west / south
-    found.sort(key=lambda f: order_sign * f[0])
-    rows = [f[1] for f in found]
-    if rows:  # the rows' mean direction (length-weighted end-to-end, doubled angles): curved rows' mean
-        ends = np.array([[r[-1][0] - r[0][0], r[-1][1] - r[0][1]] for r in rows])
-        ang = np.arctan2(ends[:, 1], ends[:, 0])
-        ln = np.hypot(ends[:, 0], ends[:, 1])
-        direction = math.degrees(0.5 * math.atan2(float((ln * np.sin(2 * ang)).sum()),
-                                                  float((ln * np.cos(2 * ang)).sum()))) % 180.0
-    direction = round(direction, 3) % 180.0  # 179.9996 -> 0.0
-    det = RowDetection(direction, round(spacing, 4), rows, round(strength, 2))
-    det.support = [round(f[2], 3) for f in found]
-    det.confidence = _confidence(found, spacing, strength, det.lengths_m)
+    found.sort(key=lambda f: order_sign * f.mean_s)
+    rows = [f.line for f in found]
+    direction = _mean_direction(rows)
+    det = RowDetection(direction, round(p, 4), rows, round(strength, 2))
+    det.support = [round(f.support, 3) for f in found]
+    det.row_confidence = [round(f.confidence, 3) for f in found]
+    det.evidence = ev
+    det.confidence = _confidence(found, p, strength, det.lengths_m)
     return det
 
 
-def _confidence(found: list[tuple[float, Polyline, float, np.ndarray, np.ndarray]], spacing: float, strength: float,
-                lengths: list[float]) -> float:
-    """Support x regularity x strength factor, in [0, 1] (see :func:`detect_rows_grid`)."""
-    if not found:
-        return 0.0
+def _refuse_without_rows(ev: RowEvidence) -> None:
+    """NoRowsError unless the grid shows a row pattern: a clear spectral peak, a comb explaining a good share
+    of the relief variance over the row field, and a row field of some size."""
+    if ev.strength < MIN_STRENGTH or ev.r2_rows < MIN_R2 or ev.row_area_fraction < MIN_ROW_AREA:
+        raise NoRowsError(f"no row pattern: {ev.describe()}", ev)
+
+
+@dataclass
+class _Found:
+    line: Polyline
+    mean_s: float
+    support: float
+    confidence: float
+    t: np.ndarray
+    s: np.ndarray
+    contrast: float = 0.0  # median relief of the row over the ground beside it, m
+
+
+#: a ridge with less than this share of the field's median row contrast is not one of its rows (a guard ridge,
+#: a wheel track, the ridges of a bare neighbouring plot), README "Rows and spray plans"
+MIN_ROW_CONTRAST = 0.5
+
+
+def _rows_of_the_field(found: list[_Found]) -> list[_Found]:
+    """The rows whose contrast is at least :data:`MIN_ROW_CONTRAST` x the length-weighted median contrast of all."""
+    if len(found) < 3:
+        return found
+    c = np.array([f.contrast for f in found])
+    w = np.array([float(f.t[-1] - f.t[0]) for f in found])
+    o = np.argsort(c)
+    med = float(c[o][np.searchsorted(np.cumsum(w[o]), 0.5 * w.sum())])
+    return [f for f in found if f.contrast >= MIN_ROW_CONTRAST * med]
+
+
+def _fit_rows(kn: RowKnots, comb: Comb, st: Any, to_xy: Any, relief: np.ndarray, x: np.ndarray, y: np.ndarray,
+              gap_strips: int, min_prominence: float, min_len: float, step: float) -> list[_Found]:
+    """Each comb row's stretches of knots fitted into centre lines (see :mod:`vinecli.rows.comb`)."""
+    p = comb.spacing
+    seen = kn.inside & np.isfinite(kn.contrast)
+    if not seen.any():
+        return []
+    thr = max(min_prominence * float(np.percentile(kn.contrast[seen], 90)), 1e-6)
+    pred = comb.delta[None, :] + kn.k[:, None] * p
+    good = seen & (kn.contrast >= thr) & (np.abs(kn.s - pred) <= p / 4)
+    out: list[_Found] = []
+    for r in range(kn.k.size):
+        js = np.flatnonzero(good[r])
+        if js.size < 2:
+            continue
+        for run in np.split(js, np.flatnonzero(np.diff(js) > gap_strips + 1) + 1):
+            f = _fit_run(kn, r, run, st, comb, to_xy, relief, x, y, thr, min_len, step)
+            if f is not None:
+                out.append(f)
+    return out
+
+
+def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, comb: Comb, to_xy: Any, relief: np.ndarray,
+             x: np.ndarray, y: np.ndarray, thr: float, min_len: float, step: float) -> _Found | None:
+    """One stretch of a row: robust centre line, ends trimmed to the canopy, support and confidence."""
+    p = comb.spacing
+    if run.size < 2:
+        return None
+    tk, sk = kn.t[r, run], kn.s[r, run]
+    fit = fit_row(tk, sk, p)
+    if fit is None:
+        return None
+    keep, sigma = fit
+    tk, sk = tk[keep], sk[keep]
+    t0, t1 = float(st.t_centre[run[0]] - st.length), float(st.t_centre[run[-1]] + st.length)
+    tl = np.arange(t0, t1 + step / 2, step)
+    sl = eval_row(tk, sk, sigma, tl, p, comb.shift)
+    trimmed = _trim_ends(tl, sl, to_xy, relief, x, y, p)
+    if trimmed is None or trimmed[0][-1] - trimmed[0][0] < min_len:
+        return None
+    tl, sl = trimmed
+    px, py = to_xy(sl, tl)
+    pts = _simplify(np.column_stack([px, py]), 0.02)
+    line = [(round(float(a), 3), round(float(b), 3)) for a, b in pts]
+    span = run[-1] - run[0] + 1
+    support = float(keep.sum()) / span
+    contrast = float(np.median(kn.contrast[r, run][keep]))
+    conf = support * min(1.0, contrast / (2 * thr)) * max(0.0, 1.0 - sigma / (p / 4))
+    return _Found(line, float(np.mean(sl)), support, conf, tl, sl, contrast)
+
+
+def _mean_direction(rows: list[Polyline]) -> float:
+    """The rows' mean direction, deg from east in [0, 180): length-weighted end-to-end, doubled angles."""
+    ends = np.array([[r[-1][0] - r[0][0], r[-1][1] - r[0][1]] for r in rows])
+    ang = np.arctan2(ends[:, 1], ends[:, 0])
+    ln = np.hypot(ends[:, 0], ends[:, 1])
+    d = math.degrees(0.5 * math.atan2(float((ln * np.sin(2 * ang)).sum()), float((ln * np.cos(2 * ang)).sum())))
+    return round(d % 180.0, 3) % 180.0  # 179.9996 -> 0.0
+
+
+def _confidence(found: list[_Found], spacing: float, strength: float, lengths: list[float]) -> float:
+    """Support x regularity x strength factor, in [0, 1]: length-weighted row support, 1 - 2 x the mean
+    deviation of neighbour distances from a whole number of spacings, min(1, log10(strength) / 4)."""
     total = sum(lengths) or 1.0
-    support = sum(f[2] * ln for f, ln in zip(found, lengths, strict=True)) / total
+    support = sum(f.support * ln for f, ln in zip(found, lengths, strict=True)) / total
     devs = []
-    for (_, _, _, ta, sa), (_, _, _, tb, sb) in zip(found[:-1], found[1:], strict=True):
-        lo_t, hi_t = max(ta[0], tb[0]), min(ta[-1], tb[-1])
-        tm = (lo_t + hi_t) / 2 if hi_t > lo_t else (ta[0] + ta[-1]) / 2
-        d = abs(float(np.interp(tm, tb, sb) - np.interp(tm, ta, sa))) / spacing
+    for a, b in zip(found[:-1], found[1:], strict=True):
+        lo_t, hi_t = max(a.t[0], b.t[0]), min(a.t[-1], b.t[-1])
+        tm = (lo_t + hi_t) / 2 if hi_t > lo_t else (a.t[0] + a.t[-1]) / 2
+        d = abs(float(np.interp(tm, b.t, b.s) - np.interp(tm, a.t, a.s))) / spacing
         devs.append(abs(d - round(d)) if round(d) >= 1 else 0.5)
     regularity = 1.0 - 2.0 * float(np.mean(devs)) if devs else 0.5
     strength_f = min(1.0, math.log10(max(strength, 1.0)) / 4.0)

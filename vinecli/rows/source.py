@@ -8,7 +8,7 @@ Frames. The terrain tools put a raster in *local metres along the CRS axes about
 (X - cx) * sx, y = (Y - cy) * sy; sx, sy in m per CRS unit: 1 for metres, 0.3048 for feet, metres per
 degree at the centre for a geographic CRS), and a world adds a constant ENU offset when its origin
 differs. :class:`RowFrame` is that mapping, so rows detected on the DSM land on the world's terrain
-exactly, and rows go back to the source CRS for ``rows.geojson``.
+exactly, and rows go back to the source CRS (and WGS84, :mod:`vinecli.gis`).
 """
 
 from __future__ import annotations
@@ -24,11 +24,10 @@ import numpy as np
 
 from vinecli.errors import TerrainError
 from vinecli.geo import GeoOrigin
-from vinecli.rows.detect import Polyline, RowDetection, detect_rows_grid
-from vinecli.rows.geometry import polyline_length
+from vinecli.rows.detect import NoRowsError, Polyline, RowDetection, detect_rows_grid
 
-__all__ = ["DsmRows", "RowFrame", "detect_rows_in_dsm", "detect_rows_on_grid", "dsm_rows_in_frame", "rows_geojson",
-           "terrain_frame", "world_frame"]
+__all__ = ["DsmRows", "RowFrame", "detect_rows_in_dsm", "detect_rows_on_grid", "dsm_rows_in_frame", "terrain_frame",
+           "world_frame"]
 
 
 @dataclass(frozen=True)
@@ -138,8 +137,10 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
         z, y = z[::-1], y[::-1]
     try:
         det = detect_rows_grid(z, x, y, **kw)
+    except NoRowsError as exc:
+        raise NoRowsError(exc.problem, exc.evidence, path=path) from None
     except TerrainError as exc:
-        raise TerrainError(str(exc), path=path) from None
+        raise TerrainError(exc.problem, path=path) from None
     return DsmRows(det, frame, origin, {"x": x, "y": y, "z": z})
 
 
@@ -184,24 +185,3 @@ def world_frame(world_dir: Path | str) -> RowFrame | None:
 def dsm_rows_in_frame(dsm: DsmRows, frame: RowFrame) -> list[Polyline]:
     """Rows detected on a DSM, in another frame of the same raster (e.g. a world's ENU)."""
     return [[(round(x, 3), round(y, 3)) for x, y in frame.from_crs(dsm.frame.to_crs(r))] for r in dsm.detection.rows]
-
-
-def rows_geojson(rows: list[Polyline], frame: RowFrame | None) -> dict[str, Any]:
-    """A GeoJSON FeatureCollection, one LineString per row (properties ``index``, ``length_m``), in the
-    frame's CRS (named in a ``crs`` member), or in local metres x east / y north when there is none."""
-    feats = []
-    for i, r in enumerate(rows):
-        length = polyline_length(r)
-        coords = frame.to_crs(r) if frame is not None and frame.crs is not None else list(r)
-        feats.append({"type": "Feature", "properties": {"index": i, "length_m": round(length, 3)},
-                      "geometry": {"type": "LineString", "coordinates": [[round(float(a), 4), round(float(b), 4)]
-                                                                         for a, b in coords]}})
-    out: dict[str, Any] = {"type": "FeatureCollection", "features": feats}
-    if frame is not None and frame.crs is not None:
-        name = frame.crs
-        if name.startswith("EPSG:"):
-            name = f"urn:ogc:def:crs:EPSG::{name.split(':', 1)[1]}"
-        out["crs"] = {"type": "name", "properties": {"name": name}}
-    else:
-        out["frame"] = "local metres: x east, y north (the source has no CRS)"
-    return out

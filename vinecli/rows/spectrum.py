@@ -12,7 +12,7 @@ import numpy as np
 
 from vinecli.errors import TerrainError
 
-__all__ = ["decimate", "direction_and_spacing", "fill_and_detrend", "gradients", "relief_of"]
+__all__ = ["decimate", "direction_and_spacing", "fill_and_detrend", "relief_of", "tensor_normal"]
 
 
 def decimate(z: np.ndarray, x: np.ndarray, y: np.ndarray, max_cells: int
@@ -86,6 +86,31 @@ def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float) -> 
     return kk * float(fr[1] - fr[0]), amp
 
 
+def tensor_normal(zz: np.ndarray, valid: np.ndarray, spacing_cells: float) -> np.ndarray | None:
+    """Unit normal to the rows from the structure tensor of the relief's gradients (relief: heights minus a
+    Gaussian one spacing wide; gradients at an eighth of a spacing), None when its coherence is below 0.3."""
+    from scipy.ndimage import binary_erosion, gaussian_filter
+
+    r = zz - gaussian_filter(zz, spacing_cells)
+    sig = max(0.7, spacing_cells / 8)
+    gy = gaussian_filter(r, sig, order=(1, 0))
+    gx = gaussian_filter(r, sig, order=(0, 1))
+    m = binary_erosion(valid, iterations=max(1, int(math.ceil(spacing_cells))), border_value=0)
+    if m.sum() < 16:
+        return None
+    jxx, jyy, jxy = float((gx[m] ** 2).sum()), float((gy[m] ** 2).sum()), float((gx[m] * gy[m]).sum())
+    coherence = math.hypot(jxx - jyy, 2 * jxy) / max(jxx + jyy, 1e-30)
+    if coherence < 0.3:
+        return None
+    th = 0.5 * math.atan2(2 * jxy, jxx - jyy)
+    return np.array([math.cos(th), math.sin(th)])
+
+
+def _bin_of(kx: float, ky: float, dkx: float, dky: float, ny: int) -> tuple[int, int]:
+    """(row, column) of the rfft2 bin nearest to the wavenumber (kx >= 0, ky), cycles/m."""
+    return int(round(ky / dky)) % ny, int(round(kx / dkx))
+
+
 def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, lo: float, hi: float
                            ) -> tuple[np.ndarray, float, float]:
     """(unit normal to the rows, spacing m, spectral strength) of the detrended grid ``zz``."""
@@ -100,12 +125,34 @@ def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: n
     band = (kmag >= 1.0 / hi) & (kmag <= 1.0 / lo)
     if not band.any():
         raise TerrainError("the spacing band is outside what the grid resolves")
-    masked = np.where(band, spec, 0.0)
-    j, i = np.unravel_index(int(np.argmax(masked)), masked.shape)
+    # each wavenumber's power over the median power of its ring |k|: a row pattern stands out of the noise at
+    # its own frequency; the red spectrum of woodland or terrain does not (it only rises towards low |k|)
+    dk = max(float(kx[0, 1]), abs(float(ky[1, 0])))
+    ring = np.round(kmag / dk).astype(int)
+    ring_med = np.zeros(int(ring.max()) + 1)
+    rb = ring[band]
+    order = np.argsort(rb, kind="stable")
+    vals, starts = np.unique(rb[order], return_index=True)
+    for v, chunk in zip(vals, np.split(spec[band][order], starts[1:]), strict=True):
+        ring_med[v] = float(np.median(chunk))
+    ratio = np.where(band, spec / np.maximum(ring_med[ring], 1e-30), 0.0)
+    j, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    for m in (3, 2):  # the peak may be a harmonic of the row profile: the fundamental, when it is there
+        jc, ic = _bin_of(float(kx[0, i]) / m, float(ky[j, 0]) / m, float(kx[0, 1]), float(ky[1, 0]), pad[0])
+        j0, i0 = max(jc - 1, 0), max(ic - 1, 0)
+        win = ratio[j0:jc + 2, i0:ic + 2]
+        if win.size and band[jc, ic]:
+            jj, ii = np.unravel_index(int(np.argmax(win)), win.shape)
+            if win[jj, ii] >= 100.0 and spec[j0 + jj, i0 + ii] >= 0.1 * spec[j, i]:
+                j, i = j0 + jj, i0 + ii
+                break
     k = np.array([float(kx[0, i]), float(ky[j, 0])])
-    strength = float(masked[j, i] / max(np.median(spec[band]), 1e-30))
+    strength = float(ratio[j, i])
     knorm = float(np.hypot(*k))
     nvec = k / knorm
+    tensor = tensor_normal(zz, valid, 1.0 / knorm / min(abs(dx), abs(dy)))
+    if tensor is not None:  # curved rows smear the spectral peak; the mean gradient orientation does not
+        nvec = tensor if float(tensor @ nvec) >= 0 else -tensor
     X, Y = np.meshgrid(x, y)
     Xv, Yv, h = X[valid], Y[valid], zz[valid]
     step = min(abs(dx), abs(dy))
@@ -119,15 +166,3 @@ def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: n
     assert best is not None
     nvec = np.array([math.cos(theta0 + best[0]), math.sin(theta0 + best[0])])
     return nvec, 1.0 / best[1], strength
-
-
-def gradients(relief: np.ndarray, valid: np.ndarray, sigma_cells: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Gradients (per cell) of the lightly smoothed relief and the mask of cells where they are meaningful."""
-    from scipy.ndimage import binary_erosion, gaussian_filter
-
-    r = gaussian_filter(np.where(valid, relief, 0.0), max(sigma_cells, 0.5))
-    gy, gx = np.gradient(r)
-    m = binary_erosion(valid, iterations=max(1, int(math.ceil(2 * sigma_cells))), border_value=0)
-    return gx, gy, m
-
-

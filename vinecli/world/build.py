@@ -23,6 +23,7 @@ from vinecli.specs import load_spec
 from vinecli.specs.refs import SPEC_SUFFIXES, spec_reference
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.terrain.grid import TerrainGrid
+from vinecli.world.gis_inputs import gis_sources
 from vinecli.world.model import SCHEMA, TerrainInfo, rest_position
 from vinecli.world.spec import DsmTerrain, FlatTerrain, WorldSpec
 
@@ -53,7 +54,7 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
 
 def world_spec_inputs(spec_path: Path) -> tuple[WorldSpec, VehicleSpec]:
     """Read a world spec and the vehicle it names, noting every file it reads or names (the spec and its
-    ``base:`` chain, the vehicle file, the terrain source) as inputs of the running command
+    ``base:`` chain, the vehicle file, the terrain source, the GIS files) as inputs of the running command
     (:mod:`vinecli.inputs`)."""
     from vinecli.vehicle import load_vehicle
 
@@ -61,6 +62,8 @@ def world_spec_inputs(spec_path: Path) -> tuple[WorldSpec, VehicleSpec]:
     base = spec_path.resolve().parent
     for src in _terrain_sources(spec.terrain):
         note_input(_resolve(base, Path(src)), "terrain source")
+    for src in gis_sources(spec.gis, base):
+        note_input(src, "GIS file")
     veh_arg: str | Path = spec.vehicle
     if spec.vehicle.endswith(SPEC_SUFFIXES) or "/" in spec.vehicle:
         veh_arg = spec_reference(spec.vehicle, spec_path, "vehicle")
@@ -112,6 +115,11 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
         if spec.rows == "auto":
             with man.stage("rows"):
                 rows, rows_detection = _auto_rows(t, base, terrain_json, tdir, grid, spec.name, spec.geofence)
+        geofence, rows, gis_doc = spec.geofence, [[tuple(p) for p in r] for r in rows], None
+        if spec.gis is not None:
+            with man.stage("gis"):
+                geofence, rows, gis_doc = _gis(spec, base, terrain_json, tdir, origin, rows)
+            unsafe(check_spawn_fence(geofence, (sx, sy, 0.0), fence_margins_m(vehicle)[0]))
         doc = {
             "schema": SCHEMA,
             "name": spec.name,
@@ -125,11 +133,12 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
                         "spec": json.loads(vehicle.model_dump_json())},
             "spawn": {"enu": list(spawn), "yaw_rad": yaw, "rest": rest},
             "wind": json.loads(spec.wind.model_dump_json()),
-            "vine_rows_enu": rows,
+            "vine_rows_enu": [[list(p) for p in r] for r in rows],
             "rows_auto": spec.rows == "auto",
             "rows_detection": rows_detection,
             "canopy_width_m": spec.canopy_width_m,
-            "geofence": json.loads(spec.geofence.model_dump_json()) if spec.geofence else None,
+            "geofence": json.loads(geofence.model_dump_json()) if geofence else None,
+            "gis": gis_doc,
             "sdf": "world.sdf",
         }
         write_json(tmp / "world.json", doc)
@@ -182,6 +191,25 @@ def _auto_rows(t: Any, base: Path, terrain_json: dict[str, Any], tdir: Path, gri
     info = {k: v for k, v in det.to_dict().items() if k != "rows_enu"}
     info.update(source=source, frame=frame.to_dict() if frame is not None else None)
     return [[list(p) for p in r] for r in rows], info
+
+
+def _gis(spec: WorldSpec, base: Path, terrain_json: dict[str, Any], tdir: Path, origin: GeoOrigin,
+         rows: list[list[tuple[float, float]]]) -> tuple[Any, list[list[tuple[float, float]]], dict[str, Any]]:
+    """``gis:``: (geofence, rows cut by the no-spray zones, world.json ``gis``) from the spec's GIS files."""
+    from vinecli.gis.georef import world_georef
+    from vinecli.specs.mission import GeofenceSpec
+    from vinecli.world.gis_inputs import cut_rows, read_world_gis
+
+    assert spec.gis is not None
+    g = read_world_gis(spec.gis, base, world_georef(terrain_json, tdir, origin), tuple(terrain_json["bounds_enu"]))
+    sources = g.row_sources if g.rows is not None else [{"layer": None, "fid": None, "part": 0} for _ in rows]
+    rows, row_sources = cut_rows(g.rows if g.rows is not None else rows, sources, g.no_spray)
+    geofence = spec.geofence
+    if g.fence is not None:
+        base_fence = spec.geofence or GeofenceSpec()
+        geofence = base_fence.model_copy(update={"polygon_enu": [tuple(p) for p in g.fence]})
+    doc = {"files": g.files, "row_sources": row_sources, "no_spray_enu": [[list(p) for p in z] for z in g.no_spray]}
+    return geofence, rows, doc
 
 
 #: a rest attitude tilted more than this at the spawn is reported (log warning), deg

@@ -24,6 +24,8 @@
                         "source": "dsm"|"grid", "frame": {"crs", "centre_crs", "m_per_crs_unit", "offset_enu"}}
                        | null,                           # rows: auto: how vine_rows_enu were detected (at build)
      "geofence": {GeofenceSpec as JSON} | null,
+     "gis": {"files": {...}, "row_sources": [{"row", "layer", "fid", "part"}], "no_spray_enu": [[[x, y], ...]]}
+            | null,                                      # gis: in the spec (vinecli.world.gis_inputs)
      "sdf": "world.sdf"}
 """
 

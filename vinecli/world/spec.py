@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
@@ -23,10 +23,13 @@ from vinecli.terrain.defaults import MIN_TILE_PX
 __all__ = [
     "DsmTerrain",
     "FlatTerrain",
+    "GisLayerSpec",
+    "GisZoneSpec",
     "HeightmapTerrain",
     "OriginSpec",
     "SpawnSpec",
     "TilesTerrain",
+    "WorldGisSpec",
     "WorldSpec",
 ]
 
@@ -90,6 +93,29 @@ class SpawnSpec(StrictModel):
     yaw_deg: float = Field(0.0, description="ENU yaw, deg from east, CCW")
 
 
+class GisLayerSpec(StrictModel):
+    """A layer of a GIS file: GeoJSON, Shapefile, GeoPackage or KML/KMZ in any CRS (path relative to this file;
+    ``layer``: default the file's first layer)."""
+
+    path: Path
+    layer: str | None = None
+
+
+class GisZoneSpec(GisLayerSpec):
+    """No-spray or buffer zones: polygons grown by ``buffer_m`` (a feature's own ``buffer_m`` property wins)."""
+
+    buffer_m: float = Field(0.0, ge=0, le=MAX_DISTANCE_M, description="distance the zone is grown by, m")
+
+
+class WorldGisSpec(StrictModel):
+    """What the grower already has as GIS files: the rows (lines), the field boundary or fence (one polygon: the
+    world's geofence) and no-spray / buffer zones (polygons the sprayer stays off in: rows are cut there)."""
+
+    rows: GisLayerSpec | None = None
+    fence: GisLayerSpec | None = None
+    no_spray: list[GisZoneSpec] = Field(default_factory=list)
+
+
 class WorldSpec(StrictModel):
     """A simulation world: terrain, origin, vehicle and spawn, wind, physics constants, rows, geofence."""
 
@@ -108,3 +134,13 @@ class WorldSpec(StrictModel):
         None, description="vine rows as ENU polylines [[x, y], ...], or 'auto' (detected by the missions tools)"
     )
     geofence: GeofenceSpec | None = None
+    gis: WorldGisSpec | None = Field(None, description="rows, fence and no-spray zones from GIS files")
+
+    @model_validator(mode="after")
+    def _one_source_each(self) -> WorldSpec:
+        if self.gis is not None and self.gis.rows is not None and self.rows is not None:
+            raise ValueError("rows given twice: 'rows' and 'gis.rows'")
+        if self.gis is not None and self.gis.fence is not None and self.geofence is not None \
+                and self.geofence.polygon_enu is not None:
+            raise ValueError("fence given twice: 'geofence.polygon_enu' and 'gis.fence'")
+        return self

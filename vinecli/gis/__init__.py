@@ -1,0 +1,8 @@
+"""GIS files in and out: rows, field boundaries, fences and no-spray zones from GeoJSON, Shapefile, GeoPackage
+and KML/KMZ in any CRS, into a world's local frame; rows and plan geometry back out as RFC 7946 GeoJSON
+(WGS84 longitude/latitude) and GeoPackage.
+
+* :mod:`vinecli.gis.georef` - local metres of a DSM or a world <-> WGS84 longitude/latitude and any CRS.
+* :mod:`vinecli.gis.read` - features of a GIS file, checked, in the local frame.
+* :mod:`vinecli.gis.write` - features in the local frame -> GeoJSON (RFC 7946) / GeoPackage.
+"""

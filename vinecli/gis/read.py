@@ -1,0 +1,113 @@
+"""GIS files -> features in a local frame: rows (lines), field boundary and fences (polygons), no-spray and
+buffer zones (polygons grown by a buffer distance), from GeoJSON, Shapefile, GeoPackage, KML or KMZ in any CRS.
+
+Every feature is checked before anything is used: a missing CRS (Shapefile without .prj, GeoPackage layer
+without SRS; GeoJSON and KML are WGS84 by definition), an empty geometry, the wrong geometry type, an invalid
+polygon (self-intersecting fence) or a row outside the terrain is an :class:`~vinecli.errors.InputError`
+(exit 2) naming the file, the layer and the feature id.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from vinecli.errors import InputError
+from vinecli.gis.georef import Georef
+
+__all__ = ["GisFeature", "read_features"]
+
+LINES = ("LineString", "MultiLineString")
+POLYGONS = ("Polygon", "MultiPolygon")
+WGS84_DRIVERS = {"GeoJSON", "KML", "LIBKML", "GeoJSONSeq"}
+
+
+@dataclass
+class GisFeature:
+    """A feature in local metres: ``layer``, ``fid`` (the file's feature id), ``parts`` (lines: [(x, y)] each;
+    polygons: exterior rings, not closed), ``properties``."""
+
+    layer: str
+    fid: Any
+    parts: list[list[tuple[float, float]]]
+    properties: dict[str, Any] = field(default_factory=dict)
+
+
+def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str | None = None,
+                  buffer_m: float = 0.0, bounds: tuple[float, float, float, float] | None = None) -> list[GisFeature]:
+    """The features of ``layer`` (default: the file's first layer) in local metres. ``expect``: "lines" or
+    "polygons"; polygons are grown by ``buffer_m`` (a feature's own ``buffer_m`` property wins); lines must
+    lie within ``bounds`` (xmin, ymin, xmax, ymax, local m) when given."""
+    import pyogrio
+    from shapely import wkb
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("GIS file not found", path=path)
+    src = str(path)  # GDAL opens .kmz (zipped KML) itself
+    try:
+        layers = [str(name) for name, _ in pyogrio.list_layers(src)]
+        name = layer or layers[0]
+        meta, fids, geoms, fields = pyogrio.raw.read(src, layer=name, return_fids=True)
+    except (pyogrio.errors.DataSourceError, pyogrio.errors.DataLayerError) as exc:
+        raise InputError(f"cannot read GIS file: {exc}", path=path) from None
+    crs = meta.get("crs")
+    if crs is None:
+        if meta.get("driver") not in WGS84_DRIVERS and path.suffix.lower() not in (".geojson", ".json", ".kml", ".kmz"):
+            raise InputError(f"layer {name!r}: no CRS (a Shapefile needs its .prj, a GeoPackage layer its SRS)",
+                             path=path)
+        crs = "EPSG:4326"
+    want = LINES if expect == "lines" else POLYGONS
+    out = []
+    names = list(meta["fields"])
+    for i, g in enumerate(geoms):
+        fid = int(fids[i]) if fids is not None else i
+        where = f"layer {name!r} feature {fid}"
+        props = {k: (v.item() if hasattr(v, "item") else v) for k, v in zip(names, (f[i] for f in fields), strict=True)}
+        geom = wkb.loads(bytes(g)) if g is not None else None
+        if geom is None or geom.is_empty:
+            raise InputError(f"{where}: empty geometry", path=path)
+        if geom.geom_type not in want:
+            raise InputError(f"{where}: {geom.geom_type}, expected {' or '.join(want)}", path=path)
+        if expect == "polygons" and not geom.is_valid:
+            from shapely.validation import explain_validity
+
+            raise InputError(f"{where}: invalid polygon ({explain_validity(geom)})", path=path)
+        parts = list(geom.geoms) if geom.geom_type.startswith("Multi") else [geom]
+        local = []
+        for part in parts:
+            coords = [tuple(c[:2]) for c in (part.exterior.coords[:-1] if expect == "polygons" else part.coords)]
+            local.append(georef.from_crs(coords, crs))
+        if expect == "polygons":
+            local = _buffered(local, float(props.get("buffer_m") or buffer_m))
+        elif bounds is not None:
+            _check_inside(local, bounds, where, path)
+        out.append(GisFeature(name, fid, local, props))
+    if not out:
+        raise InputError(f"layer {name!r}: no features", path=path)
+    return out
+
+
+def _buffered(rings: list[list[tuple[float, float]]], buffer_m: float) -> list[list[tuple[float, float]]]:
+    """Polygon rings grown by ``buffer_m`` metres (mitred corners) in the local frame."""
+    if buffer_m == 0:
+        return rings
+    from shapely.geometry import Polygon
+
+    out = []
+    for r in rings:
+        g = Polygon(r).buffer(buffer_m, join_style="mitre")
+        polys = list(g.geoms) if g.geom_type == "MultiPolygon" else [g]
+        out += [[(float(x), float(y)) for x, y in p.exterior.coords[:-1]] for p in polys if not p.is_empty]
+    return out
+
+
+def _check_inside(lines: list[list[tuple[float, float]]], bounds: tuple[float, float, float, float], where: str,
+                  path: Path) -> None:
+    xmin, ymin, xmax, ymax = bounds
+    for line in lines:
+        for x, y in line:
+            if not (xmin <= x <= xmax and ymin <= y <= ymax):
+                raise InputError(f"{where}: row point ({x:.2f}, {y:.2f}) m is outside the terrain "
+                                 f"[{xmin:.2f}, {ymin:.2f}, {xmax:.2f}, {ymax:.2f}]", path=path)

@@ -1,0 +1,133 @@
+"""The QGroundControl ``.plan`` file format (JSON): the MAVLink commands and frames vinecli reads and writes, the
+model of the fields it uses, reading (validated, SpecError naming the file and field) and writing (atomic), items and
+the document around them. Coordinates: :mod:`vinecli.missions.qgc_geometry`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from vinecli.errors import InputError, SpecError
+from vinecli.inputs import read_input_text
+from vinecli.outputs import write_text_atomic
+from vinecli.specs import format_validation_error
+from vinecli.specs.vehicle import VehicleSpec
+
+#: the flow (L/s) an actuator value of 1.0 stands for when the vehicle has no tank
+DEFAULT_NOZZLE_MAX_FLOW_LPS = 0.1
+
+NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_DELAY = 16, 19, 20, 21, 22, 93
+DO_CHANGE_SPEED, DO_SET_SERVO, DO_SET_ACTUATOR, DO_SPRAYER = 178, 183, 187, 216
+FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT, FRAME_TERRAIN = 0, 2, 3, 10
+SUPPORTED = {NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_DELAY, DO_CHANGE_SPEED,
+             DO_SET_SERVO, DO_SET_ACTUATOR, DO_SPRAYER}
+
+
+
+class _Loose(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+
+class SimpleItem(_Loose):
+    type: Literal["SimpleItem"] = "SimpleItem"
+    command: int
+    frame: int = FRAME_GLOBAL_RELATIVE_ALT
+    params: list[float | None] = Field(min_length=7, max_length=7)
+    autoContinue: bool = True
+    doJumpId: int | None = None
+
+    def p(self, i: int) -> float:
+        """Param i (1-based, 1..7); JSON null -> NaN."""
+        v = self.params[i - 1]
+        return math.nan if v is None else float(v)
+
+
+class TransectStyle(_Loose):
+    Items: list[SimpleItem] = Field(default_factory=list)
+
+
+class ComplexItem(_Loose):
+    type: Literal["ComplexItem"] = "ComplexItem"
+    complexItemType: str
+    TransectStyleComplexItem: TransectStyle | None = None
+
+
+class PlanMission(_Loose):
+    version: int = 2
+    firmwareType: int = 12
+    vehicleType: int = 2
+    hoverSpeed: float = 5.0
+    cruiseSpeed: float = 15.0
+    plannedHomePosition: list[float] = Field(min_length=3, max_length=3)
+    items: list[SimpleItem | ComplexItem] = Field(min_length=1)
+
+
+class FenceCircle(_Loose):
+    center: list[float] = Field(min_length=2, max_length=2)
+    radius: float = Field(gt=0)
+
+
+class FencePolygon(_Loose):
+    polygon: list[list[float]] = Field(min_length=3)
+    inclusion: bool = True
+    version: int = 1
+
+
+class FenceCircleItem(_Loose):
+    circle: FenceCircle
+    inclusion: bool = True
+    version: int = 1
+
+
+class GeoFence(_Loose):
+    version: int = 2
+    polygons: list[FencePolygon] = Field(default_factory=list)
+    circles: list[FenceCircleItem] = Field(default_factory=list)
+
+
+class Plan(_Loose):
+    fileType: Literal["Plan"]
+    version: int = 1
+    groundStation: str = "QGroundControl"
+    mission: PlanMission
+    geoFence: GeoFence | None = None
+    rallyPoints: dict[str, Any] | None = None
+
+
+def read_plan(path: Path | str) -> Plan:
+    """Parse and validate a .plan file; SpecError naming the file and field."""
+    path = Path(path)
+    try:
+        data = json.loads(read_input_text(path, "file"))
+    except InputError as exc:
+        raise SpecError(exc.problem, path=path) from None
+    except json.JSONDecodeError as exc:
+        raise SpecError(f"invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}", path=path) from None
+    try:
+        return Plan.model_validate(data)
+    except ValidationError as exc:
+        raise SpecError(format_validation_error(exc), path=path) from None
+
+
+def vehicle_nozzle_flow_lps(vehicle: VehicleSpec) -> float:
+    """The flow (L/s) a .plan's actuator value 1.0 stands for on ``vehicle``: its nozzle's maximum
+    (:data:`DEFAULT_NOZZLE_MAX_FLOW_LPS` without a tank)."""
+    return vehicle.tank.nozzle_max_flow_lps if vehicle.tank is not None else DEFAULT_NOZZLE_MAX_FLOW_LPS
+
+
+def plan_item(command: int, frame: int, params: Sequence[float | None], seq: int) -> dict[str, Any]:
+    """One QGC SimpleItem (NaN parameters become null)."""
+    ps = [None if (p is None or (isinstance(p, float) and math.isnan(p))) else p for p in params]
+    return {"type": "SimpleItem", "command": command, "frame": frame, "params": ps, "autoContinue": True,
+            "doJumpId": seq}
+
+
+def write_plan(path: Path | str, plan: dict[str, Any]) -> None:
+    """Write a .plan atomically (temporary file, then rename)."""
+    write_text_atomic(path, json.dumps(plan, indent=4) + "\n")
