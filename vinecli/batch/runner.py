@@ -109,13 +109,15 @@ def run_batch(
     mcap: bool = False,
     world: str | Path | None = None,
     px4_bin: str | Path | None = None,
+    ardupilot_bin: str | Path | None = None,
 ) -> BatchResult:
     """Run a pipeline's cases; returns the :class:`BatchResult` (also written to ``RUNS/batch.json``).
 
     ``timeout_s`` (wall seconds per case) overrides the pipeline's. ``job`` is the top-level,
     picklable function executed per case (default :func:`~vinecli.batch.job.run_one`). ``world`` (a built
     world dir or a world spec) replaces the pipeline's default world (entries naming their own keep theirs).
-    ``px4_bin`` (or the pipeline's ``px4_bin``): PX4 cases start their own PX4 SITL process, one per case.
+    ``px4_bin`` / ``ardupilot_bin`` (or the pipeline's): PX4 / ArduPilot cases start their own SITL process,
+    one per case.
     """
     if jobs < 1:
         raise InputError(f"--jobs must be >= 1, got {jobs}")
@@ -141,12 +143,13 @@ def run_batch(
     except OSError as exc:
         raise OutputError(f"cannot create the runs directory ({exc.strerror})", path=runs_dir) from None
     limit = timeout_s if timeout_s is not None else spec.timeout_s
-    ap_opts: dict[str, Any] = {}
-    if px4_bin is not None or spec.px4_bin is not None:
-        pb = Path(px4_bin) if px4_bin is not None else (ppath.parent / str(spec.px4_bin))
-        if not pb.is_file():
-            raise InputError("PX4 binary not found (px4_bin)", path=pb)
-        ap_opts["px4_bin"] = str(pb.resolve())
+    ap_opts: dict[str, dict[str, Any]] = {"px4": {}, "ardupilot": {}}
+    for name, given, piped in (("px4", px4_bin, spec.px4_bin), ("ardupilot", ardupilot_bin, spec.ardupilot_bin)):
+        if given is not None or piped is not None:
+            pb = Path(given) if given is not None else (ppath.parent / str(piped))
+            if not pb.is_file():
+                raise InputError(f"{'PX4' if name == 'px4' else 'ArduPilot'} binary not found ({name}_bin)", path=pb)
+            ap_opts[name][f"{name}_bin"] = str(pb.resolve())
     t0 = time.perf_counter()
     if executor == "local":
         start_fork_server()  # its imports overlap with preparing the worlds
@@ -158,7 +161,7 @@ def run_batch(
         except BatchInterrupted:
             log.warning("%s: batch stopped while preparing the worlds", stop.name)
         run_specs = [RunSpec(c.name, c.name, c.mission, c.mission_path, worlds.get(c.world, c.world), str(runs_dir),
-                             c.seed, limit, mcap, ap_opts if c.mission.get("autopilot") == "px4" else {}) for c in cases]
+                             c.seed, limit, mcap, ap_opts.get(str(c.mission.get("autopilot")), {})) for c in cases]
         hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
 
         def execute(todo: Sequence[RunSpec], record: Callable[[CaseResult], None]) -> None:

@@ -44,6 +44,11 @@ def px4_bin_option(help: str) -> Any:  # noqa: A002
     return typer.Option("--px4-bin", help=help)
 
 
+def ardupilot_bin_option(help: str) -> Any:  # noqa: A002
+    """``--ardupilot-bin``: an ArduCopter SITL binary."""
+    return typer.Option("--ardupilot-bin", help=help)
+
+
 #: ``--seed``: the run seed
 Seed = Annotated[int, typer.Option("--seed", help="Run seed (sensor noise, turbulence).")]
 #: ``--px4-instance``: PX4 SITL instance of a run

@@ -176,7 +176,7 @@ def _run_prepared(
     overwrite: bool,
 ) -> RunSummary:
     """Fly a prepared run, evaluate its checks and write ``out`` (:func:`run_mission`, after the set-up)."""
-    spec, world, vehicle = run.mission, run.world, run.vehicle
+    spec, vehicle = run.mission, run.vehicle
     check_quantities(spec.checks, mission_path or spec.name, n_rotors=vehicle.n_rotors)
     from vinecli.sitl.options import make_run_autopilot
 
@@ -205,6 +205,22 @@ def _run_prepared(
             if close is not None:
                 close()
     wall = time.perf_counter() - t0
+    record = getattr(ap, "firmware_record", None)  # a firmware backend's identity and kept logs
+    try:
+        return _write_run(run, result, record, world_dir, run_id, out, seed=seed, mission_path=mission_path,
+                          mcap=mcap, wall=wall, stop=stop, wall_timeout_s=wall_timeout_s, case=case,
+                          autopilot_options=autopilot_options, overwrite=overwrite, started=started)
+    finally:
+        if record is not None:
+            record.discard()
+
+
+def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_id: str, out: Path, *, seed: int,
+               mission_path: Path | None, mcap: bool, wall: float, stop: _StopFlag, wall_timeout_s: float | None,
+               case: str | None, autopilot_options: dict[str, Any] | None, overwrite: bool,
+               started: str) -> RunSummary:
+    """Checks, summary and the run directory of a flown run (:func:`_run_prepared`)."""
+    spec, world, vehicle = run.mission, run.world, run.vehicle
     status = _status_name(result.status)
     status_message = result.detail or _status_message(result.status)
     if stop.timed_out and status == "interrupted":
@@ -264,6 +280,7 @@ def _run_prepared(
             "geofence": geofence.model_dump(mode="json") if geofence is not None else None,
         },
         "autopilot": spec.autopilot,
+        "firmware": record.summary() if record is not None else None,
         "truth": spec.truth,
         "seed": seed,
         "status": status,
@@ -301,6 +318,8 @@ def _run_prepared(
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
             write_deposition(tmp, result.deposition, world, dsm_crs(world_dir), dep_doc)
+        if record is not None:
+            record.copy_into(tmp)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))

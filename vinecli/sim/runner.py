@@ -242,6 +242,10 @@ def simulate(
         return _loop(run, plant, autopilot, seed, on_progress, should_stop, wall0)
 
 
+#: prefixes of the AutopilotStatus.extra counters a firmware backend reports into the run's metrics
+FIRMWARE_METRICS = ("px4_", "ardupilot_")
+
+
 def _raiser(exc: AutopilotError) -> Callable[[Observation], ActuatorCommand]:
     """A step function that re-raises the backend's failure at the first step."""
     def step(_obs: Observation) -> ActuatorCommand:
@@ -509,10 +513,11 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         truth = RigidState(t_us, (px, py, pz), quat, (vx, vy, vz), omega_body, (ax, ay, az), on_ground)
         imu, baro, mag, gnss = sensors.sample_all(truth)
         if battery is not None:
-            soc, volt = battery.soc, battery.voltage_v
+            soc, volt, amps = battery.soc, battery.voltage_v, battery.current_a
         else:
-            soc = volt = math.nan
-        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0, soc, volt)
+            soc = volt = amps = math.nan
+        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0, soc, volt,
+                          amps)
         try:
             cmd = ap_step(obs)
             st = ap_status()
@@ -698,8 +703,8 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     metrics["final_mass_kg"] = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
     metrics["energy_wh"] = energy_j / 3600.0 if battery is not None else math.nan
     metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
-    # backend counters (PX4: px4_stalls, px4_lockstep_steps...) into the run's metrics
-    metrics.update({name: float(v) for name, v in ap_status().extra.items() if name.startswith("px4_")})
+    # firmware counters (px4_stalls, ardupilot_stalls, ..._lockstep_steps...) into the run's metrics
+    metrics.update({name: float(v) for name, v in ap_status().extra.items() if name.startswith(FIRMWARE_METRICS)})
     events.append(Event(t_us, "status", detail, {"status": status.value}))
     dep = None
     if emitter is not None and dep_n:  # the last group of a run that ended spraying

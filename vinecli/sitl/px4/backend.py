@@ -445,6 +445,7 @@ class Px4SitlAutopilot:
             self.link.close()
         if self.process is not None:
             self.process.stop()
+            self.process.discard()
         if self._instance_lock is not None:
             self._instance_lock.release()
             self._instance_lock = None
