@@ -15,7 +15,7 @@ from typing import Any, Protocol
 from vinecli.errors import AutopilotError, AutopilotTimeout
 
 MISSION_RESULTS = {0: "ACCEPTED", 1: "ERROR", 2: "UNSUPPORTED_FRAME", 3: "UNSUPPORTED", 4: "NO_SPACE", 5: "INVALID",
-                   6: "INVALID_PARAM1", 10: "INVALID_PARAM5_X", 11: "INVALID_PARAM6_Y", 12: "INVALID_PARAM7",
+                   6: "INVALID_PARAM1", 7: "INVALID_PARAM2", 8: "INVALID_PARAM3", 9: "INVALID_PARAM4", 10: "INVALID_PARAM5_X", 11: "INVALID_PARAM6_Y", 12: "INVALID_PARAM7",
                    13: "INVALID_SEQUENCE", 14: "DENIED", 15: "OPERATION_CANCELLED"}
 TYPE_NAMES = {0: "mission", 1: "geofence", 2: "rally points"}
 

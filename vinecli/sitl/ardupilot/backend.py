@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
+import signal
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
@@ -206,8 +207,7 @@ class ArdupilotSitlAutopilot:
             if frame is None:
                 waited += 0.5
                 if not self.process.alive():
-                    raise AutopilotError(f"ArduPilot exited (code {self.process.proc.returncode if self.process.proc else '?'}) "
-                                         f"at {self._fw_us() / 1e6:.2f} s of its clock" + self._log())
+                    raise AutopilotError(self._exited())
                 if waited >= self.frame_timeout_s:
                     raise AutopilotError(f"ArduPilot sent no servo frame for {waited:.0f} s (hung)" + self._log())
                 continue
@@ -228,7 +228,12 @@ class ArdupilotSitlAutopilot:
         client = self.client
         assert client is not None
         t = self._fw_us()
-        client.step(t)
+        try:
+            client.step(t)
+        except AutopilotError:
+            if self.process is not None and not self.process.alive():  # the cause, not its symptom
+                raise AutopilotError(self._exited()) from None
+            raise
         if client.link.connected and t - self._batt_us >= BATTERY_PERIOD_US and math.isfinite(obs.battery_voltage_v):
             self._batt_us = t
             link = client.link
@@ -256,6 +261,14 @@ class ArdupilotSitlAutopilot:
             st.detail = f"{why} (weight {self.ctx.total_mass_kg * STANDARD_GRAVITY:.1f} N, " \
                         f"max thrust {self.ctx.vehicle.max_thrust():.1f} N)"
             self._emit(obs.t_us, "status", f"{st.status.value}: {st.detail}", {"status": st.status.value, "detail": st.detail})
+
+    def _exited(self) -> str:
+        """Why the run ends when ArduPilot is gone: its exit code or signal, its clock, its last words."""
+        code = self.process.proc.returncode if self.process is not None and self.process.proc is not None else None
+        how = f"killed by {signal.Signals(-code).name}" if code is not None and code < 0 else f"code {code}"
+        when = (f"at {self.steps * self.dt_us * 1e-6:.2f} s of the run" if self._booted else
+                f"while booting ({self._fw_us() * 1e-6:.1f} s of its clock)")
+        return f"ArduPilot exited ({how}) {when}" + self._log()
 
     def _log(self) -> str:
         if self.process is None:

@@ -107,6 +107,8 @@ def plan_for(ctx: AutopilotContext, frame: ArdupilotFrame) -> ArdupilotPlan:
         if it.command == M.CMD_DO_SET_ACTUATOR:  # the converter's sprayer switch
             it = MissionItem(M.CMD_DO_SPRAYER, M.MAV_FRAME_MISSION, 1.0 if it.param1 > 0.0 else 0.0,
                              phase_index=it.phase_index)
+        elif it.command == M.CMD_NAV_LOITER_TIME and math.isnan(it.param4):
+            it.param4 = 0.0  # ArduPilot's "exit at the loiter centre" flag (NaN: MISSION_ACK INVALID_PARAM4)
         items.append(it)
     radii = [ph.acceptance_radius_m for ph in mission.phases if isinstance(ph, (GotoPhase, WaypointsPhase))]
     params = mission_settings(conv.params, fence_polygon=bool(conv.fence), cruise_mps=None,
