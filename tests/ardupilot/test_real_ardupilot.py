@@ -52,6 +52,8 @@ def test_ci_ardupilot_passes_every_check_and_the_runs_are_audited(ci_ardupilot, 
         assert len(fw["git_hash"]) == 8 and fw["binary"] == str(ardupilot_bin.resolve()) and len(fw["sha256"]) == 64
         m = s["metrics"]
         assert m["ardupilot_stalls"] == 0 and m["ardupilot_lockstep_steps"] > 1000 and 20 < m["ardupilot_boot_s"] < 90
+        assert m["ardupilot_battery_warnings"] == 0
+        assert any(k["name"] == "ardupilot_stalls" and k.get("implicit") for k in s["checks"])  # a stall fails the run
         names = {Path(f).name for f in fw["files"]}
         assert {"vinecli.parm", "ardupilot.log"} <= names and any(n.endswith(".BIN") for n in names)
         listed = json.dumps(json.loads((out / c.case / "manifest.json").read_text()))
@@ -105,15 +107,19 @@ def test_the_battery_arducopter_logged_is_the_simulated_pack(ci_ardupilot):
     assert np.median(di) < 0.05 * np.median(ts["battery_current_a"]) and min(v for _, v, _ in flying) > 13.0
 
 
-def test_a_second_flight_of_a_case_is_the_same_flight(ci_ardupilot, ardupilot_bin, tmp_path):
-    """Lockstep: the takeoff case flown again on its own (not in the batch) gives the same time series."""
+def test_a_second_flight_beside_a_cpu_hog_is_the_same_flight(ci_ardupilot, ardupilot_bin, tmp_path):
+    """Lockstep: the takeoff case flown again, on its own (not in the batch) and beside twice as many busy
+    processes as CPUs, gives the same time series to the bit, so the same verdict."""
+    from tests.cpu_hog import cpu_hog
     from vinecli.runs import run_mission
 
     result, out = ci_ardupilot
     case = next(c for c in result.cases if c.case == "takeoff")
-    run_mission(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample", tmp_path,
-                seed=case.seed, autopilot="ardupilot", run_id="again",
-                autopilot_options={"ardupilot_bin": str(ardupilot_bin)})
+    with cpu_hog(2.0):
+        s = run_mission(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
+                        tmp_path, seed=case.seed, autopilot="ardupilot", run_id="again",
+                        autopilot_options={"ardupilot_bin": str(ardupilot_bin)})
+    assert s.passed and s.metrics["ardupilot_stalls"] == 0
     a = read_timeseries(out / "takeoff" / "timeseries.parquet")
     b = read_timeseries(tmp_path / "again" / "timeseries.parquet")
     assert len(a["t_s"]) == len(b["t_s"])

@@ -59,8 +59,9 @@ Px4Host = Annotated[str, typer.Option("--px4-host", help="Address to listen on f
 #: ``--px4-connect-timeout``
 Px4ConnectTimeout = Annotated[float, typer.Option("--px4-connect-timeout", help="Seconds to wait for PX4.")]
 #: ``--px4-lockstep-timeout``
-Px4LockstepTimeout = Annotated[float, typer.Option(
+Px4LockstepTimeout = Annotated[float | None, typer.Option(
     "--px4-lockstep-timeout",
-    help="Seconds each physics step waits for PX4's actuator controls (PX4's Gazebo bridge: 1).")]
+    help="Seconds a physics step waits for PX4's actuator controls before it goes on without them (a stall, "
+         "which fails the run). Default: wait for them (lockstep; a PX4 silent for 30 s is an error).")]
 #: ``--px4-allow-remote``
 Px4AllowRemote = Annotated[bool, typer.Option("--px4-allow-remote", help="Allow a non-loopback --px4-host.")]

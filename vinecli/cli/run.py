@@ -171,6 +171,49 @@ def batch_cmd(
                            + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
 
 
+@app.command("compare")
+@handles_errors
+def compare_cmd(
+    mission: Annotated[Path, typer.Argument(help="Mission YAML flown by every autopilot.")],
+    world: Annotated[Path, world_option("Built world dir or world spec.")],
+    out: Annotated[Path, out_option("Runs directory (one run per autopilot + batch.json + comparison.json/png).")],
+    seed: Seed = 0,
+    autopilots: Annotated[str, typer.Option("--autopilots", help="Comma-separated autopilots to compare.")
+                          ] = "builtin,px4,ardupilot",
+    jobs: Annotated[int, jobs_option("Parallel runs.")] = 1,
+    px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary (for px4).")] = None,
+    ardupilot_bin: Annotated[Path | None, ardupilot_bin_option("ArduCopter SITL binary (for ardupilot).")] = None,
+) -> None:
+    """Fly one mission with several autopilots (same world and seed) and compare them side by side.
+
+    Writes OUT/comparison.json and OUT/comparison.png; `vinecli report OUT` shows the comparison too.
+    Exit 1 if a run failed a check, 3 if one could not run.
+
+    Example: vinecli run compare pipelines/missions/px4/spray-rows.yaml --world build/vineyard --out cmp
+    --px4-bin PX4/bin/px4 --ardupilot-bin ArduPilot/bin/arducopter
+    """
+    from vinecli.batch.compare import compare_autopilots
+    from vinecli.errors import ChecksFailed, RuntimeFailure
+    from vinecli.report.autopilots import markdown_table
+
+    names = [a.strip() for a in autopilots.split(",") if a.strip()]
+    with progress(transient=True) as bar:
+        task = bar.add_task("runs", total=len(names), info="")
+        result, cmp = compare_autopilots(
+            mission, world, out, autopilots=names, seed=seed, jobs=jobs, px4_bin=px4_bin, ardupilot_bin=ardupilot_bin,
+            progress=lambda r, done, total: bar.update(task, completed=done, info=f"{r.case}: {r.status}"))
+    _batch_table(result)
+    if cmp is not None:
+        out_console.print(markdown_table(cmp), markup=False)
+        out_console.print(f"{out}/comparison.json, {out}/comparison.png")
+    if result.n_errors:
+        raise RuntimeFailure(f"{result.n_errors} run(s) could not run to their end: "
+                             + ", ".join(c.case for c in result.cases if c.error), path=result.runs_dir)
+    if result.n_failed:
+        raise ChecksFailed(f"{result.n_failed} run(s) failed checks: "
+                           + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
+
+
 @app.command("checks")
 @handles_errors
 def checks_cmd(

@@ -205,6 +205,10 @@ def build_report(
         for r in runs:
             r.report_metrics = compute_report_metrics(r)
     manifest.inputs = [r.dir / SUMMARY for r in runs if r.dir is not None]
+    with manifest.stage("autopilots"):
+        from vinecli.report.autopilots import comparison_groups
+
+        autopilots = comparison_groups(runs)  # runs of one mission and seed by several autopilots
     comparison = None
     if baseline is not None:
         with manifest.stage("baseline"):
@@ -250,12 +254,13 @@ def build_report(
     with atomic_output_dir(Path(out_dir), manifest, overwrite=overwrite) as tmp:
         pages: dict[str, str] = {}
         if "html" in fmts:
+            from vinecli.report.autopilots import html_blocks
             from vinecli.report.html import page_name, write_html
 
             with manifest.stage("html"):
                 write_html(tmp, runs, figs, comparison, title=ttl, runs_dir=str(runs_dir), pipeline=pipeline,
                            inline_limit=inline_limit, page_size=page_size, figure_notes=notes,
-                           figure_policy=policy_note)
+                           figure_policy=policy_note, autopilots=html_blocks(autopilots))
             if not inline:
                 from vinecli.report.markdown import run_order
 
@@ -267,9 +272,12 @@ def build_report(
             from vinecli.report.markdown import render_markdown
 
             with manifest.stage("markdown"):
-                (tmp / FILES["md"]).write_text(render_markdown(runs, comparison, title=ttl,
-                                                               html_name=FILES["html"] if "html" in fmts else None),
-                                               encoding="utf-8")
+                from vinecli.report.autopilots import markdown_table
+
+                md = render_markdown(runs, comparison, title=ttl, html_name=FILES["html"] if "html" in fmts else None)
+                if autopilots:
+                    md += "\n## Autopilots side by side\n\n" + "\n".join(markdown_table(c) for c in autopilots)
+                (tmp / FILES["md"]).write_text(md, encoding="utf-8")
         if "junit" in fmts:
             from vinecli.report.junit import write_junit
 
@@ -277,7 +285,8 @@ def build_report(
                 write_junit(tmp / FILES["junit"], runs, comparison, name=ttl)
         if "json" in fmts:
             with manifest.stage("json"):
-                write_json(tmp / FILES["json"], summary_dict(runs, comparison, runs_dir, figs, pages))
+                write_json(tmp / FILES["json"], {**summary_dict(runs, comparison, runs_dir, figs, pages),
+                                                 "autopilots": autopilots})
         manifest.extra = {"exit_code": result.exit_code, "runs": len(runs), "figure_runs": len(chosen)}
     result.files = {f: Path(out_dir) / FILES[f] for f in fmts}
     result.timings = dict(manifest.timings)

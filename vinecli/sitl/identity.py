@@ -52,14 +52,15 @@ def decode_version(flight_sw_version: int) -> str:
 
 def decode_git_hash(custom: Any) -> str | None:
     """The git hash in AUTOPILOT_VERSION.flight_custom_version: ArduPilot puts the short hash's ASCII
-    characters there, PX4 the first 8 bytes of the binary hash (little-endian)."""
+    characters there, PX4 the hash as a little-endian 64-bit number (a short 8-digit hash in its high half)."""
     raw = bytes(int(b) & 0xFF for b in custom)
     if not any(raw):
         return None
     text = raw.split(b"\x00", 1)[0]
     if text and all(chr(c) in "0123456789abcdefABCDEF" for c in text):
         return text.decode().lower()
-    return raw[::-1].hex()
+    value = raw[::-1].hex()
+    return value[:8] if value.endswith("00000000") else value  # PX4: a short hash in the high 32 bits
 
 
 def identity_from_message(firmware: str, msg: Any, binary: str | os.PathLike[str] | None) -> FirmwareIdentity:

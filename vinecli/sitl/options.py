@@ -23,7 +23,7 @@ class AutopilotOptions:
 
     px4_instance: int | None = None  # PX4 SITL instance (px4 -i N); None: 0, or a free one with px4_bin
     px4_bin: str | None = None  # PX4 SITL binary: vinecli starts (and stops) PX4 for the run
-    px4_step_timeout_s: float = 1.0  # seconds each physics step waits for PX4's actuator controls (Gazebo bridge: 1)
+    px4_step_timeout_s: float | None = None  # None: each step waits for PX4's answer (lockstep); s: then a stall
     mavlink_local_port: int | None = None  # vinecli's own UDP port with udp:/udpout: (None: 14580)
     px4_host: str = "127.0.0.1"  # address to listen on for PX4 (loopback)
     px4_connect_timeout_s: float = 30.0  # seconds to wait for PX4
@@ -70,7 +70,7 @@ def make_run_autopilot(
     px4_instance: int | None = PX4_DEFAULTS.px4_instance,
     px4_host: str = PX4_DEFAULTS.px4_host,
     px4_connect_timeout_s: float = PX4_DEFAULTS.px4_connect_timeout_s,
-    px4_step_timeout_s: float = PX4_DEFAULTS.px4_step_timeout_s,
+    px4_step_timeout_s: float | None = PX4_DEFAULTS.px4_step_timeout_s,
     px4_allow_remote: bool = PX4_DEFAULTS.px4_allow_remote,
     px4_bin: str | None = PX4_DEFAULTS.px4_bin,
     mavlink_local_port: int | None = PX4_DEFAULTS.mavlink_local_port,

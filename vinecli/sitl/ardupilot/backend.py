@@ -291,6 +291,7 @@ class ArdupilotSitlAutopilot:
         if self.client is not None:
             ex["ardupilot_armed"] = 1.0 if self.client.state.armed else 0.0
             ex["ardupilot_mission_seq"] = float(self.client.state.max_seq)
+            ex["ardupilot_battery_warnings"] = float(self.client.state.battery_warnings)
         return st
 
     def drain_events(self) -> list[Event]:

@@ -77,6 +77,7 @@ class FlightState:
     battery: Any = None
     warnings: list[tuple[int, str]] = field(default_factory=list)  # (sim µs, text) severity <= WARNING
     last_text: str = ""
+    battery_warnings: int = 0  # ArduPilot warnings (STATUSTEXT <= WARNING) about its battery
 
 
 class ArdupilotClient:
@@ -233,6 +234,7 @@ class ArdupilotClient:
             self.events.append(("ardupilot_statustext", text, {"severity": int(m.severity)}))
             if int(m.severity) <= SEVERITY_WARNING:
                 st.warnings = [*st.warnings[-9:], (t_us, text)]
+                st.battery_warnings += "batt" in text.lower()
         elif typ == "SYS_STATUS":
             st.sys_status = m
             st.prearm_ok = bool(m.onboard_control_sensors_health & M.SENSOR_PREARM_CHECK)
