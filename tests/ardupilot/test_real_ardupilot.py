@@ -107,24 +107,35 @@ def test_the_battery_arducopter_logged_is_the_simulated_pack(ci_ardupilot):
     assert np.median(di) < 0.05 * np.median(ts["battery_current_a"]) and min(v for _, v, _ in flying) > 13.0
 
 
-def test_a_second_flight_beside_a_cpu_hog_is_the_same_flight(ci_ardupilot, ardupilot_bin, tmp_path):
-    """Lockstep: the takeoff case flown again, on its own (not in the batch) and beside twice as many busy
-    processes as CPUs, gives the same time series to the bit, so the same verdict."""
+def test_compared_with_the_builtin_beside_a_cpu_hog_it_is_the_same_flight(ci_ardupilot, ardupilot_bin, tmp_path):
+    """``run compare`` of the takeoff case (built-in vs ArduPilot, the batch's seed) beside twice as many busy
+    processes as CPUs: the ArduPilot run is the batch's flight to the bit (lockstep: the load changes nothing),
+    and the comparison (table, figure, report section) is written."""
     from tests.cpu_hog import cpu_hog
-    from vinecli.runs import run_mission
+    from vinecli.batch.compare import compare_autopilots
+    from vinecli.report import build_report
 
     result, out = ci_ardupilot
     case = next(c for c in result.cases if c.case == "takeoff")
     with cpu_hog(2.0):
-        s = run_mission(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
-                        tmp_path, seed=case.seed, autopilot="ardupilot", run_id="again",
-                        autopilot_options={"ardupilot_bin": str(ardupilot_bin)})
-    assert s.passed and s.metrics["ardupilot_stalls"] == 0
+        res, cmp = compare_autopilots(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
+                                      tmp_path / "cmp", autopilots=("builtin", "ardupilot"), seed=case.seed, jobs=2,
+                                      ardupilot_bin=ardupilot_bin)
+    assert res.passed and cmp is not None
     a = read_timeseries(out / "takeoff" / "timeseries.parquet")
-    b = read_timeseries(tmp_path / "again" / "timeseries.parquet")
+    b = read_timeseries(tmp_path / "cmp" / "takeoff-ardupilot" / "timeseries.parquet")
     assert len(a["t_s"]) == len(b["t_s"])
     for col in ("pos_enu_x_m", "pos_enu_z_m", "rotor1_cmd_radps", "tank_flow_lps", "battery_voltage_v"):
         assert np.array_equal(a[col], b[col]), col
+    by = {r["autopilot"]: r for r in cmp["runs"]}
+    assert set(by) == {"builtin", "ardupilot"} and by["ardupilot"]["firmware"].startswith("ArduCopter 4.7.0")
+    for r in by.values():
+        assert r["status"] == "completed" and 10 < r["mission_time_s"] < 40 and 0 < r["energy_wh"] < 10
+    assert (tmp_path / "cmp" / "comparison.json").is_file() and (tmp_path / "cmp" / "comparison.png").stat().st_size > 10_000
+    rep = build_report(tmp_path / "cmp", tmp_path / "report", formats="html,md,json")
+    md = (tmp_path / "report" / "summary.md").read_text()
+    assert "## Autopilots side by side" in md and "ArduCopter 4.7.0-dev" in md
+    assert "figA" in (tmp_path / "report" / "report.html").read_text() and rep.exit_code == 0
 
 
 SHORT = {"name": "ap-short", "vehicle": "x500-sprayer", "max_duration_s": 30.0, "record_rate_hz": 20.0,

@@ -105,7 +105,9 @@ def _dose_panel(a: Any, runs: list[dict[str, Any]], names: list[str], colours: l
     if nominal:
         a.axhline(nominal, color="k", ls="--", lw=1, label=f"asked {nominal:g} L/ha")
     a.set_xticks(range(n_rows))
-    a.set_xlabel("targeted row")
+    longest = max(runs, key=lambda r: len(r["rows"]))["rows"]
+    a.set_xticklabels([str(row.get("row", i)) for i, row in enumerate(longest)])
+    a.set_xlabel("targeted row (in flight order)")
     a.set_title("mean dose per row (L/ha)", fontsize=9)
     a.legend(fontsize=7)
 

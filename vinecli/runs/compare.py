@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.errors import VinecliError
 from vinecli.runs import rundir
 from vinecli.runs.behaviour import behaviour_figures
 
@@ -76,7 +77,10 @@ def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
     events = rundir.read_events(run_dir / rundir.EVENTS)
     ups = [float(e["t_s"]) for e in events if e["kind"] == "liftoff"]
     downs = [float(e["t_s"]) for e in events if e["kind"] == "touchdown"]
-    beh = behaviour_figures(run_dir)
+    try:
+        beh = behaviour_figures(run_dir)
+    except VinecliError as exc:  # e.g. a run whose mission.yaml cannot be read any more: its other figures stand
+        beh = {"error": str(exc)}
     dose = dose_figures(run_dir)
     tracking = _num(m.get("cross_track_rms_m")) if dose["rows"] else None
     if tracking is None:
