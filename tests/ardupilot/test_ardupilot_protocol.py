@@ -48,7 +48,7 @@ def _ardupilot_clock(stamps: list[float]) -> list[int]:
 
 @pytest.mark.parametrize("dt_us", [4000, 2500, 3333, 1000])
 def test_time_stamps_keep_the_firmware_clock_on_the_physics_clock(dt_us):
-    n = 200_000  # 800 s at 250 Hz
+    n = 50_000  # 200 s at 250 Hz (plain decimal stamps lose their first microsecond within 20 steps)
     clock = _ardupilot_clock([timestamp_s(k, dt_us) for k in range(1, n + 1)])
     assert clock == [k * dt_us for k in range(1, n + 1)]
     naive = _ardupilot_clock([k * dt_us / 1e6 for k in range(1, n + 1)])

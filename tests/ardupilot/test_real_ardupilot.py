@@ -217,3 +217,29 @@ def _our_arducopters() -> list[int]:
         except (OSError, ValueError):
             continue
     return found
+
+
+def test_sigterm_while_arducopter_boots_ends_the_run_cleanly(ardupilot_bin, flat_world_dir, tmp_path):
+    """SIGTERM to ``vinecli run mission`` while ArduPilot boots: the run stops within seconds (the boot polls
+    the stop flag), is written ``interrupted``, the command exits 143 and no ArduPilot is left running."""
+    import subprocess
+    import sys
+
+    (tmp_path / "short.yaml").write_text(yaml.safe_dump({**SHORT, "autopilot": "ardupilot"}))
+    proc = subprocess.Popen([sys.executable, "-m", "vinecli", "run", "mission", str(tmp_path / "short.yaml"),
+                             "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
+                             "--ardupilot-bin", str(ardupilot_bin)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not _our_arducopters():
+        time.sleep(0.1)
+    started = _our_arducopters()
+    assert started, "ArduPilot did not start"
+    time.sleep(2.0)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 143, out.decode(errors="replace")[-2000:]
+    assert time.monotonic() - t0 < 20
+    s = json.loads((tmp_path / "runs" / "ap-short-s0" / "summary.json").read_text())
+    assert s["status"] == "interrupted" and "SIGTERM" in s["status_message"]
+    assert not [pid for pid in started if Path(f"/proc/{pid}").exists()]  # stopped, not orphaned

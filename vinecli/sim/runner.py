@@ -328,6 +328,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         terrain_height=world.terrain_height,
         seed=seed,
         terrain_bounds=_bounds(world),
+        should_stop=should_stop,
     )
     ap_step: Callable[[Observation], ActuatorCommand] = autopilot.step
     ap_status = autopilot.status

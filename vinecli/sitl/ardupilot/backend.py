@@ -166,7 +166,10 @@ class ArdupilotSitlAutopilot:
         """The first step: ArduPilot boots against the vehicle at rest until it is ready to fly."""
         client = self.client
         assert client is not None
+        stop = self.ctx.should_stop
         while True:
+            if self._frame is not None and stop is not None and self.answers % 250 == 0 and stop():
+                return self._frame  # not booted: the loop ends the run as interrupted, close() stops ArduPilot
             frame = self._next_frame()
             self._converse(obs)
             if client.booted:
