@@ -50,6 +50,13 @@ def markdown_table(cmp: dict[str, Any]) -> str:
     return f"### {md_text(cmp['mission'])}, seed {cmp['seed']}\n\n" + head + "\n".join(lines) + "\n"
 
 
+def markdown_section(comparisons: Sequence[dict[str, Any]]) -> str:
+    """summary.md's "Autopilots side by side" section ('' without comparisons)."""
+    if not comparisons:
+        return ""
+    return "\n## Autopilots side by side\n\n" + "\n".join(markdown_table(c) for c in comparisons)
+
+
 def comparison_png(cmp: dict[str, Any]) -> bytes:
     """figA: tracks, tracking/time/energy, dose per row, hot spots and gaps (one colour per autopilot)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -139,4 +146,4 @@ def html_blocks(comparisons: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-__all__ = ["comparison_groups", "comparison_png", "html_blocks", "markdown_table"]
+__all__ = ["comparison_groups", "comparison_png", "html_blocks", "markdown_section", "markdown_table"]
