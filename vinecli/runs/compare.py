@@ -12,7 +12,6 @@ targeted row (mean rate, L/ha) and the share of the rows' length that got a hot 
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ import numpy as np
 from vinecli.errors import VinecliError
 from vinecli.runs import rundir
 from vinecli.runs.behaviour import behaviour_figures
+from vinecli.runs.mission import _num
 
 HOT_FACTOR = 2.0  # a stretch of row dosed at more than twice the asked rate
 GAP_FACTOR = 0.5  # ... or at less than half of it (row_coverage_fraction's threshold)
@@ -36,14 +36,6 @@ FIGURES: dict[str, tuple[str, str]] = {
     "hot_spot_fraction": ("rows over-dosed", "1"),
     "gap_fraction": ("rows under-dosed", "1"),
 }
-
-
-def _num(v: Any) -> float | None:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
 
 
 def dose_figures(run_dir: Path) -> dict[str, Any]:

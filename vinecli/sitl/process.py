@@ -156,6 +156,11 @@ class FirmwareProcess(ABC):
             text = self.log_path.read_text(errors="replace")
         return "\n".join(text.splitlines()[-lines:])
 
+    def log_note(self, lines: int = 8) -> str:
+        """``"; <firmware> log (<path>) ends: a | b | c"`` for an error message ('' when it printed nothing)."""
+        tail = self.log_tail(lines).strip()
+        return f"; {self.firmware} log ({self.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
+
     def stop(self, timeout_s: float = 5.0, while_waiting: Callable[[], None] | None = None) -> int | None:
         """SIGTERM the process group, SIGKILL after ``timeout_s``; ``while_waiting()`` is called in the
         wait (a lockstep firmware exits only once its clock moves again). Idempotent."""

@@ -274,10 +274,7 @@ class ArdupilotSitlAutopilot:
         return f"ArduPilot exited ({how}) {when}" + self._log()
 
     def _log(self) -> str:
-        if self.process is None:
-            return ""
-        tail = self.process.log_tail(8).strip()
-        return f"; ArduPilot log ({self.process.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
+        return self.process.log_note() if self.process is not None else ""
 
     def _emit(self, t_us: int, kind: str, message: str, data: dict[str, object] | None = None) -> None:
         self._events.append(Event(t_us, kind, message, data or {}))

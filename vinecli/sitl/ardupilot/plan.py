@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.errors import SpecError
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.mission_items import MissionItem, PlanContext, phases_to_items
+from vinecli.mavlink.mission_items import MissionItem, phases_to_items
 from vinecli.sitl.ardupilot.params import SprayerSetting, mission_settings
+from vinecli.sitl.converter import converter_inputs
 from vinecli.specs.mission import GotoPhase, MissionSpec, SprayerPhase, SprayPhase, WaypointsPhase
 
 #: ArduPilot's LOCATION_SCALING_FACTOR_INV: 1e-7 degrees per metre of latitude (AP_Common/Location.h)
@@ -91,16 +92,7 @@ def sprayer_setting(mission: MissionSpec) -> SprayerSetting | None:
 
 def plan_for(ctx: AutopilotContext, frame: ArdupilotFrame) -> ArdupilotPlan:
     """The ArduPilot plan (items, fence, mission parameters) for ``ctx.mission`` (SpecError if it cannot fly it)."""
-    v = ctx.vehicle
-    pc = PlanContext(
-        origin=frame,  # type: ignore[arg-type]  # ArduPilot's latitude/longitude convention (module docstring)
-        home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
-        terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
-        nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
-    )
-    mission = ctx.mission
-    if ctx.geofence is not None and mission.geofence is None:
-        mission = mission.model_copy(update={"geofence": ctx.geofence})
+    mission, pc = converter_inputs(ctx, frame)  # ArduPilot's latitude/longitude convention (module docstring)
     conv = phases_to_items(mission, pc)
     items = [MissionItem(M.CMD_NAV_WAYPOINT, M.MAV_FRAME_GLOBAL, x=frame.lat_e7, y=frame.lng_e7, z=frame.alt_m)]
     for it in conv.items:

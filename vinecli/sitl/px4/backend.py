@@ -250,10 +250,7 @@ class Px4SitlAutopilot:
 
     def _px4_log(self) -> str:
         """The tail of the log of the PX4 we started ('' for an external PX4)."""
-        if self.process is None:
-            return ""
-        tail = self.process.log_tail(8).strip()
-        return f"; PX4 log ({self.process.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
+        return self.process.log_note() if self.process is not None else ""
 
     def _emit(self, t_us: int, kind: str, message: str, data: dict[str, object] | None = None) -> None:
         self._events.append(Event(t_us, kind, message, data or {}))

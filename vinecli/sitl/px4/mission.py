@@ -43,7 +43,8 @@ from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import UdpLink
 from vinecli.mavlink.mission_items import MissionItem
 from vinecli.mavlink.px4params import mission_params
-from vinecli.phase_items import DO_SET_ACTUATOR, ItemPlan, PlanContext, phases_to_items
+from vinecli.phase_items import DO_SET_ACTUATOR, ItemPlan, phases_to_items
+from vinecli.sitl.converter import converter_inputs
 from vinecli.specs.vehicle import VehicleSpec
 
 log = logging.getLogger(__name__)
@@ -76,18 +77,8 @@ def battery_params(v: VehicleSpec, mass_kg: float) -> dict[str, float | int]:
 def plan_for(ctx: AutopilotContext) -> ItemPlan:
     """The PX4 plan (items, fence, parameters) for ``ctx.mission`` (SpecError if PX4 cannot fly it): the
     items of :func:`vinecli.phase_items.phases_to_items` with the sprayer on DO_SET_ACTUATOR (set 1)."""
-    from vinecli.rows.plan import plan_accel
-
     v = ctx.vehicle
-    pc = PlanContext(
-        origin=ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
-        terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
-        nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
-        accel_mps2=plan_accel(v), firmware="PX4",
-    )
-    mission = ctx.mission
-    if ctx.geofence is not None and mission.geofence is None:
-        mission = mission.model_copy(update={"geofence": ctx.geofence})
+    mission, pc = converter_inputs(ctx, firmware="PX4")
     plan = phases_to_items(mission, pc, sprayer=DO_SET_ACTUATOR)
     plan.params = {**v.px4.params, **mission_params(mission)}  # the airframe's, then the mission's
     plan.params.update(battery_params(v, ctx.total_mass_kg))
