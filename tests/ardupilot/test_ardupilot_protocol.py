@@ -138,3 +138,19 @@ def test_parameter_file_format_and_validation():
         param_file_text({"frame": 1})
     with pytest.raises(InputError, match="finite"):
         param_file_text({"FRAME_CLASS": math.inf})
+
+
+def test_mission_settings_from_the_phases_and_the_fence():
+    from vinecli.sitl.ardupilot.params import mission_settings
+    from vinecli.specs.mission import MissionSpec
+
+    m = MissionSpec.model_validate({
+        "name": "m", "phases": [{"type": "takeoff", "altitude_agl_m": 5.0, "climb_speed_mps": 1.5},
+                                {"type": "goto", "position_enu": [3.0, 4.0], "acceptance_radius_m": 0.3},
+                                {"type": "rtl", "return_altitude_agl_m": 6.0}, {"type": "land", "descent_speed_mps": 0.1}],
+        "geofence": {"polygon_enu": [[-10, -10], [10, -10], [10, 10]], "max_altitude_agl_m": 15.0, "action": "hold"}})
+    p = mission_settings(m)
+    assert p["WPNAV_SPEED_UP"] == 150.0 and p["RTL_ALT"] == 600 and p["WPNAV_RADIUS"] == 30
+    assert p["LAND_SPEED"] == p["LAND_SPEED_HIGH"] == 30  # 10 cm/s asked, ArduCopter's minimum 30
+    assert (p["FENCE_ENABLE"], p["FENCE_TYPE"], p["FENCE_ACTION"], p["FENCE_ALT_MAX"]) == (1, 5, 4, 15.0)
+    assert "FENCE_RADIUS" not in p

@@ -20,10 +20,11 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from vinecli.errors import SpecError
+from vinecli.specs.mission import GotoPhase, LandPhase, MissionSpec, RtlPhase, TakeoffPhase, WaypointsPhase
 from vinecli.specs.vehicle import VehicleSpec
 
 #: ARMING_CHECK bits: 1 all, 2 baro, 4 compass, 8 GPS lock, 16 INS, 32 parameters, 64 RC, 128 board
@@ -153,34 +154,39 @@ def pump_fraction(pwm: int) -> float:
     return 1.0 if pwm >= PWM_MAX else (pwm - PWM_MIN) / (PWM_MAX - PWM_MIN)
 
 
-#: PX4-named mission settings of the shared phase -> item converter, in ArduCopter's names and units
-_FROM_PX4: Mapping[str, tuple[str, float]] = {
-    "MPC_Z_V_AUTO_UP": ("WPNAV_SPEED_UP", 100.0),  # m/s -> cm/s
-    "MPC_LAND_SPEED": ("LAND_SPEED", 100.0),
-    "RTL_RETURN_ALT": ("RTL_ALT", 100.0),  # m -> cm
-    "GF_MAX_VER_DIST": ("FENCE_ALT_MAX", 1.0),
-    "GF_MAX_HOR_DIST": ("FENCE_RADIUS", 1.0),
-}
-#: GF_ACTION (PX4) -> FENCE_ACTION (ArduCopter: 0 report, 1 RTL or land, 2 land, 4 brake or land)
-_FENCE_ACTION = {0: 0, 1: 0, 2: 4, 3: 1, 4: 2, 5: 2}
+#: GeofenceSpec.action -> FENCE_ACTION (ArduCopter: 0 report only, 1 RTL or land, 2 always land, 4 brake or land;
+#: it has no motor cut-off, so "terminate" lands)
+_FENCE_ACTION = {"none": 0, "warn": 0, "hold": 4, "rtl": 1, "land": 2, "terminate": 2}
 
 
-def mission_settings(px4_named: Mapping[str, int | float], *, fence_polygon: bool,
-                     cruise_mps: float | None, wp_radius_m: float) -> dict[str, int | float]:
-    """ArduCopter parameters for the converter's mission settings (climb, landing, RTL, fence)."""
-    p: dict[str, int | float] = {"WPNAV_RADIUS": max(5, int(round(100.0 * wp_radius_m)))}
-    for name, (ap_name, scale) in _FROM_PX4.items():
-        if name in px4_named:
-            p[ap_name] = round(float(px4_named[name]) * scale, 3)
-    if "LAND_SPEED" in p:
-        p["LAND_SPEED"] = int(min(200, max(30, round(p["LAND_SPEED"]))))  # ArduCopter's range, cm/s
-        p["LAND_SPEED_HIGH"] = p["LAND_SPEED"]
-    if cruise_mps is not None:
-        p["WPNAV_SPEED"] = round(100.0 * cruise_mps, 1)
-    fence_type = (1 if "FENCE_ALT_MAX" in p else 0) | (2 if "FENCE_RADIUS" in p else 0) | (4 if fence_polygon else 0)
-    if fence_type:
-        p.update({"FENCE_ENABLE": 1, "FENCE_TYPE": fence_type,
-                  "FENCE_ACTION": _FENCE_ACTION.get(int(px4_named.get("GF_ACTION", 3)), 1)})
+def mission_settings(mission: MissionSpec) -> dict[str, int | float]:
+    """ArduCopter parameters of ``mission``'s phases and geofence (the items are the converter's): the climb
+    speed (WPNAV_SPEED_UP), the landing speed (LAND_SPEED, within ArduCopter's 30-200 cm/s, and LAND_SPEED_HIGH
+    above LAND_ALT_LOW), the RTL altitude, the waypoint radius (the smallest acceptance radius, at least
+    5 cm) and the fence (FENCE_ENABLE, FENCE_TYPE: 1 altitude, 2 circle, 4 polygon; FENCE_ACTION, ALT_MAX,
+    RADIUS)."""
+    p: dict[str, int | float] = {}
+    radii = [0.5]
+    for ph in mission.phases:
+        if isinstance(ph, TakeoffPhase) and ph.climb_speed_mps is not None:
+            p["WPNAV_SPEED_UP"] = round(100.0 * ph.climb_speed_mps, 1)
+        elif isinstance(ph, LandPhase):
+            p["LAND_SPEED"] = p["LAND_SPEED_HIGH"] = int(min(200, max(30, round(100.0 * ph.descent_speed_mps))))
+        elif isinstance(ph, RtlPhase):
+            p["RTL_ALT"] = int(round(100.0 * ph.return_altitude_agl_m))
+        elif isinstance(ph, (GotoPhase, WaypointsPhase)):
+            radii.append(ph.acceptance_radius_m)
+    p["WPNAV_RADIUS"] = max(5, int(round(100.0 * min(radii))))
+    gf = mission.geofence
+    if gf is not None:
+        kind = (1 if gf.max_altitude_agl_m is not None else 0) | (2 if gf.max_horizontal_distance_m is not None else 0) \
+            | (4 if gf.polygon_enu else 0)
+        if kind:
+            p.update({"FENCE_ENABLE": 1, "FENCE_TYPE": kind, "FENCE_ACTION": _FENCE_ACTION[gf.action]})
+        if gf.max_altitude_agl_m is not None:
+            p["FENCE_ALT_MAX"] = float(gf.max_altitude_agl_m)
+        if gf.max_horizontal_distance_m is not None:
+            p["FENCE_RADIUS"] = float(gf.max_horizontal_distance_m)
     return p
 
 

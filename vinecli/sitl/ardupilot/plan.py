@@ -1,5 +1,5 @@
 """The ArduPilot mission of a run: the phases through the shared phase -> mission-item converter
-(:func:`vinecli.mavlink.mission_items.phases_to_items`), in ArduCopter's terms.
+(:func:`vinecli.phase_items.phases_to_items`), in ArduCopter's terms.
 
 * Coordinates: ArduPilot turns the JSON position (metres from ``--home``) into latitude and longitude
   with its own spherical offset (``Location::offset``: 1e-7 deg = 0.0111319 m of latitude, longitude
@@ -7,8 +7,8 @@
   15 cm over a 100 m field). Waypoints and fence vertices are placed with ArduPilot's offset from the
   same home (:class:`ArdupilotFrame`), so the firmware flies to the ENU points vinecli planned.
 * Item 0 is ArduPilot's home slot (it overwrites it when it arms); the converter's items follow.
-* The sprayer: the converter's "sprayer on/off" items become MAV_CMD_DO_SPRAYER (216) and the pump
-  rate goes to AC_Sprayer's parameters (:func:`~vinecli.sitl.ardupilot.params.sprayer_params`).
+* The sprayer: the converter switches it with MAV_CMD_DO_SPRAYER (216) (:data:`vinecli.phase_items.DO_SPRAYER`),
+  the pump rate goes to AC_Sprayer's parameters (:func:`~vinecli.sitl.ardupilot.params.sprayer_params`).
 """
 
 from __future__ import annotations
@@ -19,10 +19,11 @@ from dataclasses import dataclass, field
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.errors import SpecError
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.mission_items import MissionItem, phases_to_items
+from vinecli.mavlink.mission_items import MissionItem
+from vinecli.phase_items import DO_SPRAYER, phases_to_items
 from vinecli.sitl.ardupilot.params import SprayerSetting, mission_settings
 from vinecli.sitl.converter import converter_inputs
-from vinecli.specs.mission import GotoPhase, MissionSpec, SprayerPhase, SprayPhase, WaypointsPhase
+from vinecli.specs.mission import MissionSpec, SprayerPhase, SprayPhase, WaypointsPhase
 
 #: ArduPilot's LOCATION_SCALING_FACTOR_INV: 1e-7 degrees per metre of latitude (AP_Common/Location.h)
 LOCATION_SCALING_FACTOR_INV = 89.83204953368922
@@ -92,21 +93,16 @@ def sprayer_setting(mission: MissionSpec) -> SprayerSetting | None:
 
 def plan_for(ctx: AutopilotContext, frame: ArdupilotFrame) -> ArdupilotPlan:
     """The ArduPilot plan (items, fence, mission parameters) for ``ctx.mission`` (SpecError if it cannot fly it)."""
-    mission, pc = converter_inputs(ctx, frame)  # ArduPilot's latitude/longitude convention (module docstring)
-    conv = phases_to_items(mission, pc)
+    # ArduPilot's latitude/longitude convention (module docstring); the sprayer switched by DO_SPRAYER
+    mission, pc = converter_inputs(ctx, frame, firmware="ArduPilot")
+    conv = phases_to_items(mission, pc, sprayer=DO_SPRAYER)
     items = [MissionItem(M.CMD_NAV_WAYPOINT, M.MAV_FRAME_GLOBAL, x=frame.lat_e7, y=frame.lng_e7, z=frame.alt_m)]
     for it in conv.items:
-        if it.command == M.CMD_DO_SET_ACTUATOR:  # the converter's sprayer switch
-            it = MissionItem(M.CMD_DO_SPRAYER, M.MAV_FRAME_MISSION, 1.0 if it.param1 > 0.0 else 0.0,
-                             phase_index=it.phase_index)
-        elif it.command == M.CMD_NAV_LOITER_TIME and math.isnan(it.param4):
+        if it.command == M.CMD_NAV_LOITER_TIME and math.isnan(it.param4):
             it.param4 = 0.0  # ArduPilot's "exit at the loiter centre" flag (NaN: MISSION_ACK INVALID_PARAM4)
         items.append(it)
-    radii = [ph.acceptance_radius_m for ph in mission.phases if isinstance(ph, (GotoPhase, WaypointsPhase))]
-    params = mission_settings(conv.params, fence_polygon=bool(conv.fence), cruise_mps=None,
-                              wp_radius_m=min([0.5, *radii]))
-    return ArdupilotPlan(items=items, fence=conv.fence, params=params, phase_of_item=[-1, *conv.phase_of_item],
-                         sprayer=sprayer_setting(mission))
+    return ArdupilotPlan(items=items, fence=conv.fence, params=mission_settings(mission),
+                         phase_of_item=[-1, *conv.phase_of_item], sprayer=sprayer_setting(mission))
 
 
 __all__ = ["ArdupilotFrame", "ArdupilotPlan", "home_frame", "plan_for", "sprayer_setting"]
