@@ -75,6 +75,7 @@ class Observation:
     tank_level_l: float = 0.0
     battery_soc: float = math.nan  # state of charge 0..1 (NaN: the vehicle has no battery model)
     battery_voltage_v: float = math.nan  # terminal voltage under the last step's load, V
+    battery_current_a: float = math.nan  # pack current over the last step, A (a firmware's current sensor)
 
 
 @dataclass(frozen=True, slots=True)

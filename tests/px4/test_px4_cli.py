@@ -49,7 +49,7 @@ def test_run_mission_with_px4_through_the_cli(flat_world_dir: Path, tmp_path: Pa
     assert fake.violations == [] and fake.error is None
     s = json.loads((tmp_path / "runs" / "px4-quick-s0" / "summary.json").read_text())
     assert s["autopilot"] == "px4" and s["status"] == "completed" and s["passed"]
-    assert [c["name"] for c in s["checks"]] == ["climbed", "status"]
+    assert [c["name"] for c in s["checks"]] == ["climbed", "status", "px4_stalls"]  # + the implicit lockstep check
     events = [json.loads(line) for line in (tmp_path / "runs" / "px4-quick-s0" / "events.jsonl").read_text().splitlines()]
     assert any(e["kind"] == "mission_uploaded" for e in events)
     manifest = json.loads((tmp_path / "runs" / "px4-quick-s0" / "manifest.json").read_text())

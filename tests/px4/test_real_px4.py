@@ -38,7 +38,7 @@ def _events(run_dir: Path) -> list[dict[str, Any]]:
     return [json.loads(line) for line in (run_dir / "events.jsonl").read_text().splitlines()]
 
 
-def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4):
+def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4, px4_bin):
     result, out = ci_px4
     by_case = {c.case: c for c in result.cases}
     assert set(by_case) == {"takeoff", "overload", "spray-rows", "gust"}
@@ -50,8 +50,17 @@ def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4):
     spans = []
     for case in by_case:
         summary = json.loads((out / case / "summary.json").read_text())
-        # 0 on a quiet machine; a step PX4 cannot answer within 1 s happens only under heavy load (load average 8)
-        assert summary["metrics"]["px4_stalls"] <= 3 and summary["metrics"]["px4_lockstep_steps"] > 1000
+        m = summary["metrics"]
+        # the lockstep waits for PX4's answer however loaded the machine: no stall; PX4's battery drains over the
+        # pack's endurance and reports no warning
+        assert m["px4_stalls"] == 0 and m["px4_lockstep_steps"] > 1000 and m["px4_battery_warnings"] == 0
+        fw = summary["firmware"]  # auditable: identity and PX4's own log kept in the run folder
+        assert summary["autopilot"] == "px4" and fw["firmware"] == "PX4" and fw["version"] == "1.15.4"
+        assert fw["git_hash"] and len(fw["sha256"]) == 64 and fw["binary"] == str(px4_bin.resolve())
+        names = {Path(f).name for f in fw["files"]}
+        assert {"px4.log", "px4-rc.params"} <= names and any(n.endswith(".ulg") for n in names)
+        assert all((out / case / f).is_file() for f in fw["files"])
+        assert "SIM_BAT_DRAIN" in (out / case / "firmware" / "px4-rc.params").read_text()
         events = _events(out / case)
         errors = [e["message"] for e in events if e["kind"] == "px4_statustext" and e["data"]["severity"] <= 3]
         assert errors == [], (case, errors)  # e.g. no "Baro/Mag #0 failed: TIMEOUT" (fields_updated per new sample)
@@ -62,6 +71,26 @@ def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4):
     alt = next(c for c in json.loads((out / "takeoff" / "summary.json").read_text())["checks"]
                if c["name"] == "altitude_reached")
     assert abs(alt["value"] - 8.0) <= 0.2  # NAV_MC_ALT_RAD = the phase's tolerance_m (PX4 default 0.8 m)
+
+
+def test_a_case_beside_a_cpu_hog_gets_the_same_verdict(ci_px4, px4_bin, tmp_path):
+    """The takeoff case again beside twice as many busy processes as CPUs: every wait on PX4 is the lockstep
+    or simulated time, so the same checks pass with no stall (PX4's mission link runs in its own threads,
+    so the flight may shift by a few steps; the verdict may not)."""
+    from tests.cpu_hog import cpu_hog
+    from vinecli.runs.mission import run_mission
+
+    result, out = ci_px4
+    case = next(c for c in result.cases if c.case == "takeoff")
+    with cpu_hog(2.0):
+        s = run_mission(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
+                        tmp_path, seed=case.seed, autopilot="px4", run_id="hog",
+                        autopilot_options={"px4_bin": str(px4_bin)})
+    quiet = json.loads((out / "takeoff" / "summary.json").read_text())
+    assert [(c["name"], c["passed"]) for c in s.checks] == [(c["name"], c["passed"]) for c in quiet["checks"]]
+    assert s.passed and s.metrics["px4_stalls"] == 0
+    alt = {c["name"]: c["value"] for c in s.checks}["altitude_reached"]
+    assert abs(alt - {c["name"]: c["value"] for c in quiet["checks"]}["altitude_reached"]) < 0.1
 
 
 def test_geofence_failsafe_ends_the_run_with_px4s_cause(real_px4, tmp_path):

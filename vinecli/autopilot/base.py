@@ -6,6 +6,7 @@ per physics step and return an :class:`~vinecli.types.ActuatorCommand`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Final, Protocol
@@ -70,6 +71,9 @@ class AutopilotContext:
     seed: int = 0
     #: mapped terrain extent (xmin, ymin, xmax, ymax) ENU m; None = unbounded
     terrain_bounds: tuple[float, float, float, float] | None = None
+    #: () -> bool: the run is being stopped (a signal, a wall-clock limit); a backend polls it in long waits
+    #: (a firmware's boot) and returns, the loop then ends the run as interrupted
+    should_stop: Callable[[], bool] | None = None
 
 
 @dataclass

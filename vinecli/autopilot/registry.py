@@ -23,6 +23,7 @@ GROUP = "vinecli.autopilots"
 BUILTIN: dict[str, str] = {
     "builtin": "vinecli.autopilot.builtin:BuiltinAutopilot",
     "px4": "vinecli.sitl.px4.backend:Px4SitlAutopilot",
+    "ardupilot": "vinecli.sitl.ardupilot.backend:ArdupilotSitlAutopilot",
 }
 
 

@@ -34,7 +34,7 @@ class RunSpec:
     seed: int
     timeout_s: float | None = None
     mcap: bool = False
-    autopilot_options: dict[str, Any] = field(default_factory=dict)  # PX4 options (px4_bin...)
+    autopilot_options: dict[str, Any] = field(default_factory=dict)  # firmware options (px4_bin, ardupilot_bin)
 
 
 @dataclass
@@ -87,6 +87,8 @@ def run_one(spec: RunSpec) -> CaseResult:
     status = s.status
     if status == "interrupted" and s.status_message.startswith("stopped: wall-clock"):
         status, error = "error", f"timeout: {s.status_message}"
+    elif status == "error":  # the run could not fly to its end (a firmware died, a lost link): not a check failure
+        error = s.status_message or "the run failed"
     return CaseResult(
         spec.case, spec.run_id, status, s.passed and error is None, error, seed=spec.seed, sim_time_s=s.sim_time_s,
         wall_time_s=s.wall_time_s, real_time_factor=s.real_time_factor,

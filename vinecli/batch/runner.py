@@ -111,13 +111,15 @@ def run_batch(
     mcap: bool = False,
     world: str | Path | None = None,
     px4_bin: str | Path | None = None,
+    ardupilot_bin: str | Path | None = None,
 ) -> BatchResult:
     """Run a pipeline's cases; returns the :class:`BatchResult` (also written to ``RUNS/batch.json``).
 
     ``timeout_s`` (wall seconds per case) overrides the pipeline's. ``job`` is the top-level,
     picklable function executed per case (default :func:`~vinecli.batch.job.run_one`). ``world`` (a built
     world dir or a world spec) replaces the pipeline's default world (entries naming their own keep theirs).
-    ``px4_bin`` (or the pipeline's ``px4_bin``): PX4 cases start their own PX4 SITL process, one per case.
+    ``px4_bin`` / ``ardupilot_bin`` (or the pipeline's): PX4 / ArduPilot cases start their own SITL process,
+    one per case.
     """
     if jobs < 1:
         raise InputError(f"--jobs must be >= 1, got {jobs}")
@@ -139,13 +141,15 @@ def run_batch(
                 raise InputError("world not found", path=world)
             spec = with_world(spec, world)
         cases = expand_cases(spec, ppath)
-        ap_opts: dict[str, Any] = {}
-        if px4_bin is not None or spec.px4_bin is not None:
-            pb = Path(px4_bin) if px4_bin is not None else (ppath.parent / str(spec.px4_bin))
-            if not pb.is_file():
-                raise InputError("PX4 binary not found (px4_bin)", path=pb)
-            note_input(pb, "PX4 binary")
-            ap_opts["px4_bin"] = str(pb.resolve())
+        ap_opts: dict[str, dict[str, Any]] = {"px4": {}, "ardupilot": {}}
+        for name, given, piped in (("px4", px4_bin, spec.px4_bin), ("ardupilot", ardupilot_bin, spec.ardupilot_bin)):
+            if given is not None or piped is not None:
+                pb = Path(given) if given is not None else (ppath.parent / str(piped))
+                label = "PX4" if name == "px4" else "ArduPilot"
+                if not pb.is_file():
+                    raise InputError(f"{label} binary not found ({name}_bin)", path=pb)
+                note_input(pb, f"{label} binary")
+                ap_opts[name][f"{name}_bin"] = str(pb.resolve())
         note_case_inputs(cases, ppath)
         check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR, resume=resume)
         with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
@@ -160,7 +164,7 @@ def run_batch(
 def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, jobs: int, executor: str,
          scheduler: str | None, resume: bool, timeout_s: float | None, progress: ProgressFn | None,
          job: Callable[[RunSpec], CaseResult], dask_processes: bool, max_tasks_per_child: int, grace_s: float | None,
-         mcap: bool, ap_opts: dict[str, Any]) -> BatchResult:
+         mcap: bool, ap_opts: dict[str, dict[str, Any]]) -> BatchResult:
     """:func:`run_batch` once its inputs are read and its outputs checked (the runs folder locked)."""
     limit = timeout_s if timeout_s is not None else spec.timeout_s
     t0 = time.perf_counter()
@@ -176,7 +180,7 @@ def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, job
         if stop.signum is None:
             check_cases_memory(cases, worlds, ppath)
         run_specs = [RunSpec(c.name, c.name, c.mission, c.mission_path, worlds.get(c.world, c.world), str(runs_dir),
-                             c.seed, limit, mcap, ap_opts if c.mission.get("autopilot") == "px4" else {}) for c in cases]
+                             c.seed, limit, mcap, ap_opts.get(str(c.mission.get("autopilot")), {})) for c in cases]
         hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
 
         def execute(todo: Sequence[RunSpec], record: Callable[[CaseResult], None]) -> None:

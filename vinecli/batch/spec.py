@@ -90,6 +90,8 @@ class PipelineSpec(StrictModel):
     autopilot: str | None = Field(None, description="override every mission's autopilot")
     px4_bin: str | None = Field(None, description="PX4 SITL binary (relative to the pipeline file): every PX4 case "
                                 "starts its own PX4 process on a free instance")
+    ardupilot_bin: str | None = Field(None, description="ArduCopter SITL binary (relative to the pipeline file): every "
+                                      "ArduPilot case starts its own ArduPilot process on a free instance")
     truth: bool | None = None
     record_rate_hz: float | None = Field(None, gt=0, le=MAX_RATE_HZ)
     timeout_s: float | None = Field(900.0, gt=0, le=MAX_DURATION_S, description="wall-clock limit per case, s")

@@ -46,6 +46,11 @@ def px4_bin_option(help: str) -> Any:  # noqa: A002
     return typer.Option("--px4-bin", help=help)
 
 
+def ardupilot_bin_option(help: str) -> Any:  # noqa: A002
+    """``--ardupilot-bin``: an ArduCopter SITL binary."""
+    return typer.Option("--ardupilot-bin", help=help)
+
+
 #: ``--seed``: the run seed
 Seed = Annotated[int, typer.Option("--seed", min=0, max=MAX_SEED, help="Run seed (sensor noise, turbulence).")]
 #: ``--px4-instance``: PX4 SITL instance of a run
@@ -56,8 +61,9 @@ Px4Host = Annotated[str, typer.Option("--px4-host", help="Address to listen on f
 #: ``--px4-connect-timeout``
 Px4ConnectTimeout = Annotated[float, typer.Option("--px4-connect-timeout", help="Seconds to wait for PX4.")]
 #: ``--px4-lockstep-timeout``
-Px4LockstepTimeout = Annotated[float, typer.Option(
+Px4LockstepTimeout = Annotated[float | None, typer.Option(
     "--px4-lockstep-timeout",
-    help="Seconds each physics step waits for PX4's actuator controls (PX4's Gazebo bridge: 1).")]
+    help="Seconds a physics step waits for PX4's actuator controls before it goes on without them (a stall, "
+         "which fails the run). Default: wait for them (lockstep; a PX4 silent for 30 s is an error).")]
 #: ``--px4-allow-remote``
 Px4AllowRemote = Annotated[bool, typer.Option("--px4-allow-remote", help="Allow a non-loopback --px4-host.")]

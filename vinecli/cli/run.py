@@ -15,6 +15,7 @@ from vinecli.cli.options import (
     Px4Instance,
     Px4LockstepTimeout,
     Seed,
+    ardupilot_bin_option,
     jobs_option,
     mcap_option,
     out_option,
@@ -34,13 +35,17 @@ def mission_cmd(
     world: Annotated[Path, world_option("Built world directory (vinecli world build).")],
     out: Annotated[Path, out_option("Runs directory; the run goes to OUT/<run-id>/.")],
     seed: Seed = 0,
-    autopilot: Annotated[str | None, typer.Option("--autopilot", help="builtin or px4 (default: the mission's).")] = None,
+    autopilot: Annotated[str | None, typer.Option("--autopilot", help="builtin, px4 or ardupilot (default: the "
+                                                  "mission's).")] = None,
     truth: Annotated[bool, typer.Option("--truth", help="Controllers use ground truth, not the estimator.")] = False,
     rate: Annotated[float | None, typer.Option("--rate", help="Recording rate, Hz (default: the mission's).")] = None,
     mcap: Annotated[bool, mcap_option("Also write run.mcap for Foxglove.")] = False,
     run_id: Annotated[str | None, typer.Option("--run-id", help="Run directory name (default <mission>-s<seed>).")] = None,
     px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary: vinecli starts PX4 for this run "
                                                    "(fresh process and working directory, free instance) and stops it.")] = None,
+    ardupilot_bin: Annotated[Path | None, ardupilot_bin_option(
+        "ArduCopter SITL binary: vinecli starts ArduPilot for this run (fresh process and working directory, "
+        "free instance) and stops it.")] = None,
     px4_instance: Px4Instance = PX4_DEFAULTS.px4_instance,
     px4_host: Px4Host = PX4_DEFAULTS.px4_host,
     px4_connect_timeout: Px4ConnectTimeout = PX4_DEFAULTS.px4_connect_timeout_s,
@@ -68,7 +73,7 @@ def mission_cmd(
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
     from vinecli.missions.spec_io import read_mission
     from vinecli.runs import run_mission
-    from vinecli.sitl.options import AutopilotOptions, px4_binary
+    from vinecli.sitl.options import AutopilotOptions, firmware_binary, px4_binary
 
     src = read_mission(mission)  # read once: run_mission takes it as it is
     spec = src.spec
@@ -84,7 +89,8 @@ def mission_cmd(
             px4_instance=px4_instance, px4_bin=px4_binary(px4_bin), px4_step_timeout_s=px4_lockstep_timeout,
             mavlink_local_port=mavlink_port, px4_host=px4_host, px4_connect_timeout_s=px4_connect_timeout,
             mavlink=mavlink, realtime=realtime, mavlink_allow_remote=mavlink_allow_remote,
-            px4_allow_remote=px4_allow_remote)
+            px4_allow_remote=px4_allow_remote,
+            ardupilot_bin=firmware_binary(ardupilot_bin, "--ardupilot-bin", "ArduPilot"))
         summary = run_mission(src, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
                               record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
                               autopilot_options=options.changed())
@@ -116,6 +122,9 @@ def batch_cmd(
                      ] = None,
     px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary: each PX4 case starts its own PX4 (one process "
                                                    "and instance per case, so --jobs runs them in parallel).")] = None,
+    ardupilot_bin: Annotated[Path | None, ardupilot_bin_option(
+        "ArduCopter SITL binary: each ArduPilot case starts its own ArduPilot (one process and instance per "
+        "case).")] = None,
 ) -> None:
     """Run every case of a pipeline (missions and sweeps) and write OUT/batch.json.
 
@@ -142,7 +151,8 @@ def batch_cmd(
             bar.update(task, completed=done, info=f"{r.case}: {mark}")
 
         result = run_batch(pipeline, out, jobs=jobs, executor=executor, scheduler=scheduler, resume=resume,
-                           timeout_s=timeout, progress=on_case, mcap=mcap, world=world, px4_bin=px4_bin)
+                           timeout_s=timeout, progress=on_case, mcap=mcap, world=world, px4_bin=px4_bin,
+                           ardupilot_bin=ardupilot_bin)
     _batch_table(result)
     stopped = f", {result.n_interrupted} interrupted" if result.n_interrupted else ""
     out_console.print(f"{result.runs_dir}/batch.json  {result.n_passed} passed, {result.n_failed} failed, "
@@ -158,6 +168,49 @@ def batch_cmd(
                              path=result.runs_dir)
     if result.n_failed:
         raise ChecksFailed(f"{result.n_failed} case(s) failed checks: "
+                           + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
+
+
+@app.command("compare")
+@handles_errors
+def compare_cmd(
+    mission: Annotated[Path, typer.Argument(help="Mission YAML flown by every autopilot.")],
+    world: Annotated[Path, world_option("Built world dir or world spec.")],
+    out: Annotated[Path, out_option("Runs directory (one run per autopilot + batch.json + comparison.json/png).")],
+    seed: Seed = 0,
+    autopilots: Annotated[str, typer.Option("--autopilots", help="Comma-separated autopilots to compare.")
+                          ] = "builtin,px4,ardupilot",
+    jobs: Annotated[int, jobs_option("Parallel runs.")] = 1,
+    px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary (for px4).")] = None,
+    ardupilot_bin: Annotated[Path | None, ardupilot_bin_option("ArduCopter SITL binary (for ardupilot).")] = None,
+) -> None:
+    """Fly one mission with several autopilots (same world and seed) and compare them side by side.
+
+    Writes OUT/comparison.json and OUT/comparison.png; `vinecli report OUT` shows the comparison too.
+    Exit 1 if a run failed a check, 3 if one could not run.
+
+    Example: vinecli run compare pipelines/missions/px4/spray-rows.yaml --world build/vineyard --out cmp
+    --px4-bin PX4/bin/px4 --ardupilot-bin ArduPilot/bin/arducopter
+    """
+    from vinecli.batch.compare import compare_autopilots
+    from vinecli.errors import ChecksFailed, RuntimeFailure
+    from vinecli.report.autopilots import markdown_table
+
+    names = [a.strip() for a in autopilots.split(",") if a.strip()]
+    with progress(transient=True) as bar:
+        task = bar.add_task("runs", total=len(names), info="")
+        result, cmp = compare_autopilots(
+            mission, world, out, autopilots=names, seed=seed, jobs=jobs, px4_bin=px4_bin, ardupilot_bin=ardupilot_bin,
+            progress=lambda r, done, total: bar.update(task, completed=done, info=f"{r.case}: {r.status}"))
+    _batch_table(result)
+    if cmp is not None:
+        out_console.print(markdown_table(cmp), markup=False)
+        out_console.print(f"{out}/comparison.json, {out}/comparison.png")
+    if result.n_errors:
+        raise RuntimeFailure(f"{result.n_errors} run(s) could not run to their end: "
+                             + ", ".join(c.case for c in result.cases if c.error), path=result.runs_dir)
+    if result.n_failed:
+        raise ChecksFailed(f"{result.n_failed} run(s) failed checks: "
                            + ", ".join(c.case for c in result.cases if not c.passed), path=result.runs_dir)
 
 

@@ -27,7 +27,7 @@ If a mission has no check on ``status``, an implicit ``status == completed`` che
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -61,14 +61,24 @@ class CheckResult:
         return d
 
 
-def implicit_checks(checks: Sequence[CheckSpec]) -> list[CheckSpec]:
-    """The checks actually evaluated: the mission's plus ``status == completed`` if none tests the status."""
+#: lockstep stalls a firmware backend counts (steps that went on without the firmware's answer)
+FIRMWARE_STALLS = ("px4_stalls", "ardupilot_stalls")
+
+
+def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | None = None) -> list[CheckSpec]:
+    """The checks actually evaluated: the mission's plus ``status == completed`` if none tests the status,
+    and, for a firmware run (its stall counter in ``metrics``), ``<firmware>_stalls == 0`` unless the
+    mission checks that counter itself: a step without the firmware's answer is not the firmware's flight."""
     out = list(checks)
     if not any(c.quantity == "status" for c in checks):
         out.append(
             CheckSpec(name="status", quantity="status", op="==", bound="completed",
                       description="the mission ran to completion (implicit)")
         )
+    for name in FIRMWARE_STALLS:
+        if metrics is not None and name in metrics and not any(c.quantity == f"metric:{name}" for c in checks):
+            out.append(CheckSpec(name=name, quantity=f"metric:{name}", op="<=", bound=0.0,
+                                 description="every lockstep step had the firmware's answer (implicit)"))
     return out
 
 
@@ -76,7 +86,7 @@ def evaluate_checks(checks: Sequence[CheckSpec], data: RunData) -> list[CheckRes
     """Evaluate every check (plus the implicit status check); never raises for run-dependent problems."""
     explicit = len(checks)
     results = []
-    for i, c in enumerate(implicit_checks(checks)):
+    for i, c in enumerate(implicit_checks(checks, data.metrics)):
         r = evaluate_check(c, data)
         r.implicit = i >= explicit
         results.append(r)

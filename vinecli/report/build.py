@@ -22,6 +22,7 @@ from typing import Any, Literal, get_args
 from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
+from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_section
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
 from vinecli.runs.rundir import SUMMARY
@@ -126,8 +127,9 @@ def render_all(runs: Sequence[Run], jobs: int = 1, progress: Callable[[int, int]
 
 
 def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: Path,
-                 figures: Mapping[str, Mapping[str, Any]], pages: Mapping[str, str]) -> dict[str, Any]:
-    """The report's machine-readable ``summary.json``."""
+                 figures: Mapping[str, Mapping[str, Any]], pages: Mapping[str, str],
+                 autopilots: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
+    """The report's machine-readable ``summary.json`` (``autopilots``: :func:`comparison_groups`)."""
     from vinecli import __version__
 
     regs = comparison.regressions if comparison else []
@@ -156,6 +158,7 @@ def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: P
         } for r in runs],
         "regressions": [g.to_dict() for g in regs],
         "baseline": comparison.to_dict() if comparison else None,
+        "autopilots": list(autopilots),
     }
 
 
@@ -239,6 +242,7 @@ def build_report(
         for r in runs:
             r.report_metrics = compute_report_metrics(r)
     manifest.inputs = [r.dir / SUMMARY for r in runs if r.dir is not None]
+    autopilots = comparison_groups(runs)  # runs of one mission and seed by several autopilots
     comparison = None
     if baseline is not None:
         with manifest.stage("baseline"):
@@ -273,7 +277,7 @@ def build_report(
             with manifest.stage("html"):
                 write_html(tmp, runs, figs, comparison, title=ttl, runs_dir=str(runs_dir), pipeline=pipeline,
                            inline_limit=inline_limit, page_size=page_size, figure_notes=notes,
-                           figure_policy=policy_note)
+                           figure_policy=policy_note, autopilots=html_blocks(autopilots))
             if not inline:
                 from vinecli.report.markdown import run_order
 
@@ -286,8 +290,8 @@ def build_report(
 
             with manifest.stage("markdown"):
                 (tmp / FILES["md"]).write_text(render_markdown(runs, comparison, title=ttl,
-                                                               html_name=FILES["html"] if "html" in fmts else None),
-                                               encoding="utf-8")
+                                                               html_name=FILES["html"] if "html" in fmts else None)
+                                               + markdown_section(autopilots), encoding="utf-8")
         if "junit" in fmts:
             from vinecli.report.junit import write_junit
 
@@ -295,7 +299,7 @@ def build_report(
                 write_junit(tmp / FILES["junit"], runs, comparison, name=ttl)
         if "json" in fmts:
             with manifest.stage("json"):
-                write_json(tmp / FILES["json"], summary_dict(runs, comparison, runs_dir, figs, pages))
+                write_json(tmp / FILES["json"], summary_dict(runs, comparison, runs_dir, figs, pages, autopilots))
         manifest.extra = {"exit_code": result.exit_code, "runs": len(runs), "figure_runs": len(chosen)}
     result.files = {f: Path(out_dir) / FILES[f] for f in fmts}
     result.timings = dict(manifest.timings)

@@ -135,10 +135,12 @@ def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
 def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping[str, Mapping[str, Any]]],
                comparison: Comparison | None = None, *, title: str = "vinecli report", runs_dir: str = "",
                pipeline: str | None = None, inline_limit: int = 20, page_size: int = 100,
-               figure_notes: Mapping[str, str] | None = None, figure_policy: str = "") -> Path:
+               figure_notes: Mapping[str, str] | None = None, figure_policy: str = "",
+               autopilots: Sequence[Mapping[str, Any]] = ()) -> Path:
     """Write ``report.html`` (and ``pages/``, ``runs/`` for large batches) into ``out_dir``; returns report.html.
 
-    ``figures``: case -> fig id -> ``{"png", "note", "caption"}``; ``figure_notes``: case -> why it has no figures.
+    ``figures``: case -> fig id -> ``{"png", "note", "caption"}``; ``figure_notes``: case -> why it has no figures;
+    ``autopilots``: comparisons of autopilots (:func:`vinecli.report.autopilots.html_blocks`), on the first page.
     """
     env = _env()
     tpl = env.get_template(TEMPLATE)
@@ -194,6 +196,7 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping
                           missions=_missions(runs),
                           regressions=[{**g.to_dict(), "baseline": format_value(g.baseline), "current": format_value(g.current)}
                                        for g in regs[:200]],
-                          regressions_more=max(0, len(regs) - 200), figure_policy=figure_policy, **common)
+                          regressions_more=max(0, len(regs) - 200), figure_policy=figure_policy,
+                          autopilots=autopilots if k == 1 else [], **common)
         here.write_text(html, encoding="utf-8")
     return report

@@ -191,7 +191,7 @@ def _run_prepared(
     overwrite: bool,
 ) -> RunSummary:
     """Fly a prepared run, evaluate its checks and write ``out`` (:func:`run_mission`, after the set-up)."""
-    spec, world, vehicle = run.mission, run.world, run.vehicle
+    spec, vehicle = run.mission, run.vehicle
     check_quantities(spec.checks, mission_path or spec.name, n_rotors=vehicle.n_rotors)
     from vinecli.sitl.options import make_run_autopilot
 
@@ -220,6 +220,22 @@ def _run_prepared(
             if close is not None:
                 close()
     wall = time.perf_counter() - t0
+    record = getattr(ap, "firmware_record", None)  # a firmware backend's identity and kept logs
+    try:
+        return _write_run(run, result, record, world_dir, run_id, out, seed=seed, mission_path=mission_path,
+                          mcap=mcap, wall=wall, stop=stop, wall_timeout_s=wall_timeout_s, case=case,
+                          autopilot_options=autopilot_options, overwrite=overwrite, started=started)
+    finally:
+        if record is not None:
+            record.discard()
+
+
+def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_id: str, out: Path, *, seed: int,
+               mission_path: Path | None, mcap: bool, wall: float, stop: _StopFlag, wall_timeout_s: float | None,
+               case: str | None, autopilot_options: dict[str, Any] | None, overwrite: bool,
+               started: str) -> RunSummary:
+    """Checks, summary and the run directory of a flown run (:func:`_run_prepared`)."""
+    spec, world, vehicle = run.mission, run.world, run.vehicle
     status = _status_name(result.status)
     status_message = result.detail or _status_message(result.status)
     if stop.timed_out and status == "interrupted":
@@ -259,6 +275,7 @@ def _run_prepared(
         "vehicle_fit": vehicle.provenance.model_dump(mode="json") if vehicle.provenance is not None else None,
         "world": _world_doc(run, world_dir),
         "autopilot": spec.autopilot,
+        "firmware": record.summary() if record is not None else None,
         "truth": spec.truth,
         "seed": seed,
         "status": status,
@@ -282,7 +299,7 @@ def _run_prepared(
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
-    _write_run_dir(out, manifest, result, run, summary, dep_doc, world_dir, mcap=mcap, overwrite=overwrite)
+    _write_run_dir(out, manifest, result, run, summary, dep_doc, world_dir, record, mcap=mcap, overwrite=overwrite)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
     return RunSummary(
         run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
@@ -311,9 +328,10 @@ def _timing_doc(loop: dict[str, float], wall: float, rtf: float) -> dict[str, fl
 
 
 def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun, summary: dict[str, Any],
-                   dep_doc: dict[str, Any] | None, world_dir: Path, *, mcap: bool, overwrite: bool) -> None:
+                   dep_doc: dict[str, Any] | None, world_dir: Path, record: Any, *, mcap: bool, overwrite: bool) -> None:
     """Write the run directory ``out`` atomically: time series, events, the resolved mission, the terrain
-    preview, run.mcap (``mcap``), the deposition outputs, summary.json last."""
+    preview, run.mcap (``mcap``), the deposition outputs, a firmware's kept logs (``record``), summary.json
+    last."""
     spec, run_id, seed = run.mission, summary["run_id"], summary["seed"]
     t1 = time.perf_counter()
     with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
@@ -330,6 +348,8 @@ def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun,
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
             write_deposition(tmp, result.deposition, run.world, dsm_crs(world_dir), dep_doc)
+        if record is not None:
+            record.copy_into(tmp)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
 

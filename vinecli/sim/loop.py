@@ -143,7 +143,7 @@ class Flight:
         self._start_camera(engine, run, seed)
         self._start_sprayer(run)
         self.physics = vehicle_physics(run, plant, motors)
-        self._start_autopilot(run, plant, autopilot, seed)
+        self._start_autopilot(run, plant, autopilot, seed, should_stop)
         self.rec_period_us = max(self.dt_us, int(round(1e6 / run.flight.record_rate_hz)))
         self.max_duration_s = run.flight.max_duration_s
         self.max_us = int(round(self.max_duration_s * 1e6))
@@ -211,12 +211,14 @@ class Flight:
             if self.tank is not None:  # spraying steps summed per deposition record
                 self.groups = SprayGroups(self.emitter.emit, max(1, int(round(group_s / (self.dt_us * 1e-6)))), self.dt)
 
-    def _start_autopilot(self, run: PreparedRun, plant: Plant, autopilot: Autopilot, seed: int) -> None:
+    def _start_autopilot(self, run: PreparedRun, plant: Plant, autopilot: Autopilot, seed: int,
+                         should_stop: Callable[[], bool] | None) -> None:
         world = run.world
         ctx = AutopilotContext(
             mission=run.flight, vehicle=run.vehicle, origin=world.origin, home_enu=plant.home,
             physics_dt_us=self.dt_us, total_mass_kg=self.physics.mass_kg(), vine_rows_enu=run.rows,
             geofence=run.geofence, terrain_height=world.terrain_height, seed=seed, terrain_bounds=_bounds(world),
+            should_stop=should_stop,
         )
         self.ap_step: Callable[[Observation], ActuatorCommand] = autopilot.step
         self.ap_status: Callable[[], AutopilotStatus] = autopilot.status
@@ -232,9 +234,9 @@ class Flight:
         samples = self.sensors.sample_all(truth)
         imu, baro, mag, gnss = samples
         tank, battery = self.tank, self.battery
-        soc, volt = (battery.soc, battery.voltage_v) if battery is not None else (NAN, NAN)
+        soc, volt, amps = (battery.soc, battery.voltage_v, battery.current_a) if battery is not None else (NAN, NAN, NAN)
         obs = Observation(truth.t_us, truth, imu, baro, mag, gnss, terrain_z, tank.level_l if tank is not None else 0.0,
-                          soc, volt)
+                          soc, volt, amps)
         try:
             cmd = self.ap_step(obs)
             self.st = self.ap_status()

@@ -47,6 +47,10 @@ class SimResult:
         return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
 
 
+#: prefixes of the AutopilotStatus.extra counters a firmware backend reports into the run's metrics
+FIRMWARE_METRICS = ("px4_", "ardupilot_")
+
+
 def _timing(steps: int, sim_time: float, wall_loop0: float, cpu_loop0: float, wall_end: float) -> dict[str, float]:
     """The loop's wall and CPU time per step (machine-dependent, kept out of the metrics)."""
     cpu_end = time.process_time()
@@ -71,8 +75,8 @@ def assemble_result(flight: Flight, run: PreparedRun, seed: int, wall0: float, w
     metrics["final_mass_kg"] = physics.mass_kg()
     metrics["energy_wh"] = physics.energy_j / 3600.0 if battery is not None else math.nan
     metrics["battery_soc_end"] = battery.soc if battery is not None else math.nan
-    # backend counters (PX4: px4_stalls, px4_lockstep_steps...) into the run's metrics
-    metrics.update({name: float(v) for name, v in flight.ap_status().extra.items() if name.startswith("px4_")})
+    # firmware counters (px4_stalls, ardupilot_stalls, ..._lockstep_steps...) into the run's metrics
+    metrics.update({name: float(v) for name, v in flight.ap_status().extra.items() if name.startswith(FIRMWARE_METRICS)})
     events.append(Event(t_us, "status", flight.detail, {"status": flight.status.value}))
     dep = None
     if flight.groups is not None:  # the last group of a run that ended spraying

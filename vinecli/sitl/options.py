@@ -1,8 +1,9 @@
-"""The PX4 and MAVLink options of ``vinecli run mission`` (``--autopilot px4 [--px4-bin PATH]
---px4-instance N --px4-host H --px4-connect-timeout S --px4-lockstep-timeout S``, ``--mavlink URL
-[--mavlink-port P] [--realtime] [--mavlink-allow-remote]``) with their defaults (:class:`AutopilotOptions`,
-declared once here; ``vinecli px4 doctor`` shares the host and instance), and one factory for the autopilot
-of a run (:func:`make_run_autopilot`). Light to import: the command line reads the defaults from here."""
+"""The autopilot options of ``vinecli run mission`` (``--autopilot px4 [--px4-bin PATH]
+--px4-instance N --px4-host H --px4-connect-timeout S --px4-lockstep-timeout S``, ``--autopilot ardupilot
+--ardupilot-bin PATH``, ``--mavlink URL [--mavlink-port P] [--realtime] [--mavlink-allow-remote]``) with
+their defaults (:class:`AutopilotOptions`, declared once here; ``vinecli px4 doctor`` shares the host and
+instance), and one factory for the autopilot of a run (:func:`make_run_autopilot`). Light to import: the
+command line reads the defaults from here."""
 
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ class AutopilotOptions:
 
     px4_instance: int | None = None  # PX4 SITL instance (px4 -i N); None: 0, or a free one with px4_bin
     px4_bin: str | None = None  # PX4 SITL binary: vinecli starts (and stops) PX4 for the run
-    px4_step_timeout_s: float = 1.0  # seconds each physics step waits for PX4's actuator controls (Gazebo bridge: 1)
+    px4_step_timeout_s: float | None = None  # None: each step waits for PX4's answer (lockstep); s: then a stall
     mavlink_local_port: int | None = None  # vinecli's own UDP port with udp:/udpout: (None: 14580)
     px4_host: str = "127.0.0.1"  # address to listen on for PX4 (loopback)
     px4_connect_timeout_s: float = 30.0  # seconds to wait for PX4
@@ -30,6 +31,7 @@ class AutopilotOptions:
     realtime: bool = False  # with mavlink: pace the run at wall-clock speed
     mavlink_allow_remote: bool = False  # allow a non-loopback mavlink address
     px4_allow_remote: bool = False  # allow a non-loopback px4_host
+    ardupilot_bin: str | None = None  # ArduCopter SITL binary: vinecli starts (and stops) ArduPilot for the run
 
     def changed(self) -> dict[str, Any]:
         """Only the options that differ from their defaults (``run_mission(autopilot_options=...)``)."""
@@ -44,13 +46,18 @@ PX4_DEFAULT_INSTANCE = 0
 PX4_PROBE_TIMEOUT_S = 2.0
 
 
-def px4_binary(path: Path | None) -> str | None:
-    """``--px4-bin`` as an absolute path (None stays None); InputError when it is not a file."""
+def firmware_binary(path: Path | None, option: str = "--px4-bin", firmware: str = "PX4") -> str | None:
+    """A firmware binary option as an absolute path (None stays None); InputError when it is not a file."""
     if path is None:
         return None
     if not path.is_file():
-        raise InputError("PX4 binary not found (--px4-bin)", path=path)
+        raise InputError(f"{firmware} binary not found ({option})", path=path)
     return str(path.resolve())
+
+
+def px4_binary(path: Path | None) -> str | None:
+    """``--px4-bin`` as an absolute path (None stays None); InputError when it is not a file."""
+    return firmware_binary(path)
 
 
 def make_run_autopilot(
@@ -63,10 +70,11 @@ def make_run_autopilot(
     px4_instance: int | None = PX4_DEFAULTS.px4_instance,
     px4_host: str = PX4_DEFAULTS.px4_host,
     px4_connect_timeout_s: float = PX4_DEFAULTS.px4_connect_timeout_s,
-    px4_step_timeout_s: float = PX4_DEFAULTS.px4_step_timeout_s,
+    px4_step_timeout_s: float | None = PX4_DEFAULTS.px4_step_timeout_s,
     px4_allow_remote: bool = PX4_DEFAULTS.px4_allow_remote,
     px4_bin: str | None = PX4_DEFAULTS.px4_bin,
     mavlink_local_port: int | None = PX4_DEFAULTS.mavlink_local_port,
+    ardupilot_bin: str | None = PX4_DEFAULTS.ardupilot_bin,
 ) -> Autopilot:
     """The backend for one run.
 
@@ -75,6 +83,8 @@ def make_run_autopilot(
     * ``name == "px4"``: :class:`vinecli.sitl.px4.backend.Px4SitlAutopilot` on TCP
       ``px4_host:4560+px4_instance``; with ``px4_bin`` vinecli starts PX4 itself (on a free
       instance unless ``px4_instance`` is given) and stops it after the run;
+    * ``name == "ardupilot"``: :class:`vinecli.sitl.ardupilot.backend.ArdupilotSitlAutopilot`, which starts
+      ArduCopter SITL (``ardupilot_bin``) on a free instance and stops it after the run;
     * otherwise ``vinecli.autopilot.registry.make_autopilot(name)`` (``truth`` for the builtin).
     """
     if mavlink is not None:
@@ -94,8 +104,14 @@ def make_run_autopilot(
             px4_instance = PX4_DEFAULT_INSTANCE  # an external PX4 started by hand: instance 0 unless told
         return Px4SitlAutopilot(host=px4_host, instance=px4_instance, connect_timeout_s=px4_connect_timeout_s,  # type: ignore[return-value]
                                 step_timeout_s=px4_step_timeout_s, allow_remote=px4_allow_remote, px4_bin=px4_bin)
+    if name == "ardupilot":
+        from vinecli.sitl.ardupilot.backend import ArdupilotSitlAutopilot
+
+        return ArdupilotSitlAutopilot(ardupilot_bin=ardupilot_bin)  # type: ignore[return-value]
     if px4_bin is not None:
         raise InputError(f"--px4-bin needs --autopilot px4 (this run uses {name!r})")
+    if ardupilot_bin is not None:
+        raise InputError(f"--ardupilot-bin needs --autopilot ardupilot (this run uses {name!r})")
     from vinecli.autopilot.registry import make_autopilot
 
     opts: dict[str, Any] = {"truth": truth} if name == "builtin" and truth is not None else {}

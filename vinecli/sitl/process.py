@@ -1,5 +1,7 @@
 """Process supervision every firmware bridge shares: free ports, an instance number reserved under a
-lock file, and a firmware child process that dies with the process that started it.
+lock file, and the firmware process itself (:class:`FirmwareProcess`: its own process group and
+working directory, its output in a log file, killed with the process that started it, stopped
+SIGTERM-then-SIGKILL, its files kept before the working directory goes).
 
 An instance number is reserved with an exclusive lock file (``$TMPDIR/vinecli-<firmware>/instance-N.lock``)
 held for the life of the run, and only taken when the firmware's ports for it are free, so parallel
@@ -10,13 +12,19 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import os
+import shutil
+import signal
 import socket
+import subprocess
 import tempfile
+import time
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
-from vinecli.errors import AutopilotError
+from vinecli.errors import AutopilotError, InputError
 from vinecli.lifeline import die_with_parent  # the firmware's preexec_fn: SIGKILL when its parent dies
 
 AUTO_INSTANCES = range(10, 100)  # 0..9 are left to people running a firmware by hand
@@ -74,4 +82,114 @@ def reserve_instance(firmware: str, ports_free: Callable[[int], bool],
                          "(all locked or ports in use)")
 
 
-__all__ = ["AUTO_INSTANCES", "InstanceLock", "die_with_parent", "port_free", "reserve_instance"]
+class FirmwareProcess(ABC):
+    """One firmware SITL process: :meth:`start`, :meth:`alive`, :meth:`log_tail`, :meth:`stop`, :meth:`keep`.
+
+    Subclasses give :meth:`command` (argv), and may add to :meth:`environment` and :meth:`prepare` (files
+    the firmware reads at start). ``workdir`` None: a fresh temporary directory, deleted by :meth:`stop`
+    (:meth:`discard`, after :meth:`keep` copied out what the run keeps)."""
+
+    firmware = "firmware"
+    option = "--firmware-bin"  # the command-line option naming the binary (error messages)
+    log_name = "firmware.log"
+
+    def __init__(self, binary: str | Path, instance: int, *, workdir: str | Path | None = None) -> None:
+        self.bin = Path(binary).expanduser()
+        if not self.bin.is_file() or not os.access(self.bin, os.X_OK):
+            raise InputError(f"{self.option} {binary}: not an executable file")
+        self.instance = instance
+        self._own_dir = workdir is None
+        self.workdir = Path(workdir) if workdir is not None else Path(
+            tempfile.mkdtemp(prefix=f"vinecli-{self.firmware.lower()}-{instance}-"))
+        self.log_path = self.workdir / self.log_name
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.returncode: int | None = None
+        self._log_text = ""
+
+    @abstractmethod
+    def command(self) -> list[str]:
+        """argv of the firmware process."""
+
+    @property
+    def cwd(self) -> Path:
+        """The directory the firmware runs in."""
+        return self.workdir
+
+    def environment(self) -> dict[str, str]:
+        return dict(os.environ)
+
+    def prepare(self) -> None:  # noqa: B027 - a hook: most firmwares read nothing vinecli writes
+        """Write what the firmware reads at start (called by :meth:`start`, after the directory exists)."""
+
+    def start(self) -> None:
+        """Start the firmware in its own process group, its output into :attr:`log_path`."""
+        self.cwd.mkdir(parents=True, exist_ok=True)
+        self.prepare()
+        with self.log_path.open("wb") as log:
+            try:
+                self.proc = subprocess.Popen(self.command(), cwd=self.cwd, env=self.environment(), stdin=subprocess.DEVNULL,
+                                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+                                             preexec_fn=die_with_parent if os.name == "posix" else None)
+            except OSError as exc:
+                raise AutopilotError(f"cannot start {self.firmware} {self.bin}: {exc.strerror or exc}") from None
+
+    @property
+    def pid(self) -> int | None:
+        return self.proc.pid if self.proc is not None else None
+
+    def alive(self) -> bool:
+        """True while the process runs."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def log_tail(self, lines: int = 12) -> str:
+        """The last lines the firmware printed (for error messages)."""
+        text = self._log_text
+        if not text and self.log_path.is_file():
+            text = self.log_path.read_text(errors="replace")
+        return "\n".join(text.splitlines()[-lines:])
+
+    def log_note(self, lines: int = 8) -> str:
+        """``"; <firmware> log (<path>) ends: a | b | c"`` for an error message ('' when it printed nothing)."""
+        tail = self.log_tail(lines).strip()
+        return f"; {self.firmware} log ({self.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
+
+    def stop(self, timeout_s: float = 5.0, while_waiting: Callable[[], None] | None = None) -> int | None:
+        """SIGTERM the process group, SIGKILL after ``timeout_s``; ``while_waiting()`` is called in the
+        wait (a lockstep firmware exits only once its clock moves again). Idempotent."""
+        p = self.proc
+        if p is not None and self.returncode is None:
+            for sig, wait in ((signal.SIGTERM, timeout_s), (signal.SIGKILL, 5.0)):
+                if p.poll() is not None:
+                    break
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(p.pid, sig)
+                deadline = time.monotonic() + wait
+                while p.poll() is None and time.monotonic() < deadline:
+                    if while_waiting is not None and sig == signal.SIGTERM:
+                        while_waiting()
+                    else:
+                        time.sleep(0.02)
+            self.returncode = p.poll()
+        if self.log_path.is_file():
+            self._log_text = self.log_path.read_text(errors="replace")
+        return self.returncode
+
+    def keep(self, patterns: tuple[str, ...], dest: Path) -> list[Path]:
+        """Copy the files of the working directory matching ``patterns`` (globs) into ``dest``; their new paths."""
+        dest.mkdir(parents=True, exist_ok=True)
+        kept = []
+        for pattern in patterns:
+            for f in sorted(self.workdir.glob(pattern)):
+                if f.is_file():
+                    target = dest / f.name
+                    shutil.copy2(f, target)
+                    kept.append(target)
+        return kept
+
+    def discard(self) -> None:
+        """Remove a temporary working directory (one given by the caller stays)."""
+        if self._own_dir and self.workdir.exists():
+            shutil.rmtree(self.workdir, ignore_errors=True)
+
+
+__all__ = ["AUTO_INSTANCES", "FirmwareProcess", "InstanceLock", "die_with_parent", "port_free", "reserve_instance"]

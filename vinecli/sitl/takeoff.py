@@ -1,4 +1,4 @@
-"""``cannot_take_off`` for the PX4 backend: PX4 itself has no such detection.
+"""``cannot_take_off`` for the firmware backends: neither PX4 nor ArduPilot reports one.
 
 Armed and not climbing (less than 0.5 m above where it armed, climbing slower than 0.3 m/s)
 while PX4's motor outputs stay near full (mean >= :data:`SATURATED_U`) for ``saturated_s`` (the
@@ -22,8 +22,9 @@ TRYING_S = 6.0  # s above TRYING_U without ever rising 0.5 m
 class TakeoffWatch:
     """Feed :meth:`update` every step; it returns the reason once the vehicle cannot take off."""
 
-    def __init__(self, saturated_s: float, takeoff_timeout_s: float | None) -> None:
+    def __init__(self, saturated_s: float, takeoff_timeout_s: float | None, *, firmware: str = "PX4") -> None:
         self.saturated_s, self.takeoff_timeout_s = saturated_s, takeoff_timeout_s
+        self.firmware = firmware
         self._z0: float | None = None
         self._t0_us = 0
         self._sat_s = 0.0
@@ -49,9 +50,9 @@ class TakeoffWatch:
             self._trying_s += dt_s
         waited = (t_us - self._t0_us) * 1e-6
         if self._sat_s >= self.saturated_s:
-            return f"PX4 motor outputs saturated (mean {mean_u:.2f}) for {self._sat_s:.1f} s at {rise:.2f} m above the start"
+            return f"{self.firmware} motor outputs saturated (mean {mean_u:.2f}) for {self._sat_s:.1f} s at {rise:.2f} m above the start"
         if self._trying_s >= TRYING_S:
-            return (f"PX4 motor outputs above {TRYING_U:g} for {self._trying_s:.1f} s without lifting off "
+            return (f"{self.firmware} motor outputs above {TRYING_U:g} for {self._trying_s:.1f} s without lifting off "
                     f"(now {mean_u:.2f}, {rise:.2f} m above the start)")
         if self.takeoff_timeout_s is not None and waited > self.takeoff_timeout_s and self._max_rise < 0.5:
             return (f"no lift-off {waited:.1f} s after arming (takeoff timeout_s {self.takeoff_timeout_s:g} s) "

@@ -209,7 +209,7 @@ class MissionSpec(StrictModel):
     name: SafeName
     description: str = ""
     vehicle: str | None = Field(None, description="vehicle name (vehicles/<name>.yaml) or path; default: the world's")
-    autopilot: Literal["builtin", "px4"] = "builtin"
+    autopilot: Literal["builtin", "px4", "ardupilot"] = "builtin"
     truth: bool = Field(False, description="controllers use ground truth instead of the estimator")
     tank_fill_l: float | None = Field(None, ge=0, description="default: full")
     payload_kg: float | None = Field(None, ge=0, description="replaces the vehicle's payload mass")

@@ -15,9 +15,13 @@ connects, sends one HEARTBEAT and SET_MESSAGE_INTERVAL(115). Each physics step v
 HIL time = sim time + one step (never 0), strictly increasing by exactly the physics step.
 **Boot phase** (until the first HIL_ACTUATOR_CONTROLS): motors off, steps paced at wall-clock
 rate, so PX4 boots in real time. **Lockstep phase**: after sending HIL_SENSOR(t) the step
-waits up to ``step_timeout_s`` (default 1 s, PX4's Gazebo bridge) for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``; on timeout it
-reuses the last controls and counts a stall; ``max_stalls`` consecutive stalls raise
-AutopilotError (PX4 stopped answering). Outputs map to rotor speeds with the vehicle's
+waits for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``: PX4's clock does not move until it gets
+the next HIL_SENSOR, so however long a loaded machine makes that take, the flight is the same (the
+wait is the lockstep, not a race with the wall clock). Only a PX4 that exited, closed the link or
+sent nothing for ``hang_timeout_s`` (default 30 s) ends the run, with an error. With an explicit
+``step_timeout_s`` (``--px4-lockstep-timeout``) a step instead proceeds after that long with the last
+controls and counts a stall (``px4_stalls``: any stall fails the run's checks); ``max_stalls``
+consecutive stalls raise AutopilotError (PX4 stopped answering). Outputs map to rotor speeds with the vehicle's
 ``px4.motor_channels``: w = w_min + u (w_max - w_min) while armed (mode bit 128), 0 disarmed;
 the sprayer channel gives flow = clamp(u, 0, 1) * nozzle_max_flow.
 
@@ -51,6 +55,10 @@ SIM_PORT_BASE = 4560
 API_PORT_BASE = 14540  # vinecli binds (PX4 sends here)
 PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
 G0 = STANDARD_GRAVITY
+#: simulated UTC at t = 0 (HIL_GPS time_usec): 2025-07-01T00:00:00Z
+EPOCH_US = 1_751_328_000_000_000
+#: files of PX4's working directory kept in the run folder: its logs, console output, boot parameters
+KEEP = ("rootfs/log/*/*.ulg", "px4.log", "rc/px4-rc.params")
 
 
 def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
@@ -73,8 +81,10 @@ class Px4SitlAutopilot:
 
     Options: ``host`` (bind address, default 127.0.0.1; a non-loopback address needs
     ``allow_remote=True``), ``instance`` (PX4 ``-i``), ``port`` (default 4560+instance),
-    ``connect_timeout_s`` (wait for PX4 to connect, default 30), ``step_timeout_s`` (lockstep wait
-    per step, default 0.1), ``max_stalls`` (consecutive stalls -> error, default 50),
+    ``connect_timeout_s`` (wait for PX4 to connect, default 30), ``step_timeout_s`` (None: wait for
+    PX4's answer each step, the lockstep; a number: proceed after that long, a stall), ``hang_timeout_s``
+    (lockstep: no answer for that long is an error, default 30), ``max_stalls`` (consecutive stalls ->
+    error, default 10),
     ``boot_timeout_s`` (connected but no actuator controls, default 60), ``hil_state`` (send
     HIL_STATE_QUATERNION, default True), ``api_port`` (UDP port vinecli binds for PX4's API link,
     default 14540+instance), ``px4_api_port`` (PX4's API port, default 14580+instance),
@@ -89,7 +99,8 @@ class Px4SitlAutopilot:
     name = "px4"
 
     def __init__(self, *, host: str = "127.0.0.1", instance: int | None = None, port: int | None = None,
-                 connect_timeout_s: float = 30.0, step_timeout_s: float = 1.0, max_stalls: int = 10,
+                 connect_timeout_s: float = 30.0, step_timeout_s: float | None = None, max_stalls: int = 10,
+                 hang_timeout_s: float = 30.0,
                  boot_timeout_s: float = 60.0, hil_state: bool = True, api_port: int | None = None,
                  px4_api_port: int | None = None, mission: bool = True, health_timeout_s: float = 120.0,
                  allow_remote: bool = False, px4_bin: str | None = None, px4_workdir: str | None = None,
@@ -98,15 +109,15 @@ class Px4SitlAutopilot:
             raise InputError(f"px4 autopilot: unknown option(s) {', '.join(sorted(opts))}")
         if instance is not None and not (0 <= instance <= 99):
             raise InputError(f"px4 autopilot: instance {instance} out of range 0..99")
-        if not (step_timeout_s > 0 and max_stalls >= 1):
-            raise InputError("px4 autopilot: step_timeout_s must be > 0 and max_stalls >= 1")
+        if not ((step_timeout_s is None or step_timeout_s > 0) and max_stalls >= 1 and hang_timeout_s > 0):
+            raise InputError("px4 autopilot: step_timeout_s and hang_timeout_s must be > 0 and max_stalls >= 1")
         from vinecli.mavlink.link import is_loopback
 
         if not is_loopback(host) and not allow_remote:
             raise InputError(f"px4 autopilot: refusing to listen on non-loopback address {host} (add --px4-allow-remote)")
         self.host = host
         self.connect_timeout_s, self.step_timeout_s = connect_timeout_s, step_timeout_s
-        self.max_stalls, self.boot_timeout_s = max_stalls, boot_timeout_s
+        self.max_stalls, self.boot_timeout_s, self.hang_timeout_s = max_stalls, boot_timeout_s, hang_timeout_s
         self.hil_state = hil_state
         self._port_opt, self._api_port_opt, self._px4_api_port_opt = port, api_port, px4_api_port
         self._set_instance(0 if instance is None else instance)
@@ -118,6 +129,8 @@ class Px4SitlAutopilot:
         self._instance_lock: Any = None
         self.link: TcpServerLink | None = None
         self.mission_client: Any = None
+        self.mission_version: Any = None  # PX4's AUTOPILOT_VERSION (identity)
+        self.firmware_record: Any = None  # identity and kept logs after close() (vinecli.sitl.record)
         self._events: list[Event] = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0)
         self._closed = False
@@ -154,7 +167,7 @@ class Px4SitlAutopilot:
         self.mag_ned = earth_field_ned(ctx.origin)
         self._mag_frd: tuple[float, float, float] | None = None
         self._baro: tuple[float, float, float] | None = None  # hPa, °C, m
-        self.epoch_us = int(time.time() * 1e6)
+        self.epoch_us = EPOCH_US  # HIL_GPS UTC: fixed, so two runs of a seed send the same bytes
         self._t_last: int | None = None
         self.lockstep = False
         self.armed = False
@@ -237,10 +250,7 @@ class Px4SitlAutopilot:
 
     def _px4_log(self) -> str:
         """The tail of the log of the PX4 we started ('' for an external PX4)."""
-        if self.process is None:
-            return ""
-        tail = self.process.log_tail(8).strip()
-        return f"; PX4 log ({self.process.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
+        return self.process.log_note() if self.process is not None else ""
 
     def _emit(self, t_us: int, kind: str, message: str, data: dict[str, object] | None = None) -> None:
         self._events.append(Event(t_us, kind, message, data or {}))
@@ -319,29 +329,40 @@ class Px4SitlAutopilot:
             time.sleep(due - now)
 
     def _lockstep_wait(self, t: int) -> None:
+        """PX4's HIL_ACTUATOR_CONTROLS for the HIL_SENSOR at ``t`` (see the module docstring)."""
         link = self.link
         assert link is not None
-        deadline = time.monotonic() + self.step_timeout_s
+        bounded = self.step_timeout_s is not None
+        limit = self.step_timeout_s if self.step_timeout_s is not None else self.hang_timeout_s
+        start = time.monotonic()
         while True:
-            left = deadline - time.monotonic()
-            m = link.recv(max(0.0, left)) if left > 0 else link.recv(0.0) if not link.inbox.empty() else None
-            if m is None:
+            left = start + limit - time.monotonic()
+            m = link.recv(min(0.5, max(0.0, left))) if left > 0 else (link.recv(0.0) if not link.inbox.empty() else None)
+            if m is not None:
+                self._on_msg(m)
+                if m.get_type() == "HIL_ACTUATOR_CONTROLS" and m.time_usec >= t:
+                    self.consecutive_stalls = 0
+                    self.lockstep_steps += 1
+                    return
+                continue
+            if link.closed_by_peer.is_set():
+                raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})" + self._px4_log())
+            if self.process is not None and not self.process.alive():
+                raise AutopilotError(f"PX4 exited (code {self.process.proc.returncode}) at {t / 1e6:.2f} s"
+                                     + self._px4_log())
+            if left <= 0:
                 break
-            self._on_msg(m)
-            if m.get_type() == "HIL_ACTUATOR_CONTROLS" and m.time_usec >= t:
-                self.consecutive_stalls = 0
-                self.lockstep_steps += 1
-                return
+        if not bounded:
+            raise AutopilotError(f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
+                                 f"{self.hang_timeout_s:g} s of wall time (hung)" + self._px4_log())
         self.stalls += 1
         self.consecutive_stalls += 1
         if self.consecutive_stalls == 1 or self.stalls % 100 == 0:
             log.debug("lockstep stall at t=%d µs (%d total)", t, self.stalls)
-        if link.closed_by_peer.is_set():
-            raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})" + self._px4_log())
         if self.consecutive_stalls >= self.max_stalls:
             raise AutopilotError(
                 f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
-                f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * self.step_timeout_s:.1f} s)"
+                f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * limit:.1f} s)"
                 + self._px4_log())
 
     def _command(self, u: list[float]) -> ActuatorCommand:
@@ -426,6 +447,7 @@ class Px4SitlAutopilot:
         ex["px4_armed"] = 1.0 if getattr(self, "armed", False) else 0.0
         if self.mission_client is not None:
             ex["px4_mission_seq"] = float(self.mission_client.current_seq)
+            ex["px4_battery_warnings"] = float(self.mission_client.battery_warnings)
         return st
 
     def drain_events(self) -> list[Event]:
@@ -439,12 +461,21 @@ class Px4SitlAutopilot:
             return
         self._closed = True
         if self.mission_client is not None:
+            self.mission_version = self.mission_client.version_msg
             self.mission_client.close()
             self.mission_client = None
         if self.link is not None:
             self.link.close()
         if self.process is not None:
             self.process.stop()
+            from vinecli.sitl.identity import identity_from_message
+            from vinecli.sitl.record import FirmwareRecord
+
+            version = self.mission_version
+            rec = FirmwareRecord(identity_from_message("PX4", version, self.px4_bin))
+            rec.files = self.process.keep(KEEP, rec.dir)
+            self.firmware_record = rec
+            self.process.discard()
         if self._instance_lock is not None:
             self._instance_lock.release()
             self._instance_lock = None

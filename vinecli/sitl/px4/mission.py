@@ -31,17 +31,21 @@ first, so PX4's data-link-loss check (sim time) is satisfied at any speed-up.
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, RunStatus
+from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import AutopilotError, AutopilotTimeout, VinecliError
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import UdpLink
 from vinecli.mavlink.mission_items import MissionItem
 from vinecli.mavlink.px4params import mission_params
-from vinecli.phase_items import DO_SET_ACTUATOR, ItemPlan, PlanContext, phases_to_items
+from vinecli.phase_items import DO_SET_ACTUATOR, ItemPlan, phases_to_items
+from vinecli.sitl.converter import converter_inputs
+from vinecli.specs.vehicle import VehicleSpec
 
 log = logging.getLogger(__name__)
 
@@ -53,23 +57,31 @@ SEVERITY_WARNING = 4  # MAV_SEVERITY: 0 EMERGENCY ... 4 WARNING
 PARAM_SETTLE_US = 2_000_000
 
 
+def battery_params(v: VehicleSpec, mass_kg: float) -> dict[str, float | int]:
+    """PX4's battery from the vehicle's pack: the warning, critical and emergency charge thresholds, and PX4's
+    SITL battery simulator draining over the pack's hover endurance (capacity / electrical hover power of
+    vinecli's motor model). PX4 1.15 takes an external battery over MAVLink only without a remaining flight
+    time, which its flight-time failsafe reads as none left at take-off, so its own simulator stays."""
+    from vinecli.physics.battery import electrical_power_w
+
+    b = v.battery
+    if b is None:
+        return {}
+    thrust = mass_kg * STANDARD_GRAVITY / v.n_rotors
+    shaft = v.n_rotors * v.motor.k_m * thrust * math.sqrt(thrust / v.motor.k_f)
+    endurance_s = b.capacity_wh * 3600.0 / electrical_power_w(b, shaft, 0.0, 0.0)
+    return {"BAT_LOW_THR": b.low_soc, "BAT_CRIT_THR": b.critical_soc, "BAT_EMERGEN_THR": b.emergency_soc,
+            "SIM_BAT_DRAIN": round(endurance_s, 1), "SIM_BAT_MIN_PCT": round(100.0 * b.emergency_soc, 1)}
+
+
 def plan_for(ctx: AutopilotContext) -> ItemPlan:
     """The PX4 plan (items, fence, parameters) for ``ctx.mission`` (SpecError if PX4 cannot fly it): the
     items of :func:`vinecli.phase_items.phases_to_items` with the sprayer on DO_SET_ACTUATOR (set 1)."""
-    from vinecli.rows.plan import plan_accel
-
     v = ctx.vehicle
-    pc = PlanContext(
-        origin=ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
-        terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
-        nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
-        accel_mps2=plan_accel(v), firmware="PX4",
-    )
-    mission = ctx.mission
-    if ctx.geofence is not None and mission.geofence is None:
-        mission = mission.model_copy(update={"geofence": ctx.geofence})
+    mission, pc = converter_inputs(ctx, firmware="PX4")
     plan = phases_to_items(mission, pc, sprayer=DO_SET_ACTUATOR)
     plan.params = {**v.px4.params, **mission_params(mission)}  # the airframe's, then the mission's
+    plan.params.update(battery_params(v, ctx.total_mass_kg))
     if any(it.command == M.CMD_DO_SET_ACTUATOR for it in plan.items):
         plan.params[f"PWM_MAIN_FUNC{v.px4.sprayer_channel + 1}"] = 301
     return plan
@@ -99,6 +111,8 @@ class Px4MissionClient:
         self.reached: set[int] = set()
         self.statustext: list[str] = []
         self.sys_status: Any = None
+        self.version_msg: Any = None  # AUTOPILOT_VERSION: PX4's version and git hash
+        self.battery_warnings = 0  # PX4 warnings (STATUSTEXT <= WARNING) about its battery
         self._events: list[tuple[str, str, dict[str, object]]] = []
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -176,8 +190,11 @@ class Px4MissionClient:
             if int(m.severity) <= SEVERITY_WARNING:
                 self.warnings.append((time.monotonic(), text))
                 del self.warnings[:-10]
+                self.battery_warnings += "batt" in text.lower()
         elif typ == "SYS_STATUS":
             self.sys_status = m
+        elif typ == "AUTOPILOT_VERSION":
+            self.version_msg = m
         elif typ == "MISSION_CURRENT":
             if m.seq != self.current_seq:
                 self.current_seq = m.seq
@@ -322,6 +339,7 @@ class Px4MissionClient:
         if hb.autopilot != M.MAV_AUTOPILOT_PX4:
             log.warning("the API peer reports autopilot type %d, not PX4 (12)", hb.autopilot)
         self._event("px4_link", "PX4 API link up", {"port": self.link.local[1]})
+        self.link.send(self.link.mav.command_long_encode(self.target, 1, M.CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0))
         plan = self.plan
         if plan is None:
             return
@@ -373,9 +391,8 @@ class Px4MissionClient:
             done_items = self.mission_done()
             if self.finished is not None:
                 return
-            if lands:
-                if (done_items or self.was_airborne) and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND \
-                        and not self.armed:
+            if lands:  # complete only when PX4 reported the last item done and is on the ground, disarmed
+                if done_items and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND and not self.armed:
                     self.finished = (RunStatus.COMPLETED, "PX4 mission completed, landed and disarmed")
                     return
             elif done_items:

@@ -13,18 +13,13 @@ a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` (:func:`boot_params
 
 from __future__ import annotations
 
-import contextlib
 import os
-import shutil
-import signal
 import socket
-import subprocess
-import tempfile
-import time
 from pathlib import Path
 
-from vinecli.errors import AutopilotError, InputError
-from vinecli.sitl.process import InstanceLock, die_with_parent, port_free
+from vinecli.errors import InputError
+from vinecli.sitl.params import check_params, format_value
+from vinecli.sitl.process import FirmwareProcess, InstanceLock, port_free
 from vinecli.sitl.process import reserve_instance as reserve_firmware_instance
 
 SIM_PORT_BASE = 4560
@@ -58,93 +53,47 @@ def boot_params_script(params: dict[str, int | float]) -> str:
     (``EKF2_HGT_REF`` is reboot-required; an output function set over MAVLink just before arming
     was picked up too late), so a PX4 that vinecli starts gets them in its start-up script.
     """
-    import math
-    import re
-
-    lines = []
-    for name, value in params.items():
-        if not re.fullmatch(r"[A-Z][A-Z0-9_]{0,15}", name):
-            raise InputError(f"PX4 parameter name {name!r}: expected up to 16 of A-Z, 0-9, _")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise InputError(f"PX4 parameter {name}: value {value!r} is not a finite number")
-        lines.append(f"param set {name} {value if isinstance(value, int) else repr(float(value))}")
+    lines = [f"param set {name} {format_value(value)}" for name, value in check_params(params, "PX4").items()]
     return "#!/bin/sh\n# written by vinecli: this run's parameters\n" + "\n".join(lines) + "\n" if lines else ""
 
 
-class Px4Process:
-    """One PX4 SITL daemon: :meth:`start`, :meth:`alive`, :meth:`log_tail`, :meth:`stop`.
+class Px4Process(FirmwareProcess):
+    """One PX4 SITL daemon (:class:`~vinecli.sitl.process.FirmwareProcess`), the run's parameters at boot."""
 
-    ``workdir`` None: a fresh temporary directory, deleted by :meth:`stop` (the log is read first).
-    """
+    firmware = "PX4"
+    option = "--px4-bin"
+    log_name = "px4.log"
 
     def __init__(self, px4_bin: str | Path, instance: int, *, workdir: str | Path | None = None,
                  airframe: str = "none_iris", sim_host: str = "127.0.0.1",
                  params: dict[str, int | float] | None = None) -> None:
-        self.bin = Path(px4_bin).expanduser()
-        if not self.bin.is_file() or not os.access(self.bin, os.X_OK):
-            raise InputError(f"--px4-bin {px4_bin}: not an executable file")
+        params_script = boot_params_script(params or {})  # validated before anything is created
+        super().__init__(px4_bin, instance, workdir=workdir)
         self.etc = etc_dir_for(self.bin)
-        self.instance, self.airframe, self.sim_host = instance, airframe, sim_host
-        self._own_dir = workdir is None
-        self.workdir = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix=f"vinecli-px4-{instance}-"))
-        self.log_path = self.workdir / "px4.log"
-        self.params = boot_params_script(params or {})  # validated now, before anything starts
-        self.proc: subprocess.Popen[bytes] | None = None
-        self.returncode: int | None = None
-        self._log_text = ""
+        self.airframe, self.sim_host = airframe, sim_host
+        self.params = params_script
+
+    @property
+    def cwd(self) -> Path:
+        return self.workdir / "rootfs"
 
     def command(self) -> list[str]:
         """argv of the PX4 daemon (the environment adds PX4_SIM_MODEL)."""
-        return [str(self.bin.resolve()), "-d", "-i", str(self.instance), "-w", str(self.workdir / "rootfs"), str(self.etc)]
+        return [str(self.bin.resolve()), "-d", "-i", str(self.instance), "-w", str(self.cwd), str(self.etc)]
 
-    def start(self) -> None:
-        """Start PX4 in its own process group; it connects to TCP sim_host:4560+instance."""
-        (self.workdir / "rootfs").mkdir(parents=True, exist_ok=True)
+    def environment(self) -> dict[str, str]:
         env = dict(os.environ, PX4_SIM_MODEL=self.airframe)
         if self.params:  # rcS sources px4-rc.params from PATH before EKF2 and the outputs start
+            env["PATH"] = f"{self.workdir / 'rc'}{os.pathsep}{env.get('PATH', '')}"
+        if self.sim_host not in ("127.0.0.1", "localhost"):
+            env["PX4_SIM_HOST_ADDR"] = self.sim_host
+        return env
+
+    def prepare(self) -> None:
+        if self.params:
             rc = self.workdir / "rc"
             rc.mkdir(exist_ok=True)
             (rc / "px4-rc.params").write_text(self.params, encoding="utf-8")
-            env["PATH"] = f"{rc}{os.pathsep}{env.get('PATH', '')}"
-        if self.sim_host not in ("127.0.0.1", "localhost"):
-            env["PX4_SIM_HOST_ADDR"] = self.sim_host
-        with self.log_path.open("wb") as log:
-            try:
-                self.proc = subprocess.Popen(self.command(), cwd=self.workdir / "rootfs", env=env, stdin=subprocess.DEVNULL,
-                                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
-                                             preexec_fn=die_with_parent if os.name == "posix" else None)
-            except OSError as exc:
-                raise AutopilotError(f"cannot start PX4 {self.bin}: {exc.strerror or exc}") from None
-
-    def alive(self) -> bool:
-        """True while the process runs."""
-        return self.proc is not None and self.proc.poll() is None
-
-    def log_tail(self, lines: int = 12) -> str:
-        """The last lines PX4 printed (for error messages)."""
-        text = self._log_text
-        if not text and self.log_path.is_file():
-            text = self.log_path.read_text(errors="replace")
-        return "\n".join(text.splitlines()[-lines:])
-
-    def stop(self, timeout_s: float = 5.0) -> int | None:
-        """SIGTERM the process group, SIGKILL after ``timeout_s``; remove a temporary workdir. Idempotent."""
-        p = self.proc
-        if p is not None and self.returncode is None:
-            for sig, wait in ((signal.SIGTERM, timeout_s), (signal.SIGKILL, 5.0)):
-                if p.poll() is not None:
-                    break
-                with contextlib.suppress(ProcessLookupError):
-                    os.killpg(p.pid, sig)
-                deadline = time.monotonic() + wait
-                while p.poll() is None and time.monotonic() < deadline:
-                    time.sleep(0.02)
-            self.returncode = p.poll()
-        if self.log_path.is_file():
-            self._log_text = self.log_path.read_text(errors="replace")
-        if self._own_dir and self.workdir.exists():
-            shutil.rmtree(self.workdir, ignore_errors=True)
-        return self.returncode
 
 
 __all__ = ["Px4Process", "boot_params_script", "etc_dir_for", "reserve_instance"]

@@ -1,0 +1,106 @@
+"""Autopilots side by side: the same mission, world and seed flown by the built-in autopilot, PX4 and
+ArduPilot, compared on what a spraying operator looks at.
+
+Per run directory (:func:`autopilot_figures`): status, the firmware that flew; tracking error (cross-track
+RMS while spraying, else the horizontal hold error), mission time (lift-off to the last touchdown, and the
+whole run), energy drawn from the pack; from the deposition (``deposition.json``), the dose on each
+targeted row (mean rate, L/ha) and the share of the rows' length that got a hot spot (more than
+:data:`HOT_FACTOR` x the asked rate) or a gap (less than :data:`GAP_FACTOR` x, the coverage threshold of
+``row_coverage_fraction``). :func:`compare_runs` groups runs of one mission and seed by autopilot.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vinecli.errors import VinecliError
+from vinecli.runs import rundir
+from vinecli.runs.behaviour import behaviour_figures
+from vinecli.runs.mission import _num
+
+HOT_FACTOR = 2.0  # a stretch of row dosed at more than twice the asked rate
+GAP_FACTOR = 0.5  # ... or at less than half of it (row_coverage_fraction's threshold)
+#: the compared figures: key -> (label, unit)
+FIGURES: dict[str, tuple[str, str]] = {
+    "tracking_error_m": ("tracking error", "m"),
+    "mission_time_s": ("lift-off to touchdown", "s"),
+    "sim_time_s": ("run time", "s"),
+    "energy_wh": ("energy", "Wh"),
+    "mean_rate_lpha_on_rows": ("mean dose on rows", "L/ha"),
+    "row_coverage_fraction": ("rows covered", "1"),
+    "hot_spot_fraction": ("rows over-dosed", "1"),
+    "gap_fraction": ("rows under-dosed", "1"),
+}
+
+
+def dose_figures(run_dir: Path) -> dict[str, Any]:
+    """Dose per targeted row and the hot-spot / gap shares of their length (None without deposition)."""
+    path = run_dir / "deposition.json"
+    if not path.is_file():
+        return {"rows": [], "hot_spot_fraction": None, "gap_fraction": None}
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    nominal = _num((doc.get("metrics") or {}).get("nominal_rate_lpha"))
+    rows, hot, gap, total = [], 0.0, 0.0, 0.0
+    for r in doc.get("rows") or []:
+        rate = np.asarray(r.get("rate_lpha") or [], dtype=float)
+        seg = float(r.get("segment_m") or 0.0)
+        rows.append({"row": r.get("row"), "mean_rate_lpha": _num(r.get("mean_rate_lpha")),
+                     "covered_fraction": _num(r.get("covered_fraction"))})
+        if nominal and rate.size and seg > 0:
+            lengths = np.full(rate.size, seg)
+            lengths[-1] = max(0.0, float(r.get("length_m") or rate.size * seg) - seg * (rate.size - 1))
+            hot += float(lengths[rate > HOT_FACTOR * nominal].sum())
+            gap += float(lengths[rate < GAP_FACTOR * nominal].sum())
+            total += float(lengths.sum())
+    return {"rows": rows, "nominal_rate_lpha": nominal,
+            "hot_spot_fraction": hot / total if total else None, "gap_fraction": gap / total if total else None}
+
+
+def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
+    """The compared figures of one run directory (module docstring); a figure that does not apply is None."""
+    run_dir = Path(run_dir)
+    s = rundir.read_summary(run_dir)
+    m = s.get("metrics") or {}
+    events = rundir.read_events(run_dir / rundir.EVENTS)
+    ups = [float(e["t_s"]) for e in events if e["kind"] == "liftoff"]
+    downs = [float(e["t_s"]) for e in events if e["kind"] == "touchdown"]
+    try:
+        beh = behaviour_figures(run_dir)
+    except VinecliError as exc:  # e.g. a run whose mission.yaml cannot be read any more: its other figures stand
+        beh = {"error": str(exc)}
+    dose = dose_figures(run_dir)
+    tracking = _num(m.get("cross_track_rms_m")) if dose["rows"] else None
+    if tracking is None:
+        tracking = beh.get("hover_error_rms_m")
+    fw = s.get("firmware") or {}
+    return {
+        "run_id": s.get("run_id"), "dir": str(run_dir), "autopilot": s.get("autopilot"),
+        "firmware": " ".join(str(x) for x in (fw.get("firmware"), fw.get("version")) if x) or "vinecli built-in",
+        "status": s.get("status"), "passed": s.get("passed"),
+        "tracking_error_m": tracking,
+        "mission_time_s": (downs[-1] - ups[0]) if ups and downs and downs[-1] > ups[0] else None,
+        "sim_time_s": _num(s.get("sim_time_s")), "energy_wh": _num(m.get("energy_wh")),
+        "mean_rate_lpha_on_rows": _num(m.get("mean_rate_lpha_on_rows")),
+        "row_coverage_fraction": _num(m.get("row_coverage_fraction")),
+        "hot_spot_fraction": dose["hot_spot_fraction"], "gap_fraction": dose["gap_fraction"],
+        "rows": dose["rows"], "nominal_rate_lpha": dose.get("nominal_rate_lpha"),
+        "behaviour": beh,
+    }
+
+
+def compare_runs(run_dirs: Sequence[str | Path]) -> dict[str, Any]:
+    """The figures of runs of one mission and seed, one per autopilot (``comparison.json``)."""
+    runs = [autopilot_figures(d) for d in run_dirs]
+    missions = {rundir.read_summary(Path(r["dir"])).get("mission") for r in runs}
+    seeds = {rundir.read_summary(Path(r["dir"])).get("seed") for r in runs}
+    return {"schema": "vinecli.autopilot-comparison/1", "mission": "/".join(sorted(str(x) for x in missions)),
+            "seed": next(iter(seeds)) if len(seeds) == 1 else sorted(seeds), "figures": FIGURES,
+            "hot_factor": HOT_FACTOR, "gap_factor": GAP_FACTOR, "runs": runs}
+
+
+__all__ = ["FIGURES", "GAP_FACTOR", "HOT_FACTOR", "autopilot_figures", "compare_runs", "dose_figures"]

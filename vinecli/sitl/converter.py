@@ -1,0 +1,33 @@
+"""What the phase -> mission-item converter (:func:`vinecli.phase_items.phases_to_items`) takes from a run's
+context, for every firmware: the mission with the world's geofence when it has none of its own, and the
+:class:`~vinecli.phase_items.PlanContext` (home, rows, terrain, nozzle flow, the vehicle's acceleration for
+the spray plan's turns) in the firmware's latitude/longitude convention (``origin``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from vinecli.autopilot.base import AutopilotContext
+from vinecli.phase_items import PlanContext
+from vinecli.specs.mission import MissionSpec
+
+
+def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str) -> tuple[MissionSpec, PlanContext]:
+    """(mission, plan context) for ``ctx``; ``origin``: anything with ``enu_to_geodetic_fast`` (default the
+    world's WGS84 origin); ``firmware`` is named in the converter's errors."""
+    from vinecli.rows.plan import plan_accel
+
+    v = ctx.vehicle
+    pc = PlanContext(
+        origin=origin if origin is not None else ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
+        terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
+        nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
+        accel_mps2=plan_accel(v), firmware=firmware,
+    )
+    mission = ctx.mission
+    if ctx.geofence is not None and mission.geofence is None:
+        mission = mission.model_copy(update={"geofence": ctx.geofence})
+    return mission, pc
+
+
+__all__ = ["converter_inputs"]

@@ -1,0 +1,45 @@
+"""What a firmware run leaves for its run folder: the firmware's identity and the files kept from its
+working directory (its own logs, ``.ulg`` / ``.BIN``, its console output, the parameter file it booted
+with). A firmware backend fills :class:`FirmwareRecord` when it closes; ``run mission`` copies the files
+into ``<run>/firmware/`` (listed in manifest.json) and writes the identity to summary.json ``firmware``."""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from vinecli.sitl.identity import FirmwareIdentity
+
+#: the run-folder directory the firmware files go to
+FIRMWARE_DIR = "firmware"
+
+
+@dataclass
+class FirmwareRecord:
+    """Identity and kept files of one firmware run (the files live in :attr:`dir` until :meth:`discard`)."""
+
+    identity: FirmwareIdentity
+    dir: Path = field(default_factory=lambda: Path(tempfile.mkdtemp(prefix="vinecli-firmware-")))
+    files: list[Path] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        """summary.json ``firmware``: the identity and the kept files (names under ``firmware/``)."""
+        return {**self.identity.to_dict(), "files": [f"{FIRMWARE_DIR}/{f.name}" for f in self.files]}
+
+    def copy_into(self, run_dir: Path) -> None:
+        """Copy the kept files into ``run_dir/firmware/``."""
+        if not self.files:
+            return
+        dest = run_dir / FIRMWARE_DIR
+        dest.mkdir(parents=True, exist_ok=True)
+        for f in self.files:
+            shutil.copy2(f, dest / f.name)
+
+    def discard(self) -> None:
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+__all__ = ["FIRMWARE_DIR", "FirmwareRecord"]
