@@ -107,7 +107,8 @@ class SprayEmitter:
 
 @dataclass
 class Parcels:
-    """Landed parcels: centre x, y (m ENU), volume (L), size class, footprint radius (m); nozzle path (m ENU).
+    """Landed parcels: centre x, y (m ENU), volume (L), size class, footprint radius (m); nozzle path (m ENU);
+    fall time (s) and velocity on landing (m/s; the spray budget's path through the canopy).
 
     A parcel's volume is spread uniformly over the disc of its ``radius`` around (x, y) (the cone).
     """
@@ -119,6 +120,10 @@ class Parcels:
     path_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     emitted_l: float = 0.0
     radius: np.ndarray = field(default_factory=lambda: np.zeros(0))  # cone footprint radius at landing, m
+    t_fall: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall time, s
+    vx_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # horizontal velocity on landing, m/s ENU
+    vy_land: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    vz_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall speed on landing (down positive), m/s
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -221,5 +226,12 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     vp = vol[:, None, None] * geo.shares[None, :, None] * geo.fractions[None, None, :]
     radius = h1 * geo.tan_half[None, :, None]
     cls = np.broadcast_to(np.arange(nc)[None, None, :], shape)
+    relax = np.exp(-t1 / tau3)  # share of the vehicle's velocity (relative to the air) the drops still carry
+    vxl = ux[..., None] + (v[:, 0, None, None] - ux[..., None]) * relax
+    vyl = uy[..., None] + (v[:, 1, None, None] - uy[..., None]) * relax
+
+    def flat(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(a, shape)).ravel()
+
     return Parcels(x.ravel(), y.ravel(), np.ascontiguousarray(vp).ravel(), np.ascontiguousarray(cls).ravel(),
-                   pn.mean(axis=1)[:, :2], emitted, radius.ravel())
+                   pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1), flat(vxl), flat(vyl), flat(s_end))

@@ -94,6 +94,12 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
         if spec.rows == "auto":
             with man.stage("rows"):
                 rows, rows_detection = _auto_rows(t, base, terrain_json, tdir, grid, spec.name, spec.geofence)
+        canopy = None
+        if spec.canopy is not None:
+            from vinecli.world.canopy_build import resolve_canopy
+
+            width = spec.canopy_width_m if "canopy_width_m" in spec.model_fields_set else None
+            canopy = resolve_canopy(spec.canopy, rows, grid.heights if grid is not None else None, width, str(spec_path))
         doc = {
             "schema": SCHEMA,
             "name": spec.name,
@@ -111,13 +117,16 @@ def build_world(spec_path: Path | str, out: Path | str, *, overwrite: bool = Fal
             "rows_auto": spec.rows == "auto",
             "rows_detection": rows_detection,
             "canopy_width_m": spec.canopy_width_m,
+            "canopy": canopy.to_dict() if canopy is not None else None,
+            "air": spec.air.model_dump(mode="json") if spec.air is not None else None,
             "geofence": json.loads(spec.geofence.model_dump_json()) if spec.geofence else None,
             "sdf": "world.sdf",
         }
         write_json(tmp / "world.json", doc)
         with man.stage("sdf"):
             sdf = world_sdf(name=spec.name, origin=origin, rate_hz=spec.physics_rate_hz, gravity=spec.gravity_mps2,
-                            wind=spec.wind, terrain=sdf_terrain, vehicle=vehicle, spawn=(*spawn, yaw))
+                            wind=spec.wind, terrain=sdf_terrain, vehicle=vehicle, spawn=(*spawn, yaw),
+                            canopy=canopy, ground=info.height)
             (tmp / "world.sdf").write_text(sdf, encoding="utf-8")
         man.extra["world"] = {"name": spec.name, "terrain": terrain_json["kind"], "origin": origin.to_dict(),
                               "vehicle": vehicle.name}

@@ -14,6 +14,7 @@ from pydantic import Field
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
+from vinecli.specs.canopy import AirSpec, CanopySpec
 from vinecli.specs.limits import MAX_DISTANCE_M, Coord, Vec2Coord
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
@@ -107,3 +108,5 @@ class WorldSpec(StrictModel):
         None, description="vine rows as ENU polylines [[x, y], ...], or 'auto' (detected by the missions tools)"
     )
     geofence: GeofenceSpec | None = None
+    canopy: CanopySpec | None = Field(None, description="hedges along the rows (spray budget: interception); none: bare rows")
+    air: AirSpec | None = Field(None, description="temperature and humidity (drop evaporation); none: no evaporation")
