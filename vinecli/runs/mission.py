@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
+from vinecli.missions.budget_metrics import budget_default_checks
 from vinecli.missions.checks import evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
@@ -218,10 +219,16 @@ def _run_prepared(
     rows = _rows_for_metrics(spec, world.vine_rows_enu)
     dep_metrics: dict[str, float] = {}
     dep_doc: dict[str, Any] | None = None
+    budget: Any = None
     if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
         from vinecli.runs.deposition_out import evaluate_deposition
 
         dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle, world, rows, run.geofence)
+        from vinecli.runs.budget_out import evaluate_budget
+
+        all_rows = [[tuple(q) for q in r] for r in world.vine_rows_enu] or rows
+        budget = evaluate_budget(result.deposition, world, all_rows, dep_metrics.get("nominal_rate_lpha", math.nan))
+        dep_metrics.update(budget.metrics)
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -229,7 +236,7 @@ def _run_prepared(
         metrics={**result.metrics, **dep_metrics},
         context=MetricContext(gravity=float(world.gravity), rows_enu=rows),
     )
-    checks = evaluate_checks(spec.checks, data)
+    checks = evaluate_checks(budget_default_checks(spec.checks, dep_metrics), data)
     passed = all(c.passed for c in checks)
     metrics: dict[str, float | None] = {k: _num(v) for k, v in {**result.metrics, **dep_metrics}.items()}
     for kind in ("liftoff", "tank_empty"):  # as the checks see them (first event, else the simulator metric)
@@ -300,7 +307,12 @@ def _run_prepared(
         if dep_doc is not None:
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
-            write_deposition(tmp, result.deposition, world, dsm_crs(world_dir), dep_doc)
+            crs = dsm_crs(world_dir)
+            write_deposition(tmp, result.deposition, world, crs, dep_doc)
+            if budget is not None:
+                from vinecli.runs.budget_out import write_budget
+
+                write_budget(tmp, budget, result.deposition, world, crs)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
@@ -397,4 +409,4 @@ def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = 
         metrics={k: float(v) for k, v in (summary.get("metrics") or {}).items() if isinstance(v, (int, float))},
         context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, rows)),
     )
-    return summary, evaluate_checks(spec.checks, data)
+    return summary, evaluate_checks(budget_default_checks(spec.checks, data.metrics), data)

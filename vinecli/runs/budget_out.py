@@ -1,0 +1,179 @@
+"""The spray budget of a run (docs/budget.md): ``budget.json``, ``canopy_deposit.tif``, ``drift_curve.csv``, metrics.
+
+``budget.json`` (schema ``vinecli.budget/1``): ``fractions`` of the emitted volume (canopy,
+ground_in_field, ground_off_field, airborne_out, evaporated; they sum to 1 within ``balance_error``),
+``volumes_l``, ``drift_curve`` [{distance_m, percent_of_applied}] downwind of the last row, ``drift``
+(how the curve was read), ``conditions`` (wind, drop spectrum, canopy, air, applied rate), ``rows``
+(per row: the canopy deposit and its leaf area, µL/cm² and µL/cm² per applied L/ha, and where the
+spray released over that row went), ``maps`` (the rasterised totals) and ``metrics``.
+
+``canopy_deposit.tif`` (on the deposition grid, georeferenced as ``deposition.tif``): band 1 canopy
+deposit per one-sided leaf area, µL/cm² (nodata off the hedges); band 2 the canopy deposit per ground
+area, L/ha; band 3 the ground deposit after interception and evaporation, L/ha. ``deposition.tif``
+stays the spray pattern as it reaches the canopy top and the ground (before both).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vinecli.missions.budget_metrics import budget_metrics
+from vinecli.physics.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
+from vinecli.physics.deposit_grid import rasterise_discs
+from vinecli.runs.deposition_out import NODATA, clean_json, write_grid_tif
+
+__all__ = ["BUDGET_JSON", "CANOPY_TIF", "DRIFT_CSV", "BudgetOutputs", "evaluate_budget", "write_budget"]
+
+BUDGET_JSON = "budget.json"
+CANOPY_TIF = "canopy_deposit.tif"
+DRIFT_CSV = "drift_curve.csv"
+UL_PER_CM2_PER_L_PER_M2 = 100.0  # 1 L/m² = 1e6 µL / 1e4 cm²
+
+
+@dataclass
+class BudgetOutputs:
+    """A run's budget, its maps on the deposition grid (L per cell; leaf area m² per cell) and its documents."""
+
+    budget: SprayBudget
+    canopy_l: np.ndarray
+    ground_l: np.ndarray
+    leaf_m2: np.ndarray
+    doc: dict[str, Any]
+    metrics: dict[str, float]
+
+
+def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
+    """(ny, nx) one-sided leaf area (m²) of the hedges above each cell (cell centres within a hedge's half width)."""
+    from vinecli.rows.geometry import point_polyline_distance
+
+    leaf = np.zeros((grid.ny, grid.nx))
+    if canopy is None:
+        return leaf
+    xc, yc = grid.centres()
+    for h in canopy.hedges:
+        if h.width_m <= 0 or h.row >= len(canopy.rows) or len(canopy.rows[h.row]) < 2:
+            continue
+        pts = np.asarray(canopy.rows[h.row], dtype=float)
+        half = 0.5 * h.width_m + grid.cell
+        ix0, ix1 = np.searchsorted(xc, [pts[:, 0].min() - half, pts[:, 0].max() + half])
+        iy0, iy1 = np.searchsorted(yc, [pts[:, 1].min() - half, pts[:, 1].max() + half])
+        if ix1 <= ix0 or iy1 <= iy0:
+            continue
+        gx, gy = np.meshgrid(xc[ix0:ix1], yc[iy0:iy1])
+        inside = point_polyline_distance(gx, gy, [canopy.rows[h.row]]) <= 0.5 * h.width_m
+        leaf[iy0:iy1, ix0:ix1] += inside * h.lad_m2m3 * h.depth_m * grid.cell * grid.cell
+    return leaf
+
+
+def _release_rows(path_xy: np.ndarray, n_parcels: int, rows: list[Any]) -> np.ndarray:
+    """Per parcel: the row it was released over (nearest row to its nozzle path point), -1 without rows."""
+    if not rows or path_xy.size == 0 or n_parcels == 0:
+        return np.full(n_parcels, -1, dtype=np.int64)
+    from vinecli.rows.geometry import point_polyline_distance
+
+    d = np.stack([point_polyline_distance(path_xy[:, 0], path_xy[:, 1], [r]) for r in rows])
+    near = np.argmin(d, axis=0)
+    per_group = n_parcels // len(path_xy)
+    return np.repeat(near, per_group)
+
+
+def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: float,
+                    config: BudgetConfig = BudgetConfig()) -> BudgetOutputs:
+    """The budget of one run's deposition (:class:`~vinecli.sim.deposition.DepositionResult`) over ``world``."""
+    from vinecli.physics.canopy import row_spacing
+
+    canopy = world.canopy_model() if hasattr(world, "canopy_model") else None
+    geo = dep.geometry
+    p = dep.parcels
+    b = spray_budget(p, geo.diam_m, geo.v_t, canopy, rows_all, row_spacing(rows_all), applied_lpha, dep.wind_xy,
+                     getattr(world, "air", None), config, float(world.gravity))
+    g = dep.grid
+    landed = b.landed
+    arrived = dep.volume_l if b.evaporated_l <= 0 else rasterise_discs(g, p.x, p.y, landed, p.radius)[0]
+    leaf = _hedge_cells(g, canopy)
+    if b.canopy_l > 0:
+        share = np.where(landed * b.shadow > 0, b.captured / np.maximum(landed * b.shadow, 1e-300), 0.0)
+        potential = rasterise_discs(g, p.x, p.y, landed * np.minimum(share, 1.0), p.radius)[0]
+        canopy_l = np.where(leaf > 0, potential, 0.0)
+    else:
+        canopy_l = np.zeros_like(arrived)
+    ground = np.maximum(arrived - canopy_l, 0.0)
+    metrics = budget_metrics(b, canopy, applied_lpha)
+    release = _release_rows(np.asarray(p.path_xy), p.vol.size, rows_all)
+    doc = _document(b, dep, world, canopy, applied_lpha, config, metrics, release,
+                    {"canopy_l": float(canopy_l.sum()), "ground_l": float(ground.sum()), "cell_m": g.cell})
+    return BudgetOutputs(b, canopy_l, ground, leaf, doc, metrics)
+
+
+def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float, config: BudgetConfig,
+              metrics: dict[str, float], release: np.ndarray, maps: dict[str, float]) -> dict[str, Any]:
+    rows_doc = []
+    n_rows = len(canopy.rows) if canopy is not None else len(getattr(world, "vine_rows_enu", []) or [])
+    for i in range(n_rows):
+        mine = release == i
+        released = float(b.parts[:, mine].sum())
+        entry: dict[str, Any] = {"row": i, "released_l": released,
+                                 "released": {k: (float(b.parts[j, mine].sum()) / released if released > 0 else 0.0)
+                                              for j, k in enumerate(FRACTIONS)}}
+        if canopy is not None and i < len(b.row_canopy_l):
+            area = canopy.leaf_area_m2(i)
+            dep_ul = UL_PER_CM2_PER_L_PER_M2 * b.row_canopy_l[i] / area if area > 0 else math.nan
+            entry.update(canopy_l=float(b.row_canopy_l[i]), leaf_area_m2=area, deposit_ulpcm2=dep_ul,
+                         deposit_ulpcm2_per_lpha=dep_ul / applied if applied > 0 else math.nan)
+        rows_doc.append(entry)
+    sp = dep.sprayer or {}
+    return {
+        "schema": "vinecli.budget/1",
+        "units": {"volume": "L", "fraction": "of the emitted volume", "drift": "% of the applied rate",
+                  "deposit": "µL/cm² of one-sided leaf area", "frame": "world ENU"},
+        "fractions": b.fractions, "balance_error": b.balance_error,
+        "volumes_l": {"emitted": b.emitted_l, "canopy": b.canopy_l, "ground_in_field": b.ground_in_field_l,
+                      "ground_off_field": b.ground_off_field_l, "airborne_out": b.airborne_out_l,
+                      "evaporated": b.evaporated_l},
+        "drift_curve": b.drift,
+        "drift": {"reference": "last row downwind (its line), middle half of its length", "band_m": config.drift_band_m,
+                  "downwind_normal_enu": b.downwind_normal, "calm": b.calm, "last_rows": b.last_rows,
+                  "domain_m": config.domain_m},
+        "conditions": {
+            "wind_mean_enu_mps": list(dep.wind_xy), "applied_lpha": applied,
+            "drop_spectrum": {**(sp.get("droplets") or {}), "class_diameters_um": sp.get("class_diameters_um")},
+            "canopy": canopy.to_dict() if canopy is not None else None,
+            "air": ({"temperature_c": world.air[0], "relative_humidity_pct": world.air[1]}
+                    if getattr(world, "air", None) else None),
+            "evaporation": b.evaporation,
+        },
+        "rows": rows_doc,
+        "maps": maps,
+        "metrics": metrics,
+    }
+
+
+def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: Any) -> None:
+    """Write ``budget.json``, ``canopy_deposit.tif`` and ``drift_curve.csv`` into ``out_dir``."""
+    g = dep.grid
+    cell_area = g.cell * g.cell
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per_leaf = np.where(out.leaf_m2 > 0, UL_PER_CM2_PER_L_PER_M2 * out.canopy_l / out.leaf_m2, np.nan)
+    on_canopy = np.where(out.leaf_m2 > 0, out.canopy_l * 1e4 / cell_area, np.nan)
+    ground = np.where(dep.valid, out.ground_l * 1e4 / cell_area, np.nan)
+    transform = write_grid_tif(out_dir / CANOPY_TIF, g, [per_leaf, on_canopy, ground],
+                               ["canopy deposit µL/cm² of leaf area", "canopy deposit L/ha", "ground deposit L/ha"],
+                               world, crs, {"UNITS": "µL/cm², L/ha, L/ha", "QUANTITY": "spray budget maps"})
+    doc = {**out.doc, "geotiff": {"file": CANOPY_TIF, "bands": ["canopy_ulpcm2", "canopy_lpha", "ground_lpha"],
+                                  "crs": crs.to_string() if crs is not None else None,
+                                  "transform": list(transform)[:6], "nodata": NODATA},
+           "drift_csv": DRIFT_CSV}
+    (out_dir / BUDGET_JSON).write_text(json.dumps(clean_json(doc), indent=1, allow_nan=False), encoding="utf-8")
+    with open(out_dir / DRIFT_CSV, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["distance_m", "percent_of_applied"])
+        for pt in out.budget.drift:
+            v = pt["percent_of_applied"]
+            w.writerow([f"{pt['distance_m']:g}", f"{v:.6g}" if math.isfinite(v) else ""])
