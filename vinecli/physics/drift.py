@@ -1,9 +1,10 @@
 """Where the ground deposit lies relative to the field: in it, beyond it, beyond the drift domain, and the
 sedimenting drift curve downwind of the last row (ISO 22866 style). Plain numpy + shapely, world ENU, m.
 
-The field is the area of the vine rows: every row polyline grown by half the row spacing on each
-side (flat caps), so the inter-rows and the half inter-row beyond the outer rows belong to it.
-Without rows it is the sprayed path grown by the median spray-cone radius. The drift domain is the
+The field is the area of the vine rows: the convex hull of every row polyline grown by half the row
+spacing on each side (flat caps), so the inter-rows and the half inter-row beyond the outer rows
+belong to it (a field that is not convex, e.g. L-shaped, counts its hull). Without rows it is the
+hull of the sprayed path grown by the median spray-cone radius. The drift domain is the
 field grown by ``domain_m``; liquid that lands beyond it crossed the domain's boundary airborne.
 
 Each parcel lands uniformly over a disc (its spray cone); the share of the disc on either side of
@@ -35,9 +36,9 @@ CALM_MPS = 0.1
 
 
 def field_polygon(rows: Sequence[Polyline], spacing_m: float, path_xy: np.ndarray, cone_radius_m: float) -> object:
-    """The field as a shapely geometry (see the module doc)."""
+    """The field as a convex shapely polygon (see the module doc), or None with nothing to span."""
     import shapely
-    from shapely.geometry import LineString, MultiLineString
+    from shapely.geometry import LineString, MultiLineString, MultiPoint
 
     lines = [LineString(r) for r in rows if len(r) >= 2]
     if lines:
@@ -49,17 +50,27 @@ def field_polygon(rows: Sequence[Polyline], spacing_m: float, path_xy: np.ndarra
         geom = shapely.Point(path_xy[0]).buffer(max(cone_radius_m, 0.5))
     else:
         return None
-    return geom.buffer(0.05, join_style="mitre").buffer(-0.05, join_style="mitre")  # close hairline gaps
+    return MultiPoint(shapely.get_coordinates(geom)).convex_hull
 
 
 def _signed_distance(geom: object, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Distance to the boundary of ``geom`` (m), negative inside."""
+    """Distance to the boundary of the convex polygon ``geom`` (m), negative inside (numpy, per edge)."""
     import shapely
 
-    pts = shapely.points(x, y)
-    d = shapely.distance(geom.boundary, pts)  # type: ignore[attr-defined]
-    inside = shapely.contains_xy(geom, x, y)
-    return np.where(inside, -d, d)
+    v = np.asarray(shapely.get_coordinates(geom.exterior), dtype=np.float64)  # type: ignore[attr-defined]
+    best = np.full(x.shape, np.inf)
+    inside = np.ones(x.shape, dtype=bool)
+    area2 = float(np.sum(v[:-1, 0] * v[1:, 1] - v[1:, 0] * v[:-1, 1]))  # > 0: counter-clockwise
+    for (ax, ay), (bx, by) in zip(v[:-1], v[1:], strict=True):
+        dx, dy = bx - ax, by - ay
+        seg2 = dx * dx + dy * dy
+        if seg2 <= 0:
+            continue
+        u = np.clip(((x - ax) * dx + (y - ay) * dy) / seg2, 0.0, 1.0)
+        best = np.minimum(best, np.hypot(x - ax - u * dx, y - ay - u * dy))
+        cross = dx * (y - ay) - dy * (x - ax)
+        inside &= cross * area2 >= 0.0
+    return np.where(inside, -best, best)
 
 
 def field_split(field: object, domain_m: float, x: np.ndarray, y: np.ndarray, radius: np.ndarray,

@@ -95,13 +95,14 @@ def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np
     step = (s1 - s0) / nodes
     out = np.zeros(s_c.shape)
     prof = np.asarray(profile, dtype=np.float64)
+    # the disc's mass between consecutive nodes' edges: one CDF evaluation per edge
+    cdf = [semicircle_cdf((s0 + i * step - s_c) / r) for i in range(nodes + 1)]
     for i in range(nodes):
-        lo = s0 + i * step
-        mass = semicircle_cdf((lo + step - s_c) / r) - semicircle_cdf((lo - s_c) / r)
+        mass = cdf[i + 1] - cdf[i]
         live = mass > 0.0
         if not live.any():
             continue
-        s_mid = lo[live] + 0.5 * step[live]
+        s_mid = s0[live] + (i + 0.5) * step[live]
         area = leaf_area_on_path(s_mid, k[live], w[live], b[live], h[live], a[live], prof)
         p = 1.0 - np.exp(-g_factor * eff[live] * sec[live] * area)
         out[live] += mass[live] * p

@@ -9,8 +9,7 @@ spray released over that row went), ``maps`` (the rasterised totals) and ``metri
 
 ``canopy_deposit.tif`` (on the deposition grid, georeferenced as ``deposition.tif``): band 1 canopy
 deposit per one-sided leaf area, µL/cm² (nodata off the hedges); band 2 the canopy deposit per ground
-area, L/ha; band 3 the ground deposit after interception and evaporation, L/ha. ``deposition.tif``
-stays the spray pattern as it reaches the canopy top and the ground (before both).
+area, L/ha. ``deposition.tif`` stays the spray pattern as it reaches the canopy top and the ground.
 """
 
 from __future__ import annotations
@@ -26,7 +25,7 @@ import numpy as np
 
 from vinecli.missions.budget_metrics import budget_metrics
 from vinecli.physics.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
-from vinecli.physics.deposit_grid import rasterise_discs
+from vinecli.physics.deposit_grid import rasterise
 from vinecli.runs.deposition_out import NODATA, clean_json, write_grid_tif
 
 __all__ = ["BUDGET_JSON", "CANOPY_TIF", "DRIFT_CSV", "BudgetOutputs", "evaluate_budget", "write_budget"]
@@ -43,7 +42,6 @@ class BudgetOutputs:
 
     budget: SprayBudget
     canopy_l: np.ndarray
-    ground_l: np.ndarray
     leaf_m2: np.ndarray
     doc: dict[str, Any]
     metrics: dict[str, float]
@@ -72,44 +70,36 @@ def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
     return leaf
 
 
-def _release_rows(path_xy: np.ndarray, n_parcels: int, rows: list[Any]) -> np.ndarray:
-    """Per parcel: the row it was released over (nearest row to its nozzle path point), -1 without rows."""
-    if not rows or path_xy.size == 0 or n_parcels == 0:
-        return np.full(n_parcels, -1, dtype=np.int64)
+def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np.ndarray:
+    """Per parcel: the row it was released over (nearest row to its emission group's nozzle path point)."""
+    if not rows or path_xy.size == 0 or group.size == 0:
+        return np.full(group.size, -1, dtype=np.int64)
     from vinecli.rows.geometry import point_polyline_distance
 
     d = np.stack([point_polyline_distance(path_xy[:, 0], path_xy[:, 1], [r]) for r in rows])
-    near = np.argmin(d, axis=0)
-    per_group = n_parcels // len(path_xy)
-    return np.repeat(near, per_group)
+    return np.argmin(d, axis=0)[group]
 
 
 def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: float,
-                    config: BudgetConfig = BudgetConfig()) -> BudgetOutputs:
+                    config: BudgetConfig | None = None) -> BudgetOutputs:
     """The budget of one run's deposition (:class:`~vinecli.sim.deposition.DepositionResult`) over ``world``."""
     from vinecli.physics.canopy import row_spacing
 
+    config = config or BudgetConfig()
     canopy = world.canopy_model() if hasattr(world, "canopy_model") else None
     geo = dep.geometry
     p = dep.parcels
     b = spray_budget(p, geo.diam_m, geo.v_t, canopy, rows_all, row_spacing(rows_all), applied_lpha, dep.wind_xy,
                      getattr(world, "air", None), config, float(world.gravity))
     g = dep.grid
-    landed = b.landed
-    arrived = dep.volume_l if b.evaporated_l <= 0 else rasterise_discs(g, p.x, p.y, landed, p.radius)[0]
+    cx, cy, cv = b.canopy_points
+    canopy_l, off = rasterise(g, cx, cy, cv)
     leaf = _hedge_cells(g, canopy)
-    if b.canopy_l > 0:
-        share = np.where(landed * b.shadow > 0, b.captured / np.maximum(landed * b.shadow, 1e-300), 0.0)
-        potential = rasterise_discs(g, p.x, p.y, landed * np.minimum(share, 1.0), p.radius)[0]
-        canopy_l = np.where(leaf > 0, potential, 0.0)
-    else:
-        canopy_l = np.zeros_like(arrived)
-    ground = np.maximum(arrived - canopy_l, 0.0)
     metrics = budget_metrics(b, canopy, applied_lpha)
-    release = _release_rows(np.asarray(p.path_xy), p.vol.size, rows_all)
+    release = _release_rows(np.asarray(p.path_xy), b.group, rows_all)
     doc = _document(b, dep, world, canopy, applied_lpha, config, metrics, release,
-                    {"canopy_l": float(canopy_l.sum()), "ground_l": float(ground.sum()), "cell_m": g.cell})
-    return BudgetOutputs(b, canopy_l, ground, leaf, doc, metrics)
+                    {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "cell_m": g.cell})
+    return BudgetOutputs(b, canopy_l, leaf, doc, metrics)
 
 
 def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float, config: BudgetConfig,
@@ -162,11 +152,10 @@ def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: A
     with np.errstate(invalid="ignore", divide="ignore"):
         per_leaf = np.where(out.leaf_m2 > 0, UL_PER_CM2_PER_L_PER_M2 * out.canopy_l / out.leaf_m2, np.nan)
     on_canopy = np.where(out.leaf_m2 > 0, out.canopy_l * 1e4 / cell_area, np.nan)
-    ground = np.where(dep.valid, out.ground_l * 1e4 / cell_area, np.nan)
-    transform = write_grid_tif(out_dir / CANOPY_TIF, g, [per_leaf, on_canopy, ground],
-                               ["canopy deposit µL/cm² of leaf area", "canopy deposit L/ha", "ground deposit L/ha"],
-                               world, crs, {"UNITS": "µL/cm², L/ha, L/ha", "QUANTITY": "spray budget maps"})
-    doc = {**out.doc, "geotiff": {"file": CANOPY_TIF, "bands": ["canopy_ulpcm2", "canopy_lpha", "ground_lpha"],
+    transform = write_grid_tif(out_dir / CANOPY_TIF, g, [per_leaf, on_canopy],
+                               ["canopy deposit µL/cm² of leaf area", "canopy deposit L/ha"],
+                               world, crs, {"UNITS": "µL/cm², L/ha", "QUANTITY": "canopy deposit"})
+    doc = {**out.doc, "geotiff": {"file": CANOPY_TIF, "bands": ["canopy_ulpcm2", "canopy_lpha"],
                                   "crs": crs.to_string() if crs is not None else None,
                                   "transform": list(transform)[:6], "nodata": NODATA},
            "drift_csv": DRIFT_CSV}
