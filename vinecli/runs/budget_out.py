@@ -48,26 +48,32 @@ class BudgetOutputs:
 
 
 def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
-    """(ny, nx) one-sided leaf area (m²) of the hedges above each cell (cell centres within a hedge's half width)."""
-    from vinecli.rows.geometry import point_polyline_distance
+    """(ny, nx) one-sided leaf area (m²) of the hedges above each cell, splatted like the canopy deposit
+    (:data:`~vinecli.physics.budget.ACROSS` points across each hedge, every half cell along it) so both maps
+    share their cells."""
+    from vinecli.physics.budget import ACROSS
 
-    leaf = np.zeros((grid.ny, grid.nx))
     if canopy is None:
-        return leaf
-    xc, yc = grid.centres()
+        return np.zeros((grid.ny, grid.nx))
+    xs, ys, ws = [], [], []
     for h in canopy.hedges:
         if h.width_m <= 0 or h.row >= len(canopy.rows) or len(canopy.rows[h.row]) < 2:
             continue
-        pts = np.asarray(canopy.rows[h.row], dtype=float)
-        half = 0.5 * h.width_m + grid.cell
-        ix0, ix1 = np.searchsorted(xc, [pts[:, 0].min() - half, pts[:, 0].max() + half])
-        iy0, iy1 = np.searchsorted(yc, [pts[:, 1].min() - half, pts[:, 1].max() + half])
-        if ix1 <= ix0 or iy1 <= iy0:
-            continue
-        gx, gy = np.meshgrid(xc[ix0:ix1], yc[iy0:iy1])
-        inside = point_polyline_distance(gx, gy, [canopy.rows[h.row]]) <= 0.5 * h.width_m
-        leaf[iy0:iy1, ix0:ix1] += inside * h.lad_m2m3 * h.depth_m * grid.cell * grid.cell
-    return leaf
+        pts = np.asarray(canopy.rows[h.row], dtype=np.float64)
+        for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
+            seg = float(np.hypot(bx - ax, by - ay))
+            if seg <= 0:
+                continue
+            n = max(1, int(np.ceil(seg / (0.5 * grid.cell))))
+            t = (np.arange(n) + 0.5) / n
+            nx, ny = -(by - ay) / seg, (bx - ax) / seg
+            for c in ACROSS:
+                xs.append(ax + t * (bx - ax) + c * h.width_m * nx)
+                ys.append(ay + t * (by - ay) + c * h.width_m * ny)
+                ws.append(np.full(n, h.lad_m2m3 * h.depth_m * h.width_m * seg / (n * len(ACROSS))))
+    if not xs:
+        return np.zeros((grid.ny, grid.nx))
+    return rasterise(grid, np.concatenate(xs), np.concatenate(ys), np.concatenate(ws))[0]
 
 
 def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np.ndarray:
@@ -149,9 +155,11 @@ def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: A
     """Write ``budget.json``, ``canopy_deposit.tif`` and ``drift_curve.csv`` into ``out_dir``."""
     g = dep.grid
     cell_area = g.cell * g.cell
+    hedge = (out.leaf_m2 > 0) | (out.canopy_l > 0)  # a cell with a deposit and no leaves: the hedges' edge
     with np.errstate(invalid="ignore", divide="ignore"):
-        per_leaf = np.where(out.leaf_m2 > 0, UL_PER_CM2_PER_L_PER_M2 * out.canopy_l / out.leaf_m2, np.nan)
-    on_canopy = np.where(out.leaf_m2 > 0, out.canopy_l * 1e4 / cell_area, np.nan)
+        per_leaf = np.where(out.leaf_m2 > 1e-9 * cell_area, UL_PER_CM2_PER_L_PER_M2 * out.canopy_l / out.leaf_m2,
+                            np.nan)
+    on_canopy = np.where(hedge, out.canopy_l * 1e4 / cell_area, np.nan)
     transform = write_grid_tif(out_dir / CANOPY_TIF, g, [per_leaf, on_canopy],
                                ["canopy deposit µL/cm² of leaf area", "canopy deposit L/ha"],
                                world, crs, {"UNITS": "µL/cm², L/ha", "QUANTITY": "canopy deposit"})
@@ -159,7 +167,7 @@ def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: A
                                   "crs": crs.to_string() if crs is not None else None,
                                   "transform": list(transform)[:6], "nodata": NODATA},
            "drift_csv": DRIFT_CSV}
-    (out_dir / BUDGET_JSON).write_text(json.dumps(clean_json(doc), indent=1, allow_nan=False), encoding="utf-8")
+    (out_dir / BUDGET_JSON).write_text(json.dumps(clean_json(doc, None), indent=1, allow_nan=False), encoding="utf-8")
     with open(out_dir / DRIFT_CSV, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(["distance_m", "percent_of_applied"])

@@ -113,16 +113,20 @@ def write_grid_tif(path: Path, g: Any, bands: list[np.ndarray], names: list[str]
     return transform
 
 
-def clean_json(v: Any) -> Any:
+def clean_json(v: Any, digits: int | None = 6) -> Any:
+    """``v`` made JSON-ready: numpy arrays and scalars as lists and numbers, floats rounded to ``digits``
+    decimals (None: full precision), non-finite floats as null."""
     if isinstance(v, dict):
-        return {k: clean_json(x) for k, x in v.items()}
+        return {k: clean_json(x, digits) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return [clean_json(x) for x in v]
+        return [clean_json(x, digits) for x in v]
     if isinstance(v, np.ndarray):
-        return [clean_json(x) for x in v.tolist()]
+        return [clean_json(x, digits) for x in v.tolist()]
     if isinstance(v, (float, np.floating)):
         f = float(v)
-        return round(f, 6) if math.isfinite(f) else None
+        if not math.isfinite(f):
+            return None
+        return round(f, digits) if digits is not None else f
     if isinstance(v, np.integer):
         return int(v)
     return v
