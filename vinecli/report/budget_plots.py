@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BUDGET_COLOURS", "RAUTMANN_VINES_LATE", "fig25_budget", "load_budget"]
+__all__ = ["BUDGET_COLOURS", "RAUTMANN_VINES_LATE", "draw_hedges", "fig25_budget", "load_budget"]
 
 #: destination -> (label, colour)
 BUDGET_COLOURS = {
@@ -39,6 +39,28 @@ def load_budget(run_dir: Path | None) -> dict[str, Any]:
     if run_dir is None or not (Path(run_dir) / BUDGET_JSON).is_file():
         raise NoData("no spray budget in this run (no sprayer used)")
     return json.loads((Path(run_dir) / BUDGET_JSON).read_text(encoding="utf-8"))
+
+
+def draw_hedges(ax: Any, data: Any, rows: list[Any]) -> None:
+    """Each row's hedge (its width, from the run's budget.json) as a green band on a top view (world ENU, m)."""
+    from matplotlib.patches import Polygon
+
+    try:
+        doc = load_budget(getattr(data, "run_dir", None))
+    except Exception:  # noqa: BLE001 - NoData or an unreadable budget: the view simply has no hedges
+        return
+    canopy = (doc.get("conditions") or {}).get("canopy") or {}
+    label = "hedges (canopy)"
+    for h in canopy.get("hedges") or []:
+        if h.get("width_m", 0) <= 0 or h["row"] >= len(rows) or len(rows[h["row"]]) < 2:
+            continue
+        pts = np.asarray(rows[h["row"]], float)
+        for a, b in zip(pts[:-1], pts[1:], strict=False):
+            d = b - a
+            n = np.array([-d[1], d[0]]) / (np.hypot(*d) or 1.0) * 0.5 * h["width_m"]
+            ax.add_patch(Polygon([a + n, b + n, b - n, a - n], closed=True, facecolor="#66bb6a", alpha=0.45,
+                                 edgecolor="none", zorder=1.5, label=label))
+            label = None
 
 
 def _bars(ax: Any, doc: dict[str, Any]) -> None:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.missions.metrics import airborne_mask, predicted_tilt_rad
-from vinecli.report.budget_plots import fig25_budget
+from vinecli.report.budget_plots import draw_hedges, fig25_budget
 from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
 from vinecli.report.figure_base import (
     C_FAIL,
@@ -159,6 +159,7 @@ def fig16_path(data: PlotData) -> bytes:
         r = np.asarray(r, float)
         if r.ndim == 2 and len(r) >= 2:
             ax.plot(r[:, 0], r[:, 1], color="#2e7d32", lw=1.0, alpha=0.7, zorder=2, label="vine rows" if i == 0 else None)
+    draw_hedges(ax, data, rows)
     if len(fence) >= 3:
         f = np.asarray(fence + fence[:1], float)
         ax.plot(f[:, 0], f[:, 1], color=C_FAIL, ls="--", lw=1.2, zorder=2, label="geofence")
