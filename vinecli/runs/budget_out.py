@@ -7,7 +7,7 @@ ground_in_field, ground_off_field, airborne_out, evaporated; they sum to 1 withi
 (per row: the canopy deposit and its leaf area, µL/cm² and µL/cm² per applied L/ha, and where the
 spray released over that row went), ``maps`` (the rasterised totals) and ``metrics``.
 
-``canopy_deposit.tif`` (on the deposition grid, georeferenced as ``deposition.tif``): band 1 canopy
+``canopy_deposit.tif`` (the deposition grid's cells over the hedges, georeferenced as ``deposition.tif``): band 1 canopy
 deposit per one-sided leaf area, µL/cm² (nodata off the hedges); band 2 the canopy deposit per ground
 area, L/ha. ``deposition.tif`` stays the spray pattern as it reaches the canopy top and the ground.
 """
@@ -38,9 +38,11 @@ UL_PER_CM2_PER_L_PER_M2 = 100.0  # 1 L/m² = 1e6 µL / 1e4 cm²
 
 @dataclass
 class BudgetOutputs:
-    """A run's budget, its maps on the deposition grid (L per cell; leaf area m² per cell) and its documents."""
+    """A run's budget, its maps (L per cell; leaf area m² per cell) on the deposition grid's cells over the hedges,
+    and its documents."""
 
     budget: SprayBudget
+    grid: Any  # GridSpec of the maps: the deposition grid's cells around the hedges
     canopy_l: np.ndarray
     leaf_m2: np.ndarray
     doc: dict[str, Any]
@@ -76,6 +78,24 @@ def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
     return rasterise(grid, np.concatenate(xs), np.concatenate(ys), np.concatenate(ws))[0]
 
 
+def _hedge_window(grid: Any, canopy: Any) -> Any:
+    """The deposition grid's cells over the hedges (their rows' extent + width + 2 cells), same alignment; the whole
+    grid when there are no hedges. The canopy maps need no more memory than that."""
+    from vinecli.physics.deposit_grid import GridSpec
+
+    if canopy is None or not canopy.hedges:
+        return grid
+    pts = np.vstack([np.asarray(r, dtype=np.float64) for r in canopy.rows if len(r)])
+    pad = max(h.width_m for h in canopy.hedges) + 2 * grid.cell
+    ix0 = max(int(np.floor((pts[:, 0].min() - pad - grid.x0) / grid.cell)), 0)
+    iy0 = max(int(np.floor((pts[:, 1].min() - pad - grid.y0) / grid.cell)), 0)
+    ix1 = min(int(np.ceil((pts[:, 0].max() + pad - grid.x0) / grid.cell)), grid.nx)
+    iy1 = min(int(np.ceil((pts[:, 1].max() + pad - grid.y0) / grid.cell)), grid.ny)
+    if ix1 <= ix0 or iy1 <= iy0:
+        return grid
+    return GridSpec(grid.x0 + ix0 * grid.cell, grid.y0 + iy0 * grid.cell, grid.cell, ix1 - ix0, iy1 - iy0)
+
+
 def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np.ndarray:
     """Per parcel: the row it was released over (nearest row to its emission group's nozzle path point)."""
     if not rows or path_xy.size == 0 or group.size == 0:
@@ -97,15 +117,15 @@ def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: flo
     p = dep.parcels
     b = spray_budget(p, geo.diam_m, geo.v_t, canopy, rows_all, row_spacing(rows_all), applied_lpha, dep.wind_xy,
                      getattr(world, "air", None), config, float(world.gravity))
-    g = dep.grid
+    g = _hedge_window(dep.grid, canopy)
     cx, cy, cv = b.canopy_points
     canopy_l, off = rasterise(g, cx, cy, cv)
     leaf = _hedge_cells(g, canopy)
     metrics = budget_metrics(b, canopy, applied_lpha)
     release = _release_rows(np.asarray(p.path_xy), b.group, rows_all)
     doc = _document(b, dep, world, canopy, applied_lpha, config, metrics, release,
-                    {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "cell_m": g.cell})
-    return BudgetOutputs(b, canopy_l, leaf, doc, metrics)
+                    {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "grid": g.to_dict()})
+    return BudgetOutputs(b, g, canopy_l, leaf, doc, metrics)
 
 
 def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float, config: BudgetConfig,
@@ -153,7 +173,7 @@ def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float,
 
 def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: Any) -> None:
     """Write ``budget.json``, ``canopy_deposit.tif`` and ``drift_curve.csv`` into ``out_dir``."""
-    g = dep.grid
+    g = out.grid
     cell_area = g.cell * g.cell
     hedge = (out.leaf_m2 > 0) | (out.canopy_l > 0)  # a cell with a deposit and no leaves: the hedges' edge
     with np.errstate(invalid="ignore", divide="ignore"):
