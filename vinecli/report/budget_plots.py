@@ -71,7 +71,7 @@ def _bars(ax: Any, doc: dict[str, Any]) -> None:
             labels.append(f"row {r['row']}")
             shares.append(r["released"])
     y = np.arange(len(labels))[::-1].astype(float)
-    y[0] += 0.4  # the whole run apart from the rows
+    y[0] += 0.8  # the whole run apart from the rows
     left = np.zeros(len(labels))
     for key, (lab, col) in BUDGET_COLOURS.items():
         v = np.array([100.0 * (s.get(key) or 0.0) for s in shares])
