@@ -73,7 +73,7 @@ def test_summary_json_and_markdown(ci_report) -> None:
     s = json.loads(ci_report.files["json"].read_text())
     assert s["passed"] is True and s["exit_code"] == 0 and s["totals"]["runs"] == 4
     gust = next(r for r in s["runs"] if r["case"] == "gust")
-    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24") else
+    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24", "fig25") else
                                "skipped: no deposition in this run (no sprayer used)" for fid in FIGURES}
     spray = next(r for r in s["runs"] if r["case"] == "spray")
     assert spray["figures"] == {fid: "rendered" for fid in FIGURES}

@@ -37,7 +37,7 @@ def load_budget(run_dir: Path | None) -> dict[str, Any]:
     from vinecli.runs.budget_out import BUDGET_JSON
 
     if run_dir is None or not (Path(run_dir) / BUDGET_JSON).is_file():
-        raise NoData("no spray budget in this run (no sprayer used)")
+        raise NoData("no deposition in this run (no sprayer used)")
     return json.loads((Path(run_dir) / BUDGET_JSON).read_text(encoding="utf-8"))
 
 
