@@ -258,5 +258,6 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
         emitted_l=emitted, canopy_l=float(captured.sum()), ground_in_field_l=float(infield.sum()),
         ground_off_field_l=float(offfield.sum()), airborne_out_l=float(beyond.sum()),
         evaporated_l=float((vol - landed).sum()), row_canopy_l=per_row, drift=curve,
-        parts=np.stack([captured, infield, offfield, beyond, vol - landed]), group=p.group, canopy_points=points, downwind_normal=frames[0].normal if frames and not calm else None, calm=calm,
+        parts=np.stack([captured, infield, offfield, beyond, vol - landed]), group=p.group, canopy_points=points,
+        downwind_normal=frames[0].normal if frames and not calm else None, calm=calm,
         last_rows=[f.row for f in frames], evaporation=air is not None)
