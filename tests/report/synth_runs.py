@@ -566,7 +566,17 @@ def _write_deposition(out: Path, cols: dict[str, np.ndarray], rate_hz: float) ->
     fence = SimpleNamespace(polygon_enu=GEOFENCE["polygon_enu"])
     metrics, doc = evaluate_deposition(dep, spec, veh, world, rows, fence)
     write_deposition(out, dep, world, None, doc)
-    return metrics
+    # the spray budget of the same flight over BBCH 75 hedges on the rows, 20 °C / 60 %
+    from vinecli.runs.budget_out import evaluate_budget, write_budget
+    from vinecli.specs.canopy import CanopySpec
+    from vinecli.world.canopy_build import resolve_canopy
+
+    canopy = resolve_canopy(CanopySpec(bbch=75), rows, None)
+    dep.geometry, dep.wind_xy = SprayerGeometry.from_vehicle(veh, 1.225), (0.0, 0.0)
+    world.gravity, world.air, world.canopy_model = 9.80665, (20.0, 60.0), lambda: canopy
+    budget = evaluate_budget(dep, world, rows, metrics["nominal_rate_lpha"])
+    write_budget(out, budget, dep, world, None)
+    return {**metrics, **budget.metrics}
 
 
 def write_batch(runs_dir: Path, cases: Sequence[dict[str, Any]], pipeline: str = "synthetic") -> Path:

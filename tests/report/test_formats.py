@@ -42,8 +42,8 @@ def test_html_is_self_contained_with_every_figure_and_check(ci_report, ci_runs: 
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
     assert "<script" not in html.lower() and "<link" not in html.lower() and "@import" not in html
     imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
-    # every figure of every run; the two deposition figures only for the run that sprayed
-    assert len(imgs) == len(MISSIONS) * (len(FIGURES) - 2) + 2
+    # every figure of every run; the three spray figures (deposition, coverage, budget) only for the run that sprayed
+    assert len(imgs) == len(MISSIONS) * (len(FIGURES) - 3) + 3
     import base64
 
     assert all(base64.b64decode(b)[:8] == b"\x89PNG\r\n\x1a\n" for b in imgs)
@@ -73,7 +73,7 @@ def test_summary_json_and_markdown(ci_report) -> None:
     s = json.loads(ci_report.files["json"].read_text())
     assert s["passed"] is True and s["exit_code"] == 0 and s["totals"]["runs"] == 4
     gust = next(r for r in s["runs"] if r["case"] == "gust")
-    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24") else
+    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24", "fig25") else
                                "skipped: no deposition in this run (no sprayer used)" for fid in FIGURES}
     spray = next(r for r in s["runs"] if r["case"] == "spray")
     assert spray["figures"] == {fid: "rendered" for fid in FIGURES}
@@ -192,4 +192,4 @@ def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None
     calls: list[tuple[int, int]] = []
     figs = render_all(runs, jobs=2, progress=lambda i, n: calls.append((i, n)))
     assert sorted(figs) == ["overload", "takeoff"] and calls[-1] == (2, 2)
-    assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig23", "fig24"))
+    assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig23", "fig24", "fig25"))

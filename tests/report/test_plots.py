@@ -24,7 +24,7 @@ from vinecli.report.plots import (
 
 from .synth_runs import MISSIONS
 
-SPRAY_FIGURES = ("fig23", "fig24")  # vinecli/report/deposition_plots.py
+SPRAY_FIGURES = ("fig23", "fig24", "fig25")  # vinecli/report/deposition_plots.py, budget_plots.py
 
 
 @pytest.fixture(scope="module")

@@ -40,6 +40,14 @@ def build(
         f"origin {w.origin.lat:.6f}, {w.origin.lon:.6f}, {w.origin.alt:.1f} m, {len(w.vine_rows_enu)} rows",
         markup=True,
     )
+    if w.canopy:
+        c = w.canopy
+        hs = c.get("hedges") or []
+        tops = [h["top_m"] for h in hs]
+        out_console.print(
+            f"canopy ({c['source']}, BBCH {c['bbch']}): {len(hs)} hedges, top {min(tops, default=0):.2f}-"
+            f"{max(tops, default=0):.2f} m, width {hs[0]['width_m'] if hs else 0:.2f} m, LAD "
+            f"{hs[0]['lad_m2m3'] if hs else 0:.1f} m²/m³, LAI {c['lai']:.2f}" if hs else "canopy: no hedges (no rows)")
     if w.rows_detection:
         d = w.rows_detection
         out_console.print(escape(f"rows (auto, from the {d['source']}): {d['count']} rows, spacing {d['spacing_m']:.3f} m, "

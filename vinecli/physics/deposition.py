@@ -22,6 +22,7 @@ Volume is conserved exactly: every parcel lands somewhere (on or off the grid).
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -42,6 +43,8 @@ __all__ = ["EMIT_COLUMNS", "DepositionConfig", "Parcels", "SprayEmitter", "Spray
 EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz", "thrust_n", "vol_l",
                 "lag_s")
 KARMAN = 0.41
+MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
+LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,7 @@ class DepositionConfig:
     downwash: bool = True
     diffusion: bool = True
     roughness_m: float = 0.1  # aerodynamic roughness of the crop for u*, m
+    outwash: bool = True  # drops the wake does not drive into the ground follow the outwash (physics/outwash.py)
 
 
 @dataclass(frozen=True)
@@ -108,7 +112,8 @@ class SprayEmitter:
 
 @dataclass
 class Parcels:
-    """Landed parcels: centre x, y (m ENU), volume (L), size class, footprint radius (m); nozzle path (m ENU).
+    """Landed parcels: centre x, y (m ENU), volume (L), size class, footprint radius (m); nozzle path (m ENU);
+    fall time (s) and velocity on landing (m/s; the spray budget's path through the canopy).
 
     A parcel's volume is spread uniformly over the disc of its ``radius`` around (x, y) (the cone).
     """
@@ -120,6 +125,12 @@ class Parcels:
     path_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     emitted_l: float = 0.0
     radius: np.ndarray = field(default_factory=lambda: np.zeros(0))  # cone footprint radius at landing, m
+    t_fall: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall time, s
+    vx_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # horizontal velocity on landing, m/s ENU
+    vy_land: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    vz_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall speed on landing (down positive), m/s
+    group: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # emission group (path_xy row)
+    primaries: int = 0  # the first ``primaries`` parcels: one per (group, nozzle, size class), in that order
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -222,5 +233,67 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     vp = vol[:, None, None] * geo.shares[None, :, None] * geo.fractions[None, None, :]
     radius = h1 * geo.tan_half[None, :, None]
     cls = np.broadcast_to(np.arange(nc)[None, None, :], shape)
-    return Parcels(x.ravel(), y.ravel(), np.ascontiguousarray(vp).ravel(), np.ascontiguousarray(cls).ravel(),
-                   pn.mean(axis=1)[:, :2], emitted, radius.ravel())
+    relax = np.exp(-t1 / tau3)  # share of the vehicle's velocity (relative to the air) the drops still carry
+    vxl = ux[..., None] + (v[:, 0, None, None] - ux[..., None]) * relax
+    vyl = uy[..., None] + (v[:, 1, None, None] - uy[..., None]) * relax
+
+    def flat(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(a, shape)).ravel()
+
+    out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
+                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc)
+    if config.downwash and config.outwash:
+        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
+                    config)
+    return out
+
+
+def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_spec: WindSpec,
+                height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray, z_release: np.ndarray,
+                config: DepositionConfig) -> None:
+    """Move the share of each parcel the wake does not drive into the ground to the outwash
+    (:mod:`vinecli.physics.outwash`): it is re-released near the ground and carried by the wind."""
+    from vinecli.physics.outwash import impaction_share, lifted_parcels
+    from vinecli.physics.wind import height_factor
+
+    jet = 2.0 * geo.rotor_radius_m * math.sqrt(geo.n_rotors)
+    share = 1.0 - impaction_share(geo.diam_m[out.cls], jet_speed, jet)
+    lifted = np.where(share >= MIN_LIFTED_SHARE, out.vol * share, 0.0)  # smaller shares stay with the parcel
+    src = np.flatnonzero(lifted > 0.0)
+    if src.size == 0:
+        return
+    out.vol = out.vol - lifted
+    # lifted parcels of the same nozzle and size class are merged over LIFT_BIN_S of release time
+    # (volume-weighted landing point, fall time, release conditions): the outwash plume is smooth
+    per_group = out.vol.size // max(int(out.group.max()) + 1, 1)
+    key = (out.group[src] * config.group_s // LIFT_BIN_S).astype(np.int64) * per_group + src % per_group
+    uk, inv = np.unique(key, return_inverse=True)
+    w = lifted[src]
+    wsum = np.bincount(inv, weights=w)
+
+    def merged(a: np.ndarray) -> np.ndarray:
+        return np.bincount(inv, weights=a[src] * w) / wsum
+
+    first = np.full(uk.size, src.size)
+    np.minimum.at(first, inv, np.arange(src.size))
+    rep = src[first]  # a parcel of each merged set: its size class and (first) emission group
+    mx, my, mt = merged(out.x), merged(out.y), merged(out.t_fall)
+    g = out.group[rep]
+    h_s = 0.5 * jet
+    ground = height(mx, my)
+    ratio = height_factor(wind_spec, ground + h_s) / height_factor(wind_spec, z_release[g])
+    wx, wy = wnd[g, 0] * ratio, wnd[g, 1] * ratio
+    ustar = KARMAN * np.hypot(wx, wy) / math.log(max(h_s, 2.0 * config.roughness_m) / config.roughness_m)
+    kdiff = KARMAN * ustar * max(0.5 * h_s, config.roughness_m) if config.diffusion else np.zeros(rep.size)
+    sec = lifted_parcels(mx, my, wsum, geo.v_t[out.cls[rep]], mt, wx, wy, np.broadcast_to(kdiff, rep.shape), jet)
+    k = rep[sec["src"]]
+    out.x = np.concatenate([out.x, sec["x"]])
+    out.y = np.concatenate([out.y, sec["y"]])
+    out.vol = np.concatenate([out.vol, sec["vol"]])
+    out.cls = np.concatenate([out.cls, out.cls[k]])
+    out.radius = np.concatenate([out.radius, np.full(k.size, h_s)])
+    out.t_fall = np.concatenate([out.t_fall, sec["t_fall"]])
+    out.vx_land = np.concatenate([out.vx_land, sec["vx"]])
+    out.vy_land = np.concatenate([out.vy_land, sec["vy"]])
+    out.vz_land = np.concatenate([out.vz_land, sec["vz"]])
+    out.group = np.concatenate([out.group, out.group[k]])

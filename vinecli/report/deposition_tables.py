@@ -1,4 +1,5 @@
-"""The deposition metrics of spray runs as a Markdown table and JUnit properties (docs/deposition.md)."""
+"""The deposition and budget metrics of spray runs as a Markdown table and JUnit properties (docs/deposition.md,
+docs/budget.md)."""
 
 from __future__ import annotations
 
@@ -15,9 +16,14 @@ DEPOSITION_COLUMNS: dict[str, tuple[str, str]] = {
     "mean_rate_lpha_on_rows": ("mean on rows, L/ha", "{:.1f}"),
     "deposit_cv_on_rows": ("CV on rows", "{:.0%}"),
     "row_coverage_fraction": ("rows covered", "{:.0%}"),
-    "deposit_on_rows_fraction": ("on canopy", "{:.0%}"),
+    "deposit_on_rows_fraction": ("in row bands", "{:.0%}"),
     "drift_outside_fence_fraction": ("outside fence", "{:.1%}"),
     "deposit_balance_error": ("balance error", "{:.1e}"),
+    # the spray budget (docs/budget.md)
+    "budget_canopy_fraction": ("on canopy", "{:.0%}"),
+    "budget_ground_off_field_fraction": ("ground off field", "{:.1%}"),
+    "budget_evaporated_fraction": ("evaporated", "{:.1%}"),
+    "budget_drift_5m_percent": ("drift at 5 m, %", "{:.2f}"),
 }
 
 

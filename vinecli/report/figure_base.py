@@ -15,7 +15,8 @@ from vinecli.constants import STANDARD_GRAVITY
 DPI = 100
 #: figure sizes in inches (pixels = inches * DPI)
 SIZES = {"fig16": (12.0, 5.2), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
-         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6), "fig23": (11.0, 8.0), "fig24": (9.0, 6.0)}
+         "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6), "fig23": (11.0, 8.0), "fig24": (9.0, 6.0),
+         "fig25": (11.0, 5.0)}
 C_OK, C_FAIL = "#2ca02c", "#d62728"
 
 

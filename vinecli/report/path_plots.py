@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from vinecli.missions.metrics import airborne_mask
+from vinecli.report.budget_plots import draw_hedges
 from vinecli.report.figure_base import (
     C_FAIL,
     DPI,
@@ -57,6 +58,7 @@ def fig16_path(data: PlotData) -> bytes:
         r = np.asarray(r, float)
         if r.ndim == 2 and len(r) >= 2:
             ax.plot(r[:, 0], r[:, 1], color="#2e7d32", lw=1.0, alpha=0.7, zorder=2, label="vine rows" if i == 0 else None)
+    draw_hedges(ax, data, rows)
     if len(fence) >= 3:
         f = np.asarray(fence + fence[:1], float)
         ax.plot(f[:, 0], f[:, 1], color=C_FAIL, ls="--", lw=1.2, zorder=2, label="geofence")

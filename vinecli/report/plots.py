@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from vinecli.report.budget_plots import fig25_budget
 from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
 from vinecli.report.figure_base import DPI, SIZES, NoData, PlotData, columns_needed
 from vinecli.report.figure_marks import check_spans
@@ -42,6 +43,8 @@ FIGURES: dict[str, tuple[str, Callable[[PlotData], bytes]]] = {
 FIGURES["fig23"] = ("Spray deposition (L/ha) over the terrain with the rows, the flown path and the fence",
                     fig23_deposition)
 FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and the share covered", fig24_row_coverage)
+FIGURES["fig25"] = ("Where the spray went: canopy, ground in and off the field, airborne, evaporated (per row) "
+                    "and the drift curve downwind", fig25_budget)
 
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:

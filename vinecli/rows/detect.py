@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import TerrainError
+from vinecli.physics.canopy import row_spacing
 from vinecli.rows.comb import Comb, RowKnots, comb_of, eval_row, fit_row, make_strips, row_knots
 from vinecli.rows.geometry import polyline_length
 from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, relief_of
@@ -341,13 +342,4 @@ def _confidence(found: list[_Found], spacing: float, strength: float, lengths: l
 
 def row_spacing_m(rows: Sequence[Polyline]) -> float:
     """Median distance between the midpoints of neighbouring rows (sorted across them), m; NaN for < 2 rows."""
-    mids = [np.mean(np.asarray(r, dtype=float), axis=0) for r in rows if len(r) >= 2]
-    if len(mids) < 2:
-        return math.nan
-    r0 = np.asarray(rows[0], dtype=float)
-    u = r0[-1] - r0[0]
-    u = u / (np.linalg.norm(u) or 1.0)
-    across = np.sort([float(-u[1] * m[0] + u[0] * m[1]) for m in mids])
-    gaps = np.diff(across)
-    gaps = gaps[gaps > 1e-3]
-    return float(np.median(gaps)) if gaps.size else math.nan
+    return row_spacing(rows)

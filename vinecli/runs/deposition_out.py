@@ -24,7 +24,8 @@ from vinecli.rows.spray_rate import flow_for_rate, nominal_rate_lpha, spray_swat
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
 
-__all__ = ["DEPOSITION_JSON", "DEPOSITION_TIF", "NODATA", "dsm_crs", "evaluate_deposition", "write_deposition"]
+__all__ = ["DEPOSITION_JSON", "DEPOSITION_TIF", "NODATA", "clean_json", "dsm_crs", "evaluate_deposition",
+           "write_deposition", "write_grid_tif"]
 
 log = logging.getLogger(__name__)
 
@@ -69,19 +70,29 @@ def _enu_to_crs_affine(origin: Any, crs: Any) -> tuple[float, float, float, floa
 def write_deposition(out_dir: Path, dep: Any, world: Any, crs: Any, doc: dict[str, Any]) -> None:
     """Write ``deposition.tif`` and ``deposition.json`` into ``out_dir``; the JSON is ``doc`` (of
     :func:`evaluate_deposition`) with ``totals.max_rate_lpha`` and ``geotiff`` filled in."""
-    import rasterio
-    from rasterio.transform import Affine
-
     g = dep.grid
     rate_lpha = dep.rate_lpha()
     max_rate = float(np.nanmax(rate_lpha)) if dep.volume_l.size else 0.0
-    rate = np.flipud(rate_lpha).astype(np.float32)  # row 0 = north
-    rate = np.where(np.isfinite(rate), rate, np.float32(NODATA)).astype(np.float32)
+    transform = write_grid_tif(out_dir / DEPOSITION_TIF, g, [rate_lpha], ["application rate L/ha"], world, crs,
+                               {"UNITS": "L/ha", "QUANTITY": "spray application rate"})
+    doc = {**doc, "totals": {**doc["totals"], "max_rate_lpha": max_rate},
+           "geotiff": {"file": DEPOSITION_TIF, "crs": crs.to_string() if crs is not None else None,
+                       "transform": list(transform)[:6], "nodata": NODATA, "units": "L/ha"}}
+    (out_dir / DEPOSITION_JSON).write_text(json.dumps(clean_json(doc), indent=1, allow_nan=False), encoding="utf-8")
+
+
+def write_grid_tif(path: Path, g: Any, bands: list[np.ndarray], names: list[str], world: Any, crs: Any,
+                   tags: dict[str, str]) -> Any:
+    """Write float32 ``bands`` ((ny, nx) on the deposition grid ``g``, row 0 south, NaN = nodata) as a north-up
+    GeoTIFF georeferenced as :data:`DEPOSITION_TIF` (see the module doc); returns its affine transform."""
+    import rasterio
+    from rasterio.transform import Affine
+
     # pixel (col, row) -> ENU: e = x0 + col cell, n = y_top - row cell
     y_top = g.y0 + g.ny * g.cell
     pix_enu = Affine(g.cell, 0.0, g.x0, 0.0, -g.cell, y_top)
-    tags = {"UNITS": "L/ha", "QUANTITY": "spray application rate", "ORIGIN_LAT": repr(world.origin.lat),
-            "ORIGIN_LON": repr(world.origin.lon), "ORIGIN_ALT": repr(world.origin.alt)}
+    tags = {**tags, "ORIGIN_LAT": repr(world.origin.lat), "ORIGIN_LON": repr(world.origin.lon),
+            "ORIGIN_ALT": repr(world.origin.alt)}
     if crs is not None:
         a, b, c, d, e, f = _enu_to_crs_affine(world.origin, crs)
         transform = Affine(a, b, c, d, e, f) * pix_enu
@@ -89,30 +100,33 @@ def write_deposition(out_dir: Path, dep: Any, world: Any, crs: Any, doc: dict[st
     else:
         transform = pix_enu
         tags["FRAME"] = "ENU (x east, y north, m from the geodetic origin)"
-    profile = {"driver": "GTiff", "width": g.nx, "height": g.ny, "count": 1, "dtype": "float32", "nodata": NODATA,
-               "transform": transform, "compress": "deflate", "tiled": False}
+    profile = {"driver": "GTiff", "width": g.nx, "height": g.ny, "count": len(bands), "dtype": "float32",
+               "nodata": NODATA, "transform": transform, "compress": "deflate", "tiled": False}
     if crs is not None:
         profile["crs"] = crs
-    with rasterio.open(out_dir / DEPOSITION_TIF, "w", **profile) as ds:
-        ds.write(rate, 1)
+    with rasterio.open(path, "w", **profile) as ds:
+        for i, (band, name) in enumerate(zip(bands, names, strict=True), start=1):
+            a = np.flipud(band).astype(np.float32)  # row 0 = north
+            ds.write(np.where(np.isfinite(a), a, np.float32(NODATA)).astype(np.float32), i)
+            ds.set_band_description(i, name)
         ds.update_tags(**tags)
-        ds.set_band_description(1, "application rate L/ha")
-    doc = {**doc, "totals": {**doc["totals"], "max_rate_lpha": max_rate},
-           "geotiff": {"file": DEPOSITION_TIF, "crs": crs.to_string() if crs is not None else None,
-                       "transform": list(transform)[:6], "nodata": NODATA, "units": "L/ha"}}
-    (out_dir / DEPOSITION_JSON).write_text(json.dumps(_clean(doc), indent=1, allow_nan=False), encoding="utf-8")
+    return transform
 
 
-def _clean(v: Any) -> Any:
+def clean_json(v: Any, digits: int | None = 6) -> Any:
+    """``v`` made JSON-ready: numpy arrays and scalars as lists and numbers, floats rounded to ``digits``
+    decimals (None: full precision), non-finite floats as null."""
     if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
+        return {k: clean_json(x, digits) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
+        return [clean_json(x, digits) for x in v]
     if isinstance(v, np.ndarray):
-        return [_clean(x) for x in v.tolist()]
+        return [clean_json(x, digits) for x in v.tolist()]
     if isinstance(v, (float, np.floating)):
         f = float(v)
-        return round(f, 6) if math.isfinite(f) else None
+        if not math.isfinite(f):
+            return None
+        return round(f, digits) if digits is not None else f
     if isinstance(v, np.integer):
         return int(v)
     return v

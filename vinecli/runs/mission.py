@@ -27,6 +27,7 @@ from vinecli.constants import MAX_SEED, STANDARD_GRAVITY
 from vinecli.errors import ChecksFailed, InputError, RuntimeFailure, SpecError, VinecliError
 from vinecli.inputs import note_input, reading_inputs
 from vinecli.locks import output_lock
+from vinecli.missions.budget_metrics import budget_default_checks
 from vinecli.missions.checks import evaluate_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
@@ -249,10 +250,16 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
     rows = _rows_for_metrics(spec, world.vine_rows_enu)
     dep_metrics: dict[str, float] = {}
     dep_doc: dict[str, Any] | None = None
+    budget: Any = None
     if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
         from vinecli.runs.deposition_out import evaluate_deposition
 
         dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle, world, rows, run.geofence)
+        from vinecli.runs.budget_out import evaluate_budget
+
+        all_rows = [[tuple(q) for q in r] for r in world.vine_rows_enu] or rows
+        budget = evaluate_budget(result.deposition, world, all_rows, dep_metrics.get("nominal_rate_lpha", math.nan))
+        dep_metrics.update(budget.metrics)
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -260,7 +267,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         metrics={**result.metrics, **dep_metrics},
         context=MetricContext(gravity=float(world.gravity), rows_enu=rows),
     )
-    checks = evaluate_checks(spec.checks, data)
+    checks = evaluate_checks(budget_default_checks(spec.checks, dep_metrics), data)
     passed = all(c.passed for c in checks)
     metrics = _summary_metrics(data)
     sim_time = float(result.sim_time_s)
@@ -299,7 +306,8 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
-    _write_run_dir(out, manifest, result, run, summary, dep_doc, world_dir, record, mcap=mcap, overwrite=overwrite)
+    _write_run_dir(out, manifest, result, run, summary, dep_doc, budget, world_dir, record, mcap=mcap,
+                   overwrite=overwrite)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
     return RunSummary(
         run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
@@ -328,10 +336,11 @@ def _timing_doc(loop: dict[str, float], wall: float, rtf: float) -> dict[str, fl
 
 
 def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun, summary: dict[str, Any],
-                   dep_doc: dict[str, Any] | None, world_dir: Path, record: Any, *, mcap: bool, overwrite: bool) -> None:
+                   dep_doc: dict[str, Any] | None, budget: Any, world_dir: Path, record: Any, *, mcap: bool,
+                   overwrite: bool) -> None:
     """Write the run directory ``out`` atomically: time series, events, the resolved mission, the terrain
-    preview, run.mcap (``mcap``), the deposition outputs, a firmware's kept logs (``record``), summary.json
-    last."""
+    preview, run.mcap (``mcap``), the deposition outputs and the spray budget's, a firmware's kept logs
+    (``record``), summary.json last."""
     spec, run_id, seed = run.mission, summary["run_id"], summary["seed"]
     t1 = time.perf_counter()
     with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
@@ -347,7 +356,12 @@ def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun,
         if dep_doc is not None:
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
-            write_deposition(tmp, result.deposition, run.world, dsm_crs(world_dir), dep_doc)
+            crs = dsm_crs(world_dir)
+            write_deposition(tmp, result.deposition, run.world, crs, dep_doc)
+            if budget is not None:
+                from vinecli.runs.budget_out import write_budget
+
+                write_budget(tmp, budget, result.deposition, run.world, crs)
         if record is not None:
             record.copy_into(tmp)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
@@ -458,4 +472,4 @@ def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = 
         metrics={k: float(v) for k, v in (summary.get("metrics") or {}).items() if isinstance(v, (int, float))},
         context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, rows)),
     )
-    return summary, evaluate_checks(spec.checks, data)
+    return summary, evaluate_checks(budget_default_checks(spec.checks, data.metrics), data)

@@ -35,6 +35,8 @@ class DepositionResult:
     config: DepositionConfig
     transport_s: float  # wall time of transport + rasterising, s
     sprayer: dict[str, object]
+    geometry: SprayerGeometry | None = None  # size classes etc. the parcels refer to (spray budget)
+    wind_xy: tuple[float, float] = (0.0, 0.0)  # volume-weighted mean horizontal wind while spraying, m/s ENU
 
     @property
     def balance_error(self) -> float:
@@ -58,7 +60,11 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     gr = ter.grid
     height = gr.heights if gr is not None else flat_height(ter.flat_z)
     geo = SprayerGeometry.from_vehicle(veh, world.air_density)
-    parcels = transport(emitter.array(), geo, height, wind_spec, world.air_density, seed, cfg, float(world.gravity))
+    records = emitter.array()
+    parcels = transport(records, geo, height, wind_spec, world.air_density, seed, cfg, float(world.gravity))
+    vol = records[:, 15]
+    wsum = float(vol.sum())
+    wind_xy = ((float(vol @ records[:, 11]) / wsum, float(vol @ records[:, 12]) / wsum) if wsum > 0 else (0.0, 0.0))
     rows_xy = [tuple(p) for row in world.vine_rows_enu for p in row]
     footprint = float(parcels.radius.max()) if parcels.radius.size else 0.0
     grid = grid_for(parcels.path_xy, rows_xy, tuple(ter.bounds), cfg.cell_m, cfg.margin_m, cfg.max_cells,
@@ -76,4 +82,4 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     }
     return DepositionResult(grid=grid, volume_l=vol, valid=valid, parcels=parcels, emitted_l=parcels.emitted_l,
                             on_grid_l=float(vol.sum()), off_grid_l=off, config=cfg,
-                            transport_s=time.perf_counter() - t0, sprayer=sprayer)
+                            transport_s=time.perf_counter() - t0, sprayer=sprayer, geometry=geo, wind_xy=wind_xy)

@@ -120,6 +120,12 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
             with man.stage("gis"):
                 geofence, rows, gis_doc = _gis(spec, base, terrain_json, tdir, origin, rows)
             unsafe(check_spawn_fence(geofence, (sx, sy, 0.0), fence_margins_m(vehicle)[0]))
+        canopy = None
+        if spec.canopy is not None:
+            from vinecli.world.canopy_build import resolve_canopy
+
+            width = spec.canopy_width_m if "canopy_width_m" in spec.model_fields_set else None
+            canopy = resolve_canopy(spec.canopy, rows, grid.heights if grid is not None else None, width, str(spec_path))
         doc = {
             "schema": SCHEMA,
             "name": spec.name,
@@ -137,6 +143,8 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
             "rows_auto": spec.rows == "auto",
             "rows_detection": rows_detection,
             "canopy_width_m": spec.canopy_width_m,
+            "canopy": canopy.to_dict() if canopy is not None else None,
+            "air": spec.air.model_dump(mode="json") if spec.air is not None else None,
             "geofence": json.loads(geofence.model_dump_json()) if geofence else None,
             "gis": gis_doc,
             "sdf": "world.sdf",
@@ -144,7 +152,8 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
         write_json(tmp / "world.json", doc)
         with man.stage("sdf"):
             sdf = world_sdf(name=spec.name, origin=origin, rate_hz=spec.physics_rate_hz, gravity=spec.gravity_mps2,
-                            wind=spec.wind, terrain=sdf_terrain, vehicle=vehicle, spawn=(*spawn, yaw))
+                            wind=spec.wind, terrain=sdf_terrain, vehicle=vehicle, spawn=(*spawn, yaw),
+                            canopy=canopy, ground=info.height)
             (tmp / "world.sdf").write_text(sdf, encoding="utf-8")
         man.extra["world"] = {"name": spec.name, "terrain": terrain_json["kind"], "origin": origin.to_dict(),
                               "vehicle": vehicle.name}

@@ -26,6 +26,11 @@
      "geofence": {GeofenceSpec as JSON} | null,
      "gis": {"files": {...}, "row_sources": [{"row", "layer", "fid", "part"}], "no_spray_enu": [[[x, y], ...]]}
             | null,                                      # gis: in the spec (vinecli.world.gis_inputs)
+     "canopy_width_m": float,                            # row band width of the spray metrics, m
+     "canopy": {"source", "bbch", "profile", "g_factor", "leaf_width_m", "spacing_m", "lai", "notes",
+                "hedges": [{"row", "base_m", "top_m", "width_m", "lad_m2m3"}]} | null,
+                                                         # each row's hedge (vinecli.physics.canopy, docs/budget.md)
+     "air": {"temperature_c", "relative_humidity_pct"} | null,   # drop evaporation
      "sdf": "world.sdf"}
 """
 
@@ -95,6 +100,8 @@ class World:
     description: str = ""
     rows_detection: dict[str, Any] | None = None  # rows: auto: detection figures (see world.json)
     canopy_width_m: float = 0.6  # m, row band width for the spray metrics
+    canopy: dict[str, Any] | None = None  # world.json "canopy": each row's hedge (canopy_model())
+    air: tuple[float, float] | None = None  # temperature °C, relative humidity % (drop evaporation)
 
     def __post_init__(self) -> None:
         # bind the fast lookup directly (no extra call layer in the 250 Hz loop)
@@ -105,6 +112,14 @@ class World:
     def terrain_height(self, x: float, y: float) -> float:
         """Terrain z (m, ENU) at (x, y): bilinear on the height grid (flat: the plane's z)."""
         return self.terrain.flat_z
+
+    def canopy_model(self) -> Any:
+        """The rows' hedges (:class:`vinecli.physics.canopy.Canopy`), or None when the world has no canopy."""
+        if not self.canopy:
+            return None
+        from vinecli.physics.canopy import Canopy
+
+        return Canopy.from_dict(self.canopy, self.vine_rows_enu)
 
     def terrain_preview(self, max_side: int = 129) -> dict[str, Any]:
         """``x`` (nx,), ``y`` (ny,), ``z`` (ny, nx) for plots (≤ max_side per side)."""
@@ -197,6 +212,8 @@ def _parse_world(root: Path, wj: Path, d: dict[str, Any]) -> World:
         rows_detection=d.get("rows_detection"),
         description=str(d.get("description", "")),
         canopy_width_m=float(d.get("canopy_width_m", 0.6)),
+        canopy=d.get("canopy"),
+        air=(float(d["air"]["temperature_c"]), float(d["air"]["relative_humidity_pct"])) if d.get("air") else None,
     )
 
 

@@ -12,7 +12,10 @@ are not written.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from lxml import etree
 
@@ -130,6 +133,34 @@ def _vehicle_model(world: etree._Element, v: VehicleSpec, pose: tuple[float, flo
             _sub(pl, tag, val)
 
 
+def _canopy_models(world: etree._Element, canopy: Any, ground: Callable[[float, float], float]) -> None:
+    """One static, visual-only model per hedge (porous: drones and drops pass through it in the simulator):
+    a green box per row segment from the foliage base to its top above the ground beside the row."""
+    for h in canopy.hedges:
+        if h.width_m <= 0 or h.depth_m <= 0 or h.row >= len(canopy.rows):
+            continue
+        pts = canopy.rows[h.row]
+        half = 0.5 * (canopy.spacing_m if math.isfinite(canopy.spacing_m) else 2.0 * h.width_m)
+        model = _sub(world, "model", name=f"hedge_{h.row}")
+        _sub(model, "static", "true")
+        link = _sub(model, "link", name="foliage")
+        for k, ((x0, y0), (x1, y1)) in enumerate(zip(pts[:-1], pts[1:], strict=False)):
+            seg = math.hypot(x1 - x0, y1 - y0)
+            if seg <= 0:
+                continue
+            yaw = math.atan2(y1 - y0, x1 - x0)
+            cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+            nx, ny = -math.sin(yaw) * half, math.cos(yaw) * half
+            z0 = min(ground(cx + nx, cy + ny), ground(cx - nx, cy - ny))  # the ground in the inter-rows
+            vis = _sub(link, "visual", name=f"segment_{k}")
+            _sub(vis, "pose", _v(cx, cy, z0 + 0.5 * (h.base_m + h.top_m), 0.0, 0.0, yaw))
+            _sub(_sub(_sub(vis, "geometry"), "box"), "size", _v(seg, h.width_m, h.depth_m))
+            mat = _sub(vis, "material")
+            _sub(mat, "diffuse", "0.18 0.49 0.2 1")
+            _sub(mat, "ambient", "0.1 0.3 0.1 1")
+            _sub(vis, "transparency", "0.35")
+
+
 def world_sdf(
     *,
     name: str,
@@ -140,9 +171,12 @@ def world_sdf(
     terrain: dict[str, object],
     vehicle: VehicleSpec,
     spawn: tuple[float, float, float, float],
+    canopy: Any = None,
+    ground: Callable[[float, float], float] | None = None,
 ) -> str:
     """SDF 1.9 text. ``terrain``: {"kind", "heightmap_png", "size_m", "z_min", "z_max", "centre",
-    "tiles": [relative paths], "flat_z", "size"}; paths relative to the world directory."""
+    "tiles": [relative paths], "flat_z", "size"}; paths relative to the world directory. ``canopy``: the
+    rows' hedges (:class:`vinecli.physics.canopy.Canopy`), drawn on ``ground`` (terrain z at x, y)."""
     sdf = etree.Element("sdf", version="1.9")
     world = _sub(sdf, "world", name=name)
     phys = _sub(world, "physics", name=f"{int(round(rate_hz))}hz", type="ignored")
@@ -204,6 +238,8 @@ def world_sdf(
             pl = _sub(_sub(el, "geometry"), "plane")
             _sub(pl, "normal", "0 0 1")
             _sub(pl, "size", _v(size, size))
+    if canopy is not None and ground is not None:
+        _canopy_models(world, canopy, ground)
     _vehicle_model(world, vehicle, spawn)
     return etree.tostring(sdf, pretty_print=True, xml_declaration=True, encoding="utf-8").decode("utf-8")
 

@@ -14,6 +14,7 @@ from pydantic import Field, model_validator
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
+from vinecli.specs.canopy import AirSpec, CanopySpec
 from vinecli.specs.limits import MAX_DISTANCE_M, MAX_ORIGIN_ALT_M, MIN_ORIGIN_ALT_M, Coord, Vec2Coord
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
@@ -135,6 +136,8 @@ class WorldSpec(StrictModel):
     )
     geofence: GeofenceSpec | None = None
     gis: WorldGisSpec | None = Field(None, description="rows, fence and no-spray zones from GIS files")
+    canopy: CanopySpec | None = Field(None, description="hedges along the rows (spray budget: interception); none: bare rows")
+    air: AirSpec | None = Field(None, description="temperature and humidity (drop evaporation); none: no evaporation")
 
     @model_validator(mode="after")
     def _one_source_each(self) -> WorldSpec:

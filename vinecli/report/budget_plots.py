@@ -1,0 +1,139 @@
+"""The spray budget figure of a run (docs/budget.md): where the spray went, per row, and the drift curve.
+
+Left: one stacked bar for the whole run, then one per sprayed row (the spray released over that row):
+canopy, ground in the field, ground off the field, airborne out of the drift domain, evaporated, in %
+of the volume. Right: sedimenting drift downwind of the last row, % of the applied rate, against the
+distance on a log axis, with the German basic drift values of vineyards (Rautmann et al. 2001, 90th
+percentile, one application; ground air-blast sprayers) for scale and the default drift ceiling at
+5 m. Read from ``budget.json``; runs without one raise :class:`~vinecli.report.figure_base.NoData`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["BUDGET_COLOURS", "RAUTMANN_VINES_LATE", "draw_hedges", "fig25_budget", "load_budget"]
+
+#: destination -> (label, colour)
+BUDGET_COLOURS = {
+    "canopy": ("on the canopy", "#2e7d32"),
+    "ground_in_field": ("ground, in the field", "#a1887f"),
+    "ground_off_field": ("ground, off the field", "#ef6c00"),
+    "airborne_out": ("airborne, out", "#c62828"),
+    "evaporated": ("evaporated", "#90caf9"),
+}
+#: distance m -> drift % of applied, late vines, 90th percentile of one application (Rautmann et al. 2001)
+RAUTMANN_VINES_LATE = {3.0: 8.02, 5.0: 3.62, 10.0: 1.23, 15.0: 0.65, 20.0: 0.42, 30.0: 0.22, 50.0: 0.10}
+
+
+def load_budget(run_dir: Path | None) -> dict[str, Any]:
+    """budget.json of a run directory; NoData when the run has none."""
+    from vinecli.report.figure_base import NoData
+    from vinecli.runs.budget_out import BUDGET_JSON
+
+    if run_dir is None or not (Path(run_dir) / BUDGET_JSON).is_file():
+        raise NoData("no deposition in this run (no sprayer used)")
+    return json.loads((Path(run_dir) / BUDGET_JSON).read_text(encoding="utf-8"))
+
+
+def draw_hedges(ax: Any, data: Any, rows: list[Any]) -> None:
+    """Each row's hedge (its width, from the run's budget.json) as a green band on a top view (world ENU, m)."""
+    from matplotlib.patches import Polygon
+
+    try:
+        doc = load_budget(getattr(data, "run_dir", None))
+    except Exception:  # noqa: BLE001 - NoData or an unreadable budget: the view simply has no hedges
+        return
+    canopy = (doc.get("conditions") or {}).get("canopy") or {}
+    label = "hedges (canopy)"
+    for h in canopy.get("hedges") or []:
+        if h.get("width_m", 0) <= 0 or h["row"] >= len(rows) or len(rows[h["row"]]) < 2:
+            continue
+        pts = np.asarray(rows[h["row"]], float)
+        for a, b in zip(pts[:-1], pts[1:], strict=False):
+            d = b - a
+            n = np.array([-d[1], d[0]]) / (np.hypot(*d) or 1.0) * 0.5 * h["width_m"]
+            ax.add_patch(Polygon([a + n, b + n, b - n, a - n], closed=True, facecolor="#66bb6a", alpha=0.45,
+                                 edgecolor="none", zorder=1.5, label=label))
+            label = None
+
+
+def _bars(ax: Any, doc: dict[str, Any]) -> None:
+    labels = ["whole run"]
+    shares = [doc["fractions"]]
+    for r in doc.get("rows") or []:
+        if r.get("released_l", 0) > 0:
+            labels.append(f"row {r['row']}")
+            shares.append(r["released"])
+    y = np.arange(len(labels))[::-1].astype(float)
+    y[0] += 0.8  # the whole run apart from the rows
+    left = np.zeros(len(labels))
+    for key, (lab, col) in BUDGET_COLOURS.items():
+        v = np.array([100.0 * (s.get(key) or 0.0) for s in shares])
+        ax.barh(y, v, left=left, color=col, height=0.7, label=lab, edgecolor="white", linewidth=0.5)
+        for yi, li, vi in zip(y, left, v, strict=True):
+            if vi >= 6.0:
+                ax.text(li + vi / 2, yi, f"{vi:.0f}", ha="center", va="center", fontsize=8,
+                        color="white" if key in ("canopy", "airborne_out") else "black")
+        left += v
+    ax.set_yticks(y, labels)
+    ax.set_xlim(0, 100)
+    ax.set_xlabel("share of the sprayed volume, %")
+    ax.legend(fontsize=8, ncol=3, loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
+    ax.grid(alpha=0.3, axis="x")
+
+
+def _drift(ax: Any, doc: dict[str, Any]) -> None:
+    from vinecli.missions.budget_metrics import DEFAULT_DRIFT_5M_MAX_PCT
+
+    pts = [(p["distance_m"], p["percent_of_applied"]) for p in doc.get("drift_curve") or []
+           if p.get("percent_of_applied") is not None and math.isfinite(p["percent_of_applied"])]
+    if pts:
+        d, v = np.array(pts).T
+        ax.plot(d, v, marker="o", color="#c62828", lw=2, label="this run")
+        for di, vi in zip(d, v, strict=True):
+            ax.annotate(f"{vi:.2g}", (di, vi), xytext=(0, 6), textcoords="offset points", ha="center", fontsize=8)
+    rd, rv = np.array(list(RAUTMANN_VINES_LATE.items())).T
+    ax.plot(rd, rv, ls="--", color="#616161", lw=1.2, label="vines, full leaf: basic drift\n(Rautmann 2001, air-blast)")
+    ax.plot([5.0], [DEFAULT_DRIFT_5M_MAX_PCT], marker="v", color="k", ls="", ms=8, label="ceiling at 5 m (check)")
+    ax.set_xscale("log")
+    ticks = [1, 3, 5, 10, 15, 20, 30, 50]
+    ax.set_xticks(ticks, [str(t) for t in ticks])
+    ax.set_xlim(0.8, 60)
+    ax.set_ylim(bottom=0)
+    ax.set_xlabel("distance downwind of the last row, m (log)")
+    ax.set_ylabel("drift on the ground, % of applied")
+    dr = doc.get("drift") or {}
+    ax.set_title("calm: both sides averaged" if dr.get("calm") else "downwind side", fontsize=9, loc="left")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="upper right")
+
+
+def fig25_budget(data: Any) -> bytes:
+    """Spray budget: stacked bars (whole run, each sprayed row) and the drift curve on a log distance axis."""
+    from vinecli.report.figure_base import new_figure, png_bytes, set_title
+
+    doc = load_budget(getattr(data, "run_dir", None))
+    fig, axes = new_figure("fig25", rows=1, cols=2, sharex=False)
+    fig.subplots_adjust(left=0.09, right=0.98, bottom=0.2, top=0.8, wspace=0.3)
+    _bars(axes[0, 0], doc)
+    _drift(axes[0, 1], doc)
+    m = doc.get("metrics") or {}
+    fr = doc.get("fractions") or {}
+    cond = doc.get("conditions") or {}
+    wind = cond.get("wind_mean_enu_mps") or [0.0, 0.0]
+    spec = cond.get("drop_spectrum") or {}
+    dep = m.get("budget_canopy_deposit_ulpcm2")
+    note = (f"canopy {100 * fr.get('canopy', 0):.0f} %  ·  canopy deposit "
+            f"{dep:.3g} µL/cm² of leaf" if isinstance(dep, (int, float)) and math.isfinite(dep) else
+            f"canopy {100 * fr.get('canopy', 0):.0f} % (no canopy in this world)")
+    note += (f"  ·  applied {cond.get('applied_lpha', float('nan')):.0f} L/ha  ·  wind {math.hypot(*wind):.1f} m/s"
+             f"  ·  drops VMD {spec.get('vmd_um', float('nan')):.0f} µm  ·  balance error {doc.get('balance_error', 0):.1e}")
+    fig.text(0.5, 0.03, note, ha="center", fontsize=9)
+    set_title(fig, data, "Fig. 25  Where the spray went")
+    return png_bytes(fig)
