@@ -61,6 +61,15 @@ class GnssSample:
 
 
 @dataclass(slots=True)
+class RangeSample:
+    """A distance sensor reading (PX4 ``distance_sensor``)."""
+
+    t_us: int
+    distance_m: float  # along the sensor axis, m (NaN when ``valid`` is False)
+    valid: bool = True  # False: no return within the sensor's range
+
+
+@dataclass(slots=True)
 class Observation:
     """What an autopilot sees at one physics step: sensor samples (None when a sensor has no
     new sample this step) plus ground truth (for ``--truth`` runs and HIL_STATE_QUATERNION)."""
