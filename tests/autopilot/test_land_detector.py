@@ -25,16 +25,17 @@ def detector() -> LandDetector:
 def run(ld: LandDetector, t0_us: int, seconds: float, *, armed: bool = True, vel: tuple[float, float, float] = (0.0, 0.0, 0.0),
         omega: tuple[float, float, float] = (0.0, 0.0, 0.0), acc: tuple[float, float, float] = (0.0, 0.0, 0.0),
         thrust: float = HOVER, hover: float = HOVER, hover_valid: bool = False, vz_sp: float = NAN,
-        thrust_after_contact: float | None = None, **kw: object) -> tuple[int, dict[str, int | None]]:
-    """Feed constant signals for ``seconds``; when the detector reports ground contact the thrust drops
-    to ``thrust_after_contact`` (the position controller's minimum thrust, as PX4). Returns the end
-    time and the first time each state was seen true."""
+        thrust_after_contact: float | None = None, z0: float = 0.0, **kw: object) -> tuple[int, dict[str, int | None]]:
+    """Feed constant signals for ``seconds`` (the altitude from ``z0`` moves with ``vel``); when the
+    detector reports ground contact the thrust drops to ``thrust_after_contact`` (the position
+    controller's minimum thrust, as PX4). Returns the end time and the first time each state was seen true."""
     first: dict[str, int | None] = {"ground_contact": None, "maybe_landed": None, "landed": None, "freefall": None}
     t = t0_us
     for _ in range(int(round(seconds * 1e6 / DT_US))):
         t += DT_US
         thr = thrust_after_contact if thrust_after_contact is not None and ld.ground_contact else thrust
-        ld.update(t, armed, vel, omega, acc, thr, hover, hover_valid, vz_sp, **kw)  # type: ignore[arg-type]
+        z = z0 + vel[2] * (t - t0_us) * 1e-6
+        ld.update(t, armed, z, vel, omega, acc, thr, hover, hover_valid, vz_sp, **kw)  # type: ignore[arg-type]
         for k in first:
             if first[k] is None and getattr(ld, k):
                 first[k] = t
@@ -43,7 +44,7 @@ def run(ld: LandDetector, t0_us: int, seconds: float, *, armed: bool = True, vel
 
 def fly(ld: LandDetector, seconds: float = 1.0) -> int:
     """Armed and flying a descent: not landed, no ground contact."""
-    t, _ = run(ld, 0, seconds, vel=(0.0, 0.0, -0.7), thrust=0.45, vz_sp=-0.7)
+    t, _ = run(ld, 0, seconds, vel=(0.0, 0.0, -0.7), thrust=0.45, vz_sp=-0.7, z0=0.7 * seconds)  # down to z = 0
     assert not ld.ground_contact and not ld.maybe_landed and not ld.landed
     return t
 
@@ -114,6 +115,21 @@ def test_each_condition_blocks_its_state(signals: dict[str, object], blocks: str
         assert first["ground_contact"] is not None  # the earlier stage still passes
 
 
+def test_no_ground_contact_while_the_altitude_climbed_in_the_last_second() -> None:
+    """A bounce: 0.3 m up within the last second (more than LNDMC_Z_VEL_MAX x 1 s) is no contact even
+    with the estimated speed below the threshold; once the window has passed, contact."""
+    ld = detector()
+    t0 = fly(ld)
+    t = t0
+    for k in range(25):  # 0.5 s rising 0.6 m/s while the velocity estimate lags (reads 0)
+        t += DT_US
+        ld.update(t, True, 0.012 * (k + 1), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.2, HOVER, False, -0.7)
+    assert ld.climbing
+    _, first = run(ld, t, 2.0, thrust=0.2, vz_sp=-0.7, z0=0.3)
+    gc = first["ground_contact"]
+    assert gc is not None and 1_000_000 - 5 * DT_US <= gc - t0 <= 1_000_000 + STAGE_US + 2 * DT_US
+
+
 def test_a_valid_hover_thrust_estimate_relaxes_the_low_thrust_level() -> None:
     """Thrust at half the way from minimum to hover: low only with a valid estimate (60 % vs 30 %)."""
     thrust = THR_MIN + 0.5 * (HOVER - THR_MIN)
@@ -153,9 +169,9 @@ def test_takeoff_clears_landed_as_soon_as_the_thrust_rises() -> None:
     t, _ = run(ld, 0, 1.0, thrust=0.0)
     assert ld.landed and ld.maybe_landed
     threshold = THR_MIN + 0.1 * (HOVER - THR_MIN)
-    ld.update(t + DT_US, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), threshold - 1e-3, HOVER, False, NAN)
+    ld.update(t + DT_US, True, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), threshold - 1e-3, HOVER, False, NAN)
     assert ld.landed
-    ld.update(t + 2 * DT_US, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), threshold + 1e-3, HOVER, False, NAN)
+    ld.update(t + 2 * DT_US, True, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), threshold + 1e-3, HOVER, False, NAN)
     assert not ld.landed and not ld.maybe_landed
 
 

@@ -14,8 +14,10 @@ no valid distance) and false at once:
 1. ``ground_contact``: low thrust (below 30 % of the way from the minimum to the hover thrust, 60 %
    with a valid hover thrust estimate), no vertical movement (``|vz| < LNDMC_Z_VEL_MAX``, 2.5x wider
    once landed), no horizontal movement (``< LNDMC_XY_VEL_MAX``), within 1 m of the ground when a
-   rangefinder gives the distance, and - until maybe-landed - a descent commanded
-   (``-vz_sp >= 1.1 LNDMC_Z_VEL_MAX``). The position controller then drops to the minimum thrust.
+   rangefinder gives the distance, no climb over the last ``LNDMC_TRIG_TIME`` (the estimated altitude
+   at most ``LNDMC_Z_VEL_MAX x LNDMC_TRIG_TIME`` above its lowest in that window: a bounce is no
+   contact), and - until maybe-landed - a descent commanded (``-vz_sp >= 1.1 LNDMC_Z_VEL_MAX``). The
+   position controller then drops to the minimum thrust.
 2. ``maybe_landed``: ground contact, thrust at most 10 % of the way from the minimum to the hover
    thrust, no roll/pitch rotation (``< LNDMC_ROT_MAX``, 2.5x wider once landed), no free fall.
 3. ``landed``: maybe-landed held for the same time again.
@@ -75,6 +77,7 @@ class LandDetector:
     DIST_FROM_GROUND: ClassVar[float] = 1.0  # m, ground contact needs a measured distance below this
     HTE_VALID_US: ClassVar[int] = 1_000_000  # a hover thrust estimate counts as valid this long after its last valid value
     MIN_THRUST_8S_US: ClassVar[int] = 8_000_000
+    CLIMB_SLOTS: ClassVar[int] = 10  # the climb window in slots of LNDMC_TRIG_TIME / 10
 
     def __init__(self, thr_min: float, hover_thrust: float, *, trig_time_s: float = 1.0, z_vel_max: float = 0.25,
                  xy_vel_max: float = 1.5, rot_max_deg: float = 20.0) -> None:
@@ -99,6 +102,9 @@ class LandDetector:
         self._hte_last_valid_us = -self.HTE_VALID_US
         self._hte_valid = False
         self.in_descend = False
+        self.climbing = False
+        self._z_ring = [math.inf] * self.CLIMB_SLOTS  # lowest altitude of each slot of the climb window, m
+        self._slot = -1
         self.has_low_throttle = False
         self.vertical_movement = False
         self.horizontal_movement = False
@@ -134,12 +140,15 @@ class LandDetector:
     def freefall(self) -> bool:
         return self.freefall_h.state
 
-    def update(self, t_us: int, armed: bool, vel: Vec3, omega: Vec3, acc: Vec3, thrust: float,
+    def update(self, t_us: int, armed: bool, z: float, vel: Vec3, omega: Vec3, acc: Vec3, thrust: float,
                hover_estimate: float, hover_valid: bool, vz_sp: float, *, climb_rate_control: bool = True,
                dist_bottom: float = math.nan, range_observable: bool = False) -> None:
-        """One update at ``t_us`` (see the module docstring). ``vz_sp``: the trajectory's vertical
+        """One update at ``t_us`` (see the module docstring): ``z`` estimated altitude (ENU m), ``vel``
+        velocity (ENU m/s), ``omega`` body rates (FLU rad/s), ``acc`` acceleration (ENU m/s², gravity
+        removed), ``thrust`` collective thrust setpoint (normalised). ``vz_sp``: the trajectory's vertical
         velocity setpoint, ENU m/s (NaN: none); ``dist_bottom``: distance to the ground measured by
         the rangefinder, m (NaN: no valid distance); ``range_observable``: the vehicle has one."""
+        self._climb_window(t_us, z)
         if hover_valid:
             self.hover_thrust = hover_estimate
             self._hte_last_valid_us = t_us
@@ -151,6 +160,20 @@ class LandDetector:
         self.maybe_landed_h.set_state_and_update(self._maybe_landed_state(t_us, armed, omega, thrust, climb_rate_control),
                                                  t_us)
         self.landed_h.set_state_and_update(not armed or self.maybe_landed_h.state, t_us)
+
+    def _climb_window(self, t_us: int, z: float) -> None:
+        """Lowest altitude per slot over the last LNDMC_TRIG_TIME; ``climbing`` when ``z`` is more than
+        LNDMC_Z_VEL_MAX x LNDMC_TRIG_TIME above the lowest."""
+        ring = self._z_ring
+        slot = t_us * self.CLIMB_SLOTS // self.trig_us
+        if slot != self._slot:
+            for k in range(self._slot + 1, min(slot, self._slot + self.CLIMB_SLOTS) + 1):
+                ring[k % self.CLIMB_SLOTS] = math.inf  # slots that left the window
+            self._slot = slot
+        i = slot % self.CLIMB_SLOTS
+        if z < ring[i]:
+            ring[i] = z
+        self.climbing = z - min(ring) > self.z_vel_max * self.trig_us * 1e-6
 
     def _ground_contact_state(self, t_us: int, armed: bool, vel: Vec3, thrust: float, vz_sp: float,
                               climb_rate_control: bool, dist_bottom: float) -> bool:
@@ -170,7 +193,8 @@ class LandDetector:
         else:
             self.in_descend = False
         close = dist_bottom != dist_bottom or dist_bottom < self.DIST_FROM_GROUND
-        return not armed or (close and contact and not self.horizontal_movement and not self.vertical_movement)
+        return not armed or (close and contact and not self.horizontal_movement and not self.vertical_movement
+                             and not self.climbing)
 
     def _maybe_landed_state(self, t_us: int, armed: bool, omega: Vec3, thrust: float, climb_rate_control: bool) -> bool:
         if climb_rate_control:

@@ -7,7 +7,7 @@ direction ``u = R R_mount (0, 0, -1)``. The first crossing of the ray ``o + s u`
 ``z = h(x, y)`` is found by sphere tracing on the vertical clearance ``c(s) = o_z + s u_z - h``: with
 terrain slopes at most ``max_slope`` (|∇h|, from the height grid) the clearance cannot fall faster
 than ``-u_z + max_slope |u_xy|`` per metre along the ray, so a step of ``c / that`` never passes the
-first crossing; the steps stop within 0.1 mm. A crossing closer than ``min_range_m`` or beyond
+first crossing; within 2 cm secant steps finish it to 0.1 mm. A crossing closer than ``min_range_m`` or beyond
 ``max_range_m`` (or none) gives an invalid sample, as a real sensor gives no usable return; a valid
 distance gets white noise σ ``noise_m``. Independent noise stream per seed (no other sensor's
 draws change).
@@ -35,7 +35,11 @@ def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float,
                          max_range: float, tol: float = 1e-4) -> float:
     """Distance (m) along the unit ``direction`` from ``origin`` (ENU m) to the first crossing of the
     terrain ``z = height(x, y)`` with slopes at most ``max_slope``; NaN when there is none within
-    ``max_range`` (or the origin is below the terrain)."""
+    ``max_range`` (or the origin is below the terrain).
+
+    Safe sphere-tracing steps ``c / rate`` while the clearance ``c`` exceeds 2 cm, then secant steps
+    on ``c(s)`` (falling back to a safe step when the clearance stops falling); a secant step that
+    ends below the terrain is bisected back to the crossing."""
     ox, oy, oz = origin
     ux, uy, uz = direction
     rate = -uz + max_slope * math.sqrt(ux * ux + uy * uy)  # fastest fall of the clearance per metre
@@ -45,15 +49,19 @@ def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float,
     c = oz - height(ox, oy)
     if c < 0.0:
         return _NAN
+    s_prev = c_prev = _NAN
     for _ in range(200):
         if c <= tol:
             return s
-        s_prev = s
-        s += c / rate
+        step = c / rate
+        if c < 0.02 and s_prev == s_prev and c_prev > c:
+            step = c * (s - s_prev) / (c_prev - c)  # secant: where the clearance's line reaches 0
+        s_prev, c_prev = s, c
+        s += step
         if s > max_range:
             return _NAN
         c = oz + s * uz - height(ox + s * ux, oy + s * uy)
-        if c < 0.0:  # the terrain is steeper than max_slope here: bisect back to the crossing
+        if c < 0.0:  # passed the crossing (a secant step, or terrain steeper than max_slope): bisect
             lo, hi = s_prev, s
             for _ in range(40):
                 mid = 0.5 * (lo + hi)
@@ -61,6 +69,8 @@ def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float,
                     lo = mid
                 else:
                     hi = mid
+                if hi - lo <= tol:
+                    break
             return hi
     return s if c <= 10.0 * tol else _NAN
 

@@ -51,12 +51,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotStatus, RunStatus
 from vinecli.errors import AutopilotError
 from vinecli.frames import Vec3, quat_to_euler, tilt_angle
 from vinecli.physics.battery import Battery
 from vinecli.physics.tank import Tank
 from vinecli.physics.wind import WindField
+from vinecli.sim.autopilot_inputs import autopilot_context, world_rangefinder
 from vinecli.sim.recorder import Recorder, timeseries_columns
 from vinecli.sim.setup import PreparedRun, prepare_run
 from vinecli.specs.mission import MissionSpec, OpenLoopPhase
@@ -102,14 +103,6 @@ class SimResult:
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second."""
         return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
-
-
-def _bounds(world: World) -> tuple[float, float, float, float] | None:
-    """The mapped terrain extent (xmin, ymin, xmax, ymax), ENU m, or None when unknown."""
-    b = getattr(world.terrain, "bounds", None)
-    if b is None or len(b) != 4:
-        return None
-    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
 
 
 def _first_commands(phase: OpenLoopPhase, n: int) -> list[float]:
@@ -312,19 +305,9 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     cam_period_us = int(round(1e6 / cam_spec.rate_hz))
     next_cam_us = 0
 
-    ctx = AutopilotContext(
-        mission=mission,
-        vehicle=veh,
-        origin=world.origin,
-        home_enu=home,
-        physics_dt_us=dt_us,
-        total_mass_kg=mass0,
-        vine_rows_enu=run.rows,
-        geofence=run.geofence,
-        terrain_height=world.terrain_height,
-        seed=seed,
-        terrain_bounds=_bounds(world),
-    )
+    ctx = autopilot_context(run, home, dt_us, seed)
+    rangefinder = world_rangefinder(world, run, seed)
+    rf_sample = rangefinder.sample if rangefinder is not None else None
     ap_step: Callable[[Observation], ActuatorCommand] = autopilot.step
     ap_status = autopilot.status
     ap_drain = autopilot.drain_events
@@ -512,7 +495,8 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
             soc, volt = battery.soc, battery.voltage_v
         else:
             soc = volt = math.nan
-        obs = Observation(t_us, truth, imu, baro, mag, gnss, tz_, tank.level_l if tank is not None else 0.0, soc, volt)
+        rng_s = rf_sample(t_us, (px, py, pz), quat) if rf_sample is not None else None
+        obs = Observation(t_us, truth, imu, baro, mag, gnss, rng_s, tank.level_l if tank is not None else 0.0, soc, volt)
         try:
             cmd = ap_step(obs)
             st = ap_status()

@@ -278,7 +278,7 @@ class ControlSpec(StrictModel):
     rate_i_limit: float = Field(0.3, ge=0, description="MC_RR_INT_LIM: rate integrator limit, normalised torque")
     rate_d_cutoff_hz: float = Field(30.0, gt=0, description="IMU_DGYRO_CUTOFF: derivative low-pass, Hz")
     vel_d_cutoff_hz: float = Field(5.0, gt=0, description="velocity-derivative low-pass, Hz")
-    vel_i_limit: float = Field(4.0, ge=0, description="velocity integrator limit, m/s²")
+    vel_i_limit: float = Field(4.0, ge=0, description="horizontal velocity integrator limit, m/s² (vertical: g, as PX4)")
     thrust_min_frac: float = Field(0.12, ge=0, lt=1, description="MPC_THR_MIN: minimum collective thrust / max thrust")
     thrust_max_frac: float = Field(1.0, gt=0, le=1, description="MPC_THR_MAX: maximum collective thrust / max thrust")
     pos_loop_rate_hz: float = Field(50.0, gt=0, description="rate of the position/velocity loop, Hz (attitude/rate: every step)")
