@@ -1,6 +1,7 @@
 """The built-in autopilot only senses: no module of ``vinecli/autopilot`` reads the simulator's truth
 (``obs.truth`` or any ``.truth``), a terrain height or a total mass handed over by the simulator, and
-the truth mode is the simulator's business (its perfect estimator, outside ``vinecli/autopilot``)."""
+the truth mode is the simulator's business (its perfect estimator, outside ``vinecli/autopilot``).
+The firmware bridges, simulator-side as PX4's Gazebo bridge, live in ``vinecli/sitl``."""
 
 from __future__ import annotations
 
@@ -10,17 +11,12 @@ from pathlib import Path
 import vinecli
 
 AUTOPILOT = Path(vinecli.__file__).parent / "autopilot"
-#: the PX4 SITL bridge is a simulator-side component (it feeds PX4 the simulated state, as PX4's
-#: Gazebo bridge does) and leaves vinecli/autopilot for vinecli/sitl/px4 (issue 25)
-SIMULATOR_SIDE = {"px4_sitl.py"}
 FORBIDDEN = {"truth", "terrain_height_m", "total_mass_kg", "on_ground"}
 
 
 def test_no_autopilot_module_reads_the_simulators_state() -> None:
     reads = []
-    for path in sorted(AUTOPILOT.glob("*.py")):
-        if path.name in SIMULATOR_SIDE:
-            continue
+    for path in sorted(AUTOPILOT.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Attribute) and node.attr in FORBIDDEN:
                 reads.append(f"{path.name}:{node.lineno} .{node.attr}")
