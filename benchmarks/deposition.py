@@ -47,7 +47,7 @@ def _run(world, mission, deposition: bool | object, budget: bool = False) -> dic
     from vinecli.sim.runner import run_simulation
     from vinecli.sitl.options import make_run_autopilot
 
-    ap = make_run_autopilot("builtin", truth=mission.truth)
+    ap = make_run_autopilot("builtin")  # the mission's truth reaches the autopilot through its context
     c0, w0 = time.process_time(), time.perf_counter()
     try:
         res = run_simulation(world, mission, ap, seed=0, deposition=deposition)

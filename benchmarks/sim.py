@@ -52,7 +52,10 @@ class HoverPD:
         import numpy as np
 
         v = ctx.vehicle
-        self.m = ctx.total_mass_kg
+        fill = ctx.mission.tank_fill_l
+        if fill is None:  # the bench knows its load: the mission's fill (default full)
+            fill = v.tank.capacity_l if v.tank is not None else 0.0
+        self.m = v.dry_mass() + v.liquid_mass(fill)
         self.k_f = v.motor.k_f
         self.w_max = v.motor.w_max
         self.n = v.n_rotors

@@ -61,9 +61,20 @@ class GnssSample:
 
 
 @dataclass(slots=True)
+class RangeSample:
+    """A distance sensor reading (PX4 ``distance_sensor``)."""
+
+    t_us: int
+    distance_m: float  # along the sensor axis, m (NaN when ``valid`` is False)
+    valid: bool = True  # False: no return within the sensor's range
+
+
+@dataclass(slots=True)
 class Observation:
     """What an autopilot sees at one physics step: sensor samples (None when a sensor has no
-    new sample this step) plus ground truth (for ``--truth`` runs and HIL_STATE_QUATERNION)."""
+    new sample this step), the tank level and battery gauges, plus ground truth for the
+    simulator-side parts (the perfect estimator of ``--truth`` runs, HIL_STATE_QUATERNION of the
+    firmware bridges); the built-in autopilot never reads ``truth``."""
 
     t_us: int
     truth: RigidState
@@ -71,7 +82,7 @@ class Observation:
     baro: BaroSample | None = None
     mag: MagSample | None = None
     gnss: GnssSample | None = None
-    terrain_height_m: float = 0.0  # terrain z (ENU) under the vehicle, m (a rangefinder would give this)
+    rangefinder: RangeSample | None = None  # the rangefinder's reading (None: no new one, or no rangefinder)
     tank_level_l: float = 0.0
     battery_soc: float = math.nan  # state of charge 0..1 (NaN: the vehicle has no battery model)
     battery_voltage_v: float = math.nan  # terminal voltage under the last step's load, V

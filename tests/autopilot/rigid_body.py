@@ -15,10 +15,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from vinecli.autopilot.base import AutopilotContext
+from vinecli.autopilot.terrain import TerrainDatabase
 from vinecli.frames import Vec3, quat_from_euler, quat_rotate, quat_to_euler, tilt_angle
 from vinecli.geo import GeoOrigin
 from vinecli.physics.motor import MotorBank
+from vinecli.physics.rangefinder import make_rangefinder
 from vinecli.physics.sensors import make_sensors
+from vinecli.sim.perfect_estimator import PerfectEstimator
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import Observation, RigidState
@@ -53,6 +56,7 @@ class RigidBodyDouble:
         self.inertia = vehicle.frame.inertia_kgm2
         self.motors = MotorBank(vehicle.motor, vehicle.rotors)
         self.sensors = make_sensors(vehicle.sensors, ORIGIN, seed)
+        self.rangefinder = make_rangefinder(vehicle.sensors.rangefinder, self.ground_height, 0.0, seed)
         self.z_rest = vehicle.frame.landing_gear_height_m
         self.pos = [0.0, 0.0, self.z_rest]
         self.vel = [0.0, 0.0, 0.0]
@@ -76,10 +80,13 @@ class RigidBodyDouble:
         self.extra_mass += value - self.mass
 
     def context(self, mission: MissionSpec, **kw: object) -> AutopilotContext:
-        """Autopilot context for this double (home = the resting base position)."""
+        """Autopilot context for this double (home = the resting base position; flat ground at z = 0 as
+        the map; the simulator's perfect estimator when the mission flies on ground truth)."""
+        kw.setdefault("terrain", TerrainDatabase(None, 0.0))
+        if mission.truth:
+            kw.setdefault("estimator", PerfectEstimator())
         return AutopilotContext(mission=mission, vehicle=self.vehicle, origin=ORIGIN,
-                                home_enu=(0.0, 0.0, self.z_rest), physics_dt_us=self.dt_us,
-                                total_mass_kg=self.mass, **kw)  # type: ignore[arg-type]
+                                home_enu=(0.0, 0.0, self.z_rest), physics_dt_us=self.dt_us, **kw)  # type: ignore[arg-type]
 
     def truth(self) -> RigidState:
         return RigidState(self.t_us, (self.pos[0], self.pos[1], self.pos[2]), self.quat,
@@ -89,7 +96,13 @@ class RigidBodyDouble:
     def observe(self) -> Observation:
         tr = self.truth()
         imu, baro, mag, gnss = self.sensors.sample_all(tr)
-        return Observation(self.t_us, tr, imu, baro, mag, gnss, 0.0, self.liquid_l)
+        rf = self.rangefinder.sample(self.t_us, tr.pos, tr.quat) if self.rangefinder is not None else None
+        return Observation(self.t_us, tr, imu, baro, mag, gnss, rf, self.liquid_l)
+
+    @staticmethod
+    def ground_height(x: float, y: float) -> float:
+        """The flat ground, z = 0 (ENU m)."""
+        return 0.0
 
     def advance(self, w_cmd: tuple[float, ...], flow_lps: float = 0.0) -> None:
         """One physics step with the given rotor speed commands."""

@@ -48,11 +48,13 @@ def window(tr: Trace, t0: float, t1: float) -> list[int]:
 @pytest.mark.parametrize("name", VEHICLE_NAMES)
 def test_takeoff_settles_within_10_cm_truth(name: str) -> None:
     v = vehicle(name)
-    _, ap, tr = fly(v, mission({"type": "takeoff", "altitude_agl_m": 5.0}, {"type": "hold", "duration_s": 8.0}, truth=True), 20)
+    _, ap, tr = fly(v, mission({"type": "takeoff", "altitude_agl_m": 5.0}, {"type": "hold", "duration_s": 11.0}, truth=True), 22)
     target = v.frame.landing_gear_height_m + 5.0
     assert ap.status().status is RunStatus.COMPLETED
     t_reach = next(t for t, p in zip(tr.t, tr.pos, strict=True) if p[2] > target - 0.3)
-    idx = window(tr, t_reach + 3.0, tr.t[-1])
+    # the liquid's mass is learnt in flight (the hover thrust estimate is valid ~2 s after 1 m): the
+    # velocity integrator then settles with the slow pole of PX4's gains (~2.3 s); 6 s after reaching
+    idx = window(tr, t_reach + 6.0, tr.t[-1])
     assert len(idx) > 50
     assert max(abs(tr.pos[i][2] - target) for i in idx) < 0.1
     assert max(tr.pos[i][2] for i in range(len(tr.t))) < target + 0.4  # modest overshoot
@@ -61,10 +63,10 @@ def test_takeoff_settles_within_10_cm_truth(name: str) -> None:
 @pytest.mark.parametrize("name", VEHICLE_NAMES)
 def test_takeoff_with_the_estimator(name: str) -> None:
     v = vehicle(name)
-    _, ap, tr = fly(v, mission({"type": "takeoff", "altitude_agl_m": 5.0}, {"type": "hold", "duration_s": 10.0}), 25)
+    _, ap, tr = fly(v, mission({"type": "takeoff", "altitude_agl_m": 5.0}, {"type": "hold", "duration_s": 13.0}), 28)
     target = v.frame.landing_gear_height_m + 5.0
     assert ap.status().status is RunStatus.COMPLETED
-    idx = window(tr, tr.t[-1] - 6.0, tr.t[-1])
+    idx = window(tr, tr.t[-1] - 6.0, tr.t[-1])  # settled (the liquid's mass learnt in flight: see above)
     zs = [tr.pos[i][2] for i in idx]
     assert statistics.mean(zs) == pytest.approx(target, abs=0.05)
     assert max(abs(z - target) for z in zs) < 0.1  # with baro/GNSS noise

@@ -10,9 +10,12 @@ import pytest
 
 from vinecli.autopilot.base import RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
+from vinecli.autopilot.estimator import Estimator
 from vinecli.autopilot.geofence import Geofence
 from vinecli.autopilot.preflight import check_plan, check_spawn_fence, check_tilt, fence_margins_m, plan_points
 from vinecli.frames import quat_from_euler
+from vinecli.geo import GeoOrigin
+from vinecli.sim.perfect_estimator import PerfectEstimator
 from vinecli.specs import load_spec
 from vinecli.specs.mission import GeofenceSpec, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
@@ -56,9 +59,13 @@ def test_fence_clearance_inside_outside_and_ceiling() -> None:
     assert cyl.clearance((1.0, 3.0, 0.0)) == pytest.approx((1.0, math.inf))
 
 
-def test_margin_is_three_sigma_of_the_gnss_noise() -> None:
-    assert fence_margins_m(vehicle(horizontal_noise_m=0.3, vertical_noise_m=0.5)) == pytest.approx((0.9, 1.5))
-    assert fence_margins_m(vehicle(), truth=True) == (0.0, 0.0)
+def test_margin_is_three_sigma_of_the_estimates_uncertainty() -> None:
+    """The autopilot's estimator reports the GNSS noise; the simulator's perfect estimator none."""
+    v = vehicle(horizontal_noise_m=0.3, vertical_noise_m=0.5)
+    est = Estimator(v, GeoOrigin(45.0, 8.0, 200.0))
+    assert fence_margins_m(est.sigma_h_m, est.sigma_v_m) == pytest.approx((0.9, 1.5))
+    perfect = PerfectEstimator()
+    assert fence_margins_m(perfect.sigma_h_m, perfect.sigma_v_m) == (0.0, 0.0)
 
 
 def test_spawn_fence_check() -> None:

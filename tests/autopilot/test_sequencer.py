@@ -237,7 +237,8 @@ def test_registry() -> None:
     assert {"builtin", "px4"} <= set(available_autopilots())
     ap = make_autopilot("builtin")
     assert isinstance(ap, BuiltinAutopilot) and ap.name == "builtin"
-    assert make_autopilot("builtin", truth=True)._truth_opt is True  # type: ignore[attr-defined]
+    with pytest.raises(InputError, match="unknown option"):  # ground truth comes with the context, not as an option
+        make_autopilot("builtin", truth=True)
     with pytest.raises(InputError, match="unknown autopilot 'nope'"):
         make_autopilot("nope")
     with pytest.raises(InputError, match="unknown option"):

@@ -34,7 +34,7 @@ def fly(world: Any, phases: list[dict[str, Any]], *, truth: bool = False, max_s:
 
 
 def test_takeoff_hold_land(flat: Any) -> None:
-    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 4.0}, {"type": "land"}])
+    res = fly(flat, [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 8.0}, {"type": "land"}])
     assert res.status is RunStatus.COMPLETED, res.detail
     ts = res.timeseries
     t, z = ts["t_s"], ts["pos_enu_z_m"]
@@ -43,17 +43,19 @@ def test_takeoff_hold_land(flat: Any) -> None:
     for k in ("liftoff", "touchdown", "land_detected", "mode", "phase"):
         assert k in kinds
     t_hold = [e.t_us * 1e-6 for e in res.events if e.kind == "phase" and e.data.get("index") == 1]
-    hold = (t > t_hold[0] + 1.0) & (t < t_hold[1])
+    # from 4 s into the hold: the full tank's mass is learnt in the air (valid ~2 s above 1 m), then the
+    # vertical integrator settles (see tests/autopilot/test_closed_loop.py)
+    hold = (t > t_hold[0] + 4.0) & (t < t_hold[1])
     assert float(np.mean(z[hold])) == pytest.approx(home_z + 3.0, abs=0.15)
     assert float(np.max(np.abs(z[hold] - (home_z + 3.0)))) < 0.3
     assert float(np.max(np.hypot(ts["pos_enu_x_m"][hold], ts["pos_enu_y_m"][hold]))) < 1.0
     # the recorded setpoint is the autopilot's
     assert np.all(np.isfinite(ts["sp_pos_enu_z_m"][hold]))
     assert float(np.mean(ts["sp_pos_enu_z_m"][hold])) == pytest.approx(home_z + 3.0, abs=0.01)
-    # the autopilot detected the runner's (truth) touchdown within a second and disarmed
+    # the autopilot's land detector followed the runner's (truth) touchdown by PX4's ~1 s and disarmed
     t_td = next(e.t_us for e in res.events if e.kind == "touchdown") * 1e-6
     t_ld = next(e.t_us for e in res.events if e.kind == "land_detected") * 1e-6
-    assert 0.0 <= t_ld - t_td < 1.5
+    assert 0.9 <= t_ld - t_td < 1.6
     assert ts["armed"][-1] == 0.0
     assert float(np.max(ts["tilt_rad"])) < math.radians(10.0)
     assert res.metrics["max_impact_speed_mps"] < 1.2

@@ -95,15 +95,15 @@ def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Pat
     from vinecli.sitl.options import make_run_autopilot
     from vinecli.world import load_world
 
-    spec = load_mission(mission(tmp_path, "cells"))
-    ap = make_run_autopilot("builtin", truth=True)
+    spec = load_mission(mission(tmp_path, "cells")).model_copy(update={"truth": True})
+    ap = make_run_autopilot("builtin")
     try:
         res = run_simulation(load_world(flat_world_dir), spec, ap, seed=1, deposition=DepositionConfig(cell_m=0.05))
     finally:
         ap.close()
     dep = res.deposition
     assert dep.grid.cell == 0.05 and dep.balance_error <= 1e-6 and dep.emitted_l > 0.1
-    ap = make_run_autopilot("builtin", truth=True)
+    ap = make_run_autopilot("builtin")
     try:
         off = run_simulation(load_world(flat_world_dir), spec, ap, seed=1, deposition=False)
     finally:

@@ -41,6 +41,7 @@ from vinecli.frames import (
 from vinecli.geo import GeoOrigin
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpClientLink, UdpLink
+from vinecli.sim.perfect_estimator import PerfectEstimator
 from vinecli.specs.mission import HoldPhase, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import ImuSample, Observation, RigidState
@@ -300,13 +301,12 @@ class FakePx4:
         """PX4's API link comes up once HIL_SENSOR streams (rcS unblocks)."""
         self.udp = UdpLink((self.host, self.api_local_port), (self.host, self.api_remote_port), reply_to_sender=True,
                            src_system=self.instance + 1, src_component=1)
-        ap = _FakeVehicle(link=self.udp, instance=self.instance, truth=True, pace=False)
+        ap = _FakeVehicle(link=self.udp, instance=self.instance, pace=False)
         ap.reject_arm = self.reject_arm
-        v = self.vehicle
-        mass = v.dry_mass() + v.liquid_mass(self.fill_l)
-        ctx = AutopilotContext(
-            mission=MissionSpec(name="fake-px4", phases=[HoldPhase(duration_s=1.0)]), vehicle=v, origin=self.origin,
-            home_enu=self.home_enu or (0.0, 0.0, 0.0), physics_dt_us=self.expected_step_us, total_mass_kg=mass)
+        ctx = AutopilotContext(  # flies on the simulator's truth (from HIL_STATE_QUATERNION): a perfect estimator
+            mission=MissionSpec(name="fake-px4", phases=[HoldPhase(duration_s=1.0)]), vehicle=self.vehicle,
+            origin=self.origin, home_enu=self.home_enu or (0.0, 0.0, 0.0), physics_dt_us=self.expected_step_us,
+            estimator=PerfectEstimator())
         ap.reset(ctx)
         ap.endpoint.missions = {0: [], 1: [], 2: []}
         ap.mission_state = 0

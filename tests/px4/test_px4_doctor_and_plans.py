@@ -89,7 +89,7 @@ def test_run_autopilot_factory():
     from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot
     from vinecli.sitl.px4.backend import Px4SitlAutopilot
 
-    assert isinstance(make_run_autopilot("builtin", truth=True), BuiltinAutopilot)
+    assert isinstance(make_run_autopilot("builtin"), BuiltinAutopilot)
     ap = make_run_autopilot("px4", px4_instance=4, px4_connect_timeout_s=5)
     assert isinstance(ap, Px4SitlAutopilot) and ap.port == 4564 and ap.connect_timeout_s == 5
     ap = make_run_autopilot("builtin", mavlink="udp:127.0.0.1:14550", realtime=True)

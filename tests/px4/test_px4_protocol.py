@@ -27,8 +27,7 @@ DT = 4000
 def ctx_for(vehicle_name: str = "x500-sprayer") -> AutopilotContext:
     v = load_vehicle(vehicle_name)
     m = MissionSpec.model_validate({"name": "p", "phases": [{"type": "hold", "duration_s": 1}]})
-    return AutopilotContext(mission=m, vehicle=v, origin=ORIGIN, home_enu=(0.0, 0.0, 0.12), physics_dt_us=DT,
-                            total_mass_kg=3.3)
+    return AutopilotContext(mission=m, vehicle=v, origin=ORIGIN, home_enu=(0.0, 0.0, 0.12), physics_dt_us=DT)
 
 
 def connect_peer(port: int) -> TcpClientLink:

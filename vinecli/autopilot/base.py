@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Final, Protocol
 
+from vinecli.autopilot.estimate import StateEstimate
+from vinecli.autopilot.terrain import TerrainDatabase
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
 from vinecli.specs.mission import GeofenceSpec, MissionSpec
@@ -57,23 +59,32 @@ RUNNING: Final = RunStatus.RUNNING
 
 @dataclass(frozen=True)
 class AutopilotContext:
-    """Everything a backend needs at reset."""
+    """Everything a backend is given at reset: the mission, the airframe, the map, where home is.
+    Nothing of the simulation's state: a backend senses the vehicle through the observations."""
 
     mission: MissionSpec
-    vehicle: VehicleSpec
+    vehicle: VehicleSpec  # the airframe as configured (its payload included; not the liquid in the tank)
     origin: GeoOrigin
     home_enu: Vec3  # m, the spawn point on the terrain (vehicle base position at rest)
     physics_dt_us: int  # physics step, µs
-    total_mass_kg: float  # at start (frame + payload + liquid)
     vine_rows_enu: tuple[tuple[tuple[float, float], ...], ...] = ()  # world's rows, polylines (x, y) m
     geofence: GeofenceSpec | None = None
-    terrain_height: object = None  # callable (x, y) -> terrain z (ENU, m), or None for flat z = home z
+    #: the world's terrain map (DEM) as a planner loads it; None: flat at the home ground
+    terrain: TerrainDatabase | None = None
     seed: int = 0
     #: mapped terrain extent (xmin, ymin, xmax, ymax) ENU m; None = unbounded
     terrain_bounds: tuple[float, float, float, float] | None = None
     #: () -> bool: the run is being stopped (a signal, a wall-clock limit); a backend polls it in long waits
     #: (a firmware's boot) and returns, the loop then ends the run as interrupted
     should_stop: Callable[[], bool] | None = None
+    #: an external state estimate to fly on instead of the backend's own estimator: the simulator's
+    #: perfect one in ground-truth runs (``truth: true``); None: the backend estimates from its sensors
+    estimator: StateEstimate | None = None
+
+    def terrain_height(self, x: float, y: float) -> float:
+        """Terrain z (ENU m) of the map at (x, y); flat at the home ground without a map."""
+        t = self.terrain
+        return t.height(x, y) if t is not None else self.home_enu[2] - self.vehicle.frame.landing_gear_height_m
 
 
 @dataclass

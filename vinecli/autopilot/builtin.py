@@ -11,14 +11,22 @@ The parts, one job each:
 - :mod:`vinecli.autopilot.builtin` (this module): :class:`BuiltinAutopilot`, the glue - builds the
   run's estimator, cascade and phases in ``reset``; each step state estimate -> position loop (at
   ``control.pos_loop_rate_hz``) -> attitude/rate loops -> :class:`~vinecli.types.ActuatorCommand`,
-  or the rotor speeds of an open-loop phase; the lost-control check.
+  or the rotor speeds of an open-loop phase; the lost-control check; at the position-loop rate the
+  senses: terrain (:mod:`vinecli.autopilot.terrain`: the map, corrected by the rangefinder), land
+  and take-off detection (:mod:`vinecli.autopilot.land_detector`), hover thrust and mass
+  (:mod:`vinecli.autopilot.hover_thrust`).
 - :mod:`vinecli.autopilot.supervisor`: modes, phase sequence, arming, preflight, failsafes
   (geofence, battery, cannot take off), events and the run status.
 - :mod:`vinecli.autopilot.phase`: the :class:`~vinecli.autopilot.phase.Phase` base and what a phase
   may use of the autopilot; :mod:`vinecli.autopilot.phases` (``make_phase``: mission spec -> phase),
   :mod:`vinecli.autopilot.flight_phases`, :mod:`vinecli.autopilot.spray_phase` (refill sorties).
-- :mod:`vinecli.autopilot.estimator`, :mod:`vinecli.autopilot.geofence`,
-  :mod:`vinecli.autopilot.preflight`, :mod:`vinecli.control` (cascade, path follower).
+- :mod:`vinecli.autopilot.estimate` (the state estimate it flies on: its own
+  :mod:`vinecli.autopilot.estimator`, or the one the simulator hands over in ground-truth runs),
+  :mod:`vinecli.autopilot.geofence`, :mod:`vinecli.autopilot.preflight`, :mod:`vinecli.control`
+  (cascade, path follower).
+
+Nothing here reads the simulator's truth: the autopilot knows what its sensors, its map and its own
+commands tell it.
 
 Run-time missions (the MAVLink vehicle, :mod:`vinecli.autopilot.mavlink_vehicle`) use the public
 :meth:`BuiltinAutopilot.replace_phases` and :attr:`BuiltinAutopilot.phase_index`.
@@ -34,60 +42,63 @@ from vinecli.autopilot.base import RUNNING, AutopilotContext, AutopilotStatus, R
 from vinecli.autopilot.estimator import Estimator
 from vinecli.autopilot.flight_phases import OpenLoop
 from vinecli.autopilot.geofence import Geofence
+from vinecli.autopilot.hover_thrust import HoverThrustEstimator
+from vinecli.autopilot.land_detector import LandDetector
 from vinecli.autopilot.phase import Phase
 from vinecli.autopilot.phases import make_phase
 from vinecli.autopilot.supervisor import FlightSupervisor
-from vinecli.control.cascade import Cascade
+from vinecli.autopilot.terrain import TerrainSense
+from vinecli.control.cascade import Cascade, G
 from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import Vec3, quat_to_euler, tilt_angle
-from vinecli.types import ActuatorCommand, Event, Observation
+from vinecli.types import ActuatorCommand, Event, Observation, RangeSample
 
 _NAN = float("nan")
 
 
 class BuiltinAutopilot(FlightSupervisor):
-    """The built-in backend of the :class:`~vinecli.autopilot.base.Autopilot` protocol.
+    """The built-in backend of the :class:`~vinecli.autopilot.base.Autopilot` protocol (no options).
 
-    Options: ``truth`` (bool, default: the mission's ``truth``) uses ground truth instead
-    of the estimator. Mode, phase sequence, arming and failsafes: :class:`FlightSupervisor`.
+    It flies on :attr:`AutopilotContext.estimator <vinecli.autopilot.base.AutopilotContext.estimator>`
+    when the simulator gives one (ground-truth runs), else on its own estimator. Mode, phase
+    sequence, arming and failsafes: :class:`FlightSupervisor`.
     """
 
     name = "builtin"
 
-    def __init__(self, *, truth: bool | None = None, **opts: Any) -> None:
+    def __init__(self, **opts: Any) -> None:
         if opts:
             raise InputError(f"builtin autopilot: unknown option(s) {', '.join(sorted(opts))}")
-        self._truth_opt = truth
         self._status = AutopilotStatus(mode="DISARMED", phase_index=0)
         self._events = []
         self._ctx: AutopilotContext | None = None
 
     # ------------------------------------------------------------------ protocol
     def reset(self, ctx: AutopilotContext) -> None:
-        """Build estimator, controller and the phase list for ``ctx.mission``."""
+        """Build estimator, senses, controller and the phase list for ``ctx.mission``."""
         self._ctx = ctx
         self.vehicle = v = ctx.vehicle
         self.mission = ctx.mission
         if ctx.physics_dt_us <= 0:
             raise AutopilotError(f"invalid physics step {ctx.physics_dt_us} µs")
         self.dt = ctx.physics_dt_us * 1e-6
-        self._gear_m = v.frame.landing_gear_height_m
-        self.truth = bool(ctx.mission.truth if self._truth_opt is None else self._truth_opt)
-        self.cascade = Cascade(v, self.dt)
+        self.cascade = c = Cascade(v, self.dt)
         self.n_pos = max(1, round(1.0 / (self.dt * v.control.pos_loop_rate_hz)))
         self.dt_pos = self.n_pos * self.dt
-        self.estimator = None if self.truth else Estimator(v, ctx.origin)
-        self.home = tuple(float(c) for c in ctx.home_enu)  # type: ignore[assignment]
-        th = ctx.terrain_height
-        if th is None:
-            hz = self.home[2] - v.frame.landing_gear_height_m
-
-            def _flat(x: float, y: float) -> float:
-                return hz
-
-            self.terrain = _flat
-        else:
-            self.terrain = th  # type: ignore[assignment]
+        self.estimator = ctx.estimator if ctx.estimator is not None else Estimator(v, ctx.origin)
+        self.home = tuple(float(x) for x in ctx.home_enu)  # type: ignore[assignment]
+        gear = v.frame.landing_gear_height_m
+        self.terrain_sense = TerrainSense(ctx.terrain, v.sensors.rangefinder, self.home[2] - gear, gear)
+        self.terrain = self.terrain_sense.height
+        # hover thrust (normalised to the maximum thrust) and mass: the nominal from the spec
+        # (empty + payload: MPC_THR_HOVER), then estimated in flight
+        self.t_max = c.t_total_max
+        hover0 = v.dry_mass() * G / self.t_max
+        self.hte = HoverThrustEstimator(hover0, thr_range=v.control.hover_thrust_range,
+                                        process_noise=v.control.hover_thrust_noise)
+        self.land = LandDetector(c.thr_min / self.t_max, hover0)
+        self.hover_thrust = hover0
+        self._range: RangeSample | None = None
         self.geofence = Geofence(ctx.geofence, self.home) if ctx.geofence is not None else None
         self.cos_lost = math.cos(math.radians(v.control.lost_control_tilt_deg))
         self.spool_s = 0.5
@@ -99,15 +110,15 @@ class BuiltinAutopilot(FlightSupervisor):
         self.vel = (0.0, 0.0, 0.0)
         self.quat = (0.0, 0.0, 0.0, 1.0)
         self.omega: Vec3 = (0.0, 0.0, 0.0)
-        self.est_ready = self.truth
+        self.est_ready = False
         self.armed = False
         self.idle = False
         self.airborne = False
         self.ground_contact = True
+        self.landed = True
         self.height_terrain = 0.0
         self.flow = 0.0
-        self.mass = ctx.total_mass_kg
-        self._dry_mass: float | None = None
+        self.mass = hover0 * self.t_max / G
         self.tank_empty = False
         self.tank_level_l = 0.0
         self.battery_soc = math.nan
@@ -159,16 +170,12 @@ class BuiltinAutopilot(FlightSupervisor):
         if st.status is not RUNNING:
             return self._off
         self.t_us = obs.t_us
-        if self.truth:
-            tr = obs.truth
-            self.pos, self.vel, self.quat, self.omega = tr.pos, tr.vel, tr.quat, tr.omega_body
-        else:
-            est = self.estimator
-            est.update(obs)  # type: ignore[union-attr]
-            self.pos, self.vel, self.quat, self.omega = est.pos, est.vel, est.quat, est.omega  # type: ignore[union-attr]
-            self.est_ready = est.ready  # type: ignore[union-attr]
-        self.ground_contact = obs.truth.on_ground
-        self.height_terrain = self.pos[2] - obs.terrain_height_m - self._gear_m
+        est = self.estimator
+        est.update(obs)
+        self.pos, self.vel, self.quat, self.omega = est.pos, est.vel, est.quat, est.omega
+        self.est_ready = est.ready
+        if obs.rangefinder is not None:
+            self._range = obs.rangefinder  # fused at the position-loop rate
         return self._command(obs)
 
     def _command(self, obs: Observation) -> ActuatorCommand:
@@ -185,7 +192,9 @@ class BuiltinAutopilot(FlightSupervisor):
             self._countdown = 0
             if isinstance(self._phase, OpenLoop):
                 return self._command(obs)
-            # the controller takes over from the current state
+            # the controller takes over from the current state (in the air: the land detector too)
+            if self.pos[2] - self.terrain(self.pos[0], self.pos[1]) - self.vehicle.frame.landing_gear_height_m > 0.2:
+                self.land.set_flying()
             self.cascade.reset()
             self.cascade.set_yaw(quat_to_euler(self.quat)[2], immediate=True)
             self._sp = None
@@ -238,26 +247,25 @@ class BuiltinAutopilot(FlightSupervisor):
 
     # ------------------------------------------------------------------ outer loop (position-loop rate)
     def _outer(self, obs: Observation) -> None:
-        """Mass and tank from the observation, land detector's take-off, safety checks, the phase,
-        then the position loop; the setpoint (ENU m) and mass estimate (kg) into the status."""
+        """Tank and battery levels, the senses (terrain, land detector, hover thrust), safety checks,
+        the phase, then the position loop; the setpoint (ENU m) and mass estimate (kg) into the status."""
         dt = self.dt_pos
         v = self.vehicle
-        # mass estimate: dry mass + liquid in the tank
         level = obs.tank_level_l
-        if self._dry_mass is None:
-            self._dry_mass = self._ctx.total_mass_kg - v.liquid_mass(level)  # type: ignore[union-attr]
-        self.mass = self._dry_mass + v.liquid_mass(level)
         self.tank_empty = v.tank is not None and level <= 1e-6
         self.tank_level_l = level
         self.battery_soc = obs.battery_soc
-        if self.armed and not self.airborne and self.height_terrain > 0.2 and not self.ground_contact:
-            self.airborne = True
+        self._sense()
         if not self._safety_checks(dt):
             return
         if not self._advance_phase(dt):
             return
+        c = self.cascade
         if self.armed and not self.idle:
-            self.cascade.update_position(self.pos, self.vel, self.mass, dt)
+            if self.airborne and self.ground_contact:
+                c.ground_contact()  # PX4: flying but ground contact -> minimum thrust until landed
+            else:
+                c.update_position(self.pos, self.vel, self.mass, dt)
         ex = self._status.extra
         sp = self._sp
         if sp is None or not self.armed:
@@ -266,3 +274,34 @@ class BuiltinAutopilot(FlightSupervisor):
             ex["sp_x"], ex["sp_y"], ex["sp_z"] = sp
         ex["mass_est_kg"] = self.mass
         ex["sortie"] = float(self.sortie)
+
+    def _sense(self) -> None:
+        """The terrain under the vehicle, the land detector (ground contact, landed, take-off) and the
+        hover thrust estimate, from the estimate, the rangefinder and the last commands."""
+        ts = self.terrain_sense
+        ld = self.land
+        c = self.cascade
+        pos, vel = self.pos, self.vel
+        ts.update(self.t_us, self._range, pos, self.quat, vel, ld.landed)
+        self._range = None
+        self.height_terrain = ts.height_agl
+        armed = self.armed
+        hte = self.hte
+        flying = armed and not self.idle
+        ld.update(self.t_us, armed, pos[2], vel, self.omega, self.estimator.acc, c.thrust_sp / self.t_max, hte.hover_thrust,
+                  hte.valid, c.vel_ff[2] if flying and self._sp is not None else _NAN,
+                  dist_bottom=ts.dist_bottom, range_observable=ts.has_range)
+        self.ground_contact = ld.ground_contact
+        self.landed = ld.landed
+        c.freeze_rate_i = ld.maybe_landed or ld.landed
+        if not armed or ld.landed:
+            self.airborne = False
+        elif not self.airborne and self.height_terrain > 0.2:
+            self.airborne = True  # take-off detected: not landed and the skids 0.2 m above the ground
+        hte.update(self.t_us, armed, ld.landed, self.height_terrain, vel[2], math.sqrt(vel[0] * vel[0] + vel[1] * vel[1]),
+                   self.estimator.acc[2], c.thrust_up / self.t_max)
+        if hte.valid and hte.hover_thrust != self.hover_thrust:  # PX4 MPC_USE_HTE: fly on the estimate
+            self.hover_thrust = hte.hover_thrust
+            m = self.hover_thrust * self.t_max / G
+            c.update_hover_mass(self.mass, m)
+            self.mass = m

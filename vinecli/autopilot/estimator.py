@@ -21,6 +21,7 @@ import logging
 import math
 from typing import Any
 
+from vinecli.autopilot.estimate import StateEstimate
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import BodyFrame, QuatXYZW, Vec3, ned_to_enu, quat_from_euler
 from vinecli.geo import GeoOrigin
@@ -132,20 +133,24 @@ def gnss_quality_problem(fix_type: int, satellites: int, eph_m: float, epv_m: fl
     return ""
 
 
-class Estimator:
+class Estimator(StateEstimate):
     """Attitude, position and velocity from IMU, baro, mag and GNSS; see the module docstring.
 
     After :meth:`update`: ``pos`` (m, ENU), ``vel`` (m/s, ENU), ``quat`` (x, y, z, w),
     ``omega`` (bias-corrected gyro, rad/s, FLU), ``acc`` (m/s², ENU, gravity removed),
     ``ready`` (GNSS and baro fused for ``settle_s`` while the GNSS passes the PX4 EKF2 quality
     checks: 3-D fix, at least ``GNSS_MIN_SATS`` satellites, eph <= ``GNSS_MAX_EPH_M``, epv <=
-    ``GNSS_MAX_EPV_M``); ``not_ready_reason`` says what it is waiting for.
+    ``GNSS_MAX_EPV_M``); ``not_ready_reason`` says what it is waiting for; ``sigma_h_m`` / ``sigma_v_m``
+    the GNSS position noise σ (the fence margins' unit).
     """
 
     def __init__(self, vehicle: VehicleSpec, origin: GeoOrigin, *, kp_acc: float = 0.4, ki_acc: float = 0.02,
                  kp_mag: float = 0.5, ki_mag: float = 0.01, acc_ref_tau_s: float = 0.5, acc_sigma: float = 0.2, bias_sigma: float = 0.02,
                  mag_field_enu: Vec3 | None = None, settle_s: float = 1.5) -> None:
+        super().__init__()
         s = vehicle.sensors
+        self.sigma_h_m = s.gnss.horizontal_noise_m
+        self.sigma_v_m = s.gnss.vertical_noise_m
         self.origin = origin
         self.m_lat, self.m_lon = origin.metres_per_degree
         self.kp_acc = kp_acc

@@ -12,7 +12,6 @@ import math
 from collections.abc import Callable
 
 from vinecli.autopilot.phase import Phase, PhaseHost
-from vinecli.control.cascade import G
 from vinecli.control.path import PathFollower
 from vinecli.errors import InputError
 from vinecli.specs.mission import OpenLoopPhase, TakeoffPhase
@@ -155,7 +154,8 @@ class SetSprayerFlow(Phase):
 
 
 class Land(Phase):
-    """Descend at ``descent`` m/s holding x, y; disarm at touchdown (slow, low thrust or ground contact for 0.4 s)."""
+    """Descend at ``descent`` m/s holding x, y; disarm once the land detector says landed
+    (:mod:`vinecli.autopilot.land_detector`: ground contact, then maybe landed, then landed)."""
 
     MODE = "AUTO.LAND"
     type = "land"
@@ -168,27 +168,17 @@ class Land(Phase):
         sp = ap.hold_sp()
         self.xy = (sp[0], sp[1])
         self.z = sp[2]
-        self.t_landed = 0.0
-        self.t = 0.0
 
     def update(self, ap: PhaseHost, dt: float) -> bool:
         if not ap.armed:
             return True
-        # velocity-controlled descent, position hold horizontally
-        self.z -= self.descent * dt
-        ap.set_position((self.xy[0], self.xy[1], self.z), (0.0, 0.0, -self.descent), z_velocity_only=True)
-        hover = ap.mass * G
-        low_thrust = ap.cascade.thrust_sp < 0.6 * hover
-        slow = abs(ap.vel[2]) < 0.25
-        self.t += dt
-        if self.t > 1.0 and slow and (low_thrust or ap.ground_contact):
-            self.t_landed += dt
-        else:
-            self.t_landed = 0.0
-        if self.t_landed >= 0.4:
+        if ap.landed:
             ap.emit("land_detected", "touchdown detected", {"x": ap.pos[0], "y": ap.pos[1], "z": ap.pos[2]})
             ap.disarm()
             return True
+        # velocity-controlled descent, position hold horizontally
+        self.z -= self.descent * dt
+        ap.set_position((self.xy[0], self.xy[1], self.z), (0.0, 0.0, -self.descent), z_velocity_only=True)
         return False
 
 

@@ -75,13 +75,13 @@ class MavlinkControlledAutopilot:
 
     Options: ``url`` ("udp:HOST:PORT", where the client listens), ``allow_remote``,
     ``realtime``, ``instance`` (sysid = instance + 1), ``local_port`` (default 14580 + instance),
-    ``truth`` (controllers on ground truth), ``link`` (an existing Link, for the fake PX4 peer).
+    ``link`` (an existing Link, for the fake PX4 peer). Ground-truth runs: the context's estimator.
     """
 
     name = "builtin+mavlink"
 
     def __init__(self, *, url: str = "udp:127.0.0.1:14540", allow_remote: bool = False, realtime: bool = False,
-                 instance: int = 0, local_port: int | None = None, truth: bool | None = None, link: Link | None = None,
+                 instance: int = 0, local_port: int | None = None, link: Link | None = None,
                  pace: bool = True) -> None:
         self.scheme, host, port = parse_endpoint(url)
         # the one address check: resolved and checked as an IP now (not at reset); the link opens on this IP
@@ -95,7 +95,7 @@ class MavlinkControlledAutopilot:
         self.local_port = local_port  # None: the scheme's default (udp: 14580 + instance, udpout: any)
         self._given_link = link
         self.link: Link | None = None
-        self.ap = BuiltinAutopilot(truth=truth)
+        self.ap = BuiltinAutopilot()
         self._events: list[Event] = []
         self._closed = False
 
@@ -386,7 +386,7 @@ class MavlinkControlledAutopilot:
 
 
 def serve_mavlink(url: str = "udp:127.0.0.1:14540", *, realtime: bool = False, allow_remote: bool = False,
-                  instance: int = 0, truth: bool | None = None, local_port: int | None = None) -> MavlinkControlledAutopilot:
+                  instance: int = 0, local_port: int | None = None) -> MavlinkControlledAutopilot:
     """The autopilot to pass to ``run_simulation`` for ``vinecli run mission ... --mavlink URL [--realtime]``."""
-    return MavlinkControlledAutopilot(url=url, realtime=realtime, allow_remote=allow_remote, instance=instance, truth=truth,
+    return MavlinkControlledAutopilot(url=url, realtime=realtime, allow_remote=allow_remote, instance=instance,
                                       local_port=local_port)

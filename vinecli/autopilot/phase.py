@@ -30,10 +30,11 @@ class PhaseHost(Protocol):
     home: Vec3  # ENU m, where the vehicle started (altitudes *_agl_m are above its z)
     pos: Vec3  # estimated position, ENU m
     vel: Vec3  # estimated velocity, ENU m/s
-    mass: float  # estimated mass (dry + liquid), kg
+    mass: float  # mass the controllers fly with: from the hover thrust estimate, kg
     armed: bool
-    airborne: bool  # left the ground since arming
-    ground_contact: bool
+    airborne: bool  # take-off detected (not landed, 0.2 m above the ground) since arming or the last landing
+    ground_contact: bool  # the land detector's ground contact
+    landed: bool  # the land detector's landed state
     idle: bool  # armed with the rotors at idle speed (spool-up, waiting on the ground)
     mode: str  # PX4 mode name
     flow: float  # sprayer flow command, L/s

@@ -63,13 +63,10 @@ class PlanPoint:
     turn: bool = False
 
 
-def fence_margins_m(vehicle: VehicleSpec, *, truth: bool = False) -> tuple[float, float]:
-    """(horizontal, vertical) margin from the fence, m: ``MARGIN_SIGMAS`` σ of the GNSS position
-    noise (0 when the controllers fly on ground truth)."""
-    if truth:
-        return 0.0, 0.0
-    g = vehicle.sensors.gnss
-    return MARGIN_SIGMAS * g.horizontal_noise_m, MARGIN_SIGMAS * g.vertical_noise_m
+def fence_margins_m(sigma_h_m: float, sigma_v_m: float) -> tuple[float, float]:
+    """(horizontal, vertical) margin from the fence, m: ``MARGIN_SIGMAS`` times the position estimate's
+    1-σ uncertainty (the GNSS noise for the autopilot's own estimator, 0 for a perfect one)."""
+    return MARGIN_SIGMAS * sigma_h_m, MARGIN_SIGMAS * sigma_v_m
 
 
 def check_tilt(tilt_rad: float, vehicle: VehicleSpec) -> PreflightFailure | None:

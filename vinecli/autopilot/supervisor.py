@@ -43,7 +43,7 @@ import math
 from collections.abc import Callable
 
 from vinecli.autopilot.base import RUNNING, AutopilotContext, AutopilotStatus, RunStatus
-from vinecli.autopilot.estimator import Estimator
+from vinecli.autopilot.estimate import StateEstimate
 from vinecli.autopilot.flight_phases import Land, Loiter, OpenLoop, Rtl
 from vinecli.autopilot.geofence import GF_ACTION, Geofence
 from vinecli.autopilot.phase import Phase
@@ -55,7 +55,7 @@ from vinecli.autopilot.preflight import (
     fence_margins_m,
     plan_points,
 )
-from vinecli.control.cascade import Cascade, G
+from vinecli.control.cascade import Cascade
 from vinecli.frames import QuatXYZW, Vec3, quat_to_euler, tilt_angle
 from vinecli.rows.plan import plan_accel
 from vinecli.specs.vehicle import VehicleSpec
@@ -72,12 +72,11 @@ class FlightSupervisor:
 
     # the run
     vehicle: VehicleSpec
-    truth: bool  # controllers on ground truth (no estimator, no fence margins)
     home: Vec3  # ENU m
     terrain: Callable[[float, float], float]  # terrain z (ENU m) at (x, y)
     geofence: Geofence | None
     cascade: Cascade
-    estimator: Estimator | None
+    estimator: StateEstimate
     spool_s: float  # rotor spool-up before take-off, s
     phases: list[Phase]
     # estimated state (world ENU / body FLU, SI)
@@ -96,6 +95,7 @@ class FlightSupervisor:
     idle: bool
     airborne: bool
     ground_contact: bool
+    landed: bool
     flow: float  # sprayer flow command, L/s
     sprayer_inhibited: bool  # a failsafe switched the sprayer off until the next arming
     sortie: int
@@ -118,7 +118,7 @@ class FlightSupervisor:
     def _mission_preflight(self, ctx: AutopilotContext) -> list[PreflightFailure]:
         """Checks that depend only on the mission and the world (fence margins, plan over the terrain)."""
         v = ctx.vehicle
-        margins = fence_margins_m(v, truth=self.truth)
+        margins = fence_margins_m(self.estimator.sigma_h_m, self.estimator.sigma_v_m)
         out: list[PreflightFailure] = []
         spawn = check_spawn_fence(ctx.geofence, self.home, margins[0])
         if spawn is not None:
@@ -134,7 +134,7 @@ class FlightSupervisor:
         if not self.est_ready:
             limit = self.vehicle.control.preflight_timeout_s
             if self.t_us * 1e-6 >= limit:
-                reason = self.estimator.not_ready_reason if self.estimator is not None else ""
+                reason = self.estimator.not_ready_reason
                 self._preflight_fail(PreflightFailure(
                     "estimator", self.t_us * 1e-6, limit,
                     f"preflight check 'estimator': not converged after {limit:g} s ({reason})"))
@@ -315,7 +315,7 @@ class FlightSupervisor:
                 if self._sat_t >= v.control.cannot_takeoff_s:
                     self._finish(RunStatus.CANNOT_TAKE_OFF,
                                  f"thrust-limited for {self._sat_t:.1f} s at {h_agl:.2f} m above the start "
-                                 f"(weight {self.mass * G:.1f} N, max thrust {v.max_thrust():.1f} N)")
+                                 f"(max thrust {v.max_thrust():.1f} N)")
                     return False
             else:
                 self._sat_t = 0.0

@@ -219,6 +219,8 @@ class Cascade:
         self.rate_pid: tuple[Pid, Pid, Pid] = (pids[0], pids[1], pids[2])  # roll, pitch, yaw
         self.q_sp: QuatXYZW = (0.0, 0.0, 0.0, 1.0)
         self.thrust_sp = 0.0  # N collective
+        self.thrust_up = 0.0  # N, vertical component of the thrust vector setpoint
+        self.freeze_rate_i = False  # rate integrators held (PX4: while maybe landed or landed)
         self.vel_sp: Vec3 = (0.0, 0.0, 0.0)
         self.acc_sp: Vec3 = (0.0, 0.0, 0.0)
         self.rate_sp: Vec3 = (0.0, 0.0, 0.0)
@@ -229,6 +231,21 @@ class Cascade:
         """Zero the rate integrators (on the ground, as PX4 does while landed)."""
         for pid in self.rate_pid:
             pid.integral = 0.0
+
+    def update_hover_mass(self, mass_old: float, mass_new: float) -> None:
+        """The hover thrust feed-forward changes from ``mass_old`` to ``mass_new`` kg (a new hover thrust
+        estimate): shift the vertical velocity integrator so that the thrust stays the same (PX4
+        ``PositionControl::updateHoverThrust``)."""
+        az = self.acc_sp[2]
+        self.vel_int[2] += (az + G) * mass_old / mass_new - G - az
+
+    def ground_contact(self) -> None:
+        """On the ground while flying (PX4 "flying but ground contact"): minimum collective thrust, level
+        attitude at the current yaw, velocity integrators zeroed, until the land detector decides."""
+        self.vel_int = [0.0, 0.0, 0.0]
+        self.thrust_sp = self.thrust_up = self.thr_min
+        self.thrust_saturated = -1
+        self.q_sp = thrust_to_attitude(0.0, 0.0, 1.0, self.yaw_cur)
 
     # ------------------------------------------------------------------ position / velocity loop
     def update_position(self, pos: Vec3, vel: Vec3, mass_kg: float, dt: float) -> None:
@@ -298,12 +315,18 @@ class Cascade:
         vi[0] += c.vel_i_xy * ex * dt
         vi[1] += c.vel_i_xy * ey * dt
         lim = c.vel_i_limit
-        for i in (0, 1, 2):
+        for i in (0, 1):
             if vi[i] > lim:
                 vi[i] = lim
             elif vi[i] < -lim:
                 vi[i] = -lim
+        # vertical: PX4 limits the thrust integral to g (a load the hover thrust does not know yet)
+        if vi[2] > G:
+            vi[2] = G
+        elif vi[2] < -G:
+            vi[2] = -G
         self.thrust_saturated = sat_z
+        self.thrust_up = fz
         self.thrust_sp = math.sqrt(fx * fx + fy * fy + fz * fz)
         # yaw setpoint slewed towards yaw_sp (MPC_YAWRAUTO_MAX)
         dy = self.yaw_sp - self.yaw_cur
@@ -343,9 +366,10 @@ class Cascade:
         ts = self.torque_scale
         mixer = self.mixer
         w_cmd = mixer.rotor_speeds(mixer.allocate_thrusts(self.thrust_sp, ux * ts[0], uy * ts[1], uz * ts[2]))
-        # rate integrators, frozen in the direction the mixer saturated
-        _st, sx, sy, sz = mixer.saturation
-        px.integrate(ex, dt, sx)
-        py.integrate(ey, dt, sy)
-        pz.integrate(ez, dt, sz)
+        # rate integrators, frozen in the direction the mixer saturated (and on the ground)
+        if not self.freeze_rate_i:
+            _st, sx, sy, sz = mixer.saturation
+            px.integrate(ex, dt, sx)
+            py.integrate(ey, dt, sy)
+            pz.integrate(ez, dt, sz)
         return w_cmd

@@ -197,8 +197,7 @@ def _run_prepared(
     from vinecli.sitl.options import make_run_autopilot
 
     # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
-    ap = make_run_autopilot(spec.autopilot, truth=spec.truth if spec.autopilot == "builtin" else None,
-                            **(autopilot_options or {}))
+    ap = make_run_autopilot(spec.autopilot, **(autopilot_options or {}))
     stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
 
     from vinecli.sim.runner import simulate

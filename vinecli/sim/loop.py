@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, final
 
 import numpy as np
 
-from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotContext, AutopilotStatus, RunStatus
+from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotStatus, RunStatus
 from vinecli.errors import AutopilotError
 from vinecli.frames import BodyFrame, Vec3, quat_to_euler, tilt_angle
 from vinecli.physics.aero import body_drag
@@ -24,6 +24,7 @@ from vinecli.physics.motor import MotorBank
 from vinecli.physics.sensors import make_sensors
 from vinecli.physics.tank import Tank, TankCoupling
 from vinecli.physics.wind import WindField
+from vinecli.sim.autopilot_inputs import autopilot_context, world_rangefinder
 from vinecli.sim.ground_events import CONTACT_MARGIN_M, DEBOUNCE_S, LIFTOFF_THRUST_FRAC, GroundEvents, touching
 from vinecli.sim.recorder import Recorder, timeseries_columns
 from vinecli.sim.setup import PreparedRun
@@ -42,7 +43,6 @@ from vinecli.types import (
     ServiceRequest,
 )
 from vinecli.world.engine import Engine
-from vinecli.world.model import World
 
 if TYPE_CHECKING:
     from vinecli.physics.deposition import SprayEmitter
@@ -66,14 +66,6 @@ class Plant:
     wind: WindField
     home: Vec3  # CoM at rest at the start, m ENU (AutopilotContext.home_enu)
     settle_s: float  # simulated time the settling before t = 0 took, s
-
-
-def _bounds(world: World) -> tuple[float, float, float, float] | None:
-    """The mapped terrain extent (xmin, ymin, xmax, ymax), ENU m, or None when unknown."""
-    b = getattr(world.terrain, "bounds", None)
-    if b is None or len(b) != 4:
-        return None
-    return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
 
 
 def _first_commands(phase: OpenLoopPhase, n: int) -> list[float]:
@@ -214,12 +206,9 @@ class Flight:
     def _start_autopilot(self, run: PreparedRun, plant: Plant, autopilot: Autopilot, seed: int,
                          should_stop: Callable[[], bool] | None) -> None:
         world = run.world
-        ctx = AutopilotContext(
-            mission=run.flight, vehicle=run.vehicle, origin=world.origin, home_enu=plant.home,
-            physics_dt_us=self.dt_us, total_mass_kg=self.physics.mass_kg(), vine_rows_enu=run.rows,
-            geofence=run.geofence, terrain_height=world.terrain_height, seed=seed, terrain_bounds=_bounds(world),
-            should_stop=should_stop,
-        )
+        ctx = autopilot_context(run, plant.home, self.dt_us, seed, should_stop)
+        rangefinder = world_rangefinder(world, run, seed)
+        self.rf_sample = rangefinder.sample if rangefinder is not None else None
         self.ap_step: Callable[[Observation], ActuatorCommand] = autopilot.step
         self.ap_status: Callable[[], AutopilotStatus] = autopilot.status
         self.ap_drain: Callable[[], list[Event]] = autopilot.drain_events
@@ -229,13 +218,15 @@ class Flight:
             self.ap_step = _raiser(exc)
         self.idle_cmd = ActuatorCommand((0.0,) * run.vehicle.n_rotors, 0.0, False)
 
-    def _observe(self, truth: RigidState, terrain_z: float) -> tuple[ActuatorCommand, Samples]:
-        """Sensors sample the truth, the autopilot flies on what they give: (command, samples)."""
+    def _observe(self, truth: RigidState) -> tuple[ActuatorCommand, Samples]:
+        """Sensors sample the truth (the rangefinder the world's terrain), the autopilot flies on what they give:
+        (command, samples)."""
         samples = self.sensors.sample_all(truth)
         imu, baro, mag, gnss = samples
         tank, battery = self.tank, self.battery
         soc, volt, amps = (battery.soc, battery.voltage_v, battery.current_a) if battery is not None else (NAN, NAN, NAN)
-        obs = Observation(truth.t_us, truth, imu, baro, mag, gnss, terrain_z, tank.level_l if tank is not None else 0.0,
+        rng = self.rf_sample(truth.t_us, truth.pos, truth.quat) if self.rf_sample is not None else None
+        obs = Observation(truth.t_us, truth, imu, baro, mag, gnss, rng, tank.level_l if tank is not None else 0.0,
                           soc, volt, amps)
         try:
             cmd = self.ap_step(obs)
@@ -294,7 +285,7 @@ class Flight:
                            f"{self.ground.crash_speed:.1f} m/s)")
         pos, vel = (px, py, pz), (vx, vy, vz)
         truth = RigidState(t_us, pos, quat, vel, omega_body, acc, on_ground)
-        cmd, (imu, baro, _mag, gnss) = self._observe(truth, tz_)
+        cmd, (imu, baro, _mag, gnss) = self._observe(truth)
         events, tank = self.events, self.tank
         if cmd.service is not None:
             self.tank_was_empty = serve_ground_request(cmd.service, cmd.armed, on_ground, tank, self.battery, t_us, events,

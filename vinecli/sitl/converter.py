@@ -20,7 +20,7 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
     v = ctx.vehicle
     pc = PlanContext(
         origin=origin if origin is not None else ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
-        terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
+        terrain_height=ctx.terrain_height,
         nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
         accel_mps2=plan_accel(v), firmware=firmware,
     )
@@ -30,4 +30,15 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
     return mission, pc
 
 
-__all__ = ["converter_inputs"]
+def takeoff_mass_kg(ctx: AutopilotContext) -> float:
+    """The take-off mass a firmware is configured for, kg: the airframe as configured (payload included) plus
+    the tank's fill at take-off (the mission's ``tank_fill_l``, else full) -- what an operator enters in the
+    firmware's parameters, not something the autopilot senses."""
+    v = ctx.vehicle
+    if v.tank is None:
+        return v.dry_mass()
+    fill = ctx.mission.tank_fill_l
+    return v.dry_mass() + v.liquid_mass(v.tank.capacity_l if fill is None else float(fill))
+
+
+__all__ = ["converter_inputs", "takeoff_mass_kg"]

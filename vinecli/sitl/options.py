@@ -63,7 +63,6 @@ def px4_binary(path: Path | None) -> str | None:
 def make_run_autopilot(
     name: str,
     *,
-    truth: bool | None = None,
     mavlink: str | None = PX4_DEFAULTS.mavlink,
     realtime: bool = PX4_DEFAULTS.realtime,
     mavlink_allow_remote: bool = PX4_DEFAULTS.mavlink_allow_remote,
@@ -85,7 +84,10 @@ def make_run_autopilot(
       instance unless ``px4_instance`` is given) and stops it after the run;
     * ``name == "ardupilot"``: :class:`vinecli.sitl.ardupilot.backend.ArdupilotSitlAutopilot`, which starts
       ArduCopter SITL (``ardupilot_bin``) on a free instance and stops it after the run;
-    * otherwise ``vinecli.autopilot.registry.make_autopilot(name)`` (``truth`` for the builtin).
+    * otherwise ``vinecli.autopilot.registry.make_autopilot(name)``.
+
+    Ground-truth runs (the mission's ``truth``) need no option here: the simulator hands the
+    backend its perfect estimator in the context.
     """
     if mavlink is not None:
         if name != "builtin":
@@ -93,7 +95,7 @@ def make_run_autopilot(
                              "ground station to that autopilot directly (PX4: UDP 14550 / 14540+i)")
         from vinecli.autopilot.mavlink_vehicle import serve_mavlink
 
-        return serve_mavlink(mavlink, realtime=realtime, allow_remote=mavlink_allow_remote, truth=truth,  # type: ignore[return-value]
+        return serve_mavlink(mavlink, realtime=realtime, allow_remote=mavlink_allow_remote,  # type: ignore[return-value]
                              local_port=mavlink_local_port)
     if realtime:
         raise InputError("--realtime applies to --mavlink runs (PX4 runs pace themselves in lockstep)")
@@ -114,5 +116,4 @@ def make_run_autopilot(
         raise InputError(f"--ardupilot-bin needs --autopilot ardupilot (this run uses {name!r})")
     from vinecli.autopilot.registry import make_autopilot
 
-    opts: dict[str, Any] = {"truth": truth} if name == "builtin" and truth is not None else {}
-    return make_autopilot(name, **opts)
+    return make_autopilot(name)

@@ -219,12 +219,31 @@ class DepthCameraSpec(StrictModel):
     mount: MountSpec = MountSpec(position_m=(0.15, 0.0, -0.05), rpy_deg=(0.0, 60.0, 0.0))
 
 
+class RangefinderSpec(StrictModel):
+    """Distance sensor (PX4 ``distance_sensor``: lidar or radar altimeter). It measures along its mount
+    frame's -z axis (down-facing with the default mount), from the mount position, to the terrain."""
+
+    rate_hz: float = Field(20.0, gt=0, le=MAX_RATE_HZ)
+    noise_m: float = Field(0.02, ge=0, description="white noise σ, m")
+    min_range_m: float = Field(0.1, ge=0, description="closer than this: no valid reading, m")
+    max_range_m: float = Field(12.0, gt=0, description="farther than this: no valid reading, m")
+    mount: MountSpec = MountSpec()
+
+    @model_validator(mode="after")
+    def _ranges(self) -> RangefinderSpec:
+        if self.max_range_m <= self.min_range_m:
+            raise ValueError(f"max_range_m {self.max_range_m:g} must exceed min_range_m {self.min_range_m:g}")
+        return self
+
+
 class SensorsSpec(StrictModel):
     imu: ImuSpec = ImuSpec()
     baro: BaroSpec = BaroSpec()
     mag: MagSpec = MagSpec()
     gnss: GnssSpec = GnssSpec()
     depth_camera: DepthCameraSpec = DepthCameraSpec()
+    rangefinder: RangefinderSpec | None = Field(None, description="downward distance sensor; none: the autopilot "
+                                                "knows the terrain from the world's terrain database only")
 
 
 class ControlSpec(StrictModel):
@@ -259,12 +278,16 @@ class ControlSpec(StrictModel):
     rate_i_limit: float = Field(0.3, ge=0, description="MC_RR_INT_LIM: rate integrator limit, normalised torque")
     rate_d_cutoff_hz: float = Field(30.0, gt=0, description="IMU_DGYRO_CUTOFF: derivative low-pass, Hz")
     vel_d_cutoff_hz: float = Field(5.0, gt=0, description="velocity-derivative low-pass, Hz")
-    vel_i_limit: float = Field(4.0, ge=0, description="velocity integrator limit, m/s²")
+    vel_i_limit: float = Field(4.0, ge=0, description="horizontal velocity integrator limit, m/s² (vertical: g, as PX4)")
     thrust_min_frac: float = Field(0.12, ge=0, lt=1, description="MPC_THR_MIN: minimum collective thrust / max thrust")
     thrust_max_frac: float = Field(1.0, gt=0, le=1, description="MPC_THR_MAX: maximum collective thrust / max thrust")
     pos_loop_rate_hz: float = Field(50.0, gt=0, description="rate of the position/velocity loop, Hz (attitude/rate: every step)")
     max_yaw_rate_auto_deg_s: float = Field(45.0, gt=0, description="MPC_YAWRAUTO_MAX: yaw setpoint slew in auto modes")
     cannot_takeoff_s: float = Field(2.0, gt=0, description="time at full thrust without climbing before 'cannot take off', s")
+    hover_thrust_range: float = Field(0.2, gt=0, le=0.4, description="HTE_THR_RANGE: the hover thrust estimate stays within "
+                                      "this of the nominal (empty + payload) hover thrust, normalised thrust")
+    hover_thrust_noise: float = Field(0.0036, ge=0.0001, le=1.0, description="HTE_HT_NOISE: how fast the hover thrust may "
+                                      "change, normalised thrust/s (a sprayer: at least the full pump's drain rate)")
 
 
 class Px4MappingSpec(StrictModel):

@@ -101,6 +101,13 @@ class TerrainGrid:
             best = max(best, float(self.z[j0 : j1 + 1, i0 : i1 + 1].max()))
         return best
 
+    def max_slope(self) -> float:
+        """Upper bound of |∇h| of the bilinear surface (m/m): in each cell the partial derivatives lie
+        between those along its edges."""
+        sx = float(np.abs(np.diff(self.z, axis=1)).max()) / self.dx
+        sy = float(np.abs(np.diff(self.z, axis=0)).max()) / self.dy
+        return float(np.hypot(sx, sy))
+
     def preview(self, max_side: int = 129) -> dict[str, np.ndarray]:
         """Down-sampled copy for plots: ``x`` (nx,), ``y`` (ny,), ``z`` (ny, nx) with nx, ny ≤ max_side."""
         sx = max(1, int(np.ceil(self.nx / max_side)))

@@ -81,7 +81,9 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
     given_origin = GeoOrigin(spec.origin.lat, spec.origin.lon, spec.origin.alt) if spec.origin else None
     unsafe = _refuse_unsafe(spec_path, allow_unsafe_spawn)
     if spec.geofence is not None:  # horizontal check only: no terrain needed, nothing written yet
-        unsafe(check_spawn_fence(spec.geofence, (spec.spawn.x_m, spec.spawn.y_m, 0.0), fence_margins_m(vehicle)[0]))
+        gnss = vehicle.sensors.gnss  # the margin the autopilot's estimator will need
+        margin_h = fence_margins_m(gnss.horizontal_noise_m, gnss.vertical_noise_m)[0]
+        unsafe(check_spawn_fence(spec.geofence, (spec.spawn.x_m, spec.spawn.y_m, 0.0), margin_h))
 
     with atomic_output_dir(out, man, overwrite=overwrite) as tmp:
         tdir = tmp / "terrain"

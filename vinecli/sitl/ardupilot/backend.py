@@ -35,6 +35,7 @@ from vinecli.sitl.ardupilot.json_link import JSON_PORT_BASE, JsonPhysicsLink, Se
 from vinecli.sitl.ardupilot.params import pump_fraction, sprayer_params, vehicle_params
 from vinecli.sitl.ardupilot.plan import ArdupilotPlan, home_frame, plan_for
 from vinecli.sitl.ardupilot.process import SERIAL0_PORT_BASE, ArdupilotProcess, reserve_instance
+from vinecli.sitl.converter import takeoff_mass_kg
 from vinecli.sitl.identity import identity_from_message
 from vinecli.sitl.link import PolledTcpLink
 from vinecli.sitl.record import FirmwareRecord
@@ -94,7 +95,7 @@ class ArdupilotSitlAutopilot:
         self.frame = home_frame(ctx)
         self.plan: ArdupilotPlan = plan_for(ctx, self.frame)
         self.dt_us = ctx.physics_dt_us
-        params = vehicle_params(v, physics_rate_hz=1e6 / self.dt_us, mass_kg=ctx.total_mass_kg, g=STANDARD_GRAVITY)
+        params = vehicle_params(v, physics_rate_hz=1e6 / self.dt_us, mass_kg=takeoff_mass_kg(ctx), g=STANDARD_GRAVITY)
         self.pump_ch = v.px4.sprayer_channel
         self.nozzle = v.tank.nozzle_max_flow_lps if v.tank is not None else 0.0
         if self.plan.sprayer is not None:
@@ -261,7 +262,7 @@ class ArdupilotSitlAutopilot:
         if why:
             st = self._status
             st.status = RunStatus.CANNOT_TAKE_OFF
-            st.detail = f"{why} (weight {self.ctx.total_mass_kg * STANDARD_GRAVITY:.1f} N, " \
+            st.detail = f"{why} (weight {takeoff_mass_kg(self.ctx) * STANDARD_GRAVITY:.1f} N, " \
                         f"max thrust {self.ctx.vehicle.max_thrust():.1f} N)"
             self._emit(obs.t_us, "status", f"{st.status.value}: {st.detail}", {"status": st.status.value, "detail": st.detail})
 

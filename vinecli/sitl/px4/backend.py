@@ -303,8 +303,11 @@ class Px4SitlAutopilot:
         if why:
             st = self._status
             st.status = RunStatus.CANNOT_TAKE_OFF
-            st.detail = (f"{why} (weight {self.ctx.total_mass_kg * G0:.1f} N, "
-                         f"max thrust {self.ctx.vehicle.max_thrust():.1f} N)")
+            v, fill = self.ctx.vehicle, self.ctx.mission.tank_fill_l
+            if fill is None:  # the mission's load: full unless it says
+                fill = v.tank.capacity_l if v.tank is not None else 0.0
+            st.detail = (f"{why} (weight {(v.dry_mass() + v.liquid_mass(fill)) * G0:.1f} N, "
+                         f"max thrust {v.max_thrust():.1f} N)")
             self._emit(obs.t_us, "status", f"{st.status.value}: {st.detail}", {"status": st.status.value, "detail": st.detail})
 
     def _boot_step(self, t: int, obs: Observation) -> None:

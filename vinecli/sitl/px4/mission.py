@@ -44,7 +44,7 @@ from vinecli.mavlink.link import UdpLink
 from vinecli.mavlink.mission_items import MissionItem
 from vinecli.mavlink.px4params import mission_params
 from vinecli.phase_items import DO_SET_ACTUATOR, ItemPlan, phases_to_items
-from vinecli.sitl.converter import converter_inputs
+from vinecli.sitl.converter import converter_inputs, takeoff_mass_kg
 from vinecli.specs.vehicle import VehicleSpec
 
 log = logging.getLogger(__name__)
@@ -81,7 +81,7 @@ def plan_for(ctx: AutopilotContext) -> ItemPlan:
     mission, pc = converter_inputs(ctx, firmware="PX4")
     plan = phases_to_items(mission, pc, sprayer=DO_SET_ACTUATOR)
     plan.params = {**v.px4.params, **mission_params(mission)}  # the airframe's, then the mission's
-    plan.params.update(battery_params(v, ctx.total_mass_kg))
+    plan.params.update(battery_params(v, takeoff_mass_kg(ctx)))
     if any(it.command == M.CMD_DO_SET_ACTUATOR for it in plan.items):
         plan.params[f"PWM_MAIN_FUNC{v.px4.sprayer_channel + 1}"] = 301
     return plan
