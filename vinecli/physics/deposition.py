@@ -119,6 +119,7 @@ class Parcels:
     path_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     emitted_l: float = 0.0
     radius: np.ndarray = field(default_factory=lambda: np.zeros(0))  # cone footprint radius at landing, m
+    sigma: np.ndarray = field(default_factory=lambda: np.zeros(0))  # σ of the turbulent-diffusion offset, m
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -146,8 +147,11 @@ def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
 
 def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
               wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
-              g: float = STANDARD_GRAVITY) -> Parcels:
-    """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed."""
+              g: float = STANDARD_GRAVITY, expected: bool = False) -> Parcels:
+    """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed.
+
+    ``expected``: no random diffusion offset (each parcel at the centre of its Gaussian, whose σ is in
+    ``Parcels.sigma``), for expected patterns (:mod:`vinecli.physics.swath`)."""
     from vinecli.physics.wind import height_factor
 
     rec = np.asarray(records, dtype=np.float64).reshape(-1, len(EMIT_COLUMNS))
@@ -155,7 +159,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     emitted = float(rec[:, 15].sum())
     if rec.shape[0] == 0:
         z = np.zeros(0)
-        return Parcels(z, z, z, z.astype(np.int64), np.zeros((0, 2)), 0.0, z)
+        return Parcels(z, z, z, z.astype(np.int64), np.zeros((0, 2)), 0.0, z, z)
     grp = _groups(rec, config.group_s)
     ng = grp.shape[0]
     p, q, v, wnd = grp[:, 1:4], grp[:, 4:8], grp[:, 8:11], grp[:, 11:14]
@@ -199,7 +203,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     # parcels: one per (group, nozzle, size class); the cone spreads each over a disc of radius h tan(θ/2)
     shape = (ng, nn, nc)
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0xDE905,)))
-    noise = rng.standard_normal((2, *shape)) if config.diffusion else np.zeros((2, *shape))
+    noise = rng.standard_normal((2, *shape)) if config.diffusion and not expected else np.zeros((2, *shape))
     tau3 = tau[None, None, :]
 
     def land(hh: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -221,5 +225,6 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     vp = vol[:, None, None] * geo.shares[None, :, None] * geo.fractions[None, None, :]
     radius = h1 * geo.tan_half[None, :, None]
     cls = np.broadcast_to(np.arange(nc)[None, None, :], shape)
+    sig = np.broadcast_to(np.sqrt(2.0 * kdiff[..., None] * t1), shape)
     return Parcels(x.ravel(), y.ravel(), np.ascontiguousarray(vp).ravel(), np.ascontiguousarray(cls).ravel(),
-                   pn.mean(axis=1)[:, :2], emitted, radius.ravel())
+                   pn.mean(axis=1)[:, :2], emitted, radius.ravel(), np.ascontiguousarray(sig).ravel())
