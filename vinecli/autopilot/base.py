@@ -31,6 +31,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
     PREFLIGHT_FAILED = "preflight_failed"
     INTERRUPTED = "interrupted"
     ERROR = "error"
+    ABORTED = "aborted"
 
     @property
     def message(self) -> str:
@@ -46,6 +47,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
             "preflight_failed": "a preflight check failed: not armed",
             "interrupted": "interrupted by the user",
             "error": "the run failed",
+            "aborted": "the mission was abandoned: the job could not be finished",
         }[self.value]
 
 
@@ -70,6 +72,8 @@ class AutopilotContext:
     seed: int = 0
     #: mapped terrain extent (xmin, ymin, xmax, ymax) ENU m; None = unbounded
     terrain_bounds: tuple[float, float, float, float] | None = None
+    #: air density of the world, kg/m³ (the spray plan's pattern depends on it through the downwash)
+    air_density_kgm3: float = 1.225
 
 
 @dataclass

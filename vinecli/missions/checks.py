@@ -21,7 +21,8 @@ or any kind in the run's events; first occurrence), ``phase:N`` (first sample of
 optionally followed by ``+s`` or ``-s`` (seconds), e.g. ``"liftoff-1.0"``, ``"end-5"``.
 A reference to an event that did not happen makes the check fail (with that message).
 
-If a mission has no check on ``status``, an implicit ``status == completed`` check is added.
+If a mission has no check on ``status``, an implicit ``status == completed`` check is added; the
+default checks of a spraying mission (:mod:`vinecli.missions.dose`) are implicit too.
 """
 
 from __future__ import annotations
@@ -61,9 +62,10 @@ class CheckResult:
         return d
 
 
-def implicit_checks(checks: Sequence[CheckSpec]) -> list[CheckSpec]:
-    """The checks actually evaluated: the mission's plus ``status == completed`` if none tests the status."""
-    out = list(checks)
+def implicit_checks(checks: Sequence[CheckSpec], defaults: Sequence[CheckSpec] = ()) -> list[CheckSpec]:
+    """The checks actually evaluated: the mission's, the ``defaults`` (e.g. the dose checks), plus
+    ``status == completed`` if none tests the status."""
+    out = [*checks, *defaults]
     if not any(c.quantity == "status" for c in checks):
         out.append(
             CheckSpec(name="status", quantity="status", op="==", bound="completed",
@@ -72,11 +74,12 @@ def implicit_checks(checks: Sequence[CheckSpec]) -> list[CheckSpec]:
     return out
 
 
-def evaluate_checks(checks: Sequence[CheckSpec], data: RunData) -> list[CheckResult]:
-    """Evaluate every check (plus the implicit status check); never raises for run-dependent problems."""
+def evaluate_checks(checks: Sequence[CheckSpec], data: RunData, defaults: Sequence[CheckSpec] = ()) -> list[CheckResult]:
+    """Evaluate every check (plus the ``defaults`` and the implicit status check, marked implicit); never raises for
+    run-dependent problems."""
     explicit = len(checks)
     results = []
-    for i, c in enumerate(implicit_checks(checks)):
+    for i, c in enumerate(implicit_checks(checks, defaults)):
         r = evaluate_check(c, data)
         r.implicit = i >= explicit
         results.append(r)

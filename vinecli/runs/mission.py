@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import ChecksFailed, RuntimeFailure, SpecError, VinecliError
 from vinecli.missions.checks import evaluate_checks
+from vinecli.missions.dose import default_dose_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
 from vinecli.missions.quantities import check_quantities
@@ -221,7 +222,7 @@ def _run_prepared(
     if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
         from vinecli.runs.deposition_out import evaluate_deposition
 
-        dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle, world, rows, run.geofence)
+        dep_metrics, dep_doc = evaluate_deposition(result.deposition, run.flight, vehicle, world, rows, run.geofence)
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -229,7 +230,7 @@ def _run_prepared(
         metrics={**result.metrics, **dep_metrics},
         context=MetricContext(gravity=float(world.gravity), rows_enu=rows),
     )
-    checks = evaluate_checks(spec.checks, data)
+    checks = evaluate_checks(spec.checks, data, default_dose_checks(spec))
     passed = all(c.passed for c in checks)
     metrics: dict[str, float | None] = {k: _num(v) for k, v in {**result.metrics, **dep_metrics}.items()}
     for kind in ("liftoff", "tank_empty"):  # as the checks see them (first event, else the simulator metric)
@@ -397,4 +398,4 @@ def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = 
         metrics={k: float(v) for k, v in (summary.get("metrics") or {}).items() if isinstance(v, (int, float))},
         context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, rows)),
     )
-    return summary, evaluate_checks(spec.checks, data)
+    return summary, evaluate_checks(spec.checks, data, default_dose_checks(spec))
