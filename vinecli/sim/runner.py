@@ -282,6 +282,9 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
     mass0 = rigid_mass + (tank.mass_kg if tank is not None else 0.0)
     airborne_start = run.spawn.airborne
     n_rot = veh.n_rotors
+    from vinecli.physics.pump import Pump
+
+    pump = Pump(veh.sprayer.pump, veh.tank.nozzle_max_flow_lps if veh.tank is not None else 0.0)
 
     motors = MotorBank(veh.motor, list(veh.rotors))
     spin_up = run.spawn.spin_up
@@ -575,7 +578,7 @@ def _loop(  # noqa: C901 - the loop is deliberately one flat function
         fz += dgz
         if tank is not None:
             flow_cmd = cmd.spray_flow_lps
-            tank.update(flow_cmd, dt)
+            tank.update(pump.update(flow_cmd, dt), dt)
             if emit is not None:  # deposition model: volume summed over <= 0.04 s, one record per group
                 f_ = tank.flow_lps
                 if f_ > 0.0:
