@@ -219,10 +219,23 @@ def _run_prepared(
     rows = _rows_for_metrics(spec, world.vine_rows_enu)
     dep_metrics: dict[str, float] = {}
     dep_doc: dict[str, Any] | None = None
+    spray: dict[str, Any] = {}
     if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
         from vinecli.runs.deposition_out import evaluate_deposition
 
         dep_metrics, dep_doc = evaluate_deposition(result.deposition, run.flight, vehicle, world, rows, run.geofence)
+    if any(isinstance(p, SprayPhase) for p in spec.phases):  # did every vine get its dose, and where not
+        from vinecli.runs.spray_report import describe_spray, judge_ending, locate_cutouts, locate_faults
+
+        dep_rows = dep_doc["rows"] if dep_doc is not None else None
+        status, status_message = judge_ending(status, status_message, spec, dep_rows, result.timeseries)
+        spray = {"dose_faults": locate_faults(dep_rows or [], result.timeseries),
+                 "sprayer_cutouts": locate_cutouts([(e.t_us * 1e-6, e.kind, e.data) for e in result.events],
+                                                   dep_rows or [], 0.5 * float(dep_metrics.get("spray_track_width_m", 1.0)))}
+        if dep_doc is not None:
+            dep_doc.update(spray)
+        note = describe_spray(spray["dose_faults"], spray["sprayer_cutouts"])
+        status_message = f"{status_message} ({note})" if note else status_message
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -276,6 +289,7 @@ def _run_prepared(
         "checks": [c.to_dict() for c in checks],
         "metrics": metrics,
         "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
+        **spray,
         "timing": timing,
         "started_utc": started,
     }
