@@ -42,6 +42,8 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
     "dose_window_ratio_max": ("1", "Highest mean rate of a dose window (1 m by default) along a planned stretch / asked"),
     "dose_window_ratio_min": ("1", "Lowest mean rate of a dose window (1 m by default) along a planned stretch / asked"),
     "dose_faults": ("1", "Number of stretches along the rows dosed above the hot or below the gap band"),
+    "row_in_band_fraction_min": ("1", "Lowest share of a row's planned stretch (0.5 m pieces) within the rate tolerance "
+                                      "(±15 % by default) of the asked rate"),
     "drift_outside_fence_fraction": ("1", "Share of the emitted volume landing outside the geofence (or the field)"),
     "nominal_rate_lpha": ("L/ha", "Rate the spray phase asked for (rate_lpha, or 10 000 q / (v track width)), L/ha"),
     "spray_swath_m": ("m", "Geometric swath of the nozzles at the spray height, m"),
@@ -150,8 +152,8 @@ def _faults(s_m: np.ndarray, win: np.ndarray, k: int, seg: float, nominal: float
     return out
 
 
-def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: float, bands: tuple[float, float]
-              ) -> tuple[np.ndarray, np.ndarray]:
+def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: float, bands: tuple[float, float],
+              tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """Fill ``pr`` (a row profile with ``planned_m``) with its dose figures; (pieces in the planned stretch, windows)."""
     s0, s1 = pr["planned_m"]
     r, s = pr["rate_lpha"], pr["s_m"]
@@ -165,6 +167,8 @@ def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: fl
     pr["sprayed_m"] = [float(s[idx[0]]), float(s[idx[-1]])] if idx.size else None
     vals = np.nan_to_num(rin, nan=0.0)
     pr["mean_rate_lpha"] = float(np.average(vals, weights=seg_len)) if planned > 0 else math.nan
+    near = np.abs(vals / nominal - 1.0) <= tolerance if nominal > 0 else np.zeros(vals.shape, bool)
+    pr["in_band_fraction"] = float(min(seg_len[near].sum() / planned, 1.0)) if planned > 0 else math.nan
     k = max(1, int(round(window_m / segment_m)))
     win = _windows(rin, k) if rin.size else np.zeros(0)
     pr["window_ratio"] = [float(win.min() / nominal), float(win.max() / nominal)] if win.size and nominal > 0 else None
@@ -176,13 +180,15 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
                        stretches: dict[int, tuple[float, float]] | None = None, window_m: float = 1.0,
-                       bands: tuple[float, float] = (0.6, 1.3)) -> tuple[dict[str, float], list[dict[str, Any]]]:
+                       bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15
+                       ) -> tuple[dict[str, float], list[dict[str, Any]]]:
     """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`.
 
     ``rows``: the rows the mission targeted (coverage, mean rate, CV, per-row figures);
     ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``;
     ``stretches``: the planned stretch of each targeted row (index into ``rows``: (start, end) m along it; rows
-    missing from it were not planned); default: every row whole. ``bands``: (gap, hot) ratios of the dose faults.
+    missing from it were not planned); default: every row whole. ``bands``: (gap, hot) ratios of the dose faults;
+    ``tolerance``: the rate band of ``row_in_band_fraction_min`` (share of a row within ±tolerance of the asked rate).
     """
     p = dep.parcels
     em = float(dep.emitted_l)
@@ -230,9 +236,10 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
         planned = (stretches or {}).get(i) if stretches is not None else (0.0, pr["length_m"])
         pr["planned_m"] = [float(planned[0]), float(planned[1])] if planned is not None else None
         if planned is None:  # not planned (outside the fence): reported, not judged
-            pr.update(covered_fraction=nan, sprayed_m=None, mean_rate_lpha=nan, window_ratio=None, faults=[])
+            pr.update(covered_fraction=nan, sprayed_m=None, mean_rate_lpha=nan, window_ratio=None, faults=[],
+                      in_band_fraction=nan)
             continue
-        vals, win = _row_dose(pr, nominal_rate_lpha, segment_m, window_m, bands)
+        vals, win = _row_dose(pr, nominal_rate_lpha, segment_m, window_m, bands, tolerance)
         length = planned[1] - planned[0]
         tot_len += length
         cov_len += pr["covered_fraction"] * length if pr["covered_fraction"] == pr["covered_fraction"] else 0.0
@@ -254,6 +261,8 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     m["dose_window_ratio_max"] = float(allw.max() / nominal_rate_lpha) if allw.size and nominal_rate_lpha > 0 else nan
     m["dose_window_ratio_min"] = float(allw.min() / nominal_rate_lpha) if allw.size and nominal_rate_lpha > 0 else nan
     m["dose_faults"] = float(n_faults) if ok else nan
+    inband = [pr["in_band_fraction"] for pr in profiles if pr.get("planned_m")]
+    m["row_in_band_fraction_min"] = float(np.nanmin(inband)) if inband and ok else nan
     return m, profiles
 
 

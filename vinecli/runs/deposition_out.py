@@ -137,7 +137,8 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     dose = spec.dose
     metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows,
                                            stretches=plan.stretches if plan is not None else None,
-                                           window_m=dose.window_m, bands=(dose.gap_ratio, dose.hot_ratio))
+                                           window_m=dose.window_m, bands=(dose.gap_ratio, dose.hot_ratio),
+                                           tolerance=dose.rate_tolerance)
     metrics["spray_swath_m"] = swath
     metrics["spray_track_width_m"] = plan.flow_width_m if plan is not None else math.nan
     pattern = (spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, float(world.air_density))
@@ -181,6 +182,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
         "rows": [{"row": p["row"], "length_m": p["length_m"], "planned_m": p["planned_m"],
                   "covered_fraction": p["covered_fraction"], "mean_rate_lpha": p["mean_rate_lpha"],
                   "sprayed_m": p["sprayed_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
+                  "in_band_fraction": p["in_band_fraction"],
                   "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]]}
                  for p in profiles],
     }
