@@ -128,9 +128,11 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     polygon = getattr(fence, "polygon_enu", None) if fence is not None else None
     canopy = float(getattr(world, "canopy_width_m", 0.6))
     plan = None
+    terrain = getattr(world, "terrain", None)
+    bounds = tuple(terrain.bounds) if terrain is not None else None
+    rho = float(getattr(world, "air_density", 1.225))
     if phase is not None and rows:
-        plan = phase_plan(phase, vehicle, rows, rows[0][0], fence_enu=polygon,
-                          terrain_bounds=tuple(world.terrain.bounds), air_density=float(world.air_density))
+        plan = phase_plan(phase, vehicle, rows, rows[0][0], fence_enu=polygon, terrain_bounds=bounds, air_density=rho)
     nominal = nominal_rate_lpha(phase, vehicle, plan) if phase is not None and plan is not None else math.nan
     swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
     all_rows = [[tuple(q) for q in r] for r in getattr(world, "vine_rows_enu", []) or []] or rows
@@ -141,8 +143,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
                                            tolerance=dose.rate_tolerance)
     metrics["spray_swath_m"] = swath
     metrics["spray_track_width_m"] = plan.flow_width_m if plan is not None else math.nan
-    pattern = (spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, float(world.air_density))
-               if phase is not None else None)
+    pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, rho) if phase is not None else None
     metrics["spray_effective_swath_m"] = pattern.effective_m if pattern is not None else math.nan
     lay = plan.layout if plan is not None else None
     sp = vehicle.sprayer
