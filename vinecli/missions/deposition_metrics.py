@@ -48,6 +48,7 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
     "nominal_rate_lpha": ("L/ha", "Rate the spray phase asked for (rate_lpha, or 10 000 q / (v track width)), L/ha"),
     "spray_swath_m": ("m", "Geometric swath of the nozzles at the spray height, m"),
     "spray_track_width_m": ("m", "Track width of the flow (flow = rate x width x speed): lane spacing, or the single-pass width, m"),
+    "treated_area_ha": ("ha", "Area the spray plan treats: the rows' planned stretches x their spacing, ha"),
     "spray_effective_swath_m": ("m", "Effective swath of the vehicle at the spray height and speed (overlapped CV <= 10 %), m"),
     "deposit_centroid_offset_east_m": ("m", "Deposit centroid minus the volume-weighted nozzle path centroid, east, m"),
     "deposit_centroid_offset_north_m": ("m", "Deposit centroid minus the volume-weighted nozzle path centroid, north, m"),

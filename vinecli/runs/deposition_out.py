@@ -118,6 +118,16 @@ def _clean(v: Any) -> Any:
     return v
 
 
+def _treated_area_ha(plan: Any, rows: list[list[tuple[float, float]]]) -> float:
+    """Area the plan treats, ha: each row's planned stretch x the row spacing (one row: x the plan's track width)."""
+    from vinecli.rows.detect import row_spacing_m
+
+    if plan is None or not plan.stretches:
+        return math.nan
+    spacing = row_spacing_m(rows) if len(rows) >= 2 else plan.flow_width_m
+    return sum(b - a for a, b in plan.stretches.values()) * spacing / 1e4
+
+
 def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world: Any,
                         rows: list[list[tuple[float, float]]], fence: Any) -> tuple[dict[str, float], dict[str, Any]]:
     """(summary metrics, deposition.json document) of one run's deposition (:func:`write_deposition` adds
@@ -145,6 +155,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     metrics["spray_track_width_m"] = plan.flow_width_m if plan is not None else math.nan
     pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, rho) if phase is not None else None
     metrics["spray_effective_swath_m"] = pattern.effective_m if pattern is not None else math.nan
+    metrics["treated_area_ha"] = _treated_area_ha(plan, rows)
     lay = plan.layout if plan is not None else None
     sp = vehicle.sprayer
     doc = {

@@ -229,7 +229,11 @@ def _run_prepared(
 
         dep_rows = dep_doc["rows"] if dep_doc is not None else None
         status, status_message = judge_ending(status, status_message, spec, dep_rows, result.timeseries)
-        spray = {"dose_faults": locate_faults(dep_rows or [], result.timeseries),
+        from vinecli.missions.job import operations
+
+        spray = {"operations": operations(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events],
+                                          float(dep_metrics.get("treated_area_ha", math.nan))),
+                 "dose_faults": locate_faults(dep_rows or [], result.timeseries),
                  "sprayer_cutouts": locate_cutouts([(e.t_us * 1e-6, e.kind, e.data) for e in result.events],
                                                    dep_rows or [], 0.5 * float(dep_metrics.get("spray_track_width_m", 1.0)))}
         if dep_doc is not None:
