@@ -18,7 +18,9 @@ its reserve or the battery could no longer bring the vehicle home, return, land,
   flies in along the pass from ``v²/2a`` + 1 m behind it at spraying speed with the sections closed
   and opens them at the breakpoint (``refill.overlap_m`` earlier if asked).
 * A job that cannot go on (``max_sorties``, no progress, a battery it may not swap) returns home,
-  lands and ends the run ``aborted`` with the cause and the spraying left (:meth:`PhaseHost.abort`).
+  lands and ends the run ``aborted`` with the cause and the spraying left (:meth:`PhaseHost.abort`). A
+  phase without refills whose tank runs dry ends there; the run then judges whether every row got its
+  dose (:mod:`vinecli.runs.spray_report`).
 
 Positions are world ENU m; the spray height is above the terrain under the vehicle (the skids'),
 the return altitude above home; speeds m/s, flows L/s, times s. Events: ``spray_plan``,
@@ -333,11 +335,14 @@ class Spray(Phase):
                 self._left_at_last_end = left
                 self._end_sortie(ap, refill, reason)
                 return False
-        if ap.tank_empty:
+        if ap.tank_empty:  # no refill: the phase ends here (the run says whether every row got its dose)
             ap.set_flow(0.0)
             ap.set_position(ap.hold_sp(), (0.0, 0.0, 0.0))
-            if self.spec.until == "rows_done" and self._spraying_left_m() > 0.5:
-                return self._abort(ap, "tank empty and no refill in the phase", "tank empty")
+            left = self._spraying_left_m()
+            if self.spec.until == "rows_done" and left > 0.5:
+                ap.emit("sortie", f"sortie {self.sortie} ends (tank empty) with {left:.1f} m of passes left",
+                        {"sortie": self.sortie, "event": "end", "reason": "tank empty", "last": True,
+                         "spraying_left_m": round(left, 2)})
             return True
         sp, vff, done = self.path.update(dt, ap.pos)
         ap.set_position(sp, vff, aff=self.path.aff)

@@ -10,7 +10,9 @@ cross-track pattern of one pass (:class:`~vinecli.physics.swath.SwathPattern`):
   spacing S at most the effective swath and within the CV limit of the overlapped pattern, with the
   flow of S (rate x S x speed). n and the edge offset e (passes beyond the edge rows for e < 0, inside
   for e > 0) are chosen so that the expected mean rate on every row's band is closest to the asked one,
-  the fewest passes first among the layouts within :data:`ROW_TARGET`.
+  the fewest passes first among the layouts within :data:`ROW_TARGET` as planned and within
+  :data:`ROW_TARGET_OFF_TRACK` with any one pass flown :data:`TRACK_ERROR_M` off its line (the estimate's
+  bias differs from pass to pass; a row on the steep flank of a pattern would take it as a dose error).
 
 :func:`lane_polyline` builds a pass's path: the rows it lies between interpolated (arc-length
 fractions), or the edge row shifted across.
@@ -26,10 +28,15 @@ import numpy as np
 
 from vinecli.rows.detect import Polyline
 
-__all__ = ["ROW_TARGET", "LaneLayout", "lane_polyline", "layout_lanes"]
+__all__ = ["ROW_TARGET", "TRACK_ERROR_M", "LaneLayout", "lane_polyline", "layout_lanes"]
 
 #: expected deviation of a row's mean rate from the asked one a layout aims for (the dose check allows 15 %)
 ROW_TARGET = 0.08
+#: ... and flown off its lines by TRACK_ERROR_M (the dose check allows 15 %: 3 % left for the rest)
+ROW_TARGET_OFF_TRACK = 0.12
+#: cross-track error of a flown pass the layouts must tolerate, m (the built-in autopilot's position estimate drifts
+#: by ~0.1-0.15 m over a pass on the x500-sprayer's GNSS)
+TRACK_ERROR_M = 0.1
 _E_STEP = 0.05  # m, edge offsets tried
 _BAND_STEP = 0.02  # m, samples across a row's band
 
@@ -63,6 +70,14 @@ def _row_doses(pattern: object, rows: np.ndarray, lanes: Sequence[float], width:
     return [float(v) for v in (dose.reshape(rows.size, off.size).mean(axis=1) * width)]
 
 
+def _off_track(lanes: list[float]) -> list[list[float]]:
+    """The layout with one pass flown TRACK_ERROR_M off its line (each pass, each way: the estimate's bias
+    differs from pass to pass)."""
+    d = TRACK_ERROR_M
+    return [[c + (sign * d if j == k else 0.0) for j, c in enumerate(lanes)] for k in range(len(lanes))
+            for sign in (1.0, -1.0)]
+
+
 def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target: float = ROW_TARGET) -> LaneLayout:
     """Passes for rows at ``across`` (m, any order) under ``pattern`` (a SwathPattern), canopy band ``band_m``."""
     xs = np.sort(np.asarray(across, dtype=np.float64))
@@ -76,8 +91,9 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
         return LaneLayout(lanes, w1, spacing, _row_doses(pattern, xs, lanes, w1, band_m), mode)
     span = float(xs[-1] - xs[0])
     n0 = int(math.ceil(span / eff - 1e-9)) + 1
-    best: tuple[tuple[int, float], LaneLayout] | None = None
+    fallback: tuple[float, LaneLayout] | None = None
     for n in range(max(n0, 2), n0 + 5):
+        candidates: list[tuple[float, LaneLayout]] = []
         for e in np.arange(-0.5 * eff, 0.5 * eff + 1e-9, _E_STEP):
             s = (span - 2.0 * e) / (n - 1)
             if s <= 0.0 or s > eff + 1e-9 or not pattern.good(s):  # type: ignore[attr-defined]
@@ -85,16 +101,21 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
             lanes = [float(xs[0] + e + k * s) for k in range(n)]
             doses = _row_doses(pattern, xs, lanes, s, band_m)
             err = max(abs(d - 1.0) for d in doses)
-            key = (0 if err <= target else 1, n if err <= target else 0, err)
             lay = LaneLayout(lanes, s, s, doses, "broadcast", float(e))
-            if best is None or key < best[0]:  # type: ignore[operator]
-                best = (key, lay)  # type: ignore[assignment]
-        if best is not None and best[0][0] == 0:
-            break
-    if best is None:  # no spacing passes the CV limit: one pass per row
+            candidates.append((err, lay))
+            if fallback is None or err < fallback[0]:
+                fallback = (err, lay)
+        for err, lay in sorted(candidates, key=lambda c: c[0]):  # the best planned dose that survives a pass off line
+            if err > target:
+                break
+            off = max(max(abs(d - 1.0) for d in _row_doses(pattern, xs, shifted, lay.spacing_m, band_m))
+                      for shifted in _off_track(lay.across_m))
+            if off <= ROW_TARGET_OFF_TRACK:
+                return lay
+    if fallback is None:  # no spacing passes the CV limit: one pass per row
         lanes = [float(x) for x in xs]
         return LaneLayout(lanes, w1, float(np.median(gaps)), _row_doses(pattern, xs, lanes, w1, band_m), "rows")
-    return best[1]
+    return fallback[1]
 
 
 def _resample(line: np.ndarray, fractions: np.ndarray) -> np.ndarray:

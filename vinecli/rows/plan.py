@@ -348,13 +348,15 @@ def plan_rows(
     work = [src[i] for i in idx]
     if not work:
         return RowPlan([], v, a, ["no rows to plan"])
-    inner = None
+    inner = None  # where the path may go: the fence less its margin, on the terrain
     if terrain_bounds is not None:
         xmin, ymin, xmax, ymax = terrain_bounds
-        work = _clip(work, box(xmin, ymin, xmax, ymax), "terrain", warnings)
+        inner = box(xmin, ymin, xmax, ymax)
+        work = _clip(work, inner, "terrain", warnings)
     if fence_enu is not None and len(fence_enu) >= 3:
-        inner = Polygon(fence_enu).buffer(-fence_margin_m)
-        work = _clip(work, inner, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
+        fenced = Polygon(fence_enu).buffer(-fence_margin_m)
+        work = _clip(work, fenced, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
+        inner = fenced if inner is None else inner.intersection(fenced)
     keep = [(i, r) for i, r in zip(idx, work, strict=True) if len(r) >= 2 and LineString(r).length > 0.05]
     if not keep:
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
