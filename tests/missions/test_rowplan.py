@@ -96,7 +96,9 @@ def test_rows_wholly_outside_the_fence_are_dropped_and_the_indices_kept() -> Non
 
 def test_rows_leaving_the_terrain_warn() -> None:
     plan = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5, terrain_bounds=(-5.0, -5.0, 20.0, 20.0))
-    assert len(plan.warnings) == 1 and "terrain" in plan.warnings[0]
+    assert len(plan.warnings) == 2 and "terrain" in plan.warnings[0]
+    assert "headland turns shortened to fit the terrain" in plan.warnings[1]  # the path too stays on the map
+    assert max(p[1] for leg in plan.legs for p in leg.points) <= 20.0
     assert max(p[1] for leg in plan.legs if leg.spray for p in leg.points) == pytest.approx(20.0)
 
 

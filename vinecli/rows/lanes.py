@@ -5,7 +5,8 @@ rate on its canopy band. It works on the rows' positions across the block and th
 cross-track pattern of one pass (:class:`~vinecli.physics.swath.SwathPattern`):
 
 * one row: one pass over it; the flow doses its band (``flow_width`` = the single-pass width);
-* rows at least an effective swath apart: one pass over each row, doses as above;
+* rows at least an effective swath apart: one pass over each row, doses as above (a row listed twice:
+  a pass per listed row, flown in the order listed, ``listed``);
 * otherwise broadcast: n evenly spaced passes from ``first row + e`` to ``last row - e``, their
   spacing S at most the effective swath and within the CV limit of the overlapped pattern, with the
   flow of S (rate x S x speed). n and the edge offset e (passes beyond the edge rows for e < 0, inside
@@ -45,7 +46,7 @@ _BAND_STEP = 0.02  # m, samples across a row's band
 class LaneLayout:
     """Passes across a block: ``across_m`` the pass positions (across coordinate, m), ``flow_width_m`` the track
     width of the flow (flow = rate x width x speed / 10 000), ``row_dose`` the expected mean rate of each row
-    relative to the asked one, ``mode`` single | rows | broadcast."""
+    relative to the asked one, ``mode`` single | rows | listed | broadcast."""
 
     across_m: list[float]
     flow_width_m: float
@@ -84,6 +85,9 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
     w1 = pattern.single_pass_width_m(band_m)  # type: ignore[attr-defined]
     eff = float(pattern.effective_m)  # type: ignore[attr-defined]
     gaps = np.diff(xs)
+    if gaps.size and float(np.min(gaps)) < 1e-6:  # a row listed twice: a pass per listed row, in the order listed
+        lanes = [float(x) for x in across]
+        return LaneLayout(lanes, w1, math.nan, _row_doses(pattern, xs, lanes, w1, band_m), "listed")
     if xs.size == 1 or not math.isfinite(eff) or float(np.min(gaps)) >= eff:
         lanes = [float(x) for x in xs]
         mode = "single" if xs.size == 1 else "rows"

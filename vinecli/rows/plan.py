@@ -195,6 +195,20 @@ def _room(p: Point, d: tuple[float, float], inner: object | None, limit: float) 
     return lo
 
 
+def _back_inside(p: Point, d: tuple[float, float], inner: object | None, most: float = 5.0) -> Point:
+    """``p`` moved back along ``-d`` (0.05 m steps, at most ``most`` m) until it lies inside ``inner``."""
+    if inner is None:
+        return p
+    from shapely.geometry import Point as P
+
+    k = 0
+    q = p
+    while not inner.contains(P(q)) and k * 0.05 < most:  # type: ignore[attr-defined]
+        k += 1
+        q = (p[0] - d[0] * 0.05 * k, p[1] - d[1] * 0.05 * k)
+    return q
+
+
 def _trapezoid_time(d: float, v: float, a: float) -> float:
     """Time to cover ``d`` m from rest to rest with speed limit ``v`` and acceleration ``a``, s."""
     if d <= 0:
@@ -228,6 +242,7 @@ def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float, inner:
         kind, short = "turn-arc", 0.0
     else:  # stop turn: run out past the pass end (brake), cross, run in to be at speed at the next pass
         full = v * v / (2 * a)
+        p1, q1 = _back_inside(p1, d, inner), _back_inside(q1, d, inner)  # pass ends squared up inside the fence
         e = min(_room(p1, d, inner, full), _room(q1, d, inner, full))
         e = 0.0 if e < 0.05 else e
         pts = [p, (p1[0] + d[0] * e, p1[1] + d[1] * e), (q1[0] + d[0] * e, q1[1] + d[1] * e), q]
@@ -362,13 +377,15 @@ def plan_rows(
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
     ux, uy = _direction([r for _, r in keep])
     passes, layout = _passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m)
-    # order across the passes; the first is the nearest to the start
+    # order across the passes; the first is the nearest to the start (rows listed twice: in the order listed)
     start = Point(start_xy)
     across = sorted(passes, key=lambda p: -uy * (p[2][0][0] + p[2][-1][0]) + ux * (p[2][0][1] + p[2][-1][1]))
     k0 = min(range(len(across)), key=lambda k: (LineString(across[k][2]).distance(start), k))
     left, right = across[:k0][::-1], across[k0 + 1:]
     first, second = (left, right) if len(left) <= len(right) else (right, left)
     sequence = [across[k0], *first, *second]
+    if layout is not None and layout.mode == "listed":
+        sequence, first, second = passes, [], []
 
     legs: list[Leg] = []
     pos = (float(start_xy[0]), float(start_xy[1]))
@@ -387,7 +404,8 @@ def plan_rows(
         legs.append(Leg(seq, True, row, "row", lane))
         pos = seq[-1]
     if short:
-        warnings.append(f"{len(short)} headland turns shortened to fit the {fence_name}: the vehicle brakes inside "
+        where = fence_name if fence_enu is not None and len(fence_enu) >= 3 else "terrain"
+        warnings.append(f"{len(short)} headland turns shortened to fit the {where}: the vehicle brakes inside "
                         f"the pass end (up to {max(short):.1f} m of run-out left out; the speed-scaled flow keeps the dose)")
     plan = RowPlan(legs, v, a, warnings, stretches={i: _stretch(src[i], r) for i, r in keep}, layout=layout)
     t = sum(_leg_time(leg, v, a) for leg in legs)

@@ -63,7 +63,8 @@ def plan_for(ctx: AutopilotContext) -> ItemPlan:
         origin=ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
         terrain_height=ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
         nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
-        accel_mps2=plan_accel(v), firmware="PX4",
+        accel_mps2=plan_accel(v), firmware="PX4", vehicle=v, terrain_bounds=ctx.terrain_bounds,
+        air_density=ctx.air_density_kgm3,
     )
     mission = ctx.mission
     if ctx.geofence is not None and mission.geofence is None:
