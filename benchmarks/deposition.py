@@ -11,7 +11,9 @@ the whole run (takeoff, spraying, turns, landing):
 * pairs: each run with the model against the run without it right after it, median over pairs;
 * the record line alone (timeit, CPU) weighted by the share of spraying steps; the model's cost
   from its parts = bulk + record line (the on - off difference carries the loop's run-to-run
-  spread, printed with it).
+  spread, printed with it);
+* what the run directory adds after the loop (``evaluate_deposition``: the phase's plan with the
+  sprayer's pattern, the per-row profiles, dose windows and faults, the metrics), per step.
 
 CPU time is the figure to judge (the machine is shared; wall time includes waiting for a core).
 
@@ -56,7 +58,9 @@ def _run(world, mission, deposition: bool | object, budget: bool = False) -> dic
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     steps = res.metrics["steps"]
     flow = res.timeseries["tank_flow_lps"]
-    out = {"cpu_s": cpu, "wall_s": wall, "steps": steps, "transport_s": res.timing.get("deposition_transport_s", 0.0),
+    eval_cpu = _evaluation_cpu_s(world, mission, res) if deposition else 0.0
+    out = {"cpu_s": cpu, "wall_s": wall, "steps": steps, "eval_cpu_s": eval_cpu,
+           "transport_s": res.timing.get("deposition_transport_s", 0.0),
            "transport_cpu_s": res.timing.get("deposition_transport_cpu_s", 0.0),
            "spray_share": float((flow > 0).mean()) if flow.size else 0.0, "status": res.status.value}
     if budget:
@@ -67,6 +71,22 @@ def _run(world, mission, deposition: bool | object, budget: bool = False) -> dic
         evaluate_budget(res.deposition, world, rows, 20.0)
         out["budget_cpu_s"] = time.process_time() - c0
     return out
+
+
+def _evaluation_cpu_s(world, mission, res) -> float:  # noqa: ANN001 - World, MissionSpec, SimResult
+    """CPU s of what the run directory adds after the loop: the phase's plan (pattern cached), the per-row
+    profiles, dose windows and faults, the metrics (vinecli.runs.deposition_out.evaluate_deposition)."""
+    from vinecli.runs.deposition_out import evaluate_deposition
+    from vinecli.sim.setup import prepare_run
+    from vinecli.specs.mission import SprayPhase, phase_rows
+
+    with prepare_run(world, mission) as run:
+        flight, veh, fence = run.flight, run.vehicle, run.geofence
+    phase = next(p for p in flight.phases if isinstance(p, SprayPhase))
+    rows = phase_rows(phase, [list(map(tuple, r)) for r in world.vine_rows_enu])
+    c0 = time.process_time()
+    evaluate_deposition(res.deposition, flight, veh, world, rows, fence)
+    return time.process_time() - c0
 
 
 def record_cost_us(spray_share: float, n: int = 200_000) -> float:
@@ -122,11 +142,13 @@ def main(argv: list[str] | None = None) -> int:
     d_cpu = statistics.median((a["cpu_s"] - b["cpu_s"]) / steps * 1e6 for a, b in zip(on, off, strict=True))
     d_wall = statistics.median((a["wall_s"] - b["wall_s"]) / steps * 1e6 for a, b in zip(on, off, strict=True))
     bulk = statistics.median(a["transport_cpu_s"] / steps * 1e6 for a in on)
+    evaluation = statistics.median(a["eval_cpu_s"] / steps * 1e6 for a in on)
     out = {
         "mission": "pipelines/missions/spray.yaml", "steps": steps, "spraying_share_of_steps": on[0]["spray_share"],
         "loop_off_cpu_us_per_step": statistics.median(b["cpu_s"] / steps * 1e6 for b in off),
         "extra_cpu_us_per_step": d_cpu, "extra_wall_us_per_step": d_wall,
         "bulk_transport_cpu_us_per_step": bulk, "in_loop_cpu_us_per_step": d_cpu - bulk,
+        "evaluation_cpu_us_per_step": evaluation,
         "spread_cpu_us_per_step": statistics.pstdev([(a["cpu_s"] - b["cpu_s"]) / steps * 1e6
                                                      for a, b in zip(on, off, strict=True)]),
         "budget_us_per_step": BUDGET_US,
@@ -146,7 +168,8 @@ def main(argv: list[str] | None = None) -> int:
     ok = out["extra_cpu_us_per_step"] <= BUDGET_US
     print(f"deposition model: on - off {out['extra_cpu_us_per_step']:.2f} ± {out['spread_cpu_us_per_step']:.2f} "
           f"µs/step CPU ({'within' if ok else 'OVER'} the {BUDGET_US:g} µs budget); from its parts "
-          f"{out['model_cpu_us_per_step']:.2f} µs/step (bulk + record line)")
+          f"{out['model_cpu_us_per_step']:.2f} µs/step (bulk + record line); the run directory's evaluation "
+          f"(plan, profiles, dose windows, metrics) {out['evaluation_cpu_us_per_step']:.2f} µs/step more")
     ok_b = out["budget_cpu_us_per_step"] <= BUDGET_US
     print(f"spray budget on top: {out['budget_cpu_us_per_step']:.2f} µs/step CPU (outwash "
           f"{out['outwash_cpu_us_per_step']:.2f} + evaluation {out['budget_eval_cpu_us_per_step']:.2f}; "

@@ -45,7 +45,7 @@ def test_low_battery_returns_then_lands_with_the_sprayer_off() -> None:
     i_rtl = next(i for i, t in enumerate(tr.t) if t >= fs[0].t_us * 1e-6 + 0.1)
     assert max(tr.flow[:i_rtl]) == pytest.approx(0.02) and max(tr.flow[i_rtl:]) == 0.0  # sprayer off at once
     st = ap.status()
-    assert st.status is RunStatus.COMPLETED and "low battery" in st.detail and d.on_ground
+    assert st.status is RunStatus.FAILSAFE and "low battery" in st.detail and d.on_ground
     i_land = next(i for i, t in enumerate(tr.t) if t >= fs[1].t_us * 1e-6)
     assert max(p[2] for p in tr.pos[i_rtl:i_land]) > 3.5  # climbing to the 5 m return altitude
     assert abs(d.pos[0] - fs[1].data["position_est_enu"][0]) < 1.0  # then landed where the emergency came

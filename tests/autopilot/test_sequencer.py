@@ -81,7 +81,7 @@ def test_sprayer_and_waypoints_flow() -> None:
     d, ap, tr, ev = run(phases, 40, name="x500-sprayer")
     assert ap.status().status is RunStatus.COMPLETED
     flows = [e.data["flow_lps"] for e in ev if e.kind == "sprayer"]
-    assert flows == [0.02, 0.04, 0.0]
+    assert flows == [0.02, 0.0]  # a sprayer event when it switches on and off
     assert tr.flow[-1] == 0.0
     assert max(tr.flow) == 0.04
     assert d.liquid_l < 1.0
@@ -119,31 +119,38 @@ def test_open_loop_rejects_a_wrong_rotor_count() -> None:
 ROWS = (((2.0, 0.0), (2.0, 12.0)), ((4.0, 12.0), (4.0, 0.0)), ((6.0, 0.0), (6.0, 12.0)))
 
 
-def _dist_to_rows(x: float, y: float) -> float:
+def _dist_to(x: float, y: float, line: list[tuple[float, float]]) -> float:
     best = math.inf
-    for (x0, y0), (x1, y1) in ROWS:
+    for (x0, y0), (x1, y1) in zip(line[:-1], line[1:], strict=True):
         t = max(0.0, min(1.0, ((x - x0) * (x1 - x0) + (y - y0) * (y1 - y0)) / ((x1 - x0) ** 2 + (y1 - y0) ** 2)))
         best = min(best, math.hypot(x - x0 - t * (x1 - x0), y - y0 - t * (y1 - y0)))
     return best
 
 
-def test_spray_passes_follow_rows_with_flow_on_rows_only() -> None:
-    phases = [{"type": "takeoff", "altitude_agl_m": 2.0},
-              {"type": "spray", "height_agl_m": 2.5, "speed_mps": 2.0, "flow_lps": 0.01}, {"type": "land"}]
+def test_spray_passes_follow_the_plan_with_the_flow_scaled_by_speed_over_the_passes_only() -> None:
+    from vinecli.rows.spray_rate import phase_plan
+    from vinecli.specs.mission import SprayPhase
+
+    spec = {"type": "spray", "height_agl_m": 2.5, "speed_mps": 2.0, "flow_lps": 0.01}
+    phases = [{"type": "takeoff", "altitude_agl_m": 2.0}, spec, {"type": "land"}]
     d, ap, tr, ev = run(phases, 120, name="x500-sprayer", vine_rows_enu=ROWS)
     assert ap.status().status is RunStatus.COMPLETED
+    plan = phase_plan(SprayPhase.model_validate(spec), vehicle("x500-sprayer"), [list(r) for r in ROWS], (0.0, 0.0))
+    passes = [leg.points for leg in plan.legs if leg.spray]
     spraying = [i for i, f in enumerate(tr.flow) if f > 0.0]
     assert len(spraying) > 200
-    for i in spraying:  # flow only over the rows
-        assert _dist_to_rows(tr.pos[i][0], tr.pos[i][1]) < 0.5
-        assert tr.pos[i][2] == pytest.approx(2.5, abs=0.3)  # above the flat terrain at z = 0
-    # every row was covered end to end
-    for (x0, _y0), _end in ROWS:
-        ys = [tr.pos[i][1] for i in spraying if abs(tr.pos[i][0] - x0) < 0.5]
-        assert min(ys) < 1.0 and max(ys) > 11.0
-    # flow switched off in the turns: on/off edges = 3 rows
+    for i in spraying:  # flow only over the planned passes (they run on past the row ends by the footprint)
+        x, y, z = tr.pos[i]
+        assert min(_dist_to(x, y, p) for p in passes) < 0.7  # sections open only within 0.7 m of the path
+        assert z == pytest.approx(2.5, abs=0.3)  # above the flat terrain at z = 0
+    # the flow follows the ground speed: litres per metre = flow / speed of the phase
+    per_m = [tr.flow[i] / math.hypot(*tr.vel[i][:2]) for i in spraying if math.hypot(*tr.vel[i][:2]) > 1.0]
+    assert sorted(per_m)[len(per_m) // 2] == pytest.approx(0.01 / 2.0, rel=0.05)
+    ys = [tr.pos[i][1] for i in spraying]
+    assert min(ys) < 0.0 and max(ys) > 12.0  # the rows covered end to end, and past them
+    # sections closed in the turns: one opening and one closing per pass
     edges = sum(1 for a, b in zip(tr.flow, tr.flow[1:], strict=False) if (a > 0) != (b > 0))
-    assert edges == 6
+    assert edges == 2 * len(passes)
 
 
 def test_spray_until_empty_repeats_passes() -> None:
@@ -201,7 +208,7 @@ def test_geofence_hold_stops_near_the_fence() -> None:
 def test_geofence_rtl_returns_home_and_lands() -> None:
     d, ap, tr, ev = run(FENCE_PHASES, 60, geofence=_fence("rtl"), force=push)
     st = ap.status()
-    assert st.status is RunStatus.COMPLETED and "returned to launch" in st.detail
+    assert st.status is RunStatus.FAILSAFE and "returned to launch" in st.detail  # the mission was not finished
     assert "AUTO.RTL" in [e.data["mode"] for e in ev if e.kind == "mode"]
     assert math.hypot(d.pos[0], d.pos[1]) < 0.3 and d.on_ground
     assert max(p[2] for p in tr.pos) >= 5.0  # climbed to the 5 m return altitude
@@ -210,7 +217,7 @@ def test_geofence_rtl_returns_home_and_lands() -> None:
 def test_geofence_land_lands_in_place() -> None:
     d, ap, tr, ev = run(FENCE_PHASES, 40, geofence=_fence("land"), force=push)
     st = ap.status()
-    assert st.status is RunStatus.COMPLETED and "landed" in st.detail
+    assert st.status is RunStatus.FAILSAFE and "landed" in st.detail
     gf = next(e for e in ev if e.kind == "geofence")
     assert d.on_ground and abs(d.pos[0] - gf.data["x"]) < 1.5
 

@@ -28,4 +28,4 @@ def test_ci_hills_pipeline_passes_every_check(tmp_path: Path) -> None:
         assert len(s["world"]["rows_enu"]) == 6
     spray = json.loads((tmp_path / "runs" / "spray" / "summary.json").read_text())
     assert spray["status"] == "completed"
-    assert {c["name"] for c in spray["checks"]} >= {"drain_time", "on_the_rows", "spray_height"}
+    assert {c["name"] for c in spray["checks"]} >= {"drain_time", "dose_row_rates", "spray_height"}

@@ -14,9 +14,9 @@ EXPECTED = {
     "takeoff": ("completed", {"tank_force_at_rest", "liftoff_force_jump", "steady_climb_force",
                               "drag_opposes_vertical_motion", "altitude_reached"}),
     "overload": ("cannot_take_off", {"cannot_take_off", "stays_on_ground"}),
-    "spray": ("completed", {"drain_time", "rotor_speed_follows_mass", "hover_law", "on_the_rows"}),
+    "spray": ("completed", {"drain_time", "rotor_speed_follows_mass", "hover_law", "dose_row_rates"}),
     "gust": ("completed", {"holds_position", "rotors_follow_wind_period", "tilts_into_wind", "tilt_magnitude"}),
-    "job": ("completed", {"every_row_sprayed", "several_sorties", "litres_per_sortie"}),
+    "job": ("completed", {"several_sorties", "litres_per_sortie", "dose_row_rates", "dose_hot_spots", "dose_gaps"}),
 }
 
 
@@ -54,12 +54,15 @@ def test_ci_thesis_numbers(ci_runs: Path) -> None:
     assert t["liftoff_force_jump"] >= 0.05                      # inertial jump at lift-off
     assert abs(t["steady_climb_force"] - 1.0) <= 0.03           # back to the weight in the steady climb
     s = checks("spray")
-    assert abs(s["drain_time"] - 1.0) <= 0.02
+    assert -0.02 <= s["drain_time"] - 1.0 <= 0.04               # the pump lags its command
     assert 0.4 <= s["hover_law"] <= 0.6                         # w ~ m^(1/2)
     j = json.loads((ci_runs / "job" / "summary.json").read_text())
-    assert len(j["sorties"]) == j["metrics"]["sorties"] >= 8   # the whole field takes ~10 tanks
+    assert 4 <= len(j["sorties"]) == j["metrics"]["sorties"] <= 8  # the whole field at 50 L/ha takes ~6 tanks
     assert all(s["end_reason"] == "tank empty" for s in j["sorties"][:-1])
     assert all(abs(s["volume_l"] - 1.0) < 0.02 for s in j["sorties"][:-1])
+    jc = checks("job")  # every row, the edge rows included, within ±15 %; no 1 m hot spot or gap (resumes)
+    assert jc["dose_row_rates"] <= 0.15 and jc["dose_hot_spots"] <= 1.3 and jc["dose_gaps"] >= 0.6
+    assert j["operations"]["field_capacity_ha_per_h"] > 0 and j["operations"]["idle_s"] > 0
     g = checks("gust")
     assert 0.9 <= g["rotors_follow_wind_period"] <= 1.1
     assert 0.75 <= g["tilt_magnitude"] <= 1.25                  # tilt ~ atan(F_drag / (m g))
@@ -105,7 +108,7 @@ def test_spray_starts_at_the_row_nearest_the_spawn(ci_runs: Path) -> None:
     run = next(c["run_id"] for c in batch["cases"] if c["case"] == "spray")
     events = [json.loads(line) for line in (ci_runs / run / "events.jsonl").read_text().splitlines()]
     plan = next(e for e in events if e["kind"] == "spray_plan")
-    assert plan["data"]["rows"][0] == 0 and plan["data"]["warnings"] == []
+    assert plan["data"]["passes"][0] == 0 and plan["data"]["mode"] == "rows"  # a pass over each, row 1 first
     import pyarrow.parquet as pq
 
     ts = pq.read_table(ci_runs / run / "timeseries.parquet", columns=["tank_flow_lps", "pos_enu_x_m"]).to_pydict()

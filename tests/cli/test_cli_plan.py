@@ -80,3 +80,20 @@ def test_import_plan_bad_item_exits_2(flat_world_dir: Path, tmp_path: Path) -> N
     assert r.exit_code == 2 and "bad.plan" in r.output and "mission.items[4]: unsupported command 31" in r.output
     assert not out.exists()
 
+
+
+def test_plan_swath_prints_and_plots_the_effective_swath(tmp_path: Path) -> None:
+    from vinecli.physics.swath import swath_pattern
+    from vinecli.vehicle import load_vehicle
+
+    out = tmp_path / "swath"
+    r = CliRunner().invoke(app, ["plan", "swath", "--vehicle", "x500-sprayer", "--height", "2", "--speed", "3",
+                                 "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "swath.json").read_text())
+    p = swath_pattern(load_vehicle("x500-sprayer"), 2.0, 3.0)
+    assert doc["effective_swath_m"] == pytest.approx(p.effective_m) and doc["cv_at_effective"] <= 0.10
+    assert f"effective swath {p.effective_m:.2f} m" in r.output
+    assert (out / "swath.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = CliRunner().invoke(app, ["plan", "swath", "--out", str(out)])
+    assert again.exit_code == 2  # nothing overwritten without --overwrite

@@ -48,9 +48,21 @@ def test_spray_run_writes_deposition_and_is_deterministic(flat_world_dir: Path, 
     assert (ra / "deposition.tif").read_bytes() == (rb / "deposition.tif").read_bytes()
     doc = json.loads((ra / "deposition.json").read_text())
     met = a.metrics
-    # the rate asked in L/ha became the flow 20 x swath x 2 m/s / 10 000
-    swath = doc["spray_phase"]["swath_m"]
-    assert doc["spray_phase"]["flow_lps"] == pytest.approx(20.0 * swath * 2.0 / 1e4, rel=1e-4)
+    # the rate asked in L/ha became the flow 20 x track width x 2 m/s / 10 000; the rows are 3.6 m apart, wider
+    # than the effective swath: a pass over each, whose track width doses the row's canopy band (narrower than the
+    # cone's swath edge to edge)
+    sp = doc["spray_phase"]
+    assert sp["passes"]["mode"] == "rows" and sp["passes"]["count"] == 2
+    assert sp["flow_lps"] == pytest.approx(20.0 * sp["track_width_m"] * 2.0 / 1e4, rel=1e-4)
+    assert sp["track_width_m"] < sp["effective_swath_m"] < sp["swath_m"]
+    assert "speed-scaled" in doc["sprayer_law"]["flow"]
+    # the dose judged by default on each row's planned stretch: the default checks are in the summary and pass
+    checks = {c["name"]: c for c in a.checks}
+    assert {"dose_row_rates", "dose_hot_spots", "dose_gaps", "dose_coverage", "dose_drift"} <= set(checks)
+    assert all(checks[n]["passed"] and checks[n]["implicit"] for n in checks if n.startswith("dose_"))
+    for row in doc["rows"]:
+        assert row["planned_m"] == pytest.approx([0.0, 12.0]) and row["segment_m"] == 0.5
+        assert abs(row["mean_rate_lpha"] / 20.0 - 1.0) <= 0.15 and row["faults"] == []
     assert met["deposit_balance_error"] <= 1e-6
     with rasterio.open(ra / "deposition.tif") as ds:
         assert ds.crs is None  # flat world: local ENU grid, origin in the tags

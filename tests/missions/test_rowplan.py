@@ -27,7 +27,10 @@ def test_starts_at_the_row_nearest_take_off_and_alternates() -> None:
     assert legs[0].points[0] == (12.5, 0.0)  # entered at the nearer end
     dirs = [math.copysign(1.0, leg.points[-1][1] - leg.points[0][1]) for leg in legs]
     assert dirs == [1, -1, 1, -1, 1, -1]
-    assert plan.legs[0].kind == "transit" and plan.legs[0].length_m == pytest.approx(math.hypot(1.5, 3.0))
+    # the transit ends with a straight run-in of v^2 / 2a along the first row: at speed where it starts
+    run_in = 2.0**2 / (2 * 1.5)
+    assert plan.legs[0].kind == "transit" and plan.legs[0].points[-2] == pytest.approx((12.5, -run_in))
+    assert plan.legs[0].length_m == pytest.approx(math.hypot(1.5, 3.0 - run_in) + run_in)
 
 
 def test_start_in_the_middle_does_the_near_side_first_then_jumps() -> None:
@@ -58,21 +61,27 @@ def test_time_estimate_from_trapezoids() -> None:
     plan = plan_rows(block(2, 2.5, 30.0), (0.0, 0.0), speed_mps=v, accel_mps2=a)
     # rows at cruise speed; stop turn: brake (v/a), cross 2.5 m rest to rest, run in (v/a)
     cross = 2.5 / v + v / a if 2.5 >= v * v / a else 2 * math.sqrt(2.5 / a)
-    assert plan.time_s == pytest.approx(60.0 / v + 2 * v / a + cross, abs=0.1)
+    # starting on the first row: back out v^2 / 2a (rest to rest) and run in along it (accelerating, v / a)
+    run_in = v * v / (2 * a)
+    back = 2 * math.sqrt(run_in / a)
+    assert plan.time_s == pytest.approx(back + v / a + 60.0 / v + 2 * v / a + cross, abs=0.1)
     assert plan.spray_length_m == pytest.approx(60.0)
-    assert plan.length_m == pytest.approx(60.0 + 2.5 + 2 * v * v / (2 * a))
+    assert plan.length_m == pytest.approx(2 * run_in + 60.0 + 2.5 + 2 * v * v / (2 * a))
     climb = plan_rows(block(2, 2.5, 30.0), (0.0, 0.0), speed_mps=v, accel_mps2=a, climb=(3.0, 3.0, 1.5))
     assert climb.time_s == pytest.approx(plan.time_s + 1.0 + 2.0, abs=0.1)
 
 
-def test_rows_clipped_to_the_fence_with_a_margin_and_one_warning_each() -> None:
+def test_rows_clipped_to_the_fence_with_a_margin_and_the_turns_fitted_inside() -> None:
     fence = [(-3.0, -3.0), (15.0, -3.0), (15.0, 25.0), (-3.0, 25.0)]  # rows run to y = 30: past the fence
     plan = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5, fence_enu=fence, fence_margin_m=1.0)
-    head = 2.0**2 / (2 * 1.5)
     ys = [p[1] for leg in plan.legs for p in leg.points]
     assert max(ys) <= 25.0 - 1.0 + 1e-6  # the headland turns too stay inside the fence - margin
-    assert max(p[1] for leg in plan.legs if leg.spray for p in leg.points) == pytest.approx(24.0 - head, abs=0.11)
-    assert len(plan.warnings) == 2 and "geofence" in plan.warnings[0] and "headland" in plan.warnings[1]
+    # the rows are sprayed up to the fence margin: the turns there have no run-out (the vehicle brakes in the row)
+    assert max(p[1] for leg in plan.legs if leg.spray for p in leg.points) == pytest.approx(24.0)
+    assert plan.stretches[0] == pytest.approx((0.0, 24.0))
+    # at the south end (y = 0, 2 m inside the margin) the full run-out v^2 / 2a = 1.33 m fits
+    assert min(ys[1:]) == pytest.approx(-2.0 ** 2 / (2 * 1.5))
+    assert len(plan.warnings) == 2 and "geofence" in plan.warnings[0] and "headland turns shortened" in plan.warnings[1]
     inside = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5,
                        fence_enu=[(-5.0, -5.0), (20.0, -5.0), (20.0, 40.0), (-5.0, 40.0)])
     assert inside.warnings == []
@@ -87,7 +96,9 @@ def test_rows_wholly_outside_the_fence_are_dropped_and_the_indices_kept() -> Non
 
 def test_rows_leaving_the_terrain_warn() -> None:
     plan = plan_rows(block(), (0.0, -2.0), speed_mps=2.0, accel_mps2=1.5, terrain_bounds=(-5.0, -5.0, 20.0, 20.0))
-    assert len(plan.warnings) == 1 and "terrain" in plan.warnings[0]
+    assert len(plan.warnings) == 2 and "terrain" in plan.warnings[0]
+    assert "headland turns shortened to fit the terrain" in plan.warnings[1]  # the path too stays on the map
+    assert max(p[1] for leg in plan.legs for p in leg.points) <= 20.0
     assert max(p[1] for leg in plan.legs if leg.spray for p in leg.points) == pytest.approx(20.0)
 
 

@@ -1,16 +1,19 @@
-"""Application rate <-> flow with the track width (missions/spray_rate.py)."""
+"""Spray phases against the sprayer (rows/spray_rate.py): the flow of the asked rate from the plan's track width
+(effective swath, not the cone), and rates or speeds the sprayer cannot deliver refused with the numbers."""
 
 from __future__ import annotations
 
 import pytest
 
+from vinecli.errors import InputError
 from vinecli.rows.spray_rate import (
     flow_for_rate,
     nominal_rate_lpha,
+    phase_plan,
     phase_rows,
     resolve_spray_rates,
+    spray_pattern,
     spray_swath_m,
-    track_width_m,
 )
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.vehicle import load_vehicle
@@ -20,25 +23,62 @@ def _rows(spacing: float, n: int = 4) -> list[list[tuple[float, float]]]:
     return [[(i * spacing, 0.0), (i * spacing, 30.0)] for i in range(n)]
 
 
-def test_track_width_is_the_swath_or_the_closer_row_spacing() -> None:
+def _mission(**spray: object) -> MissionSpec:
+    return MissionSpec.model_validate({"name": "r", "phases": [
+        {"type": "takeoff", "altitude_agl_m": 3.0},
+        {"type": "spray", "rows": [0, 1, 2], "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 100.0, **spray}]})
+
+
+def test_track_width_is_the_lane_spacing_or_the_single_pass_width_not_the_cone() -> None:
     v = load_vehicle("x500-sprayer")
     ph = SprayPhase(rows="world", height_agl_m=2.0, speed_mps=3.0, rate_lpha=100.0)
     swath = spray_swath_m(v, 2.0)
-    assert 2.0 < swath < 6.0
-    assert track_width_m(v, ph, _rows(0.9)) == pytest.approx(0.9)        # every row of a potato field
-    assert track_width_m(v, ph, _rows(swath + 1.0)) == pytest.approx(swath)  # rows wider apart than the swath
-    assert track_width_m(v, ph, _rows(0.9, n=1)) == pytest.approx(swath)   # one row: the swath
+    pat = spray_pattern(v, 2.0, 3.0)
+    assert 2.0 < pat.effective_m < swath  # the effective swath is narrower than the cone edge to edge
+    close = phase_plan(ph, v, _rows(0.9, 16), (0.0, -1.0))  # a potato field: passes every ~3 rows
+    assert close.layout is not None and close.layout.mode == "broadcast"
+    assert close.flow_width_m <= pat.effective_m and pat.good(close.flow_width_m)
+    assert len(close.order) < 16
+    one = phase_plan(ph, v, _rows(0.9, n=1), (0.0, -1.0))
+    assert one.flow_width_m == pytest.approx(pat.single_pass_width_m(0.6))  # doses the row's canopy band
+    wide = phase_plan(ph, v, _rows(pat.effective_m + 1.0), (0.0, -1.0))  # a pass over each row
+    assert wide.layout is not None and wide.layout.mode == "rows" and len(wide.order) == 4
 
 
-def test_rate_resolves_to_the_flow_of_the_track_width_and_back() -> None:
+def test_rate_resolves_to_the_flow_of_the_plan_and_back() -> None:
     v = load_vehicle("x500-sprayer")
-    m = MissionSpec.model_validate({"name": "r", "phases": [
-        {"type": "takeoff", "altitude_agl_m": 3.0},
-        {"type": "spray", "rows": [0, 1, 2], "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 100.0}]})
     world_rows = _rows(0.9, n=6)
-    r = resolve_spray_rates(m, v, world_rows)
+    r = resolve_spray_rates(_mission(), v, world_rows)
     ph = r.phases[1]
-    assert ph.flow_lps == pytest.approx(flow_for_rate(100.0, 0.9, 3.0)) == pytest.approx(0.027)
+    assert isinstance(ph, SprayPhase)
+    plan = phase_plan(ph, v, phase_rows(ph, world_rows), (0.0, 0.0))
+    assert ph.flow_lps == pytest.approx(flow_for_rate(100.0, plan.flow_width_m, 3.0))
+    assert ph.canopy_width_m == 0.6  # resolved (the world's)
     flow_only = ph.model_copy(update={"rate_lpha": None})
-    assert nominal_rate_lpha(flow_only, v, phase_rows(flow_only, world_rows)) == pytest.approx(100.0)
+    assert nominal_rate_lpha(flow_only, v, plan) == pytest.approx(100.0)
     assert len(phase_rows(ph, world_rows)) == 3
+
+
+def test_a_rate_the_pump_cannot_deliver_is_refused_with_the_numbers_or_flown_slower() -> None:
+    v = load_vehicle("x500-sprayer")  # 0.1 L/s at most
+    rows = _rows(0.9, n=6)
+    with pytest.raises(InputError, match=r"100 L/ha over a 2\.[0-9]+ m track at 5 m/s needs 0\.1[0-9]+ L/s; x500-sprayer's "
+                                         r"sprayer delivers at most 0\.1000 L/s: fly at most 3\.[0-9]+ m/s"):
+        resolve_spray_rates(_mission(speed_mps=5.0), v, rows)
+    slow = resolve_spray_rates(_mission(speed_mps=5.0, allow_slower=True), v, rows).phases[1]
+    assert isinstance(slow, SprayPhase)
+    assert 3.0 < slow.speed_mps < 5.0 and slow.flow_lps == pytest.approx(0.1)
+    plan = phase_plan(slow, v, phase_rows(slow, rows), (0.0, 0.0))
+    assert flow_for_rate(100.0, plan.flow_width_m, slow.speed_mps) == pytest.approx(0.1, rel=0.01)
+    with pytest.raises(InputError, match="below the sprayer's minimum 1 m/s"):
+        resolve_spray_rates(_mission(speed_mps=0.5), v, rows)
+
+
+def test_nozzles_outside_their_pressure_range_are_refused() -> None:
+    base = load_vehicle("x500-sprayer")
+    sp = base.sprayer.model_copy(update={"rated_flow_lps": 0.05, "rated_pressure_bar": 3.0,
+                                         "pressure_range_bar": (1.5, 8.0)})
+    v = base.model_copy(update={"sprayer": sp})
+    assert sp.flow_range_lps(0.1) == pytest.approx((0.05 * (0.5 ** 0.5), 0.05 * (8.0 / 3.0) ** 0.5))
+    with pytest.raises(InputError, match="nozzles need at least 0.0354 L/s"):
+        resolve_spray_rates(_mission(rate_lpha=20.0, speed_mps=2.0), v, _rows(0.9, n=6))

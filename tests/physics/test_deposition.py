@@ -13,7 +13,7 @@ import pytest
 from vinecli.physics.deposit_grid import GridSpec, flat_height, grid_for, rasterise, rasterise_discs
 from vinecli.physics.deposition import EMIT_COLUMNS, DepositionConfig, SprayerGeometry, transport
 from vinecli.physics.droplets import terminal_velocity
-from vinecli.specs.vehicle import DropletSpectrumSpec, NozzleSpec, SprayerSpec
+from vinecli.specs.sprayer import DropletSpectrumSpec, NozzleSpec, SprayerSpec
 from vinecli.specs.wind import WindSpec
 from vinecli.vehicle import load_vehicle
 

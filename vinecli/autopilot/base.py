@@ -34,6 +34,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
     PREFLIGHT_FAILED = "preflight_failed"
     INTERRUPTED = "interrupted"
     ERROR = "error"
+    ABORTED = "aborted"
 
     @property
     def message(self) -> str:
@@ -49,6 +50,7 @@ class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values a
             "preflight_failed": "a preflight check failed: not armed",
             "interrupted": "interrupted by the user",
             "error": "the run failed",
+            "aborted": "the mission was abandoned: the job could not be finished",
         }[self.value]
 
 
@@ -80,6 +82,8 @@ class AutopilotContext:
     #: an external state estimate to fly on instead of the backend's own estimator: the simulator's
     #: perfect one in ground-truth runs (``truth: true``); None: the backend estimates from its sensors
     estimator: StateEstimate | None = None
+    #: air density of the world, kg/m³ (the spray plan's pattern depends on it through the downwash)
+    air_density_kgm3: float = 1.225
 
     def terrain_height(self, x: float, y: float) -> float:
         """Terrain z (ENU m) of the map at (x, y); flat at the home ground without a map."""

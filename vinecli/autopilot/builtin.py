@@ -130,6 +130,7 @@ class BuiltinAutopilot(FlightSupervisor):
         self._phase_t = 0.0
         self._failsafe = False
         self._failsafe_detail = ""
+        self._failsafe_status = RunStatus.FAILSAFE
         self._battery_level = 0  # 0 ok, 1 critical (returning), 2 emergency (landing)
         self.sprayer_inhibited = False
         self._countdown = 0

@@ -85,6 +85,10 @@ class PhaseHost(Protocol):
         """Ask the ground crew to refill / swap the battery (honoured while disarmed on the ground)."""
         ...
 
+    def abort(self, detail: str) -> None:
+        """Abandon the mission: return home and land (at once when on the ground), then end the run ``aborted``."""
+        ...
+
 
 @mypyc_attr(allow_interpreted_subclasses=True)  # compiled (vinecli/native.py); MAVLink phases subclass it
 class Phase(ABC):

@@ -94,11 +94,14 @@ def check_spawn_fence(fence: GeofenceSpec | None, home: Vec3, margin_h: float) -
 
 def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[float, float]]],
                 terrain_height: Callable[[float, float], float] | None, landing_gear_m: float, *,
-                fence: GeofenceSpec | None = None, accel_mps2: float | None = None) -> list[PlanPoint]:
+                fence: GeofenceSpec | None = None, accel_mps2: float | None = None, vehicle: VehicleSpec | None = None,
+                terrain_bounds: tuple[float, float, float, float] | None = None,
+                air_density: float = 1.225) -> list[PlanPoint]:
     """The points the mission's phases fly to (z above home). A spray phase contributes the path the
-    built-in spray phase flies: :func:`~vinecli.rows.plan.plan_rows` over its rows from where the vehicle
-    is, clipped to ``fence`` and with headland turns for ``accel_mps2`` (its rows' points when no
-    acceleration is given), each at the spray height over the terrain."""
+    built-in spray phase flies: with ``vehicle`` its plan (:func:`~vinecli.rows.spray_rate.phase_plan`: the
+    passes from the sprayer's pattern), else :func:`~vinecli.rows.plan.plan_rows` over its rows with headland
+    turns for ``accel_mps2`` (its rows' points when no acceleration is given), from where the vehicle is,
+    clipped to ``fence``, each at the spray height over the terrain."""
     pts: list[PlanPoint] = []
     x, y, z = home[0], home[1], 0.0
     for i, ph in enumerate(mission.phases):
@@ -122,9 +125,16 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
         elif isinstance(ph, SprayPhase):
             sel = [[(float(a), float(b)) for a, b in r] for r in phase_rows(ph, rows)]
             path = [(p, "row point", False) for r in sel for p in r]
-            if accel_mps2 is not None and sel:
-                polygon = fence.polygon_enu if fence is not None and fence.polygon_enu else None
+            polygon = fence.polygon_enu if fence is not None and fence.polygon_enu else None
+            plan = None
+            if vehicle is not None and sel:
+                from vinecli.rows.spray_rate import phase_plan
+
+                plan = phase_plan(ph, vehicle, sel, (x, y), fence_enu=polygon, terrain_bounds=terrain_bounds,
+                                  air_density=air_density)
+            elif accel_mps2 is not None and sel:
                 plan = plan_rows(sel, (x, y), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=polygon)
+            if plan is not None:
                 path = [(p, "path point" if leg.spray else f"{leg.kind} point", not leg.spray)
                         for leg in plan.legs for p in leg.points]
             for (px, py), what, turn in path:

@@ -19,7 +19,7 @@ at >= 95 % of w_max) for ``control.cannot_takeoff_s`` while the vehicle has not 
 status and disarm.
 Geofence breach actions follow PX4 ``GF_ACTION``: none/warn (event only), hold (loiter
 where the breach happened until the run's time limit), rtl / land (then the run ends
-"completed" with the breach in the detail), terminate (motors off, status
+``failsafe`` with the breach in the detail: the mission was not flown to its end), terminate (motors off, status
 ``geofence_terminated``). The fence is checked on the estimated position while airborne (on the
 ground a noisy estimate near the fence is no breach; preflight keeps home and the plan a 3 σ
 margin inside). A phase that exceeds its ``timeout_s`` ends the run with status ``timeout``.
@@ -107,6 +107,7 @@ class FlightSupervisor:
     _phase_t: float  # s in the current phase
     _failsafe: bool  # flying a failsafe action (the run ends when it is done)
     _failsafe_detail: str
+    _failsafe_status: RunStatus
     _battery_level: int  # 0 ok, 1 critical (returning), 2 emergency (landing)
     _z_armed: float  # z where the vehicle armed, ENU m
     _sat_t: float  # s thrust-limited near the ground
@@ -124,7 +125,8 @@ class FlightSupervisor:
         if spawn is not None:
             out.append(spawn)
         pts = plan_points(ctx.mission, self.home, ctx.vine_rows_enu, self.terrain, v.frame.landing_gear_height_m,
-                          fence=ctx.geofence, accel_mps2=plan_accel(v))
+                          fence=ctx.geofence, accel_mps2=plan_accel(v), vehicle=v, terrain_bounds=ctx.terrain_bounds,
+                          air_density=ctx.air_density_kgm3)
         out += check_plan(pts, ctx.geofence, self.home, margins, ctx.terrain_bounds)
         return out
 
@@ -204,12 +206,22 @@ class FlightSupervisor:
                   {"fill_l": req.fill_l, "swap_battery": req.swap_battery})
 
     def set_flow(self, flow: float) -> None:
-        """Sprayer flow command, L/s (held at 0 after a failsafe)."""
+        """Sprayer flow command, L/s (held at 0 after a failsafe); event ``sprayer`` when it switches on or off."""
         if self.sprayer_inhibited:
             flow = 0.0
-        if flow != self.flow:
-            self.flow = flow
-            self.emit("sprayer", f"sprayer flow {flow:g} L/s", {"flow_lps": flow})
+        if (flow > 0.0) != (self.flow > 0.0):
+            self.emit("sprayer", f"sprayer flow {flow:g} L/s" if flow > 0.0 else "sprayer off", {"flow_lps": flow})
+        self.flow = flow
+
+    def abort(self, detail: str) -> None:
+        """Abandon the mission (a job that cannot go on): sprayer off, return home and land, then end the run
+        ``aborted`` with ``detail``; on the ground, end it at once."""
+        self.set_flow(0.0)
+        if not (self.armed and self.airborne):
+            self.disarm()
+            self._finish(RunStatus.ABORTED, detail)
+            return
+        self._failsafe_to(Rtl(5.0, math.inf), detail, RunStatus.ABORTED)
 
     def hold_sp(self) -> Vec3:
         """Where to hold: the last position setpoint, else the current estimate."""
@@ -268,15 +280,17 @@ class FlightSupervisor:
             return
         if self._failsafe:
             self._phase = None
-            self._finish(RunStatus.COMPLETED, self._failsafe_detail)
+            self._finish(self._failsafe_status, self._failsafe_detail)
             return
         self.emit("phase", f"phase {self._phase_i} ({ph.type}) end", {"index": self._phase_i, "type": ph.type, "event": "end"})
         self._next_phase()
 
-    def _failsafe_to(self, ph: Phase, detail: str) -> None:
-        """Leave the mission for failsafe action ``ph``; when it is done the run ends with ``detail``."""
+    def _failsafe_to(self, ph: Phase, detail: str, status: RunStatus = RunStatus.FAILSAFE) -> None:
+        """Leave the mission for failsafe action ``ph``; when it is done the run ends ``status`` (``failsafe``: the
+        mission was not flown to its end) with ``detail``."""
         self._failsafe = True
         self._failsafe_detail = detail
+        self._failsafe_status = status
         self._phase = ph
         self._phase_t = 0.0
         ph.start(self)

@@ -12,7 +12,8 @@ from vinecli.cli.console import err_console, handles_errors, out_console
 from vinecli.cli.options import out_option, overwrite_option, world_option
 from vinecli.spray_defaults import SPRAY_DEFAULTS
 
-app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> mission.", no_args_is_help=True)
+app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> mission, a sprayer's effective swath.",
+                  no_args_is_help=True)
 
 
 @app.command("rows")
@@ -62,6 +63,34 @@ def rows_cmd(
     if job.sorties > 1:
         names.append(f"{out.stem}.sortie-{{1..{job.sorties}}}.plan")
     out_console.print(escape(f"{out}: {len(job.plan.order)} rows{sorties}; wrote {', '.join(names)}"))
+
+
+@app.command("swath")
+@handles_errors
+def swath_cmd(
+    out: Annotated[Path, out_option("Directory to write (swath.json, swath.png).")],
+    vehicle: Annotated[str, typer.Option("--vehicle", help="Vehicle name (vehicles/<name>.yaml) or path.")] = "x500-sprayer",
+    height: Annotated[float, typer.Option("--height", help="Spray height above the crop (skids), m.")
+                      ] = SPRAY_DEFAULTS.height_m,
+    speed: Annotated[float, typer.Option("--speed", help="Ground speed, m/s.")] = SPRAY_DEFAULTS.speed_mps,
+    crosswind: Annotated[float, typer.Option("--crosswind", help="Wind across the passes, m/s (towards the left of a pass).")] = 0.0,
+    cv_limit: Annotated[float, typer.Option("--cv-limit", help="CV of the overlapped deposit that defines the effective swath.")] = 0.10,
+    band: Annotated[float, typer.Option("--band", help="Canopy band one pass doses, m (the single-pass width).")] = 0.6,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace OUT if it exists.")] = False,
+) -> None:
+    """The effective swath of a vehicle's sprayer from the deposition model (ASABE S386.2 style): prints it and
+    plots the single-pass cross-track pattern, the overlapped pattern and the CV against the lane spacing.
+
+    Example: vinecli plan swath --vehicle ag-hexa-16 --height 2.5 --speed 5 --out swath-hexa
+    """
+    from vinecli.report.swath_report import swath_report
+
+    r = swath_report(vehicle, out, height_agl_m=height, speed_mps=speed, crosswind_mps=crosswind, cv_limit=cv_limit,
+                     band_m=band, overwrite=overwrite)
+    out_console.print(f"{r.vehicle} at {r.height_agl_m:g} m, {r.speed_mps:g} m/s, crosswind {r.crosswind_mps:g} m/s: "
+                      f"effective swath {r.effective_m:.2f} m (CV {r.cv_at_effective:.1%} <= {r.cv_limit:.0%}), "
+                      f"geometric {r.geometric_m:.2f} m, single pass over a {band:g} m band {r.single_pass_width_m:.2f} m")
+    out_console.print(f"wrote {', '.join(str(p) for p in r.files)}")
 
 
 @app.command("import")

@@ -33,7 +33,8 @@ class PathFollower:
     """Carrot along ``points`` (x, y, z): ``z`` is ENU m, or height above ``terrain(x, y)``.
 
     ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]); ``max_up`` /
-    ``max_down`` (m/s) cap the carrot's vertical speed on climbing / descending segments.
+    ``max_down`` (m/s) cap the carrot's vertical speed on climbing / descending segments; the carrot comes to
+    rest at the points whose indices are in ``stops``.
     """
 
     def __init__(self, points: Sequence[Vec3], speed: float, *, accel: float = 1.5, flows: Sequence[float] | None = None,
@@ -41,16 +42,19 @@ class PathFollower:
                  max_lead_m: float = 2.5, corner_speed: float = 0.3, terrain_tau_s: float = 0.4,
                  max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf,
                  lookahead_s: float = 2.0, lookahead_m: float | None = None, climb_frac: float = 0.5,
-                 floor_margin_frac: float = 0.25) -> None:
+                 floor_margin_frac: float = 0.25, stops: Sequence[int] = ()) -> None:
         pts: list[Vec3] = [(float(p[0]), float(p[1]), float(p[2])) for p in points]
         # drop zero-length segments
         clean = [pts[0]]
         clean_flows: list[float] = []
+        stop_at: list[int] = []
         for i, p in enumerate(pts[1:]):
             q = clean[-1]
             if math.hypot(p[0] - q[0], p[1] - q[1]) + abs(p[2] - q[2]) > 1e-6:
                 clean.append(p)
                 clean_flows.append(float(flows[i]) if flows is not None else 0.0)
+            if i + 1 in stops:
+                stop_at.append(len(clean) - 1)
         self.points = clean
         self.flows = clean_flows if clean_flows else [0.0]
         self.speed = speed
@@ -89,6 +93,8 @@ class PathFollower:
             self.v_seg.append(min(speed, lim / abs(vz_frac)) if abs(vz_frac) > 1e-6 else speed)
         for i in range(1, n - 1):
             self.v_vertex[i] = min(self.v_vertex[i], self.v_seg[i - 1], self.v_seg[i])
+        for i in stop_at:  # come to rest there (e.g. before a run-in along a row)
+            self.v_vertex[i] = 0.0
         self.s = 0.0
         self.v = 0.0
         self.seg = 0
@@ -162,6 +168,65 @@ class PathFollower:
         f = 0.0 if seg_len <= 0 else min(1.0, (s - cum[i]) / seg_len)
         start = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
         return [start, *self.points[i + 1:]], list(self.flows[i:])
+
+    def from_s(self, s: float) -> tuple[list[Vec3], list[float]]:
+        """The rest of the path from arc length ``s`` (m): (points as given, flows per segment)."""
+        cum = self.cum
+        if len(cum) == 1:
+            return [self.points[0]], []
+        s = min(max(s, 0.0), self.total)
+        i = 0
+        while i < len(cum) - 2 and s > cum[i + 1]:
+            i += 1
+        a, b = self.points[i], self.points[i + 1]
+        seg_len = cum[i + 1] - cum[i]
+        f = 0.0 if seg_len <= 0 else min(1.0, (s - cum[i]) / seg_len)
+        start = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
+        return [start, *self.points[i + 1:]], list(self.flows[i:])
+
+    def project(self, pos: Vec3, back: int = 3) -> tuple[float, float]:
+        """(arc length m, horizontal distance m) of the point of the path nearest to ``pos`` (ENU), searched on
+        the carrot's segment and the ``back`` segments before it (the vehicle trails the carrot)."""
+        pts, cum = self.points, self.cum
+        best_s, best_d2 = 0.0, math.inf
+        px, py = pos[0], pos[1]
+        for i in range(max(0, self.seg - back), min(self.seg + 1, len(pts) - 1)):
+            ax, ay = pts[i][0], pts[i][1]
+            dx, dy = pts[i + 1][0] - ax, pts[i + 1][1] - ay
+            l2 = dx * dx + dy * dy
+            u = ((px - ax) * dx + (py - ay) * dy) / l2 if l2 > 0.0 else 0.0
+            u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+            ex, ey = ax + u * dx - px, ay + u * dy - py
+            d2 = ex * ex + ey * ey
+            if d2 < best_d2:
+                best_d2 = d2
+                best_s = cum[i] + u * (cum[i + 1] - cum[i])
+        return best_s, math.sqrt(best_d2)
+
+    def flow_at(self, s: float) -> float:
+        """The flow of the segment at arc length ``s`` (m); 0 beyond the end."""
+        cum = self.cum
+        if s < 0.0 or s >= self.total or len(cum) < 2:
+            return 0.0
+        lo, hi = 0, len(cum) - 2
+        while lo < hi:  # the last segment whose start is <= s
+            mid = (lo + hi + 1) // 2
+            if cum[mid] <= s:
+                lo = mid
+            else:
+                hi = mid - 1
+        return self.flows[lo]
+
+    def direction_at(self, s: float) -> tuple[float, float]:
+        """Horizontal unit direction of the path at arc length ``s`` (the segment there)."""
+        cum = self.cum
+        i = 0
+        while i < len(cum) - 2 and s > cum[i + 1]:
+            i += 1
+        a, b = self.points[i], self.points[min(i + 1, len(self.points) - 1)]
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        n = math.hypot(dx, dy)
+        return (dx / n, dy / n) if n > 0.0 else (1.0, 0.0)
 
     @property
     def end(self) -> Vec3:

@@ -59,9 +59,10 @@ def budget_metrics(budget: Any, canopy: Any, applied_lpha: float) -> dict[str, f
 
 
 def budget_default_checks(checks: Sequence[CheckSpec], metrics: dict[str, Any]) -> list[CheckSpec]:
-    """``checks`` plus the default budget checks that apply (see the module doc) and are not overridden."""
+    """The default budget checks that apply (see the module doc) and that ``checks`` (the mission's) do not
+    override."""
     used = {c.quantity for c in checks}
-    out = list(checks)
+    out: list[CheckSpec] = []
     drift = metrics.get("budget_drift_5m_percent")
     if isinstance(drift, (int, float)) and math.isfinite(drift) and "metric:budget_drift_5m_percent" not in used:
         out.append(CheckSpec(name="budget_drift_5m", quantity="metric:budget_drift_5m_percent", op="<=",

@@ -21,7 +21,8 @@ or any kind in the run's events; first occurrence), ``phase:N`` (first sample of
 optionally followed by ``+s`` or ``-s`` (seconds), e.g. ``"liftoff-1.0"``, ``"end-5"``.
 A reference to an event that did not happen makes the check fail (with that message).
 
-If a mission has no check on ``status``, an implicit ``status == completed`` check is added.
+If a mission has no check on ``status``, an implicit ``status == completed`` check is added; the
+default checks of a spraying mission (:mod:`vinecli.missions.dose`) are implicit too.
 """
 
 from __future__ import annotations
@@ -65,11 +66,13 @@ class CheckResult:
 FIRMWARE_STALLS = ("px4_stalls", "ardupilot_stalls")
 
 
-def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | None = None) -> list[CheckSpec]:
-    """The checks actually evaluated: the mission's plus ``status == completed`` if none tests the status,
-    and, for a firmware run (its stall counter in ``metrics``), ``<firmware>_stalls == 0`` unless the
-    mission checks that counter itself: a step without the firmware's answer is not the firmware's flight."""
-    out = list(checks)
+def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | None = None,
+                    defaults: Sequence[CheckSpec] = ()) -> list[CheckSpec]:
+    """The checks actually evaluated: the mission's, the ``defaults`` (e.g. the dose checks), plus
+    ``status == completed`` if none tests the status, and, for a firmware run (its stall counter in
+    ``metrics``), ``<firmware>_stalls == 0`` unless the mission checks that counter itself: a step without
+    the firmware's answer is not the firmware's flight."""
+    out = [*checks, *defaults]
     if not any(c.quantity == "status" for c in checks):
         out.append(
             CheckSpec(name="status", quantity="status", op="==", bound="completed",
@@ -82,11 +85,12 @@ def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | No
     return out
 
 
-def evaluate_checks(checks: Sequence[CheckSpec], data: RunData) -> list[CheckResult]:
-    """Evaluate every check (plus the implicit status check); never raises for run-dependent problems."""
+def evaluate_checks(checks: Sequence[CheckSpec], data: RunData, defaults: Sequence[CheckSpec] = ()) -> list[CheckResult]:
+    """Evaluate every check (plus the ``defaults`` and the implicit status check, marked implicit); never raises for
+    run-dependent problems."""
     explicit = len(checks)
     results = []
-    for i, c in enumerate(implicit_checks(checks, data.metrics)):
+    for i, c in enumerate(implicit_checks(checks, data.metrics, defaults)):
         r = evaluate_check(c, data)
         r.implicit = i >= explicit
         results.append(r)

@@ -3,10 +3,13 @@
 Everything is measured on the deposition grid (cell centres), the off-grid volume counting as
 outside the fence. Row bands: each targeted row polyline ± half the canopy width. Along each row the band is cut
 into ``segment_m`` pieces; a piece's rate is the volume of the grid cells whose centres lie in
-it divided by their area (L/ha). A row is *sprayed* when one of its pieces got at least half the
-nominal rate; its *sprayed stretch* runs from the first to the last such piece. Mean rate and
-CV (ASABE S386.2 style: std / mean of the collector values) are over the pieces of the sprayed
-stretches; coverage is the share of the targeted rows' length that got ≥ 50 % of the nominal rate.
+it divided by their area (L/ha). Each row has a *planned stretch* (start, end along the row, m: the
+part the plan sprays, i.e. the row clipped to the fence and the terrain; the whole row without a
+plan): the dose is judged there. A row's mean rate and the CV (ASABE S386.2 style: std / mean of the
+collector values) are over the pieces of its planned stretch; coverage is the share of the planned
+stretches that got ≥ 50 % of the nominal rate; the dose windows are ``window_m`` long runs of pieces
+inside the planned stretch (their mean against the asked rate: hot spots and gaps). Every fraction
+lies in [0, 1].
 """
 
 from __future__ import annotations
@@ -30,13 +33,23 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
     "deposit_off_grid_l": ("L", "Emitted volume that landed beyond the deposition grid, L"),
     "deposit_balance_error": ("1", "|emitted - on grid - off grid| / emitted (volume balance, <= 1e-6 by construction)"),
     "deposit_on_rows_fraction": ("1", "Share of the emitted volume landing on the canopy: within a row band (row ± canopy width / 2) of any row"),
-    "row_coverage_fraction": ("1", "Share of the targeted rows' length that received >= 50 % of the nominal rate"),
-    "mean_rate_lpha_on_rows": ("L/ha", "Mean application rate along the sprayed stretches of the rows, L/ha"),
-    "deposit_cv_on_rows": ("1", "Coefficient of variation of the rate along the sprayed stretches of the rows"),
+    "row_coverage_fraction": ("1", "Share of the rows' planned stretches that received >= 50 % of the nominal rate"),
+    "mean_rate_lpha_on_rows": ("L/ha", "Mean application rate along the planned stretches of the rows, L/ha"),
+    "deposit_cv_on_rows": ("1", "Coefficient of variation of the rate along the planned stretches of the rows"),
+    "row_rate_ratio_min": ("1", "Lowest mean rate of a row (over its planned stretch) / the asked rate"),
+    "row_rate_ratio_max": ("1", "Highest mean rate of a row (over its planned stretch) / the asked rate"),
+    "row_rate_error_max": ("1", "Largest |row mean rate / asked rate - 1| over the rows"),
+    "dose_window_ratio_max": ("1", "Highest mean rate of a dose window (1 m by default) along a planned stretch / asked"),
+    "dose_window_ratio_min": ("1", "Lowest mean rate of a dose window (1 m by default) along a planned stretch / asked"),
+    "dose_faults": ("1", "Number of stretches along the rows dosed above the hot or below the gap band"),
+    "row_in_band_fraction_min": ("1", "Lowest share of a row's planned stretch (0.5 m pieces) within the rate tolerance "
+                                      "(±15 % by default) of the asked rate"),
     "drift_outside_fence_fraction": ("1", "Share of the emitted volume landing outside the geofence (or the field)"),
     "nominal_rate_lpha": ("L/ha", "Rate the spray phase asked for (rate_lpha, or 10 000 q / (v track width)), L/ha"),
     "spray_swath_m": ("m", "Geometric swath of the nozzles at the spray height, m"),
-    "spray_track_width_m": ("m", "Width one pass doses: the swath, or the row spacing when the rows are closer, m"),
+    "spray_track_width_m": ("m", "Track width of the flow (flow = rate x width x speed): lane spacing, or the single-pass width, m"),
+    "treated_area_ha": ("ha", "Area the spray plan treats: the rows' planned stretches x their spacing, ha"),
+    "spray_effective_swath_m": ("m", "Effective swath of the vehicle at the spray height and speed (overlapped CV <= 10 %), m"),
     "deposit_centroid_offset_east_m": ("m", "Deposit centroid minus the volume-weighted nozzle path centroid, east, m"),
     "deposit_centroid_offset_north_m": ("m", "Deposit centroid minus the volume-weighted nozzle path centroid, north, m"),
 }
@@ -109,14 +122,74 @@ def row_profiles(grid: GridSpec, volume_l: np.ndarray, rows: Sequence[Polyline],
     return out
 
 
+def _windows(rate: np.ndarray, k: int) -> np.ndarray:
+    """Means of ``k`` consecutive pieces (NaN pieces count as 0: no grid there means nothing landed)."""
+    r = np.nan_to_num(rate, nan=0.0)
+    if r.size < k:
+        return np.array([r.mean()]) if r.size else r
+    c = np.concatenate([[0.0], np.cumsum(r)])
+    return (c[k:] - c[:-k]) / k
+
+
+def _faults(s_m: np.ndarray, win: np.ndarray, k: int, seg: float, nominal: float, bands: tuple[float, float]
+            ) -> list[dict[str, Any]]:
+    """Runs of windows above the hot or below the gap band: kind, from / to along the row (m), extreme ratio."""
+    gap, hot = bands
+    out: list[dict[str, Any]] = []
+    ratio = win / nominal
+    kind = np.where(ratio > hot, 1, np.where(ratio < gap, -1, 0))
+    i = 0
+    while i < kind.size:
+        if kind[i] == 0:
+            i += 1
+            continue
+        j = i
+        while j + 1 < kind.size and kind[j + 1] == kind[i]:
+            j += 1
+        sel = ratio[i:j + 1]
+        out.append({"kind": "hot" if kind[i] > 0 else "gap", "from_m": float(s_m[i] - 0.5 * seg),
+                    "to_m": float(s_m[j + k - 1] + 0.5 * seg), "ratio": float(sel.max() if kind[i] > 0 else sel.min())})
+        i = j + 1
+    return out
+
+
+def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: float, bands: tuple[float, float],
+              tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Fill ``pr`` (a row profile with ``planned_m``) with its dose figures; (pieces in the planned stretch, windows)."""
+    s0, s1 = pr["planned_m"]
+    r, s = pr["rate_lpha"], pr["s_m"]
+    inside = (s >= s0 - 1e-9) & (s <= s1 + 1e-9)
+    seg_len = pr["seg_len_m"][inside]
+    rin = r[inside]
+    ok = np.nan_to_num(rin, nan=0.0) >= 0.5 * nominal if nominal > 0 else np.zeros(rin.shape, bool)
+    planned = float(seg_len.sum())
+    pr["covered_fraction"] = float(min(seg_len[ok].sum() / planned, 1.0)) if planned > 0 else math.nan
+    idx = np.flatnonzero(np.nan_to_num(r, nan=0.0) >= 0.5 * nominal) if nominal > 0 else np.zeros(0, int)
+    pr["sprayed_m"] = [float(s[idx[0]]), float(s[idx[-1]])] if idx.size else None
+    vals = np.nan_to_num(rin, nan=0.0)
+    pr["mean_rate_lpha"] = float(np.average(vals, weights=seg_len)) if planned > 0 else math.nan
+    near = np.abs(vals / nominal - 1.0) <= tolerance if nominal > 0 else np.zeros(vals.shape, bool)
+    pr["in_band_fraction"] = float(min(seg_len[near].sum() / planned, 1.0)) if planned > 0 else math.nan
+    k = max(1, int(round(window_m / segment_m)))
+    win = _windows(rin, k) if rin.size else np.zeros(0)
+    pr["window_ratio"] = [float(win.min() / nominal), float(win.max() / nominal)] if win.size and nominal > 0 else None
+    pr["faults"] = _faults(s[inside], win, k, segment_m, nominal, bands) if win.size and nominal > 0 else []
+    return vals, win
+
+
 def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float,
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
+                       stretches: dict[int, tuple[float, float]] | None = None, window_m: float = 1.0,
+                       bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15
                        ) -> tuple[dict[str, float], list[dict[str, Any]]]:
     """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`.
 
     ``rows``: the rows the mission targeted (coverage, mean rate, CV, per-row figures);
-    ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``.
+    ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``;
+    ``stretches``: the planned stretch of each targeted row (index into ``rows``: (start, end) m along it; rows
+    missing from it were not planned); default: every row whole. ``bands``: (gap, hot) ratios of the dose faults;
+    ``tolerance``: the rate band of ``row_in_band_fraction_min`` (share of a row within ±tolerance of the asked rate).
     """
     p = dep.parcels
     em = float(dep.emitted_l)
@@ -139,7 +212,7 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
         from vinecli.rows.geometry import point_polyline_distance
 
         band = point_polyline_distance(gx, gy, canopy) <= hw
-        m["deposit_on_rows_fraction"] = float(dep.volume_l[band].sum() / em)
+        m["deposit_on_rows_fraction"] = _fraction(float(dep.volume_l[band].sum()), em)
     else:
         m["deposit_on_rows_fraction"] = nan
     poly = list(fence) if fence else None
@@ -150,37 +223,50 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
         poly = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
     if poly and em > 0:  # volume beyond the grid (>= margin_m from the sprayed path) counts as outside
         outside = ~points_in_polygon(gx, gy, poly)
-        m["drift_outside_fence_fraction"] = float((dep.volume_l[outside].sum() + dep.off_grid_l) / em)
+        m["drift_outside_fence_fraction"] = _fraction(float(dep.volume_l[outside].sum() + dep.off_grid_l), em)
     else:
         m["drift_outside_fence_fraction"] = nan
     profiles = row_profiles(dep.grid, dep.volume_l, rows, hw, segment_m) if rows else []
-    half = 0.5 * nominal_rate_lpha
     tot_len = cov_len = 0.0
-    stretch: list[np.ndarray] = []
+    pieces: list[np.ndarray] = []
+    windows: list[np.ndarray] = []
+    row_means: list[float] = []
+    n_faults = 0
     for i, pr in enumerate(profiles):
-        r = pr["rate_lpha"]
-        ok = np.nan_to_num(r, nan=0.0) >= half if nominal_rate_lpha > 0 else np.zeros(r.shape, bool)
-        tot_len += pr["length_m"]
-        cov_len += float(pr["seg_len_m"][ok].sum())
         pr["row"] = i
-        pr["covered_fraction"] = float(pr["seg_len_m"][ok].sum() / pr["length_m"]) if pr["length_m"] > 0 else nan
-        idx = np.flatnonzero(ok)
-        if idx.size:
-            seg = r[idx[0]:idx[-1] + 1]
-            seg = seg[np.isfinite(seg)]
-            stretch.append(seg)
-            pr["sprayed_m"] = [float(pr["s_m"][idx[0]]), float(pr["s_m"][idx[-1]])]
-            pr["mean_rate_lpha"] = float(np.mean(seg))
-        else:
-            pr["sprayed_m"] = None
-            pr["mean_rate_lpha"] = float(np.nanmean(r)) if np.isfinite(r).any() else nan
-    m["row_coverage_fraction"] = cov_len / tot_len if tot_len > 0 else nan
-    if stretch:
-        allr = np.concatenate(stretch)
-        mean = float(np.mean(allr))
-        m["mean_rate_lpha_on_rows"] = mean
-        m["deposit_cv_on_rows"] = float(np.std(allr) / mean) if mean > 0 else nan
-    else:
-        m["mean_rate_lpha_on_rows"] = nan
-        m["deposit_cv_on_rows"] = nan
+        planned = (stretches or {}).get(i) if stretches is not None else (0.0, pr["length_m"])
+        pr["planned_m"] = [float(planned[0]), float(planned[1])] if planned is not None else None
+        if planned is None:  # not planned (outside the fence): reported, not judged
+            pr.update(covered_fraction=nan, sprayed_m=None, mean_rate_lpha=nan, window_ratio=None, faults=[],
+                      in_band_fraction=nan)
+            continue
+        vals, win = _row_dose(pr, nominal_rate_lpha, segment_m, window_m, bands, tolerance)
+        length = planned[1] - planned[0]
+        tot_len += length
+        cov_len += pr["covered_fraction"] * length if pr["covered_fraction"] == pr["covered_fraction"] else 0.0
+        pieces.append(vals)
+        windows.append(win)
+        row_means.append(pr["mean_rate_lpha"])
+        n_faults += len(pr["faults"])
+    m["row_coverage_fraction"] = _fraction(cov_len, tot_len) if tot_len > 0 else nan
+    allr = np.concatenate(pieces) if pieces else np.zeros(0)
+    mean = float(np.mean(allr)) if allr.size else nan
+    m["mean_rate_lpha_on_rows"] = mean
+    m["deposit_cv_on_rows"] = float(np.std(allr) / mean) if allr.size and mean > 0 else nan
+    ok = nominal_rate_lpha > 0 and bool(row_means)
+    ratios = np.asarray(row_means) / nominal_rate_lpha if ok else np.zeros(0)
+    m["row_rate_ratio_min"] = float(np.nanmin(ratios)) if ratios.size else nan
+    m["row_rate_ratio_max"] = float(np.nanmax(ratios)) if ratios.size else nan
+    m["row_rate_error_max"] = float(np.nanmax(np.abs(ratios - 1.0))) if ratios.size else nan
+    allw = np.concatenate(windows) if windows else np.zeros(0)
+    m["dose_window_ratio_max"] = float(allw.max() / nominal_rate_lpha) if allw.size and nominal_rate_lpha > 0 else nan
+    m["dose_window_ratio_min"] = float(allw.min() / nominal_rate_lpha) if allw.size and nominal_rate_lpha > 0 else nan
+    m["dose_faults"] = float(n_faults) if ok else nan
+    inband = [pr["in_band_fraction"] for pr in profiles if pr.get("planned_m")]
+    m["row_in_band_fraction_min"] = float(np.nanmin(inband)) if inband and ok else nan
     return m, profiles
+
+
+def _fraction(part: float, whole: float) -> float:
+    """``part / whole`` clipped to [0, 1] (floating-point sums can stray by 1e-16)."""
+    return min(max(part / whole, 0.0), 1.0)

@@ -91,3 +91,38 @@ def rows_sprayed(ts: Mapping[str, np.ndarray], rows: Sequence[Polyline]) -> tupl
     return frac, frac * total
 
 
+
+
+def operations(ts: Mapping[str, np.ndarray], events: Sequence[tuple[float, str, dict]], area_ha: float
+               ) -> dict[str, float]:
+    """The operations figures of a job (SI, ha): from the first lift-off to the last touchdown (else the end),
+    the time airborne, spraying and on the ground between sorties (idle: refills, battery swaps, handling), the
+    sorties, refills and battery swaps, the litres and the energy, and per treated hectare (``area_ha``: the
+    rows' planned stretches x their spacing) the field capacity (ha/h), litres and energy."""
+    t = np.asarray(ts["t_s"], dtype=float)
+    nan = math.nan
+    lift = [tt for tt, kind, _d in events if kind == "liftoff"]
+    down = [tt for tt, kind, _d in events if kind == "touchdown"]
+    if not lift or t.size < 2:
+        return {}
+    t0 = float(min(lift))
+    t1 = float(max(down)) if down and max(down) > t0 else float(t[-1])
+    span = (t >= t0) & (t <= t1)
+    dt = np.append(np.diff(t), 0.0)
+    air = ~(np.asarray(ts.get("on_ground", np.zeros(t.size)), dtype=float) > 0.5)
+    flow = np.nan_to_num(np.asarray(ts.get("tank_flow_lps", np.zeros(t.size)), dtype=float))
+    job_s = t1 - t0
+    air_s = float(dt[span & air].sum())
+    litres = integral(ts, "tank_flow_lps") if "tank_flow_lps" in ts else 0.0
+    energy = integral(ts, "power_elec_w") / 3600.0 if "power_elec_w" in ts else nan
+    n_sorties = float(np.nanmax(ts["sortie"])) if "sortie" in ts and np.isfinite(ts["sortie"]).any() else 1.0
+    ok = area_ha > 0 and math.isfinite(area_ha)
+    return {
+        "job_time_s": job_s, "airborne_s": air_s, "spraying_s": float(dt[span & (flow > 0)].sum()),
+        "idle_s": job_s - air_s, "idle_fraction": (job_s - air_s) / job_s if job_s > 0 else nan,
+        "sorties": n_sorties, "refills": float(sum(1 for _t, k, _d in events if k == "refill")),
+        "battery_swaps": float(sum(1 for _t, k, _d in events if k == "battery_swap")),
+        "litres": litres, "energy_wh": energy, "treated_area_ha": area_ha if ok else nan,
+        "field_capacity_ha_per_h": area_ha / (job_s / 3600.0) if ok and job_s > 0 else nan,
+        "litres_per_ha": litres / area_ha if ok else nan, "energy_wh_per_ha": energy / area_ha if ok else nan,
+    }

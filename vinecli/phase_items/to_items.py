@@ -3,9 +3,11 @@
 :func:`phases_to_items` makes the item list a ground station uploads: take-off, waypoints, speed changes,
 loiter, land, RTL, and the sprayer switched with the command the caller chose
 (:class:`~vinecli.phase_items.sprayer.SprayerCommand`: DO_SET_ACTUATOR for PX4, DO_SPRAYER or
-DO_SET_SERVO for ArduPilot). A spray phase becomes THE spray plan (:func:`vinecli.rows.plan.plan_rows`:
-nearest row first, boustrophedon, headland turns for the vehicle's acceleration, rows clipped to the
-geofence with a 1 m margin) flown as terrain-following waypoints with the sprayer on over the rows only
+DO_SET_SERVO for ArduPilot). A spray phase becomes THE spray plan (with the vehicle in the context
+:func:`vinecli.rows.spray_rate.phase_plan`, the plan the built-in autopilot flies: passes from the
+sprayer's effective swath run on past the row ends; without it :func:`vinecli.rows.plan.plan_rows`, a pass
+per row; nearest pass first, boustrophedon, headland turns for the vehicle's acceleration, clipped to the
+geofence with a 1 m margin) flown as terrain-following waypoints with the sprayer on over the passes only
 (:func:`~vinecli.phase_items.spray_legs.leg_actions`). The geofence polygon becomes fence items
 (mission_type 1). Firmware parameters (PX4's MIS_TAKEOFF_ALT, GF_*, ...) are the caller's
 (:mod:`vinecli.mavlink.px4params` for PX4).
@@ -60,6 +62,10 @@ class PlanContext:
     nozzle_max_flow_lps: float | None = None  # None: vehicle without a tank
     accel_mps2: float = PATH_ACCEL_MPS2  # the spray plan's headland turns (rows.plan.plan_accel(vehicle))
     firmware: str = "a firmware mission"  # named in the errors ("... not possible with PX4")
+    #: the vehicle (VehicleSpec): spray phases fly its plan (rows.spray_rate.phase_plan); None: a pass per row
+    vehicle: object = None
+    terrain_bounds: tuple[float, float, float, float] | None = None
+    air_density: float = 1.225
 
     def home_ground_z(self) -> float:
         hx, hy, hz = self.home_enu
@@ -143,8 +149,14 @@ def _spray_phase(ph: SprayPhase, out: _Items, fence: Sequence[tuple[float, float
         raise SpecError(f"{where}: a spray phase given as rate_lpha needs its flow from the vehicle's nozzles; "
                         "resolve it first (vinecli.rows.spray_rate.resolve_spray_rates) or give flow_lps")
     _flow_fraction(ph.flow_lps, ctx, where)  # a vehicle without a tank cannot spray
-    plan = plan_rows(_spray_rows(ph, ctx, where), out.pos, speed_mps=ph.speed_mps, accel_mps2=ctx.accel_mps2,
-                     fence_enu=fence)
+    rows = _spray_rows(ph, ctx, where)
+    if ctx.vehicle is not None:
+        from vinecli.rows.spray_rate import phase_plan
+
+        plan = phase_plan(ph, ctx.vehicle, rows, out.pos, fence_enu=fence,  # type: ignore[arg-type]
+                          terrain_bounds=ctx.terrain_bounds, air_density=ctx.air_density)
+    else:
+        plan = plan_rows(rows, out.pos, speed_mps=ph.speed_mps, accel_mps2=ctx.accel_mps2, fence_enu=fence)
     if not plan.legs:
         raise SpecError(f"{where}: no rows left inside the geofence")
     out.speed(ph.speed_mps)

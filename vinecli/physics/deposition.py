@@ -131,6 +131,7 @@ class Parcels:
     vz_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall speed on landing (down positive), m/s
     group: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # emission group (path_xy row)
     primaries: int = 0  # the first ``primaries`` parcels: one per (group, nozzle, size class), in that order
+    sigma: np.ndarray = field(default_factory=lambda: np.zeros(0))  # σ of the turbulent-diffusion offset, m
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -158,8 +159,11 @@ def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
 
 def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
               wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
-              g: float = STANDARD_GRAVITY) -> Parcels:
-    """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed."""
+              g: float = STANDARD_GRAVITY, expected: bool = False) -> Parcels:
+    """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed.
+
+    ``expected``: no random diffusion offset (each parcel at the centre of its Gaussian, whose σ is in
+    ``Parcels.sigma``), for expected patterns (:mod:`vinecli.physics.swath`)."""
     from vinecli.physics.wind import height_factor
 
     rec = np.asarray(records, dtype=np.float64).reshape(-1, len(EMIT_COLUMNS))
@@ -167,7 +171,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     emitted = float(rec[:, 15].sum())
     if rec.shape[0] == 0:
         z = np.zeros(0)
-        return Parcels(z, z, z, z.astype(np.int64), np.zeros((0, 2)), 0.0, z)
+        return Parcels(z, z, z, z.astype(np.int64), np.zeros((0, 2)), 0.0, z, z)
     grp = _groups(rec, config.group_s)
     ng = grp.shape[0]
     p, q, v, wnd = grp[:, 1:4], grp[:, 4:8], grp[:, 8:11], grp[:, 11:14]
@@ -211,7 +215,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     # parcels: one per (group, nozzle, size class); the cone spreads each over a disc of radius h tan(θ/2)
     shape = (ng, nn, nc)
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0xDE905,)))
-    noise = rng.standard_normal((2, *shape)) if config.diffusion else np.zeros((2, *shape))
+    noise = rng.standard_normal((2, *shape)) if config.diffusion and not expected else np.zeros((2, *shape))
     tau3 = tau[None, None, :]
 
     def land(hh: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -240,8 +244,9 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     def flat(a: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(np.broadcast_to(a, shape)).ravel()
 
+    sig = np.sqrt(2.0 * kdiff[..., None] * t1)
     out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
-                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc)
+                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig))
     if config.downwash and config.outwash:
         _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
                     config)
@@ -297,3 +302,4 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_
     out.vy_land = np.concatenate([out.vy_land, sec["vy"]])
     out.vz_land = np.concatenate([out.vz_land, sec["vz"]])
     out.group = np.concatenate([out.group, out.group[k]])
+    out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the outwash's spread is in its landing points

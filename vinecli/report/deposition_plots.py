@@ -109,6 +109,19 @@ def fig23_deposition(data: Any) -> bytes:
             on = c["tank_flow_lps"] > 0
             ax.plot(np.where(on, x, np.nan), np.where(on, y, np.nan), color="k", lw=1.4, zorder=5,
                     label="sprayer on")
+    bps = [e["data"]["breakpoint_enu"] for e in data.events
+           if e.get("kind") == "sortie" and (e.get("data") or {}).get("breakpoint_enu")]
+    if bps:  # where a sortie stopped and the next one resumed
+        b = np.asarray(bps, float)
+        ax.plot(b[:, 0], b[:, 1], "o", ms=7, mfc="none", mec="#6a1b9a", mew=1.6, zorder=7,
+                label=f"sortie breakpoints ({len(bps)})")
+    faults = doc.get("dose_faults") or []
+    for i, f in enumerate(faults):  # where the dose left its band
+        p = f.get("position_enu")
+        if p:
+            ax.plot(p[0], p[1], "s" if f["kind"] == "hot" else "v", ms=8, mfc="none",
+                    mec=C_FAIL if f["kind"] == "hot" else "#1565c0", mew=1.6, zorder=8,
+                    label=("dose fault (hot / gap)" if i == 0 else None))
     fence = doc.get("geofence_polygon_enu") or (summary_world.get("geofence") or {}).get("polygon_enu") or []
     if len(fence) >= 3:
         f = np.asarray(list(fence) + [fence[0]], float)
@@ -134,11 +147,20 @@ def fig23_deposition(data: Any) -> bytes:
                frameon=False)
     tot = doc.get("totals") or {}
     sp = doc.get("spray_phase") or {}
+    passes = sp.get("passes") or {}
+    n_rows = len(doc.get("rows") or [])
+    in_tol = sum(1 for r in doc.get("rows") or [] if isinstance(r.get("mean_rate_lpha"), (int, float))
+                 and isinstance(nominal, (int, float)) and nominal > 0
+                 and abs(r["mean_rate_lpha"] / nominal - 1.0) <= float((doc.get("dose_bands") or {}).get("rate_tolerance", 0.15)))
     lines = [
         "Where the liquid landed",
         f"emitted            {_fmt(tot.get('emitted_l'), 'L', 3)}",
         f"asked rate         {_fmt(nominal, 'L/ha')}",
         f"swath (geometric)  {_fmt(sp.get('swath_m'), 'm', 2)}",
+        f"effective swath    {_fmt(sp.get('effective_swath_m'), 'm', 2)}",
+        f"passes             {passes.get('count', 'n/a')} x {_fmt(sp.get('track_width_m'), 'm', 2)} ({passes.get('mode', '')})",
+        f"rows within band   {in_tol} of {n_rows}",
+        f"dose faults        {len(faults)}",
         f"mean on rows       {_fmt(m.get('mean_rate_lpha_on_rows'), 'L/ha')}",
         f"CV along rows      {_fmt_pct(m.get('deposit_cv_on_rows'))}",
         f"rows covered >=50% {_fmt_pct(m.get('row_coverage_fraction'))}",
@@ -153,7 +175,8 @@ def fig23_deposition(data: Any) -> bytes:
 
 
 def fig24_row_coverage(data: Any) -> bytes:
-    """Per targeted row: rate along the row (L/ha) against the asked rate, and the share of its length covered."""
+    """Per targeted row: rate along its planned stretch against the asked rate and the dose bands, and its mean
+    (with the lowest and highest dose window) against the rate tolerance."""
     from vinecli.report.figure_base import C_FAIL, C_OK, NoData, new_figure, png_bytes, set_title
 
     doc, _rate = load_deposition(getattr(data, "run_dir", None))
@@ -161,6 +184,8 @@ def fig24_row_coverage(data: Any) -> bytes:
     if not rows:
         raise NoData("no targeted rows to chart")
     nominal = (doc.get("metrics") or {}).get("nominal_rate_lpha")
+    bands = doc.get("dose_bands") or {"rate_tolerance": 0.15, "hot_ratio": 1.3, "gap_ratio": 0.6}
+    tol = float(bands["rate_tolerance"])
     fig, axes = new_figure("fig24", rows=2, cols=1, sharex=False)
     fig.subplots_adjust(hspace=0.35)
     ax, axb = axes[0, 0], axes[1, 0]
@@ -171,22 +196,38 @@ def fig24_row_coverage(data: Any) -> bytes:
     for i, r in enumerate(rows):
         rate = np.array([np.nan if v is None else v for v in r["rate_lpha"]], float)
         s = (np.arange(rate.size) + 0.5) * float(r.get("segment_m", 0.5))
-        ax.plot(s, rate, lw=1.0, color=cm(i % 10 if cmap_n <= 10 else i / cmap_n), label=f"row {r['row']}")
-    if isinstance(nominal, (int, float)) and math.isfinite(nominal):
+        planned = r.get("planned_m") or [0.0, float(r.get("length_m", s[-1] if s.size else 0.0))]
+        inside = (s >= planned[0]) & (s <= planned[1])
+        ax.plot(np.where(inside, s, np.nan), rate, lw=1.0, color=cm(i % 10 if cmap_n <= 10 else i / cmap_n),
+                label=f"row {r['row']}")
+    ok_nominal = isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal > 0
+    if ok_nominal:
+        ax.axhspan((1 - tol) * nominal, (1 + tol) * nominal, color="k", alpha=0.07, label=f"asked ±{tol:.0%}")
         ax.axhline(nominal, color="k", lw=1.2, label=f"asked {nominal:.1f} L/ha")
-        ax.axhline(0.5 * nominal, color="k", lw=1.0, ls=":", label="50 % of asked")
-    ax.set_xlabel("distance along the row, m")
+        ax.axhline(float(bands["hot_ratio"]) * nominal, color=C_FAIL, lw=0.9, ls="--",
+                   label=f"hot spot > {float(bands['hot_ratio']):g}x")
+        ax.axhline(float(bands["gap_ratio"]) * nominal, color="#1565c0", lw=0.9, ls="--",
+                   label=f"gap < {float(bands['gap_ratio']):g}x")
+    ax.set_xlabel("distance along the row (its planned stretch), m")
     ax.set_ylabel("rate in the row band, L/ha")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=min(6, len(rows) + 2), loc="upper right")
-    ax.set_ylim(bottom=0)
-    cov = [r["covered_fraction"] if r["covered_fraction"] is not None else 0.0 for r in rows]
+    ax.legend(fontsize=7, ncol=min(6, len(rows) + 4), loc="upper right")
+    ax.set_ylim(bottom=0, top=max(ax.get_ylim()[1], 1.6 * nominal if ok_nominal else 0.0))
     names = [str(r["row"]) for r in rows]
-    axb.bar(names, [100 * c for c in cov], color=[C_OK if c >= 0.9 else C_FAIL for c in cov])
-    axb.axhline(90, color="k", lw=0.8, ls="--")
-    axb.set_ylim(0, 105)
+    means = np.array([float(r["mean_rate_lpha"]) / nominal * 100 if ok_nominal and r.get("mean_rate_lpha") is not None
+                      else np.nan for r in rows])
+    lo = np.array([100 * r["window_ratio"][0] if r.get("window_ratio") else np.nan for r in rows])
+    hi = np.array([100 * r["window_ratio"][1] if r.get("window_ratio") else np.nan for r in rows])
+    good = [bool(abs(m / 100 - 1) <= tol and not r.get("faults")) for m, r in zip(means, rows, strict=True)]
+    axb.bar(names, np.nan_to_num(means), color=[C_OK if g else C_FAIL for g in good])
+    axb.errorbar(np.arange(len(rows)), np.nan_to_num(means), yerr=[np.nan_to_num(means - lo), np.nan_to_num(hi - means)],
+                 fmt="none", ecolor="k", elinewidth=0.8, capsize=2, label=f"lowest / highest {bands.get('window_m', 1.0):g} m")
+    axb.axhspan(100 * (1 - tol), 100 * (1 + tol), color="k", alpha=0.07)
+    axb.axhline(100, color="k", lw=0.8)
+    axb.set_ylim(0, max(140.0, float(np.nanmax(hi, initial=0.0)) * 1.05))
     axb.set_xlabel("targeted row (index in the mission's rows)")
-    axb.set_ylabel("length with >= 50 % of the\nasked rate, %")
+    axb.set_ylabel("row mean / asked rate, %")
+    axb.legend(fontsize=7, loc="lower right")
     axb.grid(alpha=0.3, axis="y")
-    set_title(fig, data, "Fig. 24  Coverage along the targeted rows")
+    set_title(fig, data, "Fig. 24  Dose along the targeted rows")
     return png_bytes(fig)

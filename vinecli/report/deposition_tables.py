@@ -1,5 +1,5 @@
 """The deposition and budget metrics of spray runs as a Markdown table and JUnit properties (docs/deposition.md,
-docs/budget.md)."""
+docs/budget.md), and their operations figures (summary.json ``operations``) as a second table."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-__all__ = ["DEPOSITION_COLUMNS", "deposition_markdown", "deposition_properties"]
+__all__ = ["DEPOSITION_COLUMNS", "OPERATIONS_COLUMNS", "deposition_markdown", "deposition_properties"]
 
 #: metric -> (header, format)
 DEPOSITION_COLUMNS: dict[str, tuple[str, str]] = {
@@ -16,6 +16,9 @@ DEPOSITION_COLUMNS: dict[str, tuple[str, str]] = {
     "mean_rate_lpha_on_rows": ("mean on rows, L/ha", "{:.1f}"),
     "deposit_cv_on_rows": ("CV on rows", "{:.0%}"),
     "row_coverage_fraction": ("rows covered", "{:.0%}"),
+    "row_rate_error_max": ("worst row", "±{:.0%}"),
+    "dose_window_ratio_max": ("hottest 1 m", "{:.2f}x"),
+    "dose_window_ratio_min": ("thinnest 1 m", "{:.2f}x"),
     "deposit_on_rows_fraction": ("in row bands", "{:.0%}"),
     "drift_outside_fence_fraction": ("outside fence", "{:.1%}"),
     "deposit_balance_error": ("balance error", "{:.1e}"),
@@ -24,6 +27,19 @@ DEPOSITION_COLUMNS: dict[str, tuple[str, str]] = {
     "budget_ground_off_field_fraction": ("ground off field", "{:.1%}"),
     "budget_evaporated_fraction": ("evaporated", "{:.1%}"),
     "budget_drift_5m_percent": ("drift at 5 m, %", "{:.2f}"),
+}
+
+
+#: operations figure -> (header, format)
+OPERATIONS_COLUMNS: dict[str, tuple[str, str]] = {
+    "sorties": ("sorties", "{:.0f}"),
+    "job_time_s": ("job, s", "{:.0f}"),
+    "idle_s": ("idle on the ground, s", "{:.0f}"),
+    "battery_swaps": ("battery swaps", "{:.0f}"),
+    "treated_area_ha": ("area, ha", "{:.3f}"),
+    "field_capacity_ha_per_h": ("field capacity, ha/h", "{:.2f}"),
+    "litres_per_ha": ("L/ha sprayed", "{:.1f}"),
+    "energy_wh_per_ha": ("Wh/ha", "{:.0f}"),
 }
 
 
@@ -44,6 +60,14 @@ def deposition_markdown(runs: Sequence[Any], cell: Callable[[Any], str], max_row
         m = r.metrics()
         lines.append("| " + " | ".join([cell(r.case), *(_fmt(m.get(k), f) for k, (_h, f) in DEPOSITION_COLUMNS.items())])
                      + " |")
+    ops = [r for r in rows if r.summary.get("operations")]
+    if ops:
+        lines += ["", "### Spray operations", "", "| case | " + " | ".join(h for h, _ in OPERATIONS_COLUMNS.values())
+                  + " |", "|---|" + "---:|" * len(OPERATIONS_COLUMNS)]
+        for r in ops[:max_rows]:
+            o = r.summary["operations"]
+            lines.append("| " + " | ".join([cell(r.case), *(_fmt(o.get(k), f) for k, (_h, f) in
+                                                           OPERATIONS_COLUMNS.items())]) + " |")
     return lines
 
 

@@ -1,15 +1,24 @@
 """Spray plans over rows as an operator flies them (ENU m, s, L): :func:`plan_rows`.
 
-* rows are first clipped to the geofence shrunk by a margin plus the headland the turns need (and to
-  the terrain), with one warning line each when rows leave them;
-* the first row is the one nearest to the take-off point, entered at its nearer end; the sweep goes
+* rows are first clipped to the geofence shrunk by a margin (and to the terrain), with one warning
+  line each when rows leave them; what is left of each row is its *planned stretch* (``stretches``:
+  start and end along the row, m), the part the sections must dose;
+* passes: with the sprayer's pattern (``pattern``, :mod:`vinecli.physics.swath`) the passes are
+  laid out by :func:`~vinecli.rows.lanes.layout_lanes` (evenly spaced within the effective swath, the
+  edge rows dosed like the inner ones; or one pass per row when the rows are a swath or more apart)
+  and the plan's ``flow_width_m`` is the track width of the flow (rate x width x speed); without a
+  pattern every row is one pass;
+* the first pass is the one nearest to the take-off point, entered at its nearer end; the sweep goes
   towards the nearer edge of the block first, then jumps over to finish the other side;
-* boustrophedon: each next row is entered at the end nearest to where the last one ended;
+* boustrophedon: each next pass is entered at the end nearest to where the last one ended;
 * headland turns sized from the vehicle's speed ``v`` and acceleration ``a``: a semicircle when its
-  radius w/2 (w: distance between the two row ends) allows v^2 / r <= a, otherwise a stop turn: run
-  out v^2 / (2 a) past the row end (the vehicle brakes after the last sprayed metre), cross, run in
-  the same distance (it is at speed when spraying starts);
-* spray on only over the rows (legs flagged ``spray``);
+  radius w/2 (w: distance between the two pass ends) allows v^2 / r <= a and it fits inside the fence,
+  otherwise a stop turn: run out v^2 / (2 a) past the pass end, cross, run in the same distance. A
+  run-out the fence (less its margin) does not leave room for is shortened, down to none: the vehicle
+  then brakes inside the pass end, where the speed-scaled flow keeps the dose (a warning says so); the
+  passes are never shortened for the turns;
+* spray on only over the passes (legs flagged ``spray``: section control closes the sections in turns,
+  headlands, transits and outside the fence);
 * plan length and estimated time (trapezoidal speed profiles with ``a``; take-off and landing at the
   climb / descent speeds); sorties split by tank volume (:func:`split_sorties`).
 """
@@ -22,6 +31,7 @@ from dataclasses import dataclass, field
 
 from vinecli.rows.detect import Polyline
 from vinecli.rows.geometry import polyline_length
+from vinecli.rows.lanes import LaneLayout, lane_polyline, layout_lanes
 
 __all__ = ["PATH_ACCEL_MPS2", "Leg", "RowPlan", "plan_accel", "plan_rows", "split_sorties"]
 
@@ -38,12 +48,14 @@ def plan_accel(vehicle: object) -> float:
 
 @dataclass
 class Leg:
-    """One piece of the path: a row (``spray`` True, ``row`` its index) or a transit / turn (spray off)."""
+    """One piece of the path: a pass (``spray`` True, ``lane`` its index across the block, ``row`` the row it
+    flies over if any) or a transit / turn (spray off)."""
 
     points: Polyline
     spray: bool
     row: int | None = None
     kind: str = "row"  # "row" | "transit" | "turn-arc" | "turn-stop"
+    lane: int | None = None
 
     @property
     def length_m(self) -> float:
@@ -60,11 +72,20 @@ class RowPlan:
     accel_mps2: float
     warnings: list[str] = field(default_factory=list)
     time_s: float = 0.0
+    #: planned stretch of each row (index into the rows given): (start, end) along the row, m
+    stretches: dict[int, tuple[float, float]] = field(default_factory=dict)
+    #: how the passes were laid out (None: one pass per row, no pattern given)
+    layout: LaneLayout | None = None
 
     @property
     def order(self) -> list[int]:
-        """Row indices in the order they are sprayed."""
-        return [leg.row for leg in self.legs if leg.spray and leg.row is not None]
+        """Pass indices (lanes across the block; the row indices when every row is a pass) in spraying order."""
+        return [leg.lane for leg in self.legs if leg.spray and leg.lane is not None]
+
+    @property
+    def flow_width_m(self) -> float:
+        """Track width of the flow (flow = rate x width x speed / 10 000), m; NaN without a pattern."""
+        return self.layout.flow_width_m if self.layout is not None else math.nan
 
     @property
     def length_m(self) -> float:
@@ -76,22 +97,29 @@ class RowPlan:
         """Length flown with the sprayer on, m."""
         return sum(leg.length_m for leg in self.legs if leg.spray)
 
-    def path(self, flow_lps: float) -> tuple[Polyline, list[float]]:
-        """The plan as one polyline and the flow (L/s) of each of its segments (0 off the rows)."""
+    def path(self, flow: float) -> tuple[Polyline, list[float], list[int]]:
+        """The plan as one polyline, ``flow`` on each of its segments over a pass (0 elsewhere), and the points to
+        come to rest at (where a transit turns onto the run-in of a pass)."""
         pts: Polyline = [self.legs[0].points[0]] if self.legs else []
         flows: list[float] = []
+        stops: list[int] = []
         for leg in self.legs:
             for p in leg.points[1:]:
                 pts.append(p)
-                flows.append(flow_lps if leg.spray else 0.0)
-        return pts, flows
+                flows.append(flow if leg.spray else 0.0)
+            if leg.kind == "transit" and len(leg.points) >= 3:
+                stops.append(len(pts) - 2)
+        return pts, flows, stops
 
     def summary(self) -> str:
         """One line: rows, first row, turns, length and time."""
         turns = [leg.kind for leg in self.legs if leg.kind.startswith("turn")]
         kinds = ", ".join(f"{turns.count(k)} {k[5:]}" for k in ("turn-arc", "turn-stop") if turns.count(k))
         first = self.order[0] if self.order else None
-        return (f"plan: {len(self.order)} rows from row {first}, {len(turns)} headland turns ({kinds or 'none'}), "
+        lay = self.layout
+        what = (f"{len(self.order)} rows from row {first}" if lay is None or lay.mode != "broadcast" else
+                f"{len(self.order)} passes {lay.spacing_m:.2f} m apart over {len(self.stretches)} rows from pass {first}")
+        return (f"plan: {what}, {len(turns)} headland turns ({kinds or 'none'}), "
                 f"{self.length_m:.1f} m ({self.spray_length_m:.1f} m spraying), about {self.time_s:.0f} s")
 
 
@@ -147,46 +175,38 @@ def _clip(rows: list[Polyline], region: object, what: str, warnings: list[str]) 
     return out
 
 
-def _headland_fits(line: object, inner: object, d: float, inward: float, head: float) -> bool:
-    """Whether the point ``head`` m straight on past distance ``d`` along ``line`` (leaving it outwards;
-    ``inward`` = +1 at the start, -1 at the end) lies inside ``inner``."""
-    from shapely.geometry import Point
+def _room(p: Point, d: tuple[float, float], inner: object | None, limit: float) -> float:
+    """How far (m, up to ``limit``) one can go from ``p`` along the unit vector ``d`` inside ``inner`` (0.05 m steps)."""
+    if inner is None:
+        return limit
+    from shapely.geometry import Point as P
 
-    p = line.interpolate(d)  # type: ignore[attr-defined]
-    q = line.interpolate(min(line.length, max(0.0, d + inward * 0.05)))  # type: ignore[attr-defined]
-    dx, dy = p.x - q.x, p.y - q.y
-    n = math.hypot(dx, dy) or 1.0
-    return bool(inner.contains(Point(p.x + dx / n * head, p.y + dy / n * head)))  # type: ignore[attr-defined]
+    if not inner.contains(P(p)):  # type: ignore[attr-defined]
+        return 0.0
+    lo, hi = 0.0, limit
+    if inner.contains(P(p[0] + d[0] * hi, p[1] + d[1] * hi)):  # type: ignore[attr-defined]
+        return hi
+    while hi - lo > 0.05:
+        mid = 0.5 * (lo + hi)
+        if inner.contains(P(p[0] + d[0] * mid, p[1] + d[1] * mid)):  # type: ignore[attr-defined]
+            lo = mid
+        else:
+            hi = mid
+    return lo
 
 
-def _fit_headlands(rows: list[Polyline], inner: object, head: float, what: str, warnings: list[str]
-                   ) -> list[Polyline]:
-    """Shorten row ends (0.1 m steps) whose headland, ``head`` m straight on past the end, would leave ``inner``."""
-    from shapely.geometry import LineString
-    from shapely.ops import substring
+def _back_inside(p: Point, d: tuple[float, float], inner: object | None, most: float = 5.0) -> Point:
+    """``p`` moved back along ``-d`` (0.05 m steps, at most ``most`` m) until it lies inside ``inner``."""
+    if inner is None:
+        return p
+    from shapely.geometry import Point as P
 
-    out: list[Polyline] = []
-    cut = 0.0
-    for r in rows:
-        if len(r) < 2:
-            out.append([])
-            continue
-        line = LineString(r)
-        a, b = 0.0, line.length
-        while a < b and not _headland_fits(line, inner, a, 1.0, head):
-            a += 0.1
-        while b > a and not _headland_fits(line, inner, b, -1.0, head):
-            b -= 0.1
-        if b - a < 0.1:
-            cut = max(cut, line.length)
-            out.append([])
-            continue
-        cut = max(cut, a + (line.length - b))
-        out.append([(float(x), float(y)) for x, y in substring(line, a, b).coords])
-    if cut > 0.05:
-        warnings.append(f"rows end too close to the {what} for a {head:.1f} m headland: shortened (up to "
-                        f"{cut:.1f} m per row)")
-    return out
+    k = 0
+    q = p
+    while not inner.contains(P(q)) and k * 0.05 < most:  # type: ignore[attr-defined]
+        k += 1
+        q = (p[0] - d[0] * 0.05 * k, p[1] - d[1] * 0.05 * k)
+    return q
 
 
 def _trapezoid_time(d: float, v: float, a: float) -> float:
@@ -198,8 +218,10 @@ def _trapezoid_time(d: float, v: float, a: float) -> float:
     return 2.0 * math.sqrt(d / a)
 
 
-def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float) -> Leg:
-    """Headland turn from the end ``p`` of a row flown along ``d`` to the start ``q`` of the next row."""
+def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float, inner: object | None = None
+          ) -> tuple[Leg, float]:
+    """Headland turn from the end ``p`` of a pass flown along ``d`` to the start ``q`` of the next one, inside
+    ``inner`` (a shapely polygon) when given; and how much of the full run-out v²/(2a) was left out (m)."""
     along_p = p[0] * d[0] + p[1] * d[1]
     along_q = q[0] * d[0] + q[1] * d[1]
     h = max(along_p, along_q)
@@ -207,8 +229,8 @@ def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float) -> Leg
     q1 = (q[0] + d[0] * (h - along_q), q[1] + d[1] * (h - along_q))
     w = math.dist(p1, q1)
     r = w / 2
-    if r > 0 and v * v / r <= a:  # a semicircle at cruise speed
-        cx, cy = (p1[0] + q1[0]) / 2, (p1[1] + q1[1]) / 2
+    if r > 0 and v * v / r <= a and _room(((p1[0] + q1[0]) / 2, (p1[1] + q1[1]) / 2), d, inner, r) >= r - 0.05:
+        cx, cy = (p1[0] + q1[0]) / 2, (p1[1] + q1[1]) / 2  # a semicircle at cruise speed
         a0 = math.atan2(p1[1] - cy, p1[0] - cx)
         # bulge outwards (along d): pick the rotation sense whose midpoint lies ahead
         mid_ccw = (cx + r * math.cos(a0 + math.pi / 2), cy + r * math.sin(a0 + math.pi / 2))
@@ -217,16 +239,30 @@ def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float) -> Leg
         arc = [(cx + r * math.cos(a0 + sense * math.pi * k / n), cy + r * math.sin(a0 + sense * math.pi * k / n))
                for k in range(n + 1)]
         pts = [p, *arc, q]
-        kind = "turn-arc"
-    else:  # stop turn: brake past the row end, cross, run in to be at speed at the next row
-        e = v * v / (2 * a)
+        kind, short = "turn-arc", 0.0
+    else:  # stop turn: run out past the pass end (brake), cross, run in to be at speed at the next pass
+        full = v * v / (2 * a)
+        p1, q1 = _back_inside(p1, d, inner), _back_inside(q1, d, inner)  # pass ends squared up inside the fence
+        e = min(_room(p1, d, inner, full), _room(q1, d, inner, full))
+        e = 0.0 if e < 0.05 else e
         pts = [p, (p1[0] + d[0] * e, p1[1] + d[1] * e), (q1[0] + d[0] * e, q1[1] + d[1] * e), q]
-        kind = "turn-stop"
+        kind, short = "turn-stop", full - e
     clean = [pts[0]]
     for pt in pts[1:]:
         if math.dist(pt, clean[-1]) > 1e-6:
             clean.append(pt)
-    return Leg(clean, False, None, kind)
+    return Leg(clean, False, None, kind), short
+
+
+def _transit(pos: Point, seq: Polyline, v: float, a: float, inner: object | None) -> Leg:
+    """Transit from ``pos`` to the start of the pass ``seq``, ending with a straight run-in of v²/(2a) along it (within
+    ``inner``): the vehicle is at spraying speed where the pass starts."""
+    dx, dy = seq[1][0] - seq[0][0], seq[1][1] - seq[0][1]
+    n = math.hypot(dx, dy) or 1.0
+    back = (-dx / n, -dy / n)
+    e = _room(seq[0], back, inner, v * v / (2 * a))
+    pts = [pos, (seq[0][0] + back[0] * e, seq[0][1] + back[1] * e), seq[0]] if e > 0.05 else [pos, seq[0]]
+    return Leg([p for i, p in enumerate(pts) if i == 0 or math.dist(p, pts[i - 1]) > 1e-6], False, None, "transit")
 
 
 def _leg_time(leg: Leg, v: float, a: float) -> float:
@@ -237,10 +273,67 @@ def _leg_time(leg: Leg, v: float, a: float) -> float:
     segs = [math.dist(p, q) for p, q in zip(leg.points[:-1], leg.points[1:], strict=True)]
     if leg.kind == "turn-stop" and len(segs) == 3:
         return 2 * v / a + _trapezoid_time(segs[1], v, a)
+    if leg.kind == "transit" and len(segs) >= 2:  # the last segment is the run-in: accelerate from rest
+        return sum(_trapezoid_time(s, v, a) for s in segs[:-1]) + math.sqrt(2.0 * segs[-1] / a)
     return sum(_trapezoid_time(s, v, a) for s in segs)
 
 
 # ---------------------------------------------------------------- the plan
+def _stretch(orig: Polyline, clipped: Polyline) -> tuple[float, float]:
+    """(start, end) of ``clipped`` along ``orig`` (m)."""
+    from shapely.geometry import LineString, Point
+
+    line = LineString(orig)
+    s0, s1 = line.project(Point(clipped[0])), line.project(Point(clipped[-1]))
+    return (min(s0, s1), max(s0, s1))
+
+
+def _extend(path: Polyline, pattern: object, inner: object | None, margin: float) -> list[tuple[float, float]]:
+    """``path`` run on straight past both ends so that the deposit reaches its full rate at them: by the footprint
+    radius, less / plus the drops' landing offset ahead of the nozzles, plus ``margin`` (within ``inner``)."""
+    foot = float(getattr(pattern, "footprint_radius_m", 0.0)) + margin
+    ahead = float(getattr(pattern, "along_offset_m", 0.0))
+    pts = [(float(x), float(y)) for x, y in path]
+    for end, extra in ((0, foot + ahead), (-1, foot - ahead)):
+        p, q = (pts[0], pts[1]) if end == 0 else (pts[-1], pts[-2])
+        dx, dy = p[0] - q[0], p[1] - q[1]
+        n = math.hypot(dx, dy)
+        if n <= 0.0 or extra <= 0.0:
+            continue
+        d = (dx / n, dy / n)
+        e = _room(p, d, inner, extra)
+        if e > 0.01:
+            new = (p[0] + d[0] * e, p[1] + d[1] * e)
+            pts = [new, *pts] if end == 0 else [*pts, new]
+    return pts
+
+
+def _passes(keep: list[tuple[int, Polyline]], u: tuple[float, float], pattern: object | None, band_m: float,
+            inner: object | None, warnings: list[str], end_margin: float = 0.0
+            ) -> tuple[list[tuple[int, int | None, Polyline]], LaneLayout | None]:
+    """(lane index, row flown over or None, path) of every pass, and the layout (None: a pass per row)."""
+    if pattern is None:
+        return [(i, i, r) for i, r in keep], None
+    normal = (-u[1], u[0])
+    across = [sum(normal[0] * x + normal[1] * y for x, y in r) / len(r) for _, r in keep]
+    lay = layout_lanes(across, pattern, band_m)
+    out: list[tuple[int, int | None, Polyline]] = []
+    cut = 0
+    for k, c in enumerate(lay.across_m):
+        near = min(range(len(keep)), key=lambda j: abs(across[j] - c))
+        path = [r for _, r in keep][near] if abs(across[near] - c) < 1e-6 else lane_polyline(
+            [r for _, r in keep], across, c, normal)
+        if inner is not None:
+            clipped = _clip([path], inner, "", [])[0]
+            cut += len(clipped) >= 2 and abs(polyline_length(clipped) - polyline_length(path)) > 0.05
+            path = clipped
+        if len(path) >= 2:
+            out.append((k, keep[near][0] if abs(across[near] - c) < 0.05 else None, _extend(path, pattern, inner, end_margin)))
+    if cut:
+        warnings.append(f"{cut} of {len(lay.across_m)} passes beyond the outer rows leave the fence: clipped")
+    return out, lay
+
+
 def plan_rows(
     rows: Sequence[Sequence[tuple[float, float]]],
     start_xy: tuple[float, float],
@@ -252,10 +345,15 @@ def plan_rows(
     fence_name: str = "geofence",
     terrain_bounds: tuple[float, float, float, float] | None = None,
     climb: tuple[float, float, float] | None = None,
+    pattern: object | None = None,
+    band_m: float = 0.6,
+    end_margin_m: float = 0.0,
 ) -> RowPlan:
     """Operator-style plan over ``rows`` (ENU polylines, indices kept) from ``start_xy``; see the module
     docstring. ``climb`` = (altitude m, climb speed m/s, descent speed m/s) adds take-off and landing
-    time to the estimate."""
+    time to the estimate; ``pattern`` (a :class:`~vinecli.physics.swath.SwathPattern`) lays the passes out
+    for an even dose on every row's ``band_m`` wide canopy band and runs them on past the row ends by its
+    footprint + ``end_margin_m`` (the sprayer's ramp up and down), within the fence."""
     from shapely.geometry import LineString, Point, Polygon, box
 
     v, a = float(speed_mps), float(accel_mps2)
@@ -265,39 +363,51 @@ def plan_rows(
     work = [src[i] for i in idx]
     if not work:
         return RowPlan([], v, a, ["no rows to plan"])
-    head = v * v / (2 * a)  # run-out past a row end (stop turn); an arc needs at most its radius
+    inner = None  # where the path may go: the fence less its margin, on the terrain
     if terrain_bounds is not None:
         xmin, ymin, xmax, ymax = terrain_bounds
-        work = _clip(work, box(xmin, ymin, xmax, ymax), "terrain", warnings)
+        inner = box(xmin, ymin, xmax, ymax)
+        work = _clip(work, inner, "terrain", warnings)
     if fence_enu is not None and len(fence_enu) >= 3:
-        inner = Polygon(fence_enu).buffer(-fence_margin_m)
-        work = _clip(work, inner, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
-        work = _fit_headlands(work, inner, head, fence_name, warnings)
+        fenced = Polygon(fence_enu).buffer(-fence_margin_m)
+        work = _clip(work, fenced, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
+        inner = fenced if inner is None else inner.intersection(fenced)
     keep = [(i, r) for i, r in zip(idx, work, strict=True) if len(r) >= 2 and LineString(r).length > 0.05]
     if not keep:
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
     ux, uy = _direction([r for _, r in keep])
-    # order across the rows; the first row is the nearest to the start
+    passes, layout = _passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m)
+    # order across the passes; the first is the nearest to the start (rows listed twice: in the order listed)
     start = Point(start_xy)
-    across = sorted(keep, key=lambda ir: -uy * (ir[1][0][0] + ir[1][-1][0]) + ux * (ir[1][0][1] + ir[1][-1][1]))
-    k0 = min(range(len(across)), key=lambda k: (LineString(across[k][1]).distance(start), k))
+    across = sorted(passes, key=lambda p: -uy * (p[2][0][0] + p[2][-1][0]) + ux * (p[2][0][1] + p[2][-1][1]))
+    k0 = min(range(len(across)), key=lambda k: (LineString(across[k][2]).distance(start), k))
     left, right = across[:k0][::-1], across[k0 + 1:]
     first, second = (left, right) if len(left) <= len(right) else (right, left)
     sequence = [across[k0], *first, *second]
+    if layout is not None and layout.mode == "listed":
+        sequence, first, second = passes, [], []
 
     legs: list[Leg] = []
     pos = (float(start_xy[0]), float(start_xy[1]))
-    for n, (i, r) in enumerate(sequence):
+    short: list[float] = []
+    for n, (lane, row, r) in enumerate(sequence):
         seq = r if math.dist(r[0], pos) <= math.dist(r[-1], pos) else r[::-1]
-        if n == 0 or (first and n == len(first) + 1 and second):  # fly to the first row / jump over
-            legs.append(Leg([pos, seq[0]], False, None, "transit"))
+        if n == 0 or (first and n == len(first) + 1 and second):  # fly to the first pass / jump over
+            legs.append(_transit(pos, seq, v, a, inner))
         else:
             dx, dy = legs[-1].points[-1][0] - legs[-1].points[-2][0], legs[-1].points[-1][1] - legs[-1].points[-2][1]
             dn = math.hypot(dx, dy) or 1.0
-            legs.append(_turn(pos, seq[0], (dx / dn, dy / dn), v, a))
-        legs.append(Leg(seq, True, i, "row"))
+            turn, left_out = _turn(pos, seq[0], (dx / dn, dy / dn), v, a, inner)
+            legs.append(turn)
+            if left_out > 0.05:
+                short.append(left_out)
+        legs.append(Leg(seq, True, row, "row", lane))
         pos = seq[-1]
-    plan = RowPlan(legs, v, a, warnings)
+    if short:
+        where = fence_name if fence_enu is not None and len(fence_enu) >= 3 else "terrain"
+        warnings.append(f"{len(short)} headland turns shortened to fit the {where}: the vehicle brakes inside "
+                        f"the pass end (up to {max(short):.1f} m of run-out left out; the speed-scaled flow keeps the dose)")
+    plan = RowPlan(legs, v, a, warnings, stretches={i: _stretch(src[i], r) for i, r in keep}, layout=layout)
     t = sum(_leg_time(leg, v, a) for leg in legs)
     if climb is not None:
         alt, up, down = climb
@@ -331,7 +441,7 @@ def split_sorties(plan: RowPlan, flow_lps: float, tank_l: float) -> list[list[Le
                 continue
             end = min(line.length, done + can)
             piece = substring(line, done, end)
-            sorties[-1].append(Leg([(float(x), float(y)) for x, y in piece.coords], True, leg.row, "row"))
+            sorties[-1].append(Leg([(float(x), float(y)) for x, y in piece.coords], True, leg.row, "row", leg.lane))
             left -= (end - done) * per_m
             done = end
     # a sortie is its rows and the turns between them (the flights from and to home are the export's)

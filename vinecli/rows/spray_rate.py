@@ -1,26 +1,40 @@
-"""Application rate (L/ha) <-> nozzle flow (L/s) for ``spray`` phases.
+"""Spray phases against the vehicle's sprayer: the plan, the flow of the asked rate, the pump's range.
 
-rate [L/ha] = 10 000 · q [L/s] / (v [m/s] · w [m]) with w the track width: the geometric swath of
-the vehicle's nozzles at the phase height (:meth:`SprayerSpec.swath_m`), or the spacing of the
-phase's rows when they are closer than the swath (a pass over every row then doses a band one row
-spacing wide; the neighbouring passes overlap it, as a drone app's "track spacing"). The nozzle
-height above the terrain is the phase height (skids above terrain, as ``height_agl_m``) + the
-landing-gear height + the nozzle's z in body FLU (negative below the CoM).
+rate [L/ha] = 10 000 · q [L/s] / (v [m/s] · w [m]) with w the track width of the plan's passes
+(:attr:`~vinecli.rows.plan.RowPlan.flow_width_m`): the lane spacing of evenly overlapped passes, or
+the single-pass width that doses a row's canopy band when each row is its own pass, both from the
+effective swath of the vehicle at the phase's height and speed (:mod:`vinecli.physics.swath`), not
+from the cone geometry. The flow of a phase is what the pump delivers at the phase's cruise speed;
+in flight the built-in autopilot scales it with the ground speed (litres per metre = q / v).
+
+:func:`resolve_spray_rates` turns every ``rate_lpha`` phase into its flow and checks it against the
+sprayer's flow range (pump maximum, nozzle pressure range): a rate or speed the sprayer cannot
+deliver is refused with the numbers (InputError, exit 2), or flown slower when the phase says
+``allow_slower``. The nozzle height above the terrain is the phase height (skids above terrain, as
+``height_agl_m``) + the landing-gear height + the nozzle's z in body FLU (negative below the CoM).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
-from vinecli.rows.detect import row_spacing_m
+from vinecli.errors import InputError
+from vinecli.rows.plan import RowPlan, plan_accel, plan_rows
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 from vinecli.specs.vehicle import VehicleSpec
 
-__all__ = ["flow_for_rate", "nominal_rate_lpha", "nozzle_height_m", "phase_rows", "resolve_spray_rates",
-           "spray_swath_m", "track_width_m"]
+if TYPE_CHECKING:
+    from vinecli.physics.swath import SwathPattern
+
+__all__ = ["DEFAULT_BAND_M", "flow_for_rate", "nominal_rate_lpha", "nozzle_height_m", "phase_plan", "phase_rows",
+           "resolve_spray_rates", "spray_pattern", "spray_swath_m"]
 
 Rows = Sequence[Sequence[tuple[float, float]]]
+#: canopy band a row is dosed on when neither the phase nor the world says (the world spec's default)
+DEFAULT_BAND_M = 0.6
 
 
 def nozzle_height_m(vehicle: VehicleSpec, height_agl_m: float) -> float:
@@ -34,36 +48,103 @@ def spray_swath_m(vehicle: VehicleSpec, height_agl_m: float) -> float:
     return vehicle.sprayer.swath_m(nozzle_height_m(vehicle, height_agl_m))
 
 
-def track_width_m(vehicle: VehicleSpec, phase: SprayPhase, rows: Rows = ()) -> float:
-    """Width one pass doses, m: the swath, or the row spacing of ``rows`` (the phase's) when smaller."""
-    swath = spray_swath_m(vehicle, phase.height_agl_m)
-    spacing = row_spacing_m(rows) if len(rows) >= 2 else math.nan
-    return min(swath, spacing) if math.isfinite(spacing) and spacing > 0 else swath
-
-
 def flow_for_rate(rate_lpha: float, swath_m: float, speed_mps: float) -> float:
     """Nozzle flow (L/s) that applies ``rate_lpha`` over ``swath_m`` at ``speed_mps``."""
     return rate_lpha * swath_m * speed_mps / 10_000.0
 
 
-def nominal_rate_lpha(phase: SprayPhase, vehicle: VehicleSpec, rows: Rows = ()) -> float:
-    """The rate (L/ha) a spray phase asks for: its ``rate_lpha``, else 10 000 q / (v · track width);
-    ``rows``: the phase's target rows (:func:`phase_rows`)."""
+@functools.lru_cache(maxsize=16)
+def _pattern(vehicle_json: str, height_agl_m: float, speed_mps: float, air_density: float) -> SwathPattern:
+    from vinecli.physics.swath import swath_pattern
+
+    return swath_pattern(VehicleSpec.model_validate_json(vehicle_json), height_agl_m, speed_mps, air_density=air_density)
+
+
+def spray_pattern(vehicle: VehicleSpec, height_agl_m: float, speed_mps: float, air_density: float = 1.225
+                  ) -> SwathPattern:
+    """The vehicle's pass pattern and effective swath at a spray height and speed in calm air (cached)."""
+    return _pattern(vehicle.model_dump_json(), float(height_agl_m), float(speed_mps), float(air_density))
+
+
+def phase_plan(phase: SprayPhase, vehicle: VehicleSpec, rows: Rows, start_xy: tuple[float, float], *,
+               fence_enu: Sequence[tuple[float, float]] | None = None,
+               terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225,
+               climb: tuple[float, float, float] | None = None) -> RowPlan:
+    """THE plan of a spray phase over ``rows`` (its target rows) from ``start_xy``: passes laid out from the
+    vehicle's pattern at the phase's height and speed and run on past the row ends by its footprint and the pump's
+    ramp (speed x time constant), turns for the vehicle's acceleration, clipped to the fence (1 m margin) and the
+    terrain. The built-in autopilot flies it, the run set-up takes its flow from it,
+    the exports and the deposition evaluation use it."""
+    pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, air_density)
+    band = phase.canopy_width_m if phase.canopy_width_m is not None else DEFAULT_BAND_M
+    pump = vehicle.sprayer.pump
+    ramp = phase.speed_mps * max(pump.tau_up_s, pump.tau_down_s)  # the flow's ramp, spread by the pump's lag
+    return plan_rows(rows, start_xy, speed_mps=phase.speed_mps, accel_mps2=plan_accel(vehicle), fence_enu=fence_enu,
+                     terrain_bounds=terrain_bounds, climb=climb, pattern=pattern, band_m=band, end_margin_m=ramp)
+
+
+def nominal_rate_lpha(phase: SprayPhase, vehicle: VehicleSpec, plan: RowPlan) -> float:
+    """The rate (L/ha) a spray phase asks for: its ``rate_lpha``, else 10 000 q / (v · the plan's track width)."""
     if phase.rate_lpha is not None:
         return float(phase.rate_lpha)
-    w = track_width_m(vehicle, phase, rows)
-    return 10_000.0 * float(phase.flow_lps or 0.0) / (phase.speed_mps * w) if w > 0 else 0.0
+    w = plan.flow_width_m
+    return 10_000.0 * float(phase.flow_lps or 0.0) / (phase.speed_mps * w) if w > 0 else math.nan
 
 
-def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: Rows = ()) -> MissionSpec:
-    """``mission`` with every ``rate_lpha`` spray phase turned into its flow (both fields kept)."""
-    if not any(isinstance(p, SprayPhase) and p.flow_lps is None for p in mission.phases):
+def _check_range(i: int, p: SprayPhase, vehicle: VehicleSpec, width: float) -> SprayPhase:
+    """``p`` (flow resolved) within the sprayer's flow range and above its minimum speed: else slower when allowed,
+    else InputError naming the numbers."""
+    name = f"phases.{i} (spray)"
+    ctl = vehicle.sprayer.control
+    if p.speed_mps < ctl.speed_min_mps:
+        raise InputError(f"{name}: speed {p.speed_mps:g} m/s is below the sprayer's minimum {ctl.speed_min_mps:g} m/s "
+                         f"({vehicle.name}: sprayer.control.speed_min_mps): it would never switch on")
+    tank = vehicle.tank
+    if tank is None:
+        raise InputError(f"{name}: vehicle {vehicle.name!r} has no tank to spray from")
+    lo, hi = vehicle.sprayer.flow_range_lps(tank.nozzle_max_flow_lps)
+    q = float(p.flow_lps or 0.0)
+    per_m = q / p.speed_mps
+    what = (f"{p.rate_lpha:g} L/ha over a {width:.2f} m track" if p.rate_lpha is not None else f"{q:g} L/s")
+    if q > hi * (1 + 1e-9):
+        v_max = hi / per_m
+        if p.allow_slower and v_max >= ctl.speed_min_mps:
+            return SprayPhase.model_construct(**{**dict(p), "speed_mps": v_max, "flow_lps": hi})
+        raise InputError(f"{name}: {what} at {p.speed_mps:g} m/s needs {q:.4f} L/s; {vehicle.name}'s sprayer delivers at "
+                         f"most {hi:.4f} L/s: fly at most {v_max:.2f} m/s (or allow_slower: true)")
+    if q < lo * (1 - 1e-9):
+        raise InputError(f"{name}: {what} at {p.speed_mps:g} m/s needs {q:.4f} L/s; {vehicle.name}'s nozzles need at "
+                         f"least {lo:.4f} L/s (pressure range {vehicle.sprayer.pressure_range_bar} bar): fly at least "
+                         f"{lo / per_m:.2f} m/s or ask for a higher rate")
+    return p
+
+
+def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: Rows = (), *,
+                        fence_enu: Sequence[tuple[float, float]] | None = None,
+                        terrain_bounds: tuple[float, float, float, float] | None = None,
+                        air_density: float = 1.225, canopy_width_m: float = DEFAULT_BAND_M) -> MissionSpec:
+    """``mission`` with every spray phase's canopy band resolved (the world's ``canopy_width_m`` unless the phase
+    gives one), every ``rate_lpha`` turned into the flow of its plan's track width at the phase's speed (both
+    fields kept), and the flow checked against the sprayer (see the module docstring)."""
+    if not any(isinstance(p, SprayPhase) for p in mission.phases):
         return mission
     phases = []
-    for p in mission.phases:
-        if isinstance(p, SprayPhase) and p.flow_lps is None:
-            w = track_width_m(vehicle, p, phase_rows(p, world_rows))
-            q = flow_for_rate(float(p.rate_lpha or 0.0), w, p.speed_mps)
-            p = SprayPhase.model_construct(**{**dict(p), "flow_lps": q})
+    for i, p in enumerate(mission.phases):
+        if isinstance(p, SprayPhase):
+            if p.canopy_width_m is None:
+                p = SprayPhase.model_construct(**{**dict(p), "canopy_width_m": float(canopy_width_m)})
+            rows = phase_rows(p, world_rows)
+            for _ in range(3) if rows else ():  # a slower speed changes the pattern a little: plan again
+                plan = phase_plan(p, vehicle, rows, rows[0][0], fence_enu=fence_enu, terrain_bounds=terrain_bounds,
+                                  air_density=air_density)
+                if not plan.legs:
+                    break
+                if p.rate_lpha is not None:
+                    q = flow_for_rate(float(p.rate_lpha), plan.flow_width_m, p.speed_mps)
+                    p = SprayPhase.model_construct(**{**dict(p), "flow_lps": q})
+                checked = _check_range(i, p, vehicle, plan.flow_width_m)
+                if checked.speed_mps == p.speed_mps:
+                    break
+                p = checked
         phases.append(p)
     return mission.model_copy(update={"phases": phases})

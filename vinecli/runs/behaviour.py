@@ -6,7 +6,8 @@ From a run directory (``timeseries.parquet``, ``events.jsonl``, ``summary.json``
   altitude above the start (a rise time: independent of where each autopilot accepts the item);
 * ``hover_error_max_m`` / ``hover_error_rms_m``: horizontal distance from the mean hold position
   over the first hold phase (from 8 s into it, as the gust mission's checks);
-* ``spray_path_p95_m``: 95th percentile of the distance to the nearest row while the flow is on;
+* ``spray_path_p95_m``: 95th percentile of the distance to the nearest row while the flow is on (the row's
+  line run on 5 m past its ends: the passes spray on past them for the spray footprint);
 * ``landing_time_s``: start of the last phase (land) to the last touchdown.
 
 A figure that does not apply to the run is None.
@@ -71,7 +72,8 @@ def behaviour_figures(run_dir: str | Path, *, hold_settle_s: float = 8.0) -> dic
             rows = [rows[i] for i in spec.rows]  # type: ignore[union-attr,index]
         on = flow > 0
         if on.any():
-            out["spray_path_p95_m"] = float(np.percentile(point_polyline_distance(x[on], y[on], rows), 95))
+            lines = [_run_on(r, 5.0) for r in rows]
+            out["spray_path_p95_m"] = float(np.percentile(point_polyline_distance(x[on], y[on], lines), 95))
     if types and types[-1] == "land":
         span = _phase_span(t, phase, len(types) - 1)
         downs = [float(e["t_s"]) for e in events if e["kind"] == "touchdown"]
@@ -81,3 +83,11 @@ def behaviour_figures(run_dir: str | Path, *, hold_settle_s: float = 8.0) -> dic
 
 
 __all__ = ["behaviour_figures"]
+
+
+def _run_on(row: list[list[float]], m: float) -> list[tuple[float, float]]:
+    """A row polyline (ENU m) run on straight past both ends by ``m`` metres."""
+    p = np.asarray(row, dtype=float)
+    d0, d1 = p[0] - p[1], p[-1] - p[-2]
+    d0, d1 = d0 / (np.linalg.norm(d0) or 1.0), d1 / (np.linalg.norm(d1) or 1.0)
+    return [tuple(p[0] + m * d0), *map(tuple, p), tuple(p[-1] + m * d1)]

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.missions.deposition_metrics import deposition_metrics
-from vinecli.rows.spray_rate import flow_for_rate, nominal_rate_lpha, spray_swath_m, track_width_m
+from vinecli.rows.spray_rate import nominal_rate_lpha, phase_plan, spray_pattern, spray_swath_m
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
 
@@ -132,31 +132,72 @@ def clean_json(v: Any, digits: int | None = 6) -> Any:
     return v
 
 
+def _treated_area_ha(plan: Any, rows: list[list[tuple[float, float]]]) -> float:
+    """Area the plan treats, ha: each row's planned stretch x the row spacing (one row: x the plan's track width)."""
+    from vinecli.rows.detect import row_spacing_m
+
+    if plan is None or not plan.stretches:
+        return math.nan
+    spacing = row_spacing_m(rows) if len(rows) >= 2 else plan.flow_width_m
+    return sum(b - a for a, b in plan.stretches.values()) * spacing / 1e4
+
+
 def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world: Any,
                         rows: list[list[tuple[float, float]]], fence: Any) -> tuple[dict[str, float], dict[str, Any]]:
     """(summary metrics, deposition.json document) of one run's deposition (:func:`write_deposition` adds
-    the raster's figures: ``totals.max_rate_lpha``, ``geotiff``)."""
+    the raster's figures: ``totals.max_rate_lpha``, ``geotiff``). ``spec``: the mission as flown (spray rates
+    resolved, :attr:`~vinecli.sim.setup.PreparedRun.flight`); the spray phase's plan gives each row's planned
+    stretch and the track width."""
     phase = next((p for p in spec.phases if isinstance(p, SprayPhase)), None)
-    nominal = nominal_rate_lpha(phase, vehicle, rows) if phase is not None else math.nan
-    swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
-    track = track_width_m(vehicle, phase, rows) if phase is not None else math.nan
     polygon = getattr(fence, "polygon_enu", None) if fence is not None else None
     canopy = float(getattr(world, "canopy_width_m", 0.6))
+    plan = None
+    terrain = getattr(world, "terrain", None)
+    bounds = tuple(terrain.bounds) if terrain is not None else None
+    rho = float(getattr(world, "air_density", 1.225))
+    if phase is not None and rows:
+        plan = phase_plan(phase, vehicle, rows, rows[0][0], fence_enu=polygon, terrain_bounds=bounds, air_density=rho)
+    nominal = nominal_rate_lpha(phase, vehicle, plan) if phase is not None and plan is not None else math.nan
+    swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
     all_rows = [[tuple(q) for q in r] for r in getattr(world, "vine_rows_enu", []) or []] or rows
-    metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows)
+    dose = spec.dose
+    metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows,
+                                           stretches=plan.stretches if plan is not None else None,
+                                           window_m=dose.window_m, bands=(dose.gap_ratio, dose.hot_ratio),
+                                           tolerance=dose.rate_tolerance)
     metrics["spray_swath_m"] = swath
-    metrics["spray_track_width_m"] = track
-    flow = float(phase.flow_lps) if phase is not None and phase.flow_lps is not None else (
-        flow_for_rate(nominal, track, phase.speed_mps) if phase is not None else math.nan)
+    metrics["spray_track_width_m"] = plan.flow_width_m if plan is not None else math.nan
+    pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, rho) if phase is not None else None
+    metrics["spray_effective_swath_m"] = pattern.effective_m if pattern is not None else math.nan
+    metrics["treated_area_ha"] = _treated_area_ha(plan, rows)
+    lay = plan.layout if plan is not None else None
+    sp = vehicle.sprayer
     doc = {
-        "schema": "vinecli.deposition/1",
+        "schema": "vinecli.deposition/2",
         "units": {"rate": "L/ha", "volume": "L", "length": "m", "frame": "world ENU"},
         "grid": {**dep.grid.to_dict(), "row0": "south"},
         "totals": {"emitted_l": dep.emitted_l, "on_grid_l": dep.on_grid_l, "off_grid_l": dep.off_grid_l,
                    "balance_error": dep.balance_error},  # + max_rate_lpha: write_deposition
-        "spray_phase": None if phase is None else {"flow_lps": flow, "rate_lpha": nominal, "swath_m": swath,
-                                                   "speed_mps": phase.speed_mps, "height_agl_m": phase.height_agl_m,
-                                                   "rate_given": phase.rate_lpha is not None},
+        "spray_phase": None if phase is None else {
+            "flow_lps": phase.flow_lps, "rate_lpha": nominal, "speed_mps": phase.speed_mps,
+            "height_agl_m": phase.height_agl_m, "rate_given": phase.rate_lpha is not None,
+            "litres_per_m": float(phase.flow_lps or 0.0) / phase.speed_mps, "swath_m": swath,
+            "track_width_m": metrics["spray_track_width_m"], "effective_swath_m": metrics["spray_effective_swath_m"],
+            "passes": None if lay is None else {"mode": lay.mode, "count": len(lay.across_m), "spacing_m": lay.spacing_m,
+                                                "edge_offset_m": lay.edge_offset_m, "row_dose_expected": lay.row_dose}},
+        "sprayer_law": {
+            "flow": "speed-scaled (AC_Sprayer): litres per metre x ground speed, on above "
+                    f"{sp.control.speed_min_mps:g} m/s after {sp.control.on_delay_s:g} s, off {sp.control.off_delay_s:g} s "
+                    "below; sections open over the passes only" + (", ahead of the pass ends by the pump lag"
+                                                                    if sp.control.section_lead else ""),
+            "pump": {"tau_up_s": sp.pump.tau_up_s, "tau_down_s": sp.pump.tau_down_s,
+                     "max_flow_lps": vehicle.tank.nozzle_max_flow_lps if vehicle.tank is not None else None},
+            "nozzles": {"kind": sp.kind, "rated_flow_lps": sp.rated_flow_lps, "rated_pressure_bar": sp.rated_pressure_bar,
+                        "pressure_range_bar": sp.pressure_range_bar,
+                        "pressure_law": "q ∝ √p, VMD ∝ p^-n" if sp.pressure_law else "none (drop size fixed)",
+                        "droplet_pressure_exponent": sp.droplet_pressure_exponent},
+        },
+        "dose_bands": dose.model_dump(mode="json"),
         "canopy_width_m": canopy,
         "geofence_polygon_enu": polygon,
         "sprayer": dep.sprayer,
@@ -164,8 +205,11 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
         "transport_s": dep.transport_s,
         "metrics": metrics,
         "path_enu": dep.parcels.path_xy[:: max(1, len(dep.parcels.path_xy) // 2000)],
-        "rows": [{"row": p["row"], "length_m": p["length_m"], "covered_fraction": p["covered_fraction"],
-                  "mean_rate_lpha": p["mean_rate_lpha"], "sprayed_m": p["sprayed_m"], "segment_m": 0.5,
-                  "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]]} for p in profiles],
+        "rows": [{"row": p["row"], "length_m": p["length_m"], "planned_m": p["planned_m"],
+                  "covered_fraction": p["covered_fraction"], "mean_rate_lpha": p["mean_rate_lpha"],
+                  "sprayed_m": p["sprayed_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
+                  "in_band_fraction": p["in_band_fraction"],
+                  "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]]}
+                 for p in profiles],
     }
     return metrics, doc

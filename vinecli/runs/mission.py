@@ -27,8 +27,8 @@ from vinecli.constants import MAX_SEED, STANDARD_GRAVITY
 from vinecli.errors import ChecksFailed, InputError, RuntimeFailure, SpecError, VinecliError
 from vinecli.inputs import note_input, reading_inputs
 from vinecli.locks import output_lock
-from vinecli.missions.budget_metrics import budget_default_checks
 from vinecli.missions.checks import evaluate_checks
+from vinecli.missions.dose import default_checks
 from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
 from vinecli.missions.quantities import check_quantities
@@ -250,15 +250,31 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
     dep_metrics: dict[str, float] = {}
     dep_doc: dict[str, Any] | None = None
     budget: Any = None
+    spray: dict[str, Any] = {}
     if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
+        from vinecli.runs.budget_out import evaluate_budget
         from vinecli.runs.deposition_out import evaluate_deposition
 
-        dep_metrics, dep_doc = evaluate_deposition(result.deposition, spec, vehicle, world, rows, run.geofence)
-        from vinecli.runs.budget_out import evaluate_budget
-
+        dep_metrics, dep_doc = evaluate_deposition(result.deposition, run.flight, vehicle, world, rows, run.geofence)
         all_rows = [[tuple(q) for q in r] for r in world.vine_rows_enu] or rows
         budget = evaluate_budget(result.deposition, world, all_rows, dep_metrics.get("nominal_rate_lpha", math.nan))
         dep_metrics.update(budget.metrics)
+    if any(isinstance(p, SprayPhase) for p in spec.phases):  # did every vine get its dose, and where not
+        from vinecli.runs.spray_report import describe_spray, judge_ending, locate_cutouts, locate_faults
+
+        dep_rows = dep_doc["rows"] if dep_doc is not None else None
+        status, status_message = judge_ending(status, status_message, spec, dep_rows, result.timeseries)
+        from vinecli.missions.job import operations
+
+        spray = {"operations": operations(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events],
+                                          float(dep_metrics.get("treated_area_ha", math.nan))),
+                 "dose_faults": locate_faults(dep_rows or [], result.timeseries),
+                 "sprayer_cutouts": locate_cutouts([(e.t_us * 1e-6, e.kind, e.data) for e in result.events],
+                                                   dep_rows or [], 0.5 * float(dep_metrics.get("spray_track_width_m", 1.0)))}
+        if dep_doc is not None:
+            dep_doc.update(spray)
+        note = describe_spray(spray["dose_faults"], spray["sprayer_cutouts"])
+        status_message = f"{status_message} ({note})" if note else status_message
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -266,7 +282,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         metrics={**result.metrics, **dep_metrics},
         context=MetricContext(gravity=float(world.gravity), rows_enu=rows),
     )
-    checks = evaluate_checks(budget_default_checks(spec.checks, dep_metrics), data)
+    checks = evaluate_checks(spec.checks, data, default_checks(spec, dep_metrics))
     passed = all(c.passed for c in checks)
     metrics = _summary_metrics(data)
     sim_time = float(result.sim_time_s)
@@ -293,6 +309,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         "checks": [c.to_dict() for c in checks],
         "metrics": metrics,
         "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
+        **spray,
         "timing": _timing_doc(result.timing, wall, rtf),
         "started_utc": started,
         "kernel": native.identity(),  # which kernel ran: compiled or pure, and its build identity
@@ -471,4 +488,4 @@ def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = 
         metrics={k: float(v) for k, v in (summary.get("metrics") or {}).items() if isinstance(v, (int, float))},
         context=MetricContext(gravity=gravity, rows_enu=_rows_for_metrics(spec, rows)),
     )
-    return summary, evaluate_checks(budget_default_checks(spec.checks, data.metrics), data)
+    return summary, evaluate_checks(spec.checks, data, default_checks(spec, data.metrics))

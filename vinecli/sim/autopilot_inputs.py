@@ -42,6 +42,7 @@ def autopilot_context(run: PreparedRun, home: Vec3, dt_us: int, seed: int,
         terrain_bounds=db.bounds,
         estimator=PerfectEstimator() if run.flight.truth else None,
         should_stop=should_stop,
+        air_density_kgm3=float(run.world.air_density),
     )
 
 

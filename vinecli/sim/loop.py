@@ -21,6 +21,7 @@ from vinecli.frames import BodyFrame, Vec3, quat_to_euler, tilt_angle
 from vinecli.physics.aero import body_drag
 from vinecli.physics.battery import Battery, ElectricalLoad
 from vinecli.physics.motor import MotorBank
+from vinecli.physics.pump import Pump
 from vinecli.physics.sensors import make_sensors
 from vinecli.physics.tank import Tank, TankCoupling
 from vinecli.physics.wind import WindField
@@ -109,8 +110,9 @@ def vehicle_physics(run: PreparedRun, plant: Plant, motors: MotorBank) -> Vehicl
     veh, tank, battery = run.vehicle, plant.tank, plant.battery
     coupling = TankCoupling(tank, run.rigid_mass_kg, (0.0, 0.0, -run.gravity), run.spawn.airborne) if tank else None
     load = ElectricalLoad(battery.spec, tank.spec.nozzle_max_flow_lps if tank is not None else None) if battery else None
+    pump = Pump(veh.sprayer.pump, tank.spec.nozzle_max_flow_lps) if tank is not None else None
     return VehiclePhysics(motors, plant.wind, body_drag(veh.drag, run.world.air_density), tank, coupling, battery, load,
-                          run.rigid_mass_kg)
+                          run.rigid_mass_kg, pump)
 
 
 @final

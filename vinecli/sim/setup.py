@@ -181,7 +181,11 @@ def prepare_run(
     veh = _vehicle(world, mission, vehicle)
     from vinecli.rows.spray_rate import resolve_spray_rates
 
-    flight = resolve_spray_rates(mission, veh, world.vine_rows_enu)  # phases in L/ha fly the equivalent flow
+    fence = mission.geofence if mission.geofence is not None else world.geofence
+    flight = resolve_spray_rates(  # phases in L/ha fly the equivalent flow of their plan, within the pump's range
+        mission, veh, world.vine_rows_enu, fence_enu=fence.polygon_enu if fence is not None else None,
+        terrain_bounds=tuple(world.terrain.bounds), air_density=float(world.air_density),
+        canopy_width_m=world.canopy_width_m)
     rate = float(world.physics_rate_hz)
     tank_spec = veh.tank
     if tank_spec is None:
@@ -214,7 +218,7 @@ def prepare_run(
         rigid_mass_kg=veh.dry_mass(),
         tank_fill_l=fill,
         wind=mission.wind if mission.wind is not None else world.wind,
-        geofence=mission.geofence if mission.geofence is not None else world.geofence,
+        geofence=fence,
         spawn=spawn,
         end_on_crash=end_on_crash,
         crash_speed_mps=crash_speed_mps,

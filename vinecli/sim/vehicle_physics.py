@@ -9,8 +9,9 @@ forces because the links are rigidly fixed):
 2. rotors: thrust, rotor drag, reaction torque and rolling moment from the air at each rotor
    (:meth:`MotorBank.wrench_com <vinecli.physics.motor.MotorBank.wrench_com>`, body FLU -> world);
 3. link drag with its lever arm (:class:`~vinecli.physics.aero.BodyDrag`);
-4. the tank drains at the commanded flow and the liquid pushes at its mount
-   (:class:`~vinecli.physics.tank.Tank`, :class:`~vinecli.physics.tank.TankCoupling`);
+4. the pump delivers the commanded flow through its lag (:class:`~vinecli.physics.pump.Pump`), the tank
+   drains what it delivers and the liquid pushes at its mount (:class:`~vinecli.physics.tank.Tank`,
+   :class:`~vinecli.physics.tank.TankCoupling`);
 5. the battery delivers the electrical load (:class:`~vinecli.physics.battery.ElectricalLoad`: shaft
    power / efficiency + avionics + pump) over the step (:class:`~vinecli.physics.battery.Battery`).
 """
@@ -25,6 +26,7 @@ from vinecli.frames import BodyFrame, Vec3
 from vinecli.physics.aero import BodyDrag, apparent_velocity
 from vinecli.physics.battery import Battery, ElectricalLoad
 from vinecli.physics.motor import MotorBank
+from vinecli.physics.pump import Pump
 from vinecli.physics.tank import Tank, TankCoupling
 from vinecli.physics.wind import WindField
 from vinecli.types import ActuatorCommand
@@ -41,11 +43,12 @@ class VehiclePhysics:
 
     def __init__(self, motors: MotorBank, wind: WindField, drag: BodyDrag, tank: Tank | None,
                  coupling: TankCoupling | None, battery: Battery | None, load: ElectricalLoad | None,
-                 rigid_mass_kg: float) -> None:
+                 rigid_mass_kg: float, pump: Pump | None = None) -> None:
         self.motors = motors
         self.wind_field = wind
         self.body_drag = drag
         self.tank = tank
+        self.pump = pump
         self.coupling = coupling
         self.battery = battery
         self.load = load
@@ -83,7 +86,8 @@ class VehiclePhysics:
         flow = 0.0
         if tank is not None and self.coupling is not None:
             self.flow_cmd_lps = cmd.spray_flow_lps
-            tank.update(self.flow_cmd_lps, dt)
+            pump = self.pump
+            tank.update(pump.update(self.flow_cmd_lps, dt) if pump is not None else self.flow_cmd_lps, dt)
             flow = tank.flow_lps
             (f0, f1, f2), (rx, ry, rz) = self.coupling.force(frame, acc, alpha, omega, (fx, fy, fz))
             fx += f0

@@ -1,7 +1,7 @@
 """What the phase -> mission-item converter (:func:`vinecli.phase_items.phases_to_items`) takes from a run's
 context, for every firmware: the mission with the world's geofence when it has none of its own, and the
 :class:`~vinecli.phase_items.PlanContext` (home, rows, terrain, nozzle flow, the vehicle's acceleration for
-the spray plan's turns) in the firmware's latitude/longitude convention (``origin``)."""
+the spray plan's turns, the sprayer's pattern) in the firmware's latitude/longitude convention (``origin``)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
         origin=origin if origin is not None else ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
         terrain_height=ctx.terrain_height,
         nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
-        accel_mps2=plan_accel(v), firmware=firmware,
+        accel_mps2=plan_accel(v), firmware=firmware, vehicle=v, terrain_bounds=ctx.terrain_bounds,
+        air_density=ctx.air_density_kgm3,
     )
     mission = ctx.mission
     if ctx.geofence is not None and mission.geofence is None:

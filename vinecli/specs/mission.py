@@ -68,15 +68,21 @@ class WaypointsPhase(StrictModel):
 
 class RefillSpec(StrictModel):
     """Sorties of a spray job: when the tank (or the battery) runs low the vehicle records the
-    breakpoint, returns home, lands, is refilled (and gets a fresh battery), takes off and resumes
-    the rows at the breakpoint."""
+    breakpoint, returns home, lands, is refilled (and gets a fresh battery when the next sortie needs
+    one), takes off and resumes the rows at the breakpoint (flying in from behind it at spraying speed).
+    Ground times, the battery reserve and the swap rule default to the vehicle's ``sprayer.operations``."""
 
-    time_s: float = Field(60.0, ge=0, le=3600, description="ground time for the refill and battery swap, s")
+    time_s: float | None = Field(None, ge=0, le=3600, description="fixed ground time of a stop, s; default: the "
+                                 "vehicle's operations model (handling + refill at its pump rate, battery swap)")
     fill_l: float | None = Field(None, gt=0, description="litres after a refill; default: the tank's capacity")
     reserve_l: float = Field(0.0, ge=0, description="return for a refill when the tank holds this much or less, L")
-    swap_battery: bool = Field(True, description="a fresh battery at every refill (and return when it runs low)")
+    swap_battery: bool | Literal["auto"] = Field("auto", description="'auto': a fresh battery when the next sortie "
+                                                 "could not land with the reserve; true: at every stop; false: never")
+    reserve_soc: float | None = Field(None, ge=0, lt=1, description="state of charge a sortie must land with; "
+                                      "default: the vehicle's sprayer.operations.reserve_soc, else its battery low_soc")
     return_altitude_agl_m: float = Field(5.0, gt=0, le=120, description="transit height above home, m")
-    overlap_m: float = Field(1.0, ge=0, le=10, description="resume this far before the breakpoint along the row, m")
+    overlap_m: float = Field(0.0, ge=0, le=10, description="open the sprayer this far before the breakpoint when "
+                             "resuming, m (0: at the breakpoint, the deposits of the two sorties then join evenly)")
     max_sorties: int = Field(30, ge=1, le=1000)
 
 
@@ -95,9 +101,14 @@ class SprayPhase(StrictModel):
     flow_lps: float | None = Field(None, gt=0, description="nozzle flow while over a row, L/s (or give rate_lpha)")
     rate_lpha: float | None = Field(
         None, gt=0, le=10_000.0,
-        description="application rate, L/ha: flow = rate x swath x speed / 10 000 (swath from the nozzles and height)",
+        description="application rate, L/ha: flow = rate x track width x speed / 10 000 (the track width of the plan's "
+                    "passes, from the vehicle's effective swath at the phase's height and speed)",
     )
     until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
+    allow_slower: bool = Field(False, description="fly slower than speed_mps when the sprayer cannot deliver the rate "
+                                                  "at that speed (else the run is refused)")
+    canopy_width_m: float | None = Field(None, gt=0, le=10.0, description="width of the canopy band each row is dosed "
+                                         "on, m (passes are laid out for it); default: the world's canopy_width_m")
     timeout_s: float = Field(900.0, gt=0, le=MAX_DURATION_S)
     refill: RefillSpec | None = Field(None, description="refill sorties until every row is sprayed (until: rows_done)")
 
@@ -203,6 +214,19 @@ class CheckSpec(StrictModel):
     description: str = ""
 
 
+class DoseSpec(StrictModel):
+    """Bands of the dose checks every mission with a spray phase gets (``dose_*`` checks, judged on the deposit
+    along each row's planned stretch); a mission overrides a band here, or a check by giving one of the same name."""
+
+    check: bool = Field(True, description="add the dose checks (false: the mission judges the dose itself, or not)")
+    rate_tolerance: float = Field(0.15, gt=0, le=10, description="each row's mean rate within this share of the asked rate")
+    hot_ratio: float = Field(1.3, gt=1, le=100, description="no window along a row above this x the asked rate")
+    gap_ratio: float = Field(0.6, ge=0, lt=1, description="no window along a row's planned stretch below this x the asked rate")
+    window_m: float = Field(1.0, gt=0, le=100, description="length of the windows along the rows, m")
+    coverage_min: float = Field(0.98, ge=0, le=1, description="share of the planned stretches with >= 50 % of the asked rate")
+    drift_max: float = Field(0.05, ge=0, le=1, description="share of the liquid landing outside the geofence (or the field)")
+
+
 class MissionSpec(StrictModel):
     """A test mission."""
 
@@ -219,6 +243,7 @@ class MissionSpec(StrictModel):
     record_rate_hz: float = Field(50.0, gt=0, le=MAX_RATE_HZ)
     phases: list[Phase] = Field(min_length=1)
     checks: list[CheckSpec] = Field(default_factory=list)
+    dose: DoseSpec = Field(default_factory=DoseSpec, description="bands of the default dose checks of spray missions")
 
     @model_validator(mode="after")
     def _initial_state_first(self) -> MissionSpec:

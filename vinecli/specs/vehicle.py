@@ -16,6 +16,7 @@ from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.limits import MAX_IMAGE_PX, MAX_RATE_HZ
+from vinecli.specs.sprayer import SprayerSpec
 
 Vec3L = tuple[float, float, float]
 
@@ -129,35 +130,6 @@ class BatterySpec(StrictModel):
             if len(socs) < 2 or socs != sorted(socs) or socs[0] > 0.0 or socs[-1] < 1.0:
                 raise ValueError("ocv_table needs >= 2 points, ascending soc, covering 0..1")
         return self
-
-
-class NozzleSpec(StrictModel):
-    """One spray nozzle: where it sits, its share of the flow and its cone (full cone, axis along -z FLU)."""
-
-    position_m: Vec3L = Field((0.0, 0.0, -0.10), description="nozzle orifice, m, body FLU")
-    flow_share: float = Field(1.0, gt=0, description="share of the tank flow (normalised over the nozzles)")
-    cone_angle_deg: float = Field(80.0, gt=0, lt=170, description="full spray cone angle, deg")
-
-
-class DropletSpectrumSpec(StrictModel):
-    """Droplet sizes as a log-normal volume distribution split into equal-volume classes."""
-
-    vmd_um: float = Field(200.0, gt=1, le=2000, description="volume median diameter Dv0.5, µm")
-    gsd: float = Field(1.5, ge=1.0, le=4.0, description="geometric standard deviation of the volume distribution")
-    classes: int = Field(5, ge=1, le=20, description="number of equal-volume size classes")
-
-
-class SprayerSpec(StrictModel):
-    """Nozzles and droplet spectrum of the sprayer (used by the deposition model)."""
-
-    nozzles: list[NozzleSpec] = Field(default_factory=lambda: [NozzleSpec()], min_length=1)
-    droplets: DropletSpectrumSpec = DropletSpectrumSpec()
-
-    def swath_m(self, height_m: float) -> float:
-        """Geometric swath at ``height_m`` below the nozzles, m: lateral nozzle span + 2 h tan(θ/2) (widest cone)."""
-        ys = [n.position_m[1] for n in self.nozzles]
-        half = max(math.tan(math.radians(n.cone_angle_deg) / 2.0) for n in self.nozzles)
-        return (max(ys) - min(ys)) + 2.0 * max(height_m, 0.0) * half
 
 
 class PayloadSpec(StrictModel):

@@ -1,0 +1,58 @@
+"""The dose judged by default: checks every mission with a spray phase gets (issue 19).
+
+Unless the mission says ``dose: {check: false}``, a spraying mission is judged on the deposit along each
+target row's planned stretch (:mod:`vinecli.missions.deposition_metrics`), with the bands of its ``dose``
+(:class:`~vinecli.specs.mission.DoseSpec`):
+
+* ``dose_row_rates``: every row's mean rate within ``rate_tolerance`` (±15 %) of the asked rate;
+* ``dose_hot_spots``: no ``window_m`` (1 m) stretch above ``hot_ratio`` (1.3) x the asked rate;
+* ``dose_gaps``: no such stretch below ``gap_ratio`` (0.6) x inside a planned stretch;
+* ``dose_coverage``: at least ``coverage_min`` (98 %) of the planned stretches got half the asked rate;
+* ``dose_drift``: at most ``drift_max`` (5 %) of the liquid outside the geofence (or the field).
+
+A mission check of the same name replaces the default one (its own bounds, windows, description).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from vinecli.specs.mission import CheckSpec, MissionSpec, SprayPhase
+
+__all__ = ["DOSE_CHECKS", "default_checks", "default_dose_checks"]
+
+#: names of the default dose checks
+DOSE_CHECKS = ("dose_row_rates", "dose_hot_spots", "dose_gaps", "dose_coverage", "dose_drift")
+
+
+def default_checks(spec: MissionSpec, metrics: dict[str, Any]) -> list[CheckSpec]:
+    """Every check a run gets by default: the dose checks (:func:`default_dose_checks`) and the spray budget's
+    (:func:`vinecli.missions.budget_metrics.budget_default_checks`, from the run's ``metrics``)."""
+    from vinecli.missions.budget_metrics import budget_default_checks
+
+    return [*default_dose_checks(spec), *budget_default_checks(spec.checks, metrics)]
+
+
+def default_dose_checks(spec: MissionSpec) -> list[CheckSpec]:
+    """The dose checks ``spec`` gets by default (none without a spray phase or with ``dose.check`` false), without
+    those the mission defines itself (same name)."""
+    if not spec.dose.check or not any(isinstance(p, SprayPhase) for p in spec.phases):
+        return []
+    d = spec.dose
+    w = f"{d.window_m:g} m"
+    checks = [
+        CheckSpec(name="dose_row_rates", quantity="metric:row_rate_error_max", op="<=", bound=d.rate_tolerance,
+                  description=f"every row's mean rate within ±{d.rate_tolerance:.0%} of the asked rate (default dose check)"),
+        CheckSpec(name="dose_hot_spots", quantity="metric:dose_window_ratio_max", op="<=", bound=d.hot_ratio,
+                  description=f"no {w} stretch along a row above {d.hot_ratio:g}x the asked rate (default dose check)"),
+        CheckSpec(name="dose_gaps", quantity="metric:dose_window_ratio_min", op=">=", bound=d.gap_ratio,
+                  description=f"no {w} stretch of a planned row stretch below {d.gap_ratio:g}x the asked rate "
+                              "(default dose check)"),
+        CheckSpec(name="dose_coverage", quantity="metric:row_coverage_fraction", op=">=", bound=d.coverage_min,
+                  description=f"{d.coverage_min:.0%} of the planned row stretches got half the asked rate or more "
+                              "(default dose check)"),
+        CheckSpec(name="dose_drift", quantity="metric:drift_outside_fence_fraction", op="<=", bound=d.drift_max,
+                  description=f"at most {d.drift_max:.0%} of the liquid outside the geofence (default dose check)"),
+    ]
+    own = {c.name for c in spec.checks}
+    return [c for c in checks if c.name not in own]

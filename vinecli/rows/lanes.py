@@ -1,0 +1,160 @@
+"""Where the passes go: lanes across a block of rows from the sprayer's pattern (ENU m).
+
+:func:`layout_lanes` places the passes so that every row, the edge rows included, gets the asked
+rate on its canopy band. It works on the rows' positions across the block and the expected
+cross-track pattern of one pass (:class:`~vinecli.physics.swath.SwathPattern`):
+
+* one row: one pass over it; the flow doses its band (``flow_width`` = the single-pass width);
+* rows at least an effective swath apart: one pass over each row, doses as above (a row listed twice:
+  a pass per listed row, flown in the order listed, ``listed``);
+* otherwise broadcast: n evenly spaced passes from ``first row + e`` to ``last row - e``, their
+  spacing S at most the effective swath and within the CV limit of the overlapped pattern, with the
+  flow of S (rate x S x speed). n and the edge offset e (passes beyond the edge rows for e < 0, inside
+  for e > 0) are chosen so that the expected mean rate on every row's band is closest to the asked one,
+  the fewest passes first among the layouts within :data:`ROW_TARGET` as planned and within
+  :data:`ROW_TARGET_OFF_TRACK` with any one pass flown :data:`TRACK_ERROR_M` off its line (the estimate's
+  bias differs from pass to pass; a row on the steep flank of a pattern would take it as a dose error).
+
+:func:`lane_polyline` builds a pass's path: the rows it lies between interpolated (arc-length
+fractions), or the edge row shifted across.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vinecli.rows.detect import Polyline
+
+__all__ = ["ROW_TARGET", "TRACK_ERROR_M", "LaneLayout", "lane_polyline", "layout_lanes"]
+
+#: expected deviation of a row's mean rate from the asked one a layout aims for (the dose check allows 15 %)
+ROW_TARGET = 0.08
+#: ... and flown off its lines by TRACK_ERROR_M (the dose check allows 15 %: 3 % left for the rest)
+ROW_TARGET_OFF_TRACK = 0.12
+#: cross-track error of a flown pass the layouts must tolerate, m (the built-in autopilot's position estimate drifts
+#: by ~0.1-0.15 m over a pass on the x500-sprayer's GNSS)
+TRACK_ERROR_M = 0.1
+_E_STEP = 0.05  # m, edge offsets tried
+_BAND_STEP = 0.02  # m, samples across a row's band
+
+
+@dataclass(frozen=True)
+class LaneLayout:
+    """Passes across a block: ``across_m`` the pass positions (across coordinate, m), ``flow_width_m`` the track
+    width of the flow (flow = rate x width x speed / 10 000), ``row_dose`` the expected mean rate of each row
+    relative to the asked one, ``mode`` single | rows | listed | broadcast."""
+
+    across_m: list[float]
+    flow_width_m: float
+    spacing_m: float
+    row_dose: list[float]
+    mode: str
+    edge_offset_m: float = 0.0
+
+    @property
+    def worst_row_error(self) -> float:
+        """Largest |expected row rate / asked - 1|."""
+        return max((abs(d - 1.0) for d in self.row_dose), default=0.0)
+
+
+def _row_doses(pattern: object, rows: np.ndarray, lanes: Sequence[float], width: float, band_m: float) -> list[float]:
+    """Expected mean rate on each row's band (relative to the asked one) of passes at ``lanes`` alternating in
+    direction, each with the flow of ``width``."""
+    half = 0.5 * band_m
+    off = np.arange(-half, half + 1e-9, _BAND_STEP)
+    ys = (rows[:, None] + off[None, :]).ravel()
+    dose = pattern.dose(ys, [(c, 1 if k % 2 == 0 else -1) for k, c in enumerate(lanes)])  # type: ignore[attr-defined]
+    return [float(v) for v in (dose.reshape(rows.size, off.size).mean(axis=1) * width)]
+
+
+def _off_track(lanes: list[float]) -> list[list[float]]:
+    """The layout with one pass flown TRACK_ERROR_M off its line (each pass, each way: the estimate's bias
+    differs from pass to pass)."""
+    d = TRACK_ERROR_M
+    return [[c + (sign * d if j == k else 0.0) for j, c in enumerate(lanes)] for k in range(len(lanes))
+            for sign in (1.0, -1.0)]
+
+
+def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target: float = ROW_TARGET) -> LaneLayout:
+    """Passes for rows at ``across`` (m, any order) under ``pattern`` (a SwathPattern), canopy band ``band_m``."""
+    xs = np.sort(np.asarray(across, dtype=np.float64))
+    w1 = pattern.single_pass_width_m(band_m)  # type: ignore[attr-defined]
+    eff = float(pattern.effective_m)  # type: ignore[attr-defined]
+    gaps = np.diff(xs)
+    if gaps.size and float(np.min(gaps)) < 1e-6:  # a row listed twice: a pass per listed row, in the order listed
+        lanes = [float(x) for x in across]
+        return LaneLayout(lanes, w1, math.nan, _row_doses(pattern, xs, lanes, w1, band_m), "listed")
+    if xs.size == 1 or not math.isfinite(eff) or float(np.min(gaps)) >= eff:
+        lanes = [float(x) for x in xs]
+        mode = "single" if xs.size == 1 else "rows"
+        spacing = float(np.median(gaps)) if gaps.size else math.nan
+        return LaneLayout(lanes, w1, spacing, _row_doses(pattern, xs, lanes, w1, band_m), mode)
+    span = float(xs[-1] - xs[0])
+    n0 = int(math.ceil(span / eff - 1e-9)) + 1
+    fallback: tuple[float, LaneLayout] | None = None
+    for n in range(max(n0, 2), n0 + 5):
+        candidates: list[tuple[float, LaneLayout]] = []
+        for e in np.arange(-0.5 * eff, 0.5 * eff + 1e-9, _E_STEP):
+            s = (span - 2.0 * e) / (n - 1)
+            if s <= 0.0 or s > eff + 1e-9 or not pattern.good(s):  # type: ignore[attr-defined]
+                continue
+            lanes = [float(xs[0] + e + k * s) for k in range(n)]
+            doses = _row_doses(pattern, xs, lanes, s, band_m)
+            err = max(abs(d - 1.0) for d in doses)
+            lay = LaneLayout(lanes, s, s, doses, "broadcast", float(e))
+            candidates.append((err, lay))
+            if fallback is None or err < fallback[0]:
+                fallback = (err, lay)
+        for err, lay in sorted(candidates, key=lambda c: c[0]):  # the best planned dose that survives a pass off line
+            if err > target:
+                break
+            off = max(max(abs(d - 1.0) for d in _row_doses(pattern, xs, shifted, lay.spacing_m, band_m))
+                      for shifted in _off_track(lay.across_m))
+            if off <= ROW_TARGET_OFF_TRACK:
+                return lay
+    if fallback is None:  # no spacing passes the CV limit: one pass per row
+        lanes = [float(x) for x in xs]
+        return LaneLayout(lanes, w1, float(np.median(gaps)), _row_doses(pattern, xs, lanes, w1, band_m), "rows")
+    return fallback[1]
+
+
+def _resample(line: np.ndarray, fractions: np.ndarray) -> np.ndarray:
+    """Points at arc-length ``fractions`` (0..1) of a polyline (N, 2)."""
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    s = fractions * cum[-1]
+    return np.column_stack([np.interp(s, cum, line[:, 0]), np.interp(s, cum, line[:, 1])])
+
+
+def _fractions(line: np.ndarray) -> np.ndarray:
+    """Arc-length fractions (0..1) of a polyline's vertices."""
+    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    return cum / (cum[-1] or 1.0)
+
+
+def lane_polyline(rows: Sequence[Polyline], across: Sequence[float], c: float,
+                  normal: tuple[float, float]) -> list[tuple[float, float]]:
+    """The path of a pass at across position ``c`` (m): between the two rows around it, interpolated at matching
+    arc-length fractions (each row oriented as the first); beyond the outer rows, the outer row shifted
+    across by the distance (``normal`` the unit across vector). ``rows`` and ``across`` are aligned."""
+    order = np.argsort(np.asarray(across, dtype=np.float64))
+    xs = np.asarray(across, dtype=np.float64)[order]
+    lines = [np.asarray(rows[i], dtype=np.float64) for i in order]
+    ref = lines[0][-1] - lines[0][0]
+    lines = [ln if float(np.dot(ln[-1] - ln[0], ref)) >= 0 else ln[::-1] for ln in lines]
+    nx, ny = normal
+    if c <= xs[0] or c >= xs[-1] or xs.size == 1:
+        k = 0 if c <= xs[0] else xs.size - 1
+        d = c - float(xs[k])
+        return [(float(x + d * nx), float(y + d * ny)) for x, y in lines[k]]
+    j = int(np.searchsorted(xs, c))  # xs[j-1] < c <= xs[j]
+    a, b = lines[j - 1], lines[j]
+    w = (c - float(xs[j - 1])) / (float(xs[j] - xs[j - 1]) or 1.0)
+    f = np.unique(np.round(np.concatenate([_fractions(a), _fractions(b)]), 9))
+    pa, pb = _resample(a, f), _resample(b, f)
+    pts = (1.0 - w) * pa + w * pb
+    return [(float(x), float(y)) for x, y in pts]
