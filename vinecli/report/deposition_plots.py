@@ -44,6 +44,35 @@ def _fmt(v: Any, unit: str, nd: int = 1) -> str:
     return f"{v:.{nd}f} {unit}" if isinstance(v, (int, float)) and math.isfinite(v) else "n/a"
 
 
+def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], faults: list[Any]) -> list[str]:
+    """The key figures printed beside fig. 23's map (deposition.json ``doc``, its metrics ``m``)."""
+    tot = doc.get("totals") or {}
+    sp = doc.get("spray_phase") or {}
+    passes = sp.get("passes") or {}
+    n_rows = len(doc.get("rows") or [])
+    in_tol = sum(1 for r in doc.get("rows") or [] if isinstance(r.get("mean_rate_lpha"), (int, float))
+                 and isinstance(nominal, (int, float)) and nominal > 0
+                 and abs(r["mean_rate_lpha"] / nominal - 1.0) <= float((doc.get("dose_bands") or {}).get("rate_tolerance", 0.15)))
+    lines = [
+        "Where the liquid landed",
+        f"emitted            {_fmt(tot.get('emitted_l'), 'L', 3)}",
+        f"asked rate         {_fmt(nominal, 'L/ha')}",
+        f"swath (geometric)  {_fmt(sp.get('swath_m'), 'm', 2)}",
+        f"effective swath    {_fmt(sp.get('effective_swath_m'), 'm', 2)}",
+        f"passes             {passes.get('count', 'n/a')} x {_fmt(sp.get('track_width_m'), 'm', 2)} ({passes.get('mode', '')})",
+        f"rows within band   {in_tol} of {n_rows}",
+        f"dose faults        {len(faults)}",
+        f"mean on rows       {_fmt(m.get('mean_rate_lpha_on_rows'), 'L/ha')}",
+        f"CV along rows      {_fmt_pct(m.get('deposit_cv_on_rows'))}",
+        f"rows covered >=50% {_fmt_pct(m.get('row_coverage_fraction'))}",
+        f"in the row bands   {_fmt_pct(m.get('deposit_on_rows_fraction'))}",
+        f"outside the fence  {_fmt_pct(m.get('drift_outside_fence_fraction'))}",
+        f"off the map        {_fmt(tot.get('off_grid_l'), 'L', 4)}",
+        f"balance error      {tot.get('balance_error', float('nan')):.1e}",
+    ]
+    return lines
+
+
 def fig23_deposition(data: Any) -> bytes:
     """Application rate map (L/ha) over the terrain with the rows, the flown path and the fence."""
     from matplotlib import colormaps
@@ -145,30 +174,7 @@ def fig23_deposition(data: Any) -> bytes:
     xt = min(pos.x1 + 0.19, 0.745)
     fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="lower left", bbox_to_anchor=(xt, pos.y0),
                frameon=False)
-    tot = doc.get("totals") or {}
-    sp = doc.get("spray_phase") or {}
-    passes = sp.get("passes") or {}
-    n_rows = len(doc.get("rows") or [])
-    in_tol = sum(1 for r in doc.get("rows") or [] if isinstance(r.get("mean_rate_lpha"), (int, float))
-                 and isinstance(nominal, (int, float)) and nominal > 0
-                 and abs(r["mean_rate_lpha"] / nominal - 1.0) <= float((doc.get("dose_bands") or {}).get("rate_tolerance", 0.15)))
-    lines = [
-        "Where the liquid landed",
-        f"emitted            {_fmt(tot.get('emitted_l'), 'L', 3)}",
-        f"asked rate         {_fmt(nominal, 'L/ha')}",
-        f"swath (geometric)  {_fmt(sp.get('swath_m'), 'm', 2)}",
-        f"effective swath    {_fmt(sp.get('effective_swath_m'), 'm', 2)}",
-        f"passes             {passes.get('count', 'n/a')} x {_fmt(sp.get('track_width_m'), 'm', 2)} ({passes.get('mode', '')})",
-        f"rows within band   {in_tol} of {n_rows}",
-        f"dose faults        {len(faults)}",
-        f"mean on rows       {_fmt(m.get('mean_rate_lpha_on_rows'), 'L/ha')}",
-        f"CV along rows      {_fmt_pct(m.get('deposit_cv_on_rows'))}",
-        f"rows covered >=50% {_fmt_pct(m.get('row_coverage_fraction'))}",
-        f"on the canopy      {_fmt_pct(m.get('deposit_on_rows_fraction'))}",
-        f"outside the fence  {_fmt_pct(m.get('drift_outside_fence_fraction'))}",
-        f"off the map        {_fmt(tot.get('off_grid_l'), 'L', 4)}",
-        f"balance error      {tot.get('balance_error', float('nan')):.1e}",
-    ]
+    lines = _fig23_key_figures(doc, nominal, m, faults)
     fig.text(xt, pos.y1, "\n".join(lines), fontsize=9, family="monospace", va="top")
     set_title(fig, data, "Fig. 23  Spray deposition, L/ha")
     return png_bytes(fig)
