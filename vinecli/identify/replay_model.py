@@ -8,7 +8,7 @@ the simulator's 250 Hz, in still air and without ground contact: a replay window
 act at the log's attitude; the body rates are integrated open loop as a prediction (:meth:`VehicleReplay.step`). The motor
 command of an output ``u`` is the PX4 SITL mapping ``w = w_min + u (w_max - w_min)`` (``px4.w_min_rad_s``,
 ``motor.w_max``); a stopped or disarmed motor is commanded 0. The electrical load is
-:func:`~vinecli.physics.battery.electrical_power_w` of the rotors' shaft power, drawn from a
+:class:`~vinecli.physics.battery.ElectricalLoad` of the rotors' shaft power, drawn from a
 :class:`~vinecli.physics.battery.Battery`.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import QuatXYZW, Vec3, cross, quat_rotate, quat_rotate_inv
 from vinecli.physics.aero import wind_drag
-from vinecli.physics.battery import Battery, electrical_power_w
+from vinecli.physics.battery import Battery, ElectricalLoad
 from vinecli.physics.motor import MotorBank
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.vehicle.urdf import rigid_inertia
@@ -116,6 +116,7 @@ class VehicleReplay:
             raise ValueError("the vehicle has no battery")
         bank = MotorBank(self.vehicle.motor, list(self.vehicle.rotors))
         pack = Battery(spec, soc0)
+        load = ElectricalLoad(spec, None)  # no pump
         bank.reset(self.commands(u[0], bool(running[0])))
         dt = BATTERY_DT
         n_steps = int(math.floor((t[-1] - t[0]) / dt)) + 1
@@ -127,7 +128,7 @@ class VehicleReplay:
         for i in range(n_steps):
             bank.update(cmds[k[i]], dt)
             bank.wrench(None)
-            pack.update(electrical_power_w(spec, bank.shaft_power, 0.0, 0.0), dt)
+            pack.update(load.power_w(bank.shaft_power, 0.0), dt)
             volts[i] = pack.voltage_v
             loads[i] = pack.load_w
         return np.interp(t_out, ts, volts), loads, ts

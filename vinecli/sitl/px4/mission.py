@@ -62,14 +62,14 @@ def battery_params(v: VehicleSpec, mass_kg: float) -> dict[str, float | int]:
     SITL battery simulator draining over the pack's hover endurance (capacity / electrical hover power of
     vinecli's motor model). PX4 1.15 takes an external battery over MAVLink only without a remaining flight
     time, which its flight-time failsafe reads as none left at take-off, so its own simulator stays."""
-    from vinecli.physics.battery import electrical_power_w
+    from vinecli.physics.battery import ElectricalLoad
 
     b = v.battery
     if b is None:
         return {}
     thrust = mass_kg * STANDARD_GRAVITY / v.n_rotors
     shaft = v.n_rotors * v.motor.k_m * thrust * math.sqrt(thrust / v.motor.k_f)
-    endurance_s = b.capacity_wh * 3600.0 / electrical_power_w(b, shaft, 0.0, 0.0)
+    endurance_s = b.capacity_wh * 3600.0 / ElectricalLoad(b, None).power_w(shaft, 0.0)
     return {"BAT_LOW_THR": b.low_soc, "BAT_CRIT_THR": b.critical_soc, "BAT_EMERGEN_THR": b.emergency_soc,
             "SIM_BAT_DRAIN": round(endurance_s, 1), "SIM_BAT_MIN_PCT": round(100.0 * b.emergency_soc, 1)}
 
