@@ -80,9 +80,9 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
     man = Manifest(command="world build", parameters={"spec": str(spec_path), "out": str(out)}, inputs=inputs)
     given_origin = GeoOrigin(spec.origin.lat, spec.origin.lon, spec.origin.alt) if spec.origin else None
     unsafe = _refuse_unsafe(spec_path, allow_unsafe_spawn)
+    gnss = vehicle.sensors.gnss  # the margin the autopilot's estimator will need
+    margin_h = fence_margins_m(gnss.horizontal_noise_m, gnss.vertical_noise_m)[0]
     if spec.geofence is not None:  # horizontal check only: no terrain needed, nothing written yet
-        gnss = vehicle.sensors.gnss  # the margin the autopilot's estimator will need
-        margin_h = fence_margins_m(gnss.horizontal_noise_m, gnss.vertical_noise_m)[0]
         unsafe(check_spawn_fence(spec.geofence, (spec.spawn.x_m, spec.spawn.y_m, 0.0), margin_h))
 
     with atomic_output_dir(out, man, overwrite=overwrite) as tmp:
@@ -121,7 +121,7 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
         if spec.gis is not None:
             with man.stage("gis"):
                 geofence, rows, gis_doc = _gis(spec, base, terrain_json, tdir, origin, rows)
-            unsafe(check_spawn_fence(geofence, (sx, sy, 0.0), fence_margins_m(vehicle)[0]))
+            unsafe(check_spawn_fence(geofence, (sx, sy, 0.0), margin_h))
         canopy = None
         if spec.canopy is not None:
             from vinecli.world.canopy_build import resolve_canopy
