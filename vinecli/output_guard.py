@@ -64,7 +64,7 @@ def replaceable_problem(folder: Path) -> str | None:
     """Why ``folder`` must not be replaced (it is not vinecli's, or holds a user's file), or None.
 
     A marked folder with a manifest may hold only what the manifest lists (and the ``.aux.xml`` GDAL writes
-    beside a GeoTIFF it opened); a marked folder without one (a runs folder) may not be replaced at all.
+    beside a GeoTIFF it opened, and the manifests of nested steps in its folders); a marked folder without one (a runs folder) may not be replaced at all.
     """
     if folder.is_symlink():
         return "is a symbolic link, not a folder vinecli made (kept)"
@@ -75,8 +75,11 @@ def replaceable_problem(folder: Path) -> str | None:
         return "is a vinecli folder that holds other outputs (kept)"
     files = set(listed) | {MANIFEST, MARKER} | {f + ".aux.xml" for f in listed}  # + GDAL's sidecars of ours
     dirs = {parent.as_posix() for f in listed for parent in Path(f).parents}
+    files |= {f"{d}/{MANIFEST}" for d in dirs if d != "."}  # the manifest a nested step wrote (terrain convert)
     for p in sorted(folder.rglob("*")):
         rel = p.relative_to(folder).as_posix()
+        if p.is_dir() and not p.is_symlink() and rel not in dirs and not any(p.iterdir()):
+            continue  # an empty folder (a flat world's terrain/) holds nothing to lose
         if p.is_symlink() or (rel not in dirs if p.is_dir() else rel not in files):
             return f"holds {rel}, which vinecli did not write (kept; move it away first)"
     return None

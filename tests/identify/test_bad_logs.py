@@ -63,7 +63,9 @@ def _bad_logs(d: Path) -> list[tuple[str, Path, str]]:
 
 
 def test_every_bad_log_exits_2_naming_the_file(tmp_path: Path) -> None:
-    for case, path, needle in _bad_logs(tmp_path):
+    logs = tmp_path / "logs"  # beside the outputs: an output inside an input folder is refused first
+    logs.mkdir()
+    for case, path, needle in _bad_logs(logs):
         out = tmp_path / "out" / case.replace(" ", "_")
         code, text = _fit(path, out)
         assert code == 2, (case, text)

@@ -11,12 +11,12 @@ from typing import Any
 
 import pytest
 
-from vinecli.autopilot.base import AutopilotContext, RunStatus
+from vinecli.autopilot.base import Autopilot, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
 from vinecli.autopilot.estimator import Estimator
 from vinecli.sim.perfect_estimator import PerfectEstimator
 from vinecli.specs.mission import MissionSpec
-from vinecli.types import ActuatorCommand, Observation
+from vinecli.types import ActuatorCommand, Event, Observation
 from vinecli.vehicle import load_vehicle
 
 PHASES = [{"type": "takeoff", "altitude_agl_m": 3.0}, {"type": "hold", "duration_s": 2.0}, {"type": "land"}]
@@ -29,20 +29,36 @@ def flat(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Any:
     return load_world(build_world(repo / "worlds" / "flat.yaml", tmp_path_factory.mktemp("w") / "flat"))
 
 
-class Recording(BuiltinAutopilot):
+class Recording(Autopilot):
     """The built-in autopilot, remembering the context it was given and the largest gap between the
-    position it flew on and the true one (the test reads the truth, the autopilot does not)."""
+    position it flew on and the true one (the test reads the truth, the autopilot does not). It wraps the
+    autopilot instead of subclassing it: the compiled kernel's classes take no interpreted subclasses."""
+
+    def __init__(self) -> None:
+        self.inner = BuiltinAutopilot()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.inner, name)
 
     def reset(self, ctx: AutopilotContext) -> None:
         self.ctx_given = ctx
         self.max_pos_gap = 0.0
-        super().reset(ctx)
+        self.inner.reset(ctx)
 
     def step(self, obs: Observation) -> ActuatorCommand:
-        cmd = super().step(obs)
-        gap = max(abs(a - b) for a, b in zip(self.pos, obs.truth.pos, strict=True))
+        cmd = self.inner.step(obs)
+        gap = max(abs(a - b) for a, b in zip(self.inner.pos, obs.truth.pos, strict=True))
         self.max_pos_gap = max(self.max_pos_gap, gap)
         return cmd
+
+    def status(self) -> AutopilotStatus:
+        return self.inner.status()
+
+    def drain_events(self) -> list[Event]:
+        return self.inner.drain_events()
+
+    def close(self) -> None:
+        self.inner.close()
 
 
 def fly(world: Any, vehicle: str, *, truth: bool = False) -> tuple[Any, Recording]:

@@ -96,9 +96,11 @@ def test_budget_json_balances_and_matches_its_maps(run) -> None:
     assert float(lpha.sum()) * cell * cell / 1e4 == pytest.approx(doc["maps"]["canopy_on_grid_l"], rel=1e-4)
     assert doc["maps"]["canopy_on_grid_l"] + doc["maps"]["canopy_off_grid_l"] == pytest.approx(vol["canopy"], rel=1e-6)
     assert float(per_leaf.max()) > 0
-    # per row: the targeted rows 0 and 2 released the spray, row 2's denser hedge caught more per leaf area
+    # per row: the targeted rows 0 and 2 released the spray (over row 1 at most the pump's run-down after the
+    # sections closed: its lag), row 2's denser hedge caught more per leaf area
     rows = {r["row"]: r for r in doc["rows"]}
-    assert rows[1]["released_l"] == 0.0 and rows[0]["released_l"] > 0 and rows[2]["released_l"] > 0
+    assert rows[0]["released_l"] > 0 and rows[2]["released_l"] > 0
+    assert rows[1]["released_l"] <= 0.01 * min(rows[0]["released_l"], rows[2]["released_l"])
     assert rows[0]["canopy_l"] > 0 and rows[2]["canopy_l"] > 0
     assert rows[2]["deposit_ulpcm2_per_lpha"] == pytest.approx(rows[2]["deposit_ulpcm2"] / 20.0, rel=1e-4)
     # conditions are recorded

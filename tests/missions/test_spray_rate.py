@@ -62,14 +62,19 @@ def test_rate_resolves_to_the_flow_of_the_plan_and_back() -> None:
 def test_a_rate_the_pump_cannot_deliver_is_refused_with_the_numbers_or_flown_slower() -> None:
     v = load_vehicle("x500-sprayer")  # 0.1 L/s at most
     rows = _rows(0.9, n=6)
-    with pytest.raises(InputError, match=r"100 L/ha over a 2\.[0-9]+ m track at 5 m/s needs 0\.1[0-9]+ L/s; x500-sprayer's "
-                                         r"sprayer delivers at most 0\.1000 L/s: fly at most 3\.[0-9]+ m/s"):
-        resolve_spray_rates(_mission(speed_mps=5.0), v, rows)
-    slow = resolve_spray_rates(_mission(speed_mps=5.0, allow_slower=True), v, rows).phases[1]
+    plan = phase_plan(SprayPhase.model_validate(_mission(speed_mps=5.0, rate_lpha=200.0).phases[1].model_dump()), v,
+                      phase_rows(_mission().phases[1], rows), (0.0, 0.0))
+    need = flow_for_rate(200.0, plan.flow_width_m, 5.0)
+    assert need > 0.1  # the plan's track width asks more than the pump gives at 5 m/s
+    with pytest.raises(InputError, match=rf"200 L/ha over a {plan.flow_width_m:.2f} m track at 5 m/s needs "
+                                         rf"{need:.4f} L/s; x500-sprayer's sprayer delivers at most 0\.1000 L/s: "
+                                         r"fly at most [0-9.]+ m/s"):
+        resolve_spray_rates(_mission(speed_mps=5.0, rate_lpha=200.0), v, rows)
+    slow = resolve_spray_rates(_mission(speed_mps=5.0, rate_lpha=200.0, allow_slower=True), v, rows).phases[1]
     assert isinstance(slow, SprayPhase)
-    assert 3.0 < slow.speed_mps < 5.0 and slow.flow_lps == pytest.approx(0.1)
+    assert 2.0 < slow.speed_mps < 5.0 and slow.flow_lps == pytest.approx(0.1)
     plan = phase_plan(slow, v, phase_rows(slow, rows), (0.0, 0.0))
-    assert flow_for_rate(100.0, plan.flow_width_m, slow.speed_mps) == pytest.approx(0.1, rel=0.01)
+    assert flow_for_rate(200.0, plan.flow_width_m, slow.speed_mps) == pytest.approx(0.1, rel=0.01)
     with pytest.raises(InputError, match="below the sprayer's minimum 1 m/s"):
         resolve_spray_rates(_mission(speed_mps=0.5), v, rows)
 

@@ -215,7 +215,7 @@ def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
     from vinecli.runs.mission import run_mission
 
     _result, out = ci_px4
-    world = next((out / "_worlds").iterdir())
+    world = next(p for p in (out / "_worlds").iterdir() if p.is_dir())  # beside the .vinecli marker
     pipeline_dir = REPO / "pipelines"
     missions = {"takeoff": "missions/takeoff.yaml", "gust": "missions/gust.yaml", "spray-rows": "missions/px4/spray-rows.yaml"}
     fig: dict[str, dict[str, dict[str, float | None]]] = {}
