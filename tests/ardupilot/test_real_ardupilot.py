@@ -79,7 +79,10 @@ def test_the_pump_follows_arducopters_sprayer(ci_ardupilot):
     ts = read_timeseries(out / "spray-rows" / "timeseries.parquet")
     flow = ts["tank_flow_cmd_lps"]
     speed = np.hypot(ts["vel_enu_x_mps"], ts["vel_enu_y_mps"])
-    on = (flow > 0) & (speed > 1.0)
+    # at a steady ground speed: while the vehicle speeds up in a pass's run-in AC_Sprayer follows its EKF's
+    # speed, which lags the true one by the estimator's delay
+    steady = np.abs(np.gradient(speed, ts["t_s"])) < 0.2
+    on = (flow > 0) & (speed > 1.0) & steady
     per_m = flow[on] / speed[on]
     asked = 0.1 * float(parm.split("SPRAY_PUMP_RATE ")[1].split()[0]) / 100.0  # L/s per m/s at full pump 0.1 L/s
     assert on.sum() > 2000 and abs(np.median(per_m) / asked - 1.0) < 0.02
