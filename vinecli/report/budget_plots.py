@@ -63,13 +63,25 @@ def draw_hedges(ax: Any, data: Any, rows: list[Any]) -> None:
             label = None
 
 
+#: a row gets its own bar when at least this share of the largest row's volume was released over it: in
+#: broadcast mode the passes fly over every third row or so, and the rows between see only the trickle of
+#: the turns and run-ins, whose shares (mostly off the field) say nothing about the row
+MIN_ROW_RELEASE = 0.05
+
+
 def _bars(ax: Any, doc: dict[str, Any]) -> None:
     labels = ["whole run"]
     shares = [doc["fractions"]]
-    for r in doc.get("rows") or []:
-        if r.get("released_l", 0) > 0:
-            labels.append(f"row {r['row']}")
-            shares.append(r["released"])
+    rows = [r for r in doc.get("rows") or [] if r.get("released_l", 0) > 0]
+    top = max((r["released_l"] for r in rows), default=0.0)
+    shown = [r for r in rows if r["released_l"] >= MIN_ROW_RELEASE * top]
+    for r in shown:
+        labels.append(f"row {r['row']}")
+        shares.append(r["released"])
+    if len(shown) < len(rows):
+        ax.text(0.0, -0.16, f"{len(rows) - len(shown)} rows with < {MIN_ROW_RELEASE:.0%} of the largest row's "
+                "release (no pass over them: turns, run-ins) not shown", transform=ax.transAxes, fontsize=7,
+                va="top")
     y = np.arange(len(labels))[::-1].astype(float)
     y[0] += 0.8  # the whole run apart from the rows
     left = np.zeros(len(labels))
