@@ -35,6 +35,10 @@ class Field:
     noise_m: float = 0.03
     plants_m: float = 0.0  # > 0: canopy made of plants this far apart (with small random gaps)
     seed: int = 0
+    canopy_half_m: float | None = None  # half-width of a row's canopy, m (default 0.3 x spacing)
+    plant_frac: float = 0.45  # a plant's half-length along the row as a share of ``plants_m``
+    missing: float = 0.0  # share of plants missing (dead or not yet planted), at random
+    grass_m: float = 0.0  # > 0: a clumpy grass strip this tall down the middle of every inter-row
 
     def axes(self) -> tuple[np.ndarray, np.ndarray]:
         """Cell-centre coordinates x (east), y (north) of the grid, m, centred on 0."""
@@ -70,7 +74,7 @@ class Field:
         s = X * n[0] + Y * n[1]
         rng = np.random.default_rng(self.seed)
         z = 100.0 + self.slope[0] * X + self.slope[1] * Y + self.undulation_m * np.sin(X / 7.0) * np.cos(Y / 9.0)
-        half = 0.3 * self.spacing_m
+        half = self.canopy_half_m if self.canopy_half_m is not None else 0.3 * self.spacing_m
         along = (t >= self.t_range[0]) & (t <= self.t_range[1])
         for a, b in self.gaps:
             along &= ~((t >= a) & (t <= b))
@@ -81,11 +85,30 @@ class Field:
             if self.plants_m > 0:
                 phase = rng.uniform(0, self.plants_m)
                 pos = np.mod(t - phase, self.plants_m) - self.plants_m / 2
-                size = self.plants_m * 0.45
+                size = self.plants_m * self.plant_frac
                 c = c * np.clip(1.0 - (pos / size) ** 2, 0.0, None) ** 0.5
+                if self.missing > 0:
+                    k = np.floor((t - phase) / self.plants_m).astype(int)
+                    dead = rng.random(int(k.max() - k.min()) + 1) < self.missing
+                    c = np.where(dead[k - k.min()], 0.0, c)
             canopy = np.maximum(canopy, c)
         z = z + np.where(along, canopy, 0.0) + rng.normal(0.0, self.noise_m, z.shape)
+        if self.grass_m > 0:
+            z = z + self._grass(s, t, rng)
         return z, x, y
+
+    def _grass(self, s: np.ndarray, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Grass strips half a spacing wide down the middle of the block's inter-rows, clumps
+        ~0.3 m across of 0-2x ``grass_m``."""
+        from scipy.ndimage import gaussian_filter
+
+        clumps = gaussian_filter(rng.normal(0.0, 1.0, s.shape), 0.15 / self.res_m)
+        clumps = np.clip(1.0 + clumps / clumps.std(), 0.0, 2.0)
+        mid = np.mod(s - self.row_offset(0), self.spacing_m)  # 0 on a (straight) row, spacing / 2 between rows
+        strip = np.abs(mid - self.spacing_m / 2) <= self.spacing_m / 4
+        block = (t >= self.t_range[0]) & (t <= self.t_range[1])
+        block &= (s >= self.row_offset(0)) & (s <= self.row_offset(self.n_rows - 1))
+        return self.grass_m * clumps * (strip & block)
 
 
 def lateral_errors(row: list[tuple[float, float]], truth: np.ndarray, end_margin_m: float = 0.3) -> np.ndarray:

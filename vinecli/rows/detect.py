@@ -207,6 +207,7 @@ def detect_rows_grid(
                      round(float(np.median(comb.r2[comb.region])) if comb.region.any() else 0.0, 3),
                      round(float(comb.region.mean()), 3))
     _refuse_without_rows(ev)
+    _refuse_rows_between_rows(st, comb, ev)
     kn = row_knots(st, comb)
 
     def to_xy(ss: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -262,6 +263,26 @@ def _rows_of_the_field(found: list[_Found]) -> list[_Found]:
     o = np.argsort(c)
     med = float(c[o][np.searchsorted(np.cumsum(w[o]), 0.5 * w.sum())])
     return [f for f in found if f.contrast >= MIN_ROW_CONTRAST * med]
+
+
+def _refuse_rows_between_rows(st: Any, comb: Comb, ev: RowEvidence) -> None:
+    """NoRowsError when the comb runs along low, wide strips with taller features half a spacing beside them:
+    the 99th percentile of the relief (the tallest plants) within an eighth of a spacing of the comb's lines is below that of the
+    lines between them (grass strips between young vines: the grass has the larger mean relief, the vines the
+    taller plants). From a DSM alone the detector cannot tell the rows from the inter-rows, so it says so."""
+    p = comb.spacing
+    off = np.mod(st.s - comb.shift(st.t), p)
+    inside = comb.in_region(st.k, st.s)
+    on = inside & ((off <= p / 8) | (off >= 7 * p / 8))
+    mid = inside & (np.abs(off - p / 2) <= p / 8)
+    if on.sum() < 16 or mid.sum() < 16:
+        return
+    q_on, q_mid = float(np.percentile(st.h[on], 99)), float(np.percentile(st.h[mid], 99))
+    if q_mid > q_on:
+        raise NoRowsError(f"the row pattern runs along low wide strips with taller plants between them (99th "
+                          f"percentile of the relief {q_on:.2f} m on the strips, {q_mid:.2f} m between them, e.g. "
+                          f"grass strips between young vines): cannot tell the rows from the inter-rows; "
+                          f"{ev.describe()}", ev)
 
 
 def _fit_rows(kn: RowKnots, comb: Comb, st: Any, to_xy: Any, relief: np.ndarray, x: np.ndarray, y: np.ndarray,

@@ -137,7 +137,8 @@ def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: n
         ring_med[v] = float(np.median(chunk))
     ratio = np.where(band, spec / np.maximum(ring_med[ring], 1e-30), 0.0)
     j, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-    for m in (3, 2):  # the peak may be a harmonic of the row profile: the fundamental, when it is there
+    for m in (6, 5, 4, 3, 2):  # the peak may be a harmonic of the row profile (narrow canopies: up to the 6th): the
+        # fundamental, the lowest frequency that is there
         jc, ic = _bin_of(float(kx[0, i]) / m, float(ky[j, 0]) / m, float(kx[0, 1]), float(ky[1, 0]), pad[0])
         j0, i0 = max(jc - 1, 0), max(ic - 1, 0)
         win = ratio[j0:jc + 2, i0:ic + 2]
