@@ -172,7 +172,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
     write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows")
-    for p, legs in zip(sortie_files, sorties, strict=True):
+    for p, legs in zip(sortie_files, sorties if sortie_files else [], strict=True):  # one sortie: OUT alone
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
                                   nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))
     if mission_out is not None:
