@@ -145,3 +145,28 @@ def test_body_frame_matrix_rotates_as_the_quaternion(q: fr.QuatXYZW, v: fr.Vec3)
     assert all(_close(a, b) for a, b in zip(rows, fr.quat_to_matrix(q), strict=True))
     assert _close(frame.to_world(*v), fr.quat_rotate(q, v))
     assert _close(frame.to_body(*v), fr.quat_rotate_inv(q, v))
+
+
+@given(unit_quat(), vec3, st.floats(-0.1, 0.1))
+def test_grid_convergence_at_the_firmware_boundary(q: fr.QuatXYZW, v: fr.Vec3, gamma: float) -> None:
+    """World (CRS grid) -> true north by the convergence gamma: velocities and attitudes turn together (the body
+    sees the same vector either way), the magnetic field turns back, and gamma 0 changes nothing, bit for bit."""
+    true_q = fr.attitude_grid_to_ned_frd(q, gamma)
+    # a body vector mapped to true NED through the rotated attitude = the world vector turned by gamma
+    body = fr.quat_rotate_inv(q, v)
+    via_att = fr.enu_to_ned(fr.quat_rotate(fr.attitude_ned_frd_to_enu_flu(true_q), body))
+    assert _close(via_att, fr.grid_to_ned(v, gamma))
+    assert _close(fr.true_enu_to_grid(fr.grid_to_true_enu(v, gamma), gamma), v)
+    assert fr.grid_to_ned(v, 0.0) == fr.enu_to_ned(v)
+    assert fr.attitude_grid_to_ned_frd(q, 0.0) == fr.attitude_enu_flu_to_ned_frd(q)
+
+
+def test_grid_north_at_the_sample_field_is_west_of_true_north() -> None:
+    """At Hancock (UTM 16N, west of its central meridian) the world's y axis points 1.77 deg west of true north:
+    a vehicle facing world north heads 358.23 deg true."""
+    gamma = math.radians(1.770)
+    n, e, _ = fr.grid_to_ned((0.0, 1.0, 0.0), gamma)
+    assert math.degrees(math.atan2(e, n)) % 360.0 == pytest.approx(358.23, abs=1e-6)
+    yaw_north = fr.quat_from_euler(0.0, 0.0, math.pi / 2)
+    _, _, heading = fr.quat_to_euler(fr.attitude_grid_to_ned_frd(yaw_north, gamma))
+    assert math.degrees(heading) % 360.0 == pytest.approx(358.23, abs=1e-6)

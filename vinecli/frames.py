@@ -221,6 +221,35 @@ def attitude_ned_frd_to_enu_flu(q_ned_frd: QuatXYZW) -> QuatXYZW:
     return quat_normalize(quat_mul(quat_mul(quat_conj(Q_NED_FROM_ENU), q_ned_frd), Q_FRD_FROM_FLU))
 
 
+# ---------------------------------------------------------------- the world's grid and true north
+def grid_to_true_enu(v: Vec3, gamma: float) -> Vec3:
+    """World vector (ENU along a CRS grid) -> true ENU: rotated by the grid convergence ``gamma`` (rad,
+    counter-clockwise from true east to the world's x axis, :attr:`vinecli.geo.GeoOrigin.convergence_rad`);
+    unchanged for ``gamma`` 0 (worlds without a CRS)."""
+    if gamma == 0.0:
+        return v
+    c, s = math.cos(gamma), math.sin(gamma)
+    return (c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
+
+
+def grid_to_ned(v: Vec3, gamma: float) -> Vec3:
+    """World vector -> NED against true north (velocities and offsets at the firmware boundary)."""
+    return enu_to_ned(grid_to_true_enu(v, gamma))
+
+
+def true_enu_to_grid(v: Vec3, gamma: float) -> Vec3:
+    """Inverse of :func:`grid_to_true_enu` (e.g. the Earth's magnetic field into the world)."""
+    return grid_to_true_enu(v, -gamma)
+
+
+def attitude_grid_to_ned_frd(q_world_flu: QuatXYZW, gamma: float) -> QuatXYZW:
+    """Body attitude in the world (q_world<-FLU, x, y, z, w) -> q_NED<-FRD against true north: the firmware
+    boundary's attitude (:func:`attitude_enu_flu_to_ned_frd` after rotating by the grid convergence)."""
+    if gamma == 0.0:
+        return attitude_enu_flu_to_ned_frd(q_world_flu)
+    return attitude_enu_flu_to_ned_frd(quat_mul(quat_from_axis_angle((0.0, 0.0, 1.0), gamma), q_world_flu))
+
+
 def yaw_enu_to_heading_ned(yaw_enu: float) -> float:
     """ENU yaw (rad from east, CCW) -> NED heading (rad from north, CW), wrapped to [0, 2π)."""
     return (math.pi / 2 - yaw_enu) % (2 * math.pi)

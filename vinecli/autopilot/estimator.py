@@ -23,7 +23,7 @@ from typing import Any
 
 from vinecli.autopilot.estimate import StateEstimate
 from vinecli.constants import STANDARD_GRAVITY
-from vinecli.frames import BodyFrame, QuatXYZW, Vec3, ned_to_enu, quat_from_euler
+from vinecli.frames import BodyFrame, QuatXYZW, Vec3, ned_to_enu, quat_from_euler, true_enu_to_grid
 from vinecli.geo import GeoOrigin
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import BaroSample, GnssSample, MagSample, Observation
@@ -33,10 +33,11 @@ G = STANDARD_GRAVITY
 
 
 def earth_field_enu(origin: GeoOrigin) -> Vec3:
-    """Earth magnetic field at the origin, ENU, gauss (the WMM the simulated magnetometer uses)."""
+    """Earth magnetic field at the origin in the world frame (ENU along its grid), gauss (the WMM the simulated
+    magnetometer uses)."""
     from vinecli.physics.magnetic import earth_field_ned
 
-    return ned_to_enu(earth_field_ned(origin))
+    return true_enu_to_grid(ned_to_enu(earth_field_ned(origin)), origin.convergence_rad)
 
 
 def periodic_gains(dt: float, acc_psd: float, bias_psd: float,
@@ -152,7 +153,6 @@ class Estimator(StateEstimate):
         self.sigma_h_m = s.gnss.horizontal_noise_m
         self.sigma_v_m = s.gnss.vertical_noise_m
         self.origin = origin
-        self.m_lat, self.m_lon = origin.metres_per_degree
         self.kp_acc = kp_acc
         self.ki_acc = ki_acc
         self.kp_mag = kp_mag
@@ -363,8 +363,7 @@ class Estimator(StateEstimate):
             for i in (0, 1, 2):
                 ar[i] += al * ((gn.vel_enu[i] - gp[1][i]) / tg - ar[i])
         self._gnss_prev = (gn.t_us, gn.vel_enu)
-        e_m = (gn.lon_deg - self.origin.lon) * self.m_lon
-        n_m = (gn.lat_deg - self.origin.lat) * self.m_lat
+        e_m, n_m, _ = self.origin.geodetic_to_enu_fast(gn.lat_deg, gn.lon_deg, gn.alt_m)  # the world's frame
         gv = gn.vel_enu
         if not self._gnss_init:
             p[0], p[1] = e_m, n_m

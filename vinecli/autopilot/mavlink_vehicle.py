@@ -32,7 +32,7 @@ from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
 from vinecli.autopilot.phase import Phase, PhaseHost
 from vinecli.errors import InputError
-from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_to_euler, xyzw_to_wxyz
+from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_to_euler, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.gcs_link import checked_address, open_vehicle_link
 from vinecli.mavlink.link import Link, parse_endpoint
@@ -348,7 +348,7 @@ class MavlinkControlledAutopilot:
         ap = self.ap
         o = self.ctx.origin
         lat, lon, alt = o.enu_to_geodetic_fast(*ap.pos)
-        q_ned = attitude_enu_flu_to_ned_frd(ap.quat)
+        q_ned = attitude_grid_to_ned_frd(ap.quat, o.convergence_rad)  # against true north
         mode = self.mode
         if ap.armed and not self.waiting:
             mode = _BUILTIN_TO_PX4.get(ap.mode, mode) if self.mode != "mission" else "mission"
@@ -361,7 +361,7 @@ class MavlinkControlledAutopilot:
         g = obs.gnss
         return Telemetry(
             armed=ap.armed, mode=mode, landed_state=landed, lat=lat, lon=lon, alt_amsl=alt, rel_alt=alt - self.home_geo[2],
-            vel_ned=enu_to_ned(ap.vel), q_wxyz=xyzw_to_wxyz(q_ned), rpy=quat_to_euler(q_ned),
+            vel_ned=grid_to_ned(ap.vel, o.convergence_rad), q_wxyz=xyzw_to_wxyz(q_ned), rpy=quat_to_euler(q_ned),
             rates_frd=flu_to_frd(ap.omega), home=self.home_geo,
             gps_fix=3 if (g is None or g.fix_type >= 3) else g.fix_type,
             satellites=12 if g is None else g.satellites, eph_m=0.3 if g is None else g.eph_m,

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vinecli.geo import GeoOrigin
+from vinecli.geo import GeoFrame, GeoOrigin
 from vinecli.rows.source import RowFrame, terrain_frame
 
-__all__ = ["Georef", "world_georef", "world_dir_georef"]
+__all__ = ["Georef", "geo_frame", "world_geo_origin", "world_georef", "world_dir_georef"]
 
 Points = list[tuple[float, float]]
 
@@ -84,6 +84,21 @@ class Georef:
     def from_lonlat(self, pts: Points) -> Points:
         """WGS84 (lon, lat) degrees -> local metres."""
         return self.from_crs(pts, "EPSG:4326")
+
+
+def geo_frame(frame: RowFrame | None, origin: GeoOrigin) -> GeoOrigin:
+    """The world's georeference for everything that is not a GIS file (the ``.plan``, GNSS, the firmware's home
+    and mission, the deposition GeoTIFF): a :class:`~vinecli.geo.GeoFrame` through ``frame``'s CRS (the same map as
+    :class:`Georef`), else ``origin`` itself (its topocentric frame)."""
+    if frame is None or frame.crs is None:
+        return origin
+    return GeoFrame(origin.lat, origin.lon, origin.alt, crs=frame.crs, crs_centre=frame.centre,
+                    m_per_unit=frame.scale, offset=frame.offset)
+
+
+def world_geo_origin(terrain: dict[str, Any], terrain_dir: Path, origin: GeoOrigin) -> GeoOrigin:
+    """:func:`geo_frame` of a world (world.json ``terrain`` and the terrain directory, its recorded ``origin``)."""
+    return geo_frame(terrain_frame(terrain, terrain_dir), origin)
 
 
 def world_georef(terrain: dict[str, Any], terrain_dir: Path, origin: GeoOrigin) -> Georef:

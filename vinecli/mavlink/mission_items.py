@@ -2,8 +2,8 @@
 which items a vehicle endpoint accepts (:func:`check_item`).
 
 The conversion between mission phases and items is :mod:`vinecli.phase_items` (one converter for every
-firmware). x/y are degE7 of WGS84 lat/lon from the world's origin by the local-tangent approximation
-(:meth:`GeoOrigin.enu_to_geodetic_fast`, < 1 mm within 1 km).
+firmware). x/y are degE7 of WGS84 lat/lon of the world point through the world's georeference
+(:meth:`GeoOrigin.enu_to_geodetic_fast`: the tangent plane, or a world's CRS grid, docs/architecture.md "Frames").
 """
 
 from __future__ import annotations
@@ -60,8 +60,8 @@ def enu_to_degE7(origin: GeoOrigin, x: float, y: float) -> tuple[int, int]:
 
 def degE7_to_enu(origin: GeoOrigin, lat_e7: int, lon_e7: int) -> tuple[float, float]:
     """(lat degE7, lon degE7) -> ENU (x, y) m, inverse of :func:`enu_to_degE7`."""
-    m_lat, m_lon = origin.metres_per_degree
-    return ((lon_e7 * 1e-7 - origin.lon) * m_lon, (lat_e7 * 1e-7 - origin.lat) * m_lat)
+    e, n, _ = origin.geodetic_to_enu_fast(lat_e7 * 1e-7, lon_e7 * 1e-7, origin.alt)
+    return (e, n)
 
 
 # ---------------------------------------------------------------- what an endpoint accepts

@@ -127,7 +127,9 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         if dsm.origin is None:
             raise InputError("the DSM has no CRS: a .plan needs latitude/longitude (build a world with origin: "
                              "and plan on it)", path=source)
-        origin = dsm.origin
+        from vinecli.gis.georef import geo_frame
+
+        origin = geo_frame(dsm.frame, dsm.origin)  # the plan's lat/lon through the DSM's CRS
         veh = load_vehicle(vehicle or DEFAULT_VEHICLE)
         fence = _bbox_polygon(dsm.grid["x"], dsm.grid["y"], np.isfinite(dsm.grid["z"]))
         fence_name = "DSM's data extent"

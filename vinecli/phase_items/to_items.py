@@ -187,7 +187,8 @@ def phases_to_items(mission: MissionSpec, ctx: PlanContext, *, sprayer: SprayerC
         elif isinstance(ph, GotoPhase):
             if ph.speed_mps is not None:
                 out.speed(ph.speed_mps)
-            yaw = NAN if ph.yaw_deg is None else math.degrees(yaw_enu_to_heading_ned(math.radians(ph.yaw_deg)))
+            yaw = NAN if ph.yaw_deg is None else math.degrees(  # a heading from true north
+                yaw_enu_to_heading_ned(math.radians(ph.yaw_deg) + ctx.origin.convergence_rad))
             alt = ph.altitude_agl_m if ph.altitude_agl_m is not None else out.alt
             out.wp(ph.position_enu[0], ph.position_enu[1], alt, accept=ph.acceptance_radius_m, yaw_ned_deg=yaw)
         elif isinstance(ph, WaypointsPhase):

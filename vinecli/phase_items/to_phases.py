@@ -63,7 +63,7 @@ def items_to_phases(
             x, y = degE7_to_enu(origin, it.x, it.y)
             yaw = None
             if c == M.CMD_NAV_WAYPOINT and math.isfinite(it.param4):
-                yaw = math.degrees(heading_ned_to_yaw_enu(math.radians(it.param4)))
+                yaw = math.degrees(heading_ned_to_yaw_enu(math.radians(it.param4) - origin.convergence_rad))
             accept = it.param2 if c == M.CMD_NAV_WAYPOINT and it.param2 > 0 else 0.5
             z = rel(it) if math.isfinite(it.z) else None
             if has_pos(it):

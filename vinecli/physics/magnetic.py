@@ -19,7 +19,7 @@ from vinecli.geo import GeoOrigin
 DEFAULT_YEAR = 2026.0
 NT_PER_GAUSS = 1e5
 
-__all__ = ["DEFAULT_YEAR", "MagneticField", "earth_field", "earth_field_ned"]
+__all__ = ["DEFAULT_YEAR", "MagneticField", "earth_field", "earth_field_ned", "earth_field_world"]
 
 
 @dataclass(frozen=True)
@@ -56,3 +56,11 @@ def earth_field(origin: GeoOrigin, year: float | None = None, *, coefficients_fi
 def earth_field_ned(origin: GeoOrigin, year: float | None = None, *, coefficients_file: str | None = None) -> Vec3:
     """Earth field (north, east, down) in gauss at ``origin`` from the WMM."""
     return earth_field(origin, year, coefficients_file=coefficients_file).ned_gauss
+
+
+def earth_field_world(origin: GeoOrigin, year: float | None = None) -> Vec3:
+    """Earth field in the world frame (ENU along the world's grid: the true-ENU field rotated by the grid
+    convergence, :func:`vinecli.frames.true_enu_to_grid`), gauss: what a magnetometer in the world measures."""
+    from vinecli.frames import ned_to_enu, true_enu_to_grid
+
+    return true_enu_to_grid(ned_to_enu(earth_field_ned(origin, year)), origin.convergence_rad)

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
-from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler, quat_rotate, quat_rotate_inv
+from vinecli.frames import QuatXYZW, Vec3, ned_to_enu, quat_from_euler, quat_rotate, quat_rotate_inv, true_enu_to_grid
 from vinecli.geo import GeoOrigin
 from vinecli.physics.atmosphere import altitude_at, pressure_at, temperature_at
 from vinecli.physics.magnetic import earth_field_ned
@@ -193,8 +193,8 @@ class Mag:
         self, spec: MagSpec, origin: GeoOrigin, rng: np.random.Generator, *, year: float | None = None
     ) -> None:
         self.spec = spec
-        self.field_ned: Vec3 = earth_field_ned(origin, year)
-        self.field_enu: Vec3 = ned_to_enu(self.field_ned)
+        self.field_ned: Vec3 = earth_field_ned(origin, year)  # true north
+        self.field_enu: Vec3 = true_enu_to_grid(ned_to_enu(self.field_ned), origin.convergence_rad)  # the world's
         self._rate = _Rate(spec.rate_hz)
         self._n = _Normals(rng)
         self._qm = _mount_quat(spec.mount)

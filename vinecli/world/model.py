@@ -48,6 +48,7 @@ from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import InputError, SpecError
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
+from vinecli.gis.georef import world_geo_origin
 from vinecli.inputs import note_input, read_input_text
 from vinecli.specs import format_validation_error
 from vinecli.specs.mission import GeofenceSpec
@@ -196,7 +197,7 @@ def _parse_world(root: Path, wj: Path, d: dict[str, Any]) -> World:
     return World(
         name=str(d["name"]),
         dir=root.resolve(),
-        origin=GeoOrigin.from_dict(d["origin"]),
+        origin=world_geo_origin(t, root / "terrain", GeoOrigin.from_dict(d["origin"])),
         terrain=terrain,
         vehicle=vehicle,
         urdf=urdf.resolve(),

@@ -29,7 +29,7 @@ from typing import Any
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import AutopilotError, InputError
-from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
+from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.sitl.ardupilot.client import ArdupilotClient
 from vinecli.sitl.ardupilot.json_link import JSON_PORT_BASE, JsonPhysicsLink, ServoFrame, state_line, timestamp_s
 from vinecli.sitl.ardupilot.params import pump_fraction, sprayer_params, vehicle_params
@@ -195,11 +195,12 @@ class ArdupilotSitlAutopilot:
         assert self.json is not None
         self.answers += 1
         hx, hy, hz = self.frame.home_enu
-        p = enu_to_ned((tr.pos[0] - hx, tr.pos[1] - hy, tr.pos[2] - hz))
+        gamma = self.ctx.origin.convergence_rad  # world (CRS grid) -> true north
+        p = grid_to_ned((tr.pos[0] - hx, tr.pos[1] - hy, tr.pos[2] - hz), gamma)
         sf = flu_to_frd(quat_rotate_inv(tr.quat, (tr.acc[0], tr.acc[1], tr.acc[2] + STANDARD_GRAVITY)))
-        q = xyzw_to_wxyz(attitude_enu_flu_to_ned_frd(tr.quat))
+        q = xyzw_to_wxyz(attitude_grid_to_ned_frd(tr.quat, gamma))
         self._line = state_line(timestamp_s(self.answers, self.dt_us), flu_to_frd(tr.omega_body), sf, p,
-                                enu_to_ned(tr.vel), q)
+                                grid_to_ned(tr.vel, gamma), q)
         self.json.answer(self._line)
 
     def _next_frame(self) -> ServoFrame:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.errors import SpecError
+from vinecli.frames import grid_to_true_enu
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.mission_items import MissionItem
 from vinecli.phase_items import DO_SPRAYER, phases_to_items
@@ -32,16 +33,19 @@ LOCATION_SCALING_FACTOR_INV = 89.83204953368922
 @dataclass(frozen=True)
 class ArdupilotFrame:
     """ENU metres <-> ArduPilot's latitude/longitude about the home it was started with. Has the
-    ``enu_to_geodetic_fast`` of :class:`~vinecli.geo.GeoOrigin`, so the shared converter uses it."""
+    ``enu_to_geodetic_fast`` and ``convergence_rad`` of :class:`~vinecli.geo.GeoOrigin`, so the shared converter
+    uses it."""
 
     home_enu: tuple[float, float, float]
     lat_e7: int
     lng_e7: int
     alt_m: float  # home altitude AMSL
+    convergence_rad: float = 0.0  # the world's grid against true north (:attr:`GeoOrigin.convergence_rad`)
 
     def offset_e7(self, e: float, n: float) -> tuple[int, int]:
-        """ArduPilot's ``Location::offset_latlng`` of home by (n, e) metres from the home point."""
-        dn, de = n - self.home_enu[1], e - self.home_enu[0]
+        """ArduPilot's ``Location::offset_latlng`` of home by the world point's (n, e) metres from the home point,
+        turned to true north (as the JSON positions the backend sends)."""
+        de, dn, _ = grid_to_true_enu((e - self.home_enu[0], n - self.home_enu[1], 0.0), self.convergence_rad)
         dlat = int(dn * LOCATION_SCALING_FACTOR_INV)
         scale = max(0.01, min(1.0, math.cos((self.lat_e7 + dlat / 2) * 1e-7 * math.pi / 180.0)))
         dlng = int((de * LOCATION_SCALING_FACTOR_INV) / scale)
@@ -56,7 +60,7 @@ def home_frame(ctx: AutopilotContext) -> ArdupilotFrame:
     """ArduPilot's home: the vehicle's resting point (CoM) at the spawn, in WGS84 degE7 and m AMSL."""
     hx, hy, hz = ctx.home_enu
     lat, lon, alt = ctx.origin.enu_to_geodetic(hx, hy, hz)
-    return ArdupilotFrame((hx, hy, hz), round(lat * 1e7), round(lon * 1e7), round(alt, 3))
+    return ArdupilotFrame((hx, hy, hz), round(lat * 1e7), round(lon * 1e7), round(alt, 3), ctx.origin.convergence_rad)
 
 
 @dataclass

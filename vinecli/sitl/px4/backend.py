@@ -42,7 +42,7 @@ from typing import Any
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import AutopilotError, InputError
-from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_rotate_inv, xyzw_to_wxyz
+from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sitl.takeoff import TakeoffWatch
@@ -162,9 +162,10 @@ class Px4SitlAutopilot:
         self.w_min, self.w_max = v.px4.w_min_rad_s, v.motor.w_max
         self.spray_ch = v.px4.sprayer_channel
         self.nozzle = v.tank.nozzle_max_flow_lps if v.tank is not None else 0.0
-        from vinecli.physics.magnetic import earth_field_ned
+        from vinecli.physics.magnetic import earth_field_world
 
-        self.mag_ned = earth_field_ned(ctx.origin)
+        self.mag_world = earth_field_world(ctx.origin)
+        self.gamma = ctx.origin.convergence_rad  # world (CRS grid) -> true north, at the firmware boundary
         self._mag_frd: tuple[float, float, float] | None = None
         self._baro: tuple[float, float, float] | None = None  # hPa, °C, m
         self.epoch_us = EPOCH_US  # HIL_GPS UTC: fixed, so two runs of a seed send the same bytes
@@ -382,10 +383,10 @@ class Px4SitlAutopilot:
         mav = link.mav
         tr = obs.truth
         if self.hil_state:
-            q = xyzw_to_wxyz(attitude_enu_flu_to_ned_frd(tr.quat))
+            q = xyzw_to_wxyz(attitude_grid_to_ned_frd(tr.quat, self.gamma))
             p, qv, r = flu_to_frd(tr.omega_body)
             lat, lon, alt = self.ctx.origin.enu_to_geodetic_fast(*tr.pos)
-            vn, ve, vd = enu_to_ned(tr.vel)
+            vn, ve, vd = grid_to_ned(tr.vel, self.gamma)
             sf = flu_to_frd(quat_rotate_inv(tr.quat, (tr.acc[0], tr.acc[1], tr.acc[2] + G0)))
             spd = min(65535, round(math.sqrt(vn * vn + ve * ve + vd * vd) * 100))
             link.send(mav.hil_state_quaternion_encode(
@@ -400,9 +401,7 @@ class Px4SitlAutopilot:
             self._mag_frd = flu_to_frd(obs.mag.field_flu_gauss)
             fields |= M.FIELDS_MAG
         elif self._mag_frd is None:  # before the first magnetometer sample: the WMM field rotated into the body
-            from vinecli.frames import ned_to_enu
-
-            self._mag_frd = flu_to_frd(quat_rotate_inv(tr.quat, ned_to_enu(self.mag_ned)))
+            self._mag_frd = flu_to_frd(quat_rotate_inv(tr.quat, self.mag_world))
             fields |= M.FIELDS_MAG
         if obs.baro is not None:
             b = obs.baro
@@ -419,7 +418,7 @@ class Px4SitlAutopilot:
         link.send(mav.hil_sensor_encode(t, ax, ay, az, gx, gy, gz, mx, my, mz, p_hpa, 0.0, p_alt, temp_c, fields, 0))
         g = obs.gnss
         if g is not None:
-            vn, ve, vd = enu_to_ned(g.vel_enu)
+            vn, ve, vd = grid_to_ned(g.vel_enu, self.gamma)
             gs = math.hypot(vn, ve)
             cog = 65535 if gs < 0.2 else round(math.degrees(math.atan2(ve, vn)) % 360.0 * 100) % 36000
             link.send(mav.hil_gps_encode(
