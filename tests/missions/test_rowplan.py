@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from vinecli.geo import GeoOrigin
@@ -155,3 +156,33 @@ def test_world_build_warns_once_when_detected_rows_leave_the_fence(caplog: pytes
         _warn_rows_outside(block(), [-10.0, -10.0, 40.0, 40.0], fence, "w")
     lines = [r.getMessage() for r in caplog.records]
     assert lines == ["world w: 6 of 6 detected rows leave the geofence (up to 5.0 m outside); plans clip them"]
+
+
+@pytest.mark.parametrize("spacing", [2.5, 4.0])  # passes between the rows (broadcast) / one pass per row
+def test_a_row_cut_by_a_no_spray_zone_gets_a_pass_per_stretch_and_none_over_the_gap(spacing: float) -> None:
+    """Three rows, the middle one cut into two stretches by a zone 4 m long (GIS no_spray): every stretch is
+    flown with the sprayer on, the pass runs straight across the gap with it off, and no spraying leg enters the
+    gap (the plan used to interpolate one pass between the two stretches, right over the zone)."""
+    from shapely.geometry import LineString, box
+
+    from vinecli.rows.spray_rate import spray_pattern
+    from vinecli.specs.mission import SprayPhase
+    from vinecli.vehicle import load_vehicle
+
+    veh = load_vehicle("x500-sprayer")
+    pattern = spray_pattern(veh, 2.0, 3.0, 1.225)
+    rows = [[(-12.0, -spacing), (12.0, -spacing)], [(-12.0, 0.0), (-2.0, 0.0)], [(2.0, 0.0), (12.0, 0.0)],
+            [(-12.0, spacing), (12.0, spacing)]]
+    plan = plan_rows(rows, (-14.0, -spacing), speed_mps=3.0, accel_mps2=1.5, pattern=pattern, band_m=0.6)
+    gap = box(-1.99, -0.3, 1.99, 0.3)
+    spraying = [leg for leg in plan.legs if leg.spray]
+    assert all(LineString(leg.points).intersection(gap).length < 1e-6 for leg in spraying)
+    reach = 0.05 if plan.layout is not None and plan.layout.mode == "rows" else 0.6 * plan.layout.spacing_m
+    sprayed = [LineString(leg.points) for leg in spraying]
+    for r in rows:  # every point of every stretch within reach of a spraying leg (over it, or a lane beside it)
+        line = LineString(r)
+        for d in np.arange(0.0, line.length + 1e-9, 0.25):
+            assert min(s.distance(line.interpolate(d)) for s in sprayed) <= reach
+    gaps = [leg for leg in plan.legs if leg.kind == "gap"]
+    assert gaps and all(not leg.spray and len(leg.points) == 2 for leg in gaps)
+    assert SprayPhase  # the phase's plan goes through the same plan_rows (rows.spray_rate.phase_plan)

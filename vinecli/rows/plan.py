@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 
 from vinecli.rows.detect import Polyline
 from vinecli.rows.geometry import polyline_length
-from vinecli.rows.lanes import LaneLayout, lane_polyline, layout_lanes
+from vinecli.rows.lanes import LaneLayout
+from vinecli.rows.passes import clip_rows, lay_passes, room_ahead
 
 __all__ = ["PATH_ACCEL_MPS2", "Leg", "RowPlan", "plan_accel", "plan_rows", "split_sorties"]
 
@@ -54,7 +55,7 @@ class Leg:
     points: Polyline
     spray: bool
     row: int | None = None
-    kind: str = "row"  # "row" | "transit" | "turn-arc" | "turn-stop"
+    kind: str = "row"  # "row" | "transit" | "turn-arc" | "turn-stop" | "gap" (across a cut in a row, spray off)
     lane: int | None = None
 
     @property
@@ -141,60 +142,6 @@ def _direction(rows: Sequence[Polyline]) -> tuple[float, float]:
     return sx / n, sy / n
 
 
-def _clip(rows: list[Polyline], region: object, what: str, warnings: list[str]) -> list[Polyline]:
-    """Rows clipped to a shapely polygon (longest piece kept, [] when none: the list stays aligned with the
-    input); one warning line when any row leaves it."""
-    from shapely.geometry import LineString
-
-    out: list[Polyline] = []
-    cut = 0.0
-    n_out = 0
-    for r in rows:
-        if len(r) < 2:
-            out.append([])
-            continue
-        line = LineString(r)
-        piece = line.intersection(region)  # type: ignore[arg-type]
-        parts = [g for g in getattr(piece, "geoms", [piece]) if g.geom_type == "LineString" and not g.is_empty]
-        if not parts:  # wholly outside: kept as an empty row so the indices stay aligned
-            n_out += 1
-            cut = max(cut, line.length)
-            out.append([])
-            continue
-        best = max(parts, key=lambda g: g.length)
-        if line.length - best.length > 0.05:
-            n_out += 1
-            cut = max(cut, line.length - best.length)
-        pts = [(float(x), float(y)) for x, y in best.coords]
-        # keep the row's own direction
-        if math.dist(pts[0], r[0]) > math.dist(pts[-1], r[0]):
-            pts = pts[::-1]
-        out.append(pts)
-    if n_out:
-        warnings.append(f"{n_out} of {len(rows)} rows leave the {what}: clipped (up to {cut:.1f} m cut from a row)")
-    return out
-
-
-def _room(p: Point, d: tuple[float, float], inner: object | None, limit: float) -> float:
-    """How far (m, up to ``limit``) one can go from ``p`` along the unit vector ``d`` inside ``inner`` (0.05 m steps)."""
-    if inner is None:
-        return limit
-    from shapely.geometry import Point as P
-
-    if not inner.contains(P(p)):  # type: ignore[attr-defined]
-        return 0.0
-    lo, hi = 0.0, limit
-    if inner.contains(P(p[0] + d[0] * hi, p[1] + d[1] * hi)):  # type: ignore[attr-defined]
-        return hi
-    while hi - lo > 0.05:
-        mid = 0.5 * (lo + hi)
-        if inner.contains(P(p[0] + d[0] * mid, p[1] + d[1] * mid)):  # type: ignore[attr-defined]
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
 def _back_inside(p: Point, d: tuple[float, float], inner: object | None, most: float = 5.0) -> Point:
     """``p`` moved back along ``-d`` (0.05 m steps, at most ``most`` m) until it lies inside ``inner``."""
     if inner is None:
@@ -229,7 +176,7 @@ def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float, inner:
     q1 = (q[0] + d[0] * (h - along_q), q[1] + d[1] * (h - along_q))
     w = math.dist(p1, q1)
     r = w / 2
-    if r > 0 and v * v / r <= a and _room(((p1[0] + q1[0]) / 2, (p1[1] + q1[1]) / 2), d, inner, r) >= r - 0.05:
+    if r > 0 and v * v / r <= a and room_ahead(((p1[0] + q1[0]) / 2, (p1[1] + q1[1]) / 2), d, inner, r) >= r - 0.05:
         cx, cy = (p1[0] + q1[0]) / 2, (p1[1] + q1[1]) / 2  # a semicircle at cruise speed
         a0 = math.atan2(p1[1] - cy, p1[0] - cx)
         # bulge outwards (along d): pick the rotation sense whose midpoint lies ahead
@@ -243,7 +190,7 @@ def _turn(p: Point, q: Point, d: tuple[float, float], v: float, a: float, inner:
     else:  # stop turn: run out past the pass end (brake), cross, run in to be at speed at the next pass
         full = v * v / (2 * a)
         p1, q1 = _back_inside(p1, d, inner), _back_inside(q1, d, inner)  # pass ends squared up inside the fence
-        e = min(_room(p1, d, inner, full), _room(q1, d, inner, full))
+        e = min(room_ahead(p1, d, inner, full), room_ahead(q1, d, inner, full))
         e = 0.0 if e < 0.05 else e
         pts = [p, (p1[0] + d[0] * e, p1[1] + d[1] * e), (q1[0] + d[0] * e, q1[1] + d[1] * e), q]
         kind, short = "turn-stop", full - e
@@ -260,7 +207,7 @@ def _transit(pos: Point, seq: Polyline, v: float, a: float, inner: object | None
     dx, dy = seq[1][0] - seq[0][0], seq[1][1] - seq[0][1]
     n = math.hypot(dx, dy) or 1.0
     back = (-dx / n, -dy / n)
-    e = _room(seq[0], back, inner, v * v / (2 * a))
+    e = room_ahead(seq[0], back, inner, v * v / (2 * a))
     pts = [pos, (seq[0][0] + back[0] * e, seq[0][1] + back[1] * e), seq[0]] if e > 0.05 else [pos, seq[0]]
     return Leg([p for i, p in enumerate(pts) if i == 0 or math.dist(p, pts[i - 1]) > 1e-6], False, None, "transit")
 
@@ -286,52 +233,6 @@ def _stretch(orig: Polyline, clipped: Polyline) -> tuple[float, float]:
     line = LineString(orig)
     s0, s1 = line.project(Point(clipped[0])), line.project(Point(clipped[-1]))
     return (min(s0, s1), max(s0, s1))
-
-
-def _extend(path: Polyline, pattern: object, inner: object | None, margin: float) -> list[tuple[float, float]]:
-    """``path`` run on straight past both ends so that the deposit reaches its full rate at them: by the footprint
-    radius, less / plus the drops' landing offset ahead of the nozzles, plus ``margin`` (within ``inner``)."""
-    foot = float(getattr(pattern, "footprint_radius_m", 0.0)) + margin
-    ahead = float(getattr(pattern, "along_offset_m", 0.0))
-    pts = [(float(x), float(y)) for x, y in path]
-    for end, extra in ((0, foot + ahead), (-1, foot - ahead)):
-        p, q = (pts[0], pts[1]) if end == 0 else (pts[-1], pts[-2])
-        dx, dy = p[0] - q[0], p[1] - q[1]
-        n = math.hypot(dx, dy)
-        if n <= 0.0 or extra <= 0.0:
-            continue
-        d = (dx / n, dy / n)
-        e = _room(p, d, inner, extra)
-        if e > 0.01:
-            new = (p[0] + d[0] * e, p[1] + d[1] * e)
-            pts = [new, *pts] if end == 0 else [*pts, new]
-    return pts
-
-
-def _passes(keep: list[tuple[int, Polyline]], u: tuple[float, float], pattern: object | None, band_m: float,
-            inner: object | None, warnings: list[str], end_margin: float = 0.0
-            ) -> tuple[list[tuple[int, int | None, Polyline]], LaneLayout | None]:
-    """(lane index, row flown over or None, path) of every pass, and the layout (None: a pass per row)."""
-    if pattern is None:
-        return [(i, i, r) for i, r in keep], None
-    normal = (-u[1], u[0])
-    across = [sum(normal[0] * x + normal[1] * y for x, y in r) / len(r) for _, r in keep]
-    lay = layout_lanes(across, pattern, band_m)
-    out: list[tuple[int, int | None, Polyline]] = []
-    cut = 0
-    for k, c in enumerate(lay.across_m):
-        near = min(range(len(keep)), key=lambda j: abs(across[j] - c))
-        path = [r for _, r in keep][near] if abs(across[near] - c) < 1e-6 else lane_polyline(
-            [r for _, r in keep], across, c, normal)
-        if inner is not None:
-            clipped = _clip([path], inner, "", [])[0]
-            cut += len(clipped) >= 2 and abs(polyline_length(clipped) - polyline_length(path)) > 0.05
-            path = clipped
-        if len(path) >= 2:
-            out.append((k, keep[near][0] if abs(across[near] - c) < 0.05 else None, _extend(path, pattern, inner, end_margin)))
-    if cut:
-        warnings.append(f"{cut} of {len(lay.across_m)} passes beyond the outer rows leave the fence: clipped")
-    return out, lay
 
 
 def plan_rows(
@@ -367,42 +268,52 @@ def plan_rows(
     if terrain_bounds is not None:
         xmin, ymin, xmax, ymax = terrain_bounds
         inner = box(xmin, ymin, xmax, ymax)
-        work = _clip(work, inner, "terrain", warnings)
+        work = clip_rows(work, inner, "terrain", warnings)
     if fence_enu is not None and len(fence_enu) >= 3:
         fenced = Polygon(fence_enu).buffer(-fence_margin_m)
-        work = _clip(work, fenced, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
+        work = clip_rows(work, fenced, f"{fence_name} (margin {fence_margin_m:g} m)", warnings)
         inner = fenced if inner is None else inner.intersection(fenced)
     keep = [(i, r) for i, r in zip(idx, work, strict=True) if len(r) >= 2 and LineString(r).length > 0.05]
     if not keep:
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
     ux, uy = _direction([r for _, r in keep])
-    passes, layout = _passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m)
+    passes, layout = lay_passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m)
+    # the pieces of one lane (a row cut into stretches) fly as one pass, the gaps with the sprayer off
+    groups: list[list[tuple[int, int | None, Polyline]]] = []
+    for p in passes:
+        if groups and layout is not None and layout.mode != "listed" and p[0] == groups[-1][0][0]:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
     # order across the passes; the first is the nearest to the start (rows listed twice: in the order listed)
     start = Point(start_xy)
-    across = sorted(passes, key=lambda p: -uy * (p[2][0][0] + p[2][-1][0]) + ux * (p[2][0][1] + p[2][-1][1]))
-    k0 = min(range(len(across)), key=lambda k: (LineString(across[k][2]).distance(start), k))
+    across = sorted(groups, key=lambda g: -uy * (g[0][2][0][0] + g[0][2][-1][0]) + ux * (g[0][2][0][1] + g[0][2][-1][1]))
+    k0 = min(range(len(across)), key=lambda k: (min(LineString(q[2]).distance(start) for q in across[k]), k))
     left, right = across[:k0][::-1], across[k0 + 1:]
     first, second = (left, right) if len(left) <= len(right) else (right, left)
     sequence = [across[k0], *first, *second]
     if layout is not None and layout.mode == "listed":
-        sequence, first, second = passes, [], []
+        sequence, first, second = groups, [], []
 
     legs: list[Leg] = []
     pos = (float(start_xy[0]), float(start_xy[1]))
     short: list[float] = []
-    for n, (lane, row, r) in enumerate(sequence):
-        seq = r if math.dist(r[0], pos) <= math.dist(r[-1], pos) else r[::-1]
-        if n == 0 or (first and n == len(first) + 1 and second):  # fly to the first pass / jump over
-            legs.append(_transit(pos, seq, v, a, inner))
-        else:
-            dx, dy = legs[-1].points[-1][0] - legs[-1].points[-2][0], legs[-1].points[-1][1] - legs[-1].points[-2][1]
-            dn = math.hypot(dx, dy) or 1.0
-            turn, left_out = _turn(pos, seq[0], (dx / dn, dy / dn), v, a, inner)
-            legs.append(turn)
-            if left_out > 0.05:
-                short.append(left_out)
-        legs.append(Leg(seq, True, row, "row", lane))
-        pos = seq[-1]
+    for n, group in enumerate(sequence):
+        for i, (lane, row, r) in enumerate(_from_nearer_end(group, pos, (ux, uy))):
+            seq = r if math.dist(r[0], pos) <= math.dist(r[-1], pos) else r[::-1]
+            if i > 0:  # the next stretch of the same pass, straight ahead across the gap
+                legs.append(Leg([pos, seq[0]], False, None, "gap", lane))
+            elif n == 0 or (first and n == len(first) + 1 and second):  # fly to the first pass / jump over
+                legs.append(_transit(pos, seq, v, a, inner))
+            else:
+                dx, dy = legs[-1].points[-1][0] - legs[-1].points[-2][0], legs[-1].points[-1][1] - legs[-1].points[-2][1]
+                dn = math.hypot(dx, dy) or 1.0
+                turn, left_out = _turn(pos, seq[0], (dx / dn, dy / dn), v, a, inner)
+                legs.append(turn)
+                if left_out > 0.05:
+                    short.append(left_out)
+            legs.append(Leg(seq, True, row, "row", lane))
+            pos = seq[-1]
     if short:
         where = fence_name if fence_enu is not None and len(fence_enu) >= 3 else "terrain"
         warnings.append(f"{len(short)} headland turns shortened to fit the {where}: the vehicle brakes inside "
@@ -414,6 +325,17 @@ def plan_rows(
         t += alt / up + alt / down
     plan.time_s = round(t, 1)
     return plan
+
+
+def _from_nearer_end(group: list[tuple[int, int | None, Polyline]], pos: Point, u: tuple[float, float]
+                     ) -> list[tuple[int, int | None, Polyline]]:
+    """The stretches of one pass in flight order: along the rows from the end nearer to ``pos``."""
+    if len(group) == 1:
+        return group
+    pieces = sorted(group, key=lambda q: u[0] * (q[2][0][0] + q[2][-1][0]) + u[1] * (q[2][0][1] + q[2][-1][1]))
+    lo = min(math.dist(pos, pieces[0][2][0]), math.dist(pos, pieces[0][2][-1]))
+    hi = min(math.dist(pos, pieces[-1][2][0]), math.dist(pos, pieces[-1][2][-1]))
+    return pieces if lo <= hi else pieces[::-1]
 
 
 def split_sorties(plan: RowPlan, flow_lps: float, tank_l: float) -> list[list[Leg]]:

@@ -7,8 +7,9 @@ place over the DSM and ``deposition.tif``.
 Layers (local figures in the properties: metres, seconds, L/ha):
 
 * ``rows``: the rows the run targeted (``index``, ``length_m``, ``covered_fraction``, ``mean_rate_lpha``);
-* ``passes``: the flown path while the sprayer was on, one line per continuous stretch (``start_s``, ``end_s``,
-  ``length_m``, ``volume_l``);
+* ``passes``: the flown path while the sprayer was on (the flow at least :data:`ON_SHARE` of the run's peak: the
+  pump's lag decays the flow for a while after the valve closes), one line per continuous stretch (``start_s``,
+  ``end_s``, ``length_m``, ``volume_l``);
 * ``sprayed`` / ``gaps``: stretches of each row that got at least / less than half the nominal rate (``row``,
   ``from_m``, ``to_m`` along the row, ``mean_rate_lpha``);
 * ``deposition``: the application-rate map as polygons of rate classes (share of the nominal rate);
@@ -96,8 +97,12 @@ def _length(line: list[tuple[float, float]]) -> float:
     return float(np.hypot(*np.diff(a, axis=0).T).sum()) if len(a) >= 2 else 0.0
 
 
+#: the sprayer counts as on from this share of the run's peak flow
+ON_SHARE = 0.05
+
+
 def _passes(run_dir: Path) -> list[LocalFeature]:
-    """The flown path while the sprayer was on (tank flow > 0), one line per continuous stretch."""
+    """The flown path while the sprayer was on (flow >= :data:`ON_SHARE` of the peak), one line per stretch."""
     from vinecli.runs.rundir import read_timeseries
 
     ts_path = run_dir / TIMESERIES
@@ -107,7 +112,8 @@ def _passes(run_dir: Path) -> list[LocalFeature]:
     if "tank_flow_lps" not in ts:
         return []
     t, x, y, q = (np.asarray(ts[k], float) for k in ("t_s", "pos_enu_x_m", "pos_enu_y_m", "tank_flow_lps"))
-    on = np.nan_to_num(q) > 0
+    q = np.nan_to_num(q)
+    on = (q > 0) & (q >= ON_SHARE * float(q.max(initial=0.0)))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
     out = []
     for a, b in zip(edges[::2], edges[1::2], strict=True):
