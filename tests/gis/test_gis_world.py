@@ -141,6 +141,15 @@ def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Pat
         line = LineString([to_utm.transform(*c) for c in p["geometry"]["coordinates"]])
         assert line.intersection(core).length < 0.3  # the valve closes within a step or two of the zone edge
 
+    # outputs aimed at the inputs (the grower's files, even with --overwrite; the run; the world): exit 2, untouched
+    before = (tmp_path / "rows.gpkg").read_bytes()
+    run_dir = Path(s.run_dir)
+    for target in (tmp_path / "rows.gpkg", tmp_path / "stream.geojson", run_dir / "x.geojson", world / "x.gpkg"):
+        r = CliRunner().invoke(app, ["gis", "export", str(s.run_dir), "--out", str(target), "--overwrite"])
+        assert r.exit_code == 2 and "input" in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    assert (tmp_path / "rows.gpkg").read_bytes() == before
+    assert not (run_dir / "x.geojson").exists() and not (world / "x.gpkg").exists()
+
 
 def test_bad_gis_inputs_exit_2_naming_the_feature_and_write_nothing(tmp_path: Path) -> None:
     from vinecli.world import build_world

@@ -78,7 +78,7 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
         local = []
         for part in parts:
             coords = [tuple(c[:2]) for c in (part.exterior.coords[:-1] if expect == "polygons" else part.coords)]
-            local.append(georef.from_crs(coords, crs))
+            local.append(_checked(georef.from_crs(coords, crs), coords, crs, where, path))
         if expect == "polygons":
             local = _buffered(local, float(props.get("buffer_m") or buffer_m))
         elif bounds is not None:
@@ -87,6 +87,26 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
     if not out:
         raise InputError(f"layer {name!r}: no features", path=path)
     return out
+
+
+#: local coordinates farther than this from the world's origin are not a field (a wrong CRS), m
+MAX_LOCAL_M = 100_000.0
+
+
+def _checked(local: list[tuple[float, float]], coords: list[tuple[float, ...]], crs: Any, where: str,
+             path: Path) -> list[tuple[float, float]]:
+    """``local`` when every point is finite and within :data:`MAX_LOCAL_M` of the world; else InputError naming
+    the first bad point in the file's CRS (GeoJSON and KML are WGS84 longitude/latitude by definition)."""
+    import math
+
+    for (x, y), c in zip(local, coords, strict=True):
+        if not (math.isfinite(x) and math.isfinite(y)) or max(abs(x), abs(y)) > MAX_LOCAL_M:
+            hint = (" (GeoJSON and KML hold WGS84 longitude/latitude: projected coordinates need a Shapefile with its "
+                    ".prj or a GeoPackage layer with its SRS)" if str(crs).upper() in ("EPSG:4326", "OGC:CRS84") else "")
+            raise InputError(f"{where}: point ({c[0]:.10g}, {c[1]:.10g}) in {crs} is not near the world "
+                             f"({'not a valid position' if not (math.isfinite(x) and math.isfinite(y)) else f'{max(abs(x), abs(y)) / 1000:.0f} km away'})"
+                             f": wrong CRS?{hint}", path=path)
+    return local
 
 
 def _buffered(rings: list[list[tuple[float, float]]], buffer_m: float) -> list[list[tuple[float, float]]]:

@@ -39,6 +39,7 @@ RATE_CLASSES = (("10-50 %", 0.1, 0.5), ("50-90 %", 0.5, 0.9), ("90-110 %", 0.9, 
 def export_run_gis(run_dir: Path | str, out: Path | str, *, overwrite: bool = False) -> Path:
     """Write the GIS layers of ``run_dir`` to ``out`` (``.gpkg`` or ``.geojson``); returns ``out``."""
     from vinecli.gis.georef import world_dir_georef
+    from vinecli.output_guard import check_output_file
 
     run_dir, out = Path(run_dir), Path(out)
     if out.suffix.lower() not in (".gpkg", ".geojson", ".json"):
@@ -47,13 +48,12 @@ def export_run_gis(run_dir: Path | str, out: Path | str, *, overwrite: bool = Fa
     world_dir = Path(str((summary.get("world") or {}).get("dir", "")))
     if not (world_dir / "world.json").is_file():
         raise InputError(f"the run's world {world_dir} is gone (its georeference is needed)", path=run_dir)
-    if out.exists() and not overwrite:
-        raise InputError("exists (pass --overwrite to replace it)", path=out)
-    target = out.resolve()
-    for inp in (run_dir, world_dir):
-        if target == inp.resolve() or inp.resolve() in target.parents:
-            raise InputError(f"would write inside the input {inp}", path=out)
-    layers = run_layers(run_dir, summary, _read_json(world_dir / "world.json"))
+    world = _read_json(world_dir / "world.json")
+    files = (world.get("gis") or {}).get("files") or {}
+    sources = [f["path"] for f in (files.get("rows"), files.get("fence"), *files.get("no_spray", [])) if f]
+    # the run, its world and the grower's GIS files the world was built from are inputs: never written over
+    check_output_file(out, overwrite=overwrite, inputs=[run_dir, world_dir, *sources])
+    layers = run_layers(run_dir, summary, world)
     return write_layers(out, layers, world_dir_georef(world_dir))
 
 

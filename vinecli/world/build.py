@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from vinecli.autopilot.preflight import PreflightFailure, check_spawn_fence, check_tilt, fence_margins_m
-from vinecli.errors import SpecError
+from vinecli.errors import InputError, SpecError
 from vinecli.geo import GeoOrigin
 from vinecli.inputs import note_input, reading_inputs
 from vinecli.outputs import Manifest, atomic_output_dir, contained_path, write_json
@@ -214,7 +214,12 @@ def _gis(spec: WorldSpec, base: Path, terrain_json: dict[str, Any], tdir: Path, 
     assert spec.gis is not None
     g = read_world_gis(spec.gis, base, world_georef(terrain_json, tdir, origin), tuple(terrain_json["bounds_enu"]))
     sources = g.row_sources if g.rows is not None else [{"layer": None, "fid": None, "part": 0} for _ in rows]
-    rows, row_sources = cut_rows(g.rows if g.rows is not None else rows, sources, g.no_spray)
+    given = g.rows if g.rows is not None else rows
+    rows, row_sources = cut_rows(given, sources, g.no_spray)
+    if given and not rows:
+        zones = g.files["no_spray"]
+        raise InputError(f"the {len(g.no_spray)} no-spray zones (buffers included) cover all {len(given)} rows: "
+                         f"nothing would be sprayed", path=zones[0]["path"] if len(zones) == 1 else None)
     geofence = spec.geofence
     if g.fence is not None:
         base_fence = spec.geofence or GeofenceSpec()
