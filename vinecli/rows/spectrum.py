@@ -76,6 +76,8 @@ def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float) -> 
     ps = np.abs(np.fft.rfft(pw - pw.mean(), nfft))
     fr = np.fft.rfftfreq(nfft, step)
     idx = np.flatnonzero((fr >= 0.8 * k_guess) & (fr <= 1.25 * k_guess))
+    if idx.size == 0:  # the guess is beyond the profile's Nyquist frequency (a spacing of about one cell)
+        return k_guess, 0.0
     k = int(idx[int(np.argmax(ps[idx]))])
     amp = float(ps[k])
     kk = float(k)
