@@ -23,6 +23,7 @@ from vinecli.sitl.ardupilot.params import (
 )
 from vinecli.sitl.ardupilot.plan import LOCATION_SCALING_FACTOR_INV, ArdupilotFrame
 from vinecli.sitl.ardupilot.process import param_file_text
+from vinecli.specs.sprayer import SprayerSpec
 from vinecli.vehicle import load_vehicle
 
 
@@ -107,15 +108,43 @@ def _ac_sprayer_pump_pct(speed_mps: float, p: dict) -> float:
 
 def test_sprayer_parameters_give_the_asked_flow_per_metre():
     setting = SprayerSetting(flow_lps=0.0142, speed_mps=2.0)  # 20 L/ha on a 3.55 m swath at 2 m/s
-    p = sprayer_params(setting, pump_max_flow_lps=0.1, pump_channel=8)
+    sprayer = SprayerSpec()  # switch-on speed 1 m/s, no pressure range
+    p = sprayer_params(setting, sprayer, pump_max_flow_lps=0.1, pump_channel=8)
     assert p["SERVO9_FUNCTION"] == 22 and p["SPRAY_ENABLE"] == 1
-    for v in (0.6, 1.0, 2.0, 3.0):  # litres per metre stay the asked ones at any speed above the minimum
+    assert p["SPRAY_SPEED_MIN"] == 100 and p["SPRAY_PUMP_MIN"] == 0.0  # sprayer.control.speed_min_mps, no floor
+    for v in (1.0, 2.0, 3.0):  # litres per metre stay the asked ones at any speed above the minimum
         pwm = 1000 + 10 * _ac_sprayer_pump_pct(v, p)
         flow = pump_fraction(round(pwm)) * 0.1
         assert flow / v == pytest.approx(0.0142 / 2.0, rel=0.01)
-    assert _ac_sprayer_pump_pct(0.3, p) == 0.0  # below SPRAY_SPEED_MIN (20 % of 2 m/s): off
+    assert _ac_sprayer_pump_pct(0.9, p) == 0.0  # below SPRAY_SPEED_MIN: off
     with pytest.raises(SpecError, match="above the pump"):
-        sprayer_params(SprayerSetting(0.2, 2.0), pump_max_flow_lps=0.1, pump_channel=8)
+        sprayer_params(SprayerSetting(0.2, 2.0), sprayer, pump_max_flow_lps=0.1, pump_channel=8)
+    with pytest.raises(SpecError, match="below the sprayer's minimum"):
+        sprayer_params(SprayerSetting(0.005, 0.8), sprayer, pump_max_flow_lps=0.1, pump_channel=8)
+
+
+def test_sprayer_parameters_come_from_the_vehicles_sprayer():
+    """The ag-hexa-16's sprayer (pressure range, switch-on speed): SPRAY_PUMP_MIN is the nozzles' minimum flow as
+    a share of the pump's maximum, SPRAY_SPEED_MIN its speed_min_mps; a flow above the nozzles' maximum pressure is
+    refused; the pump output at the asked speed is the asked flow as the pump model's duty."""
+    from vinecli.physics.pump import Pump
+    v = load_vehicle("ag-hexa-16")
+    assert v.tank is not None
+    q_max = v.tank.nozzle_max_flow_lps
+    lo, hi = v.sprayer.flow_range_lps(q_max)
+    assert 0.0 < lo < hi <= q_max
+    q = 0.5 * (lo + hi)
+    p = sprayer_params(SprayerSetting(q, 5.0), v.sprayer, pump_max_flow_lps=q_max, pump_channel=8)
+    assert p["SPRAY_PUMP_MIN"] == pytest.approx(100.0 * lo / q_max, abs=0.01)
+    assert p["SPRAY_SPEED_MIN"] == round(100.0 * v.sprayer.control.speed_min_mps)
+    duty = _ac_sprayer_pump_pct(5.0, p) / 100.0
+    pump = Pump(v.sprayer.pump, q_max)
+    for _ in range(2500):  # 10 s at 250 Hz: the pump model settles on the duty's flow
+        pump.update_duty(duty, 0.004)
+    assert pump.flow_lps == pytest.approx(q, rel=1e-3)
+    assert _ac_sprayer_pump_pct(1.2, p) == pytest.approx(p["SPRAY_PUMP_MIN"])  # slow: held at the nozzles' minimum
+    with pytest.raises(SpecError, match="above the pump"):
+        sprayer_params(SprayerSetting(1.05 * hi, 5.0), v.sprayer, pump_max_flow_lps=q_max, pump_channel=8)
 
 
 def test_waypoints_use_ardupilots_offset_not_wgs84():

@@ -10,6 +10,7 @@ from typing import Any
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.phase_items import PlanContext
 from vinecli.specs.mission import MissionSpec
+from vinecli.specs.vehicle import VehicleSpec
 
 
 def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str) -> tuple[MissionSpec, PlanContext]:
@@ -21,7 +22,7 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
     pc = PlanContext(
         origin=origin if origin is not None else ctx.origin, home_enu=ctx.home_enu, vine_rows_enu=ctx.vine_rows_enu,
         terrain_height=ctx.terrain_height,
-        nozzle_max_flow_lps=v.tank.nozzle_max_flow_lps if v.tank is not None else None,
+        nozzle_max_flow_lps=pump_max_flow_lps(v) or None,
         accel_mps2=plan_accel(v), firmware=firmware, vehicle=v, terrain_bounds=ctx.terrain_bounds,
         air_density=ctx.air_density_kgm3,
     )
@@ -29,6 +30,13 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
     if ctx.geofence is not None and mission.geofence is None:
         mission = mission.model_copy(update={"geofence": ctx.geofence})
     return mission, pc
+
+
+def pump_max_flow_lps(vehicle: VehicleSpec) -> float:
+    """The flow (L/s) of a firmware's pump output at 100 %: the maximum of the vehicle's pump model (the tank's
+    ``nozzle_max_flow_lps``, :class:`vinecli.physics.pump.Pump`), 0 without a tank. PX4's DO_SET_ACTUATOR value and
+    ArduPilot's sprayer pump output are duties of it; the flow command they give goes through the pump's lag."""
+    return float(vehicle.tank.nozzle_max_flow_lps) if vehicle.tank is not None else 0.0
 
 
 def takeoff_mass_kg(ctx: AutopilotContext) -> float:
@@ -42,4 +50,4 @@ def takeoff_mass_kg(ctx: AutopilotContext) -> float:
     return v.dry_mass() + v.liquid_mass(v.tank.capacity_l if fill is None else float(fill))
 
 
-__all__ = ["converter_inputs", "takeoff_mass_kg"]
+__all__ = ["converter_inputs", "pump_max_flow_lps", "takeoff_mass_kg"]

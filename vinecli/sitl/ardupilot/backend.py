@@ -35,7 +35,7 @@ from vinecli.sitl.ardupilot.json_link import JSON_PORT_BASE, JsonPhysicsLink, Se
 from vinecli.sitl.ardupilot.params import pump_fraction, sprayer_params, vehicle_params
 from vinecli.sitl.ardupilot.plan import ArdupilotPlan, home_frame, plan_for
 from vinecli.sitl.ardupilot.process import SERIAL0_PORT_BASE, ArdupilotProcess, reserve_instance
-from vinecli.sitl.converter import takeoff_mass_kg
+from vinecli.sitl.converter import pump_max_flow_lps, takeoff_mass_kg
 from vinecli.sitl.identity import identity_from_message
 from vinecli.sitl.link import PolledTcpLink
 from vinecli.sitl.record import FirmwareRecord
@@ -97,9 +97,10 @@ class ArdupilotSitlAutopilot:
         self.dt_us = ctx.physics_dt_us
         params = vehicle_params(v, physics_rate_hz=1e6 / self.dt_us, mass_kg=takeoff_mass_kg(ctx), g=STANDARD_GRAVITY)
         self.pump_ch = v.px4.sprayer_channel
-        self.nozzle = v.tank.nozzle_max_flow_lps if v.tank is not None else 0.0
+        self.nozzle = pump_max_flow_lps(v)  # the pump model's maximum: the firmware's pump output is a duty of it
         if self.plan.sprayer is not None:
-            params.update(sprayer_params(self.plan.sprayer, pump_max_flow_lps=self.nozzle, pump_channel=self.pump_ch))
+            params.update(sprayer_params(self.plan.sprayer, v.sprayer, pump_max_flow_lps=self.nozzle,
+                                         pump_channel=self.pump_ch))
         params.update(self.plan.params)
         self.params = params
         self.w_min, self.w_max = v.motor.w_min_armed, v.motor.w_max

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 from vinecli.errors import SpecError
 from vinecli.specs.mission import GotoPhase, LandPhase, MissionSpec, RtlPhase, TakeoffPhase, WaypointsPhase
+from vinecli.specs.sprayer import SprayerSpec
 from vinecli.specs.vehicle import VehicleSpec
 
 #: ARMING_CHECK bits: 1 all, 2 baro, 4 compass, 8 GPS lock, 16 INS, 32 parameters, 64 RC, 128 board
@@ -119,25 +120,31 @@ class SprayerSetting:
     speed_mps: float
 
 
-def sprayer_params(setting: SprayerSetting, *, pump_max_flow_lps: float, pump_channel: int,
-                   spinner_channel: int | None = None, speed_min_fraction: float = 0.2,
-                   pump_min_pct: float = 0.0) -> dict[str, int | float]:
-    """AC_Sprayer: the pump output follows ground speed, ``pump % = SPRAY_PUMP_RATE (% per m/s) x speed``,
-    at least SPRAY_PUMP_MIN %, off below SPRAY_SPEED_MIN (cm/s). With the flow linear in the pump output
-    (0-100 % = 0 to the pump's maximum flow) the asked flow at the asked speed gives
-    ``SPRAY_PUMP_RATE = 100 flow / (max flow x speed)``: the dose per metre stays the asked one at any speed
-    above ``speed_min_fraction`` of the asked speed."""
+def sprayer_params(setting: SprayerSetting, sprayer: SprayerSpec, *, pump_max_flow_lps: float, pump_channel: int,
+                   spinner_channel: int | None = None) -> dict[str, int | float]:
+    """AC_Sprayer from the vehicle's sprayer (``sprayer:``) and the mission's asked rate: the pump output follows
+    ground speed, ``pump % = SPRAY_PUMP_RATE (% per m/s) x speed``, at least SPRAY_PUMP_MIN %, off below
+    SPRAY_SPEED_MIN (cm/s). The pump output is a duty of the pump's maximum flow (``pump_max_flow_lps``, the
+    maximum of vinecli's pump model, :meth:`vinecli.physics.pump.Pump.update_duty`), so the asked flow at the
+    asked speed gives ``SPRAY_PUMP_RATE = 100 flow / (max flow x speed)`` and the litres per metre stay the asked
+    ones at any speed above the minimum. SPRAY_SPEED_MIN is the sprayer's ``control.speed_min_mps`` (the built-in
+    sprayer's switch-on speed) and SPRAY_PUMP_MIN the bottom of its flow range (the nozzles' minimum pressure,
+    :meth:`~vinecli.specs.sprayer.SprayerSpec.flow_range_lps`; 0 without a pressure range). AC_Sprayer's on and off
+    delays are compile-time (100 ms, 1000 ms), as the sprayer's default ``on_delay_s`` / ``off_delay_s``."""
     if setting.flow_lps <= 0.0 or setting.speed_mps <= 0.0:
         raise SpecError("ArduPilot's sprayer needs a spray flow and a speed above 0")
-    fraction = setting.flow_lps / pump_max_flow_lps
-    if fraction > 1.0:
-        raise SpecError(f"the asked spray flow {setting.flow_lps:g} L/s is above the pump's maximum "
-                        f"{pump_max_flow_lps:g} L/s")
+    lo, hi = sprayer.flow_range_lps(pump_max_flow_lps)
+    if setting.flow_lps > hi * (1 + 1e-9):
+        raise SpecError(f"the asked spray flow {setting.flow_lps:g} L/s is above the pump's maximum {hi:g} L/s")
+    speed_min = sprayer.control.speed_min_mps
+    if setting.speed_mps < speed_min:
+        raise SpecError(f"the spray speed {setting.speed_mps:g} m/s is below the sprayer's minimum {speed_min:g} m/s "
+                        "(sprayer.control.speed_min_mps, SPRAY_SPEED_MIN): AC_Sprayer would never switch on")
     p: dict[str, int | float] = {
         "SPRAY_ENABLE": 1,
-        "SPRAY_PUMP_RATE": round(100.0 * fraction / setting.speed_mps, 4),
-        "SPRAY_SPEED_MIN": int(round(100.0 * speed_min_fraction * setting.speed_mps)),
-        "SPRAY_PUMP_MIN": round(pump_min_pct, 2),
+        "SPRAY_PUMP_RATE": round(100.0 * setting.flow_lps / (pump_max_flow_lps * setting.speed_mps), 4),
+        "SPRAY_SPEED_MIN": int(round(100.0 * speed_min)),
+        "SPRAY_PUMP_MIN": round(100.0 * lo / pump_max_flow_lps, 2),
         f"SERVO{pump_channel + 1}_FUNCTION": PUMP_FUNCTION,
         f"SERVO{pump_channel + 1}_MIN": PWM_MIN, f"SERVO{pump_channel + 1}_MAX": PWM_MAX,
         f"SERVO{pump_channel + 1}_TRIM": PWM_MIN,

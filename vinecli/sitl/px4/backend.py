@@ -45,6 +45,7 @@ from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
+from vinecli.sitl.converter import pump_max_flow_lps
 from vinecli.sitl.takeoff import TakeoffWatch
 from vinecli.specs.mission import TakeoffPhase
 from vinecli.types import ActuatorCommand, Event, Observation
@@ -161,7 +162,7 @@ class Px4SitlAutopilot:
         self.channels = list(ch)
         self.w_min, self.w_max = v.px4.w_min_rad_s, v.motor.w_max
         self.spray_ch = v.px4.sprayer_channel
-        self.nozzle = v.tank.nozzle_max_flow_lps if v.tank is not None else 0.0
+        self.nozzle = pump_max_flow_lps(v)  # the pump model's maximum: the firmware's pump output is a duty of it
         from vinecli.physics.magnetic import earth_field_world
 
         self.mag_world = earth_field_world(ctx.origin)
