@@ -10,7 +10,7 @@ import pytest
 
 from vinecli.geo import GeoOrigin
 from vinecli.missions.qgc_spray import leg_actions, sortie_plan
-from vinecli.rows.plan import plan_rows, split_sorties
+from vinecli.rows.plan import Leg, plan_rows, split_sorties
 
 ORIGIN = GeoOrigin(44.70, 8.03, 250.0)
 
@@ -186,3 +186,24 @@ def test_a_row_cut_by_a_no_spray_zone_gets_a_pass_per_stretch_and_none_over_the_
     gaps = [leg for leg in plan.legs if leg.kind == "gap"]
     assert gaps and all(not leg.spray and len(leg.points) == 2 for leg in gaps)
     assert SprayPhase  # the phase's plan goes through the same plan_rows (rows.spray_rate.phase_plan)
+
+
+def test_terrain_following_legs_are_long_enough_for_a_firmware_to_keep_its_speed() -> None:
+    """A 0.3 m canopy bump 2 m long on a flat row (the sample vineyard has such): no waypoint within MIN_LEG_M of
+    the next on the straight pass (PX4 and ArduPilot slow down at short legs and bends), the path still clears the
+    canopy by the set height (0.1 m tolerance) and flat ground gives no waypoint at all."""
+    from vinecli.phase_items.spray_legs import MIN_LEG_M
+
+    def surface(x: float, y: float) -> float:
+        return 0.3 if 20.0 <= y <= 22.0 else 0.0
+
+    acts = leg_actions([Leg([(0.0, 0.0), (0.0, 60.0)], True, 0)], height_m=2.0, flow_lps=0.05, surface=surface)
+    wps = [(a[2], a[3]) for a in acts if a[0] == "wp"]
+    assert 3 <= len(wps) <= 6, wps
+    assert all(b[0] - a[0] >= MIN_LEG_M - 0.5 for a, b in zip(wps[:-1], wps[1:], strict=True)), wps
+    for y in np.arange(0.0, 60.0, 0.25):
+        alt = float(np.interp(y, [w[0] for w in wps], [w[1] for w in wps]))
+        assert alt >= surface(0.0, y) + 2.0 - 0.1 - 1e-9, (y, alt)
+    flat = leg_actions([Leg([(0.0, 0.0), (0.0, 60.0)], True, 0)], height_m=2.0, flow_lps=0.05,
+                       surface=lambda x, y: 0.0)
+    assert [(a[2], a[3]) for a in flat if a[0] == "wp"] == [(0.0, 2.0), (60.0, 2.0)]

@@ -1,7 +1,10 @@
 """Autopilots side by side (vinecli.runs.compare, vinecli.report.autopilots): dose figures against hand
-arithmetic, grouping by mission and seed, the table, figure and report section. The runs are the synthetic
-run directories of tests/report/synth_runs.py (real deposition model), one of them relabelled as flown by
-PX4; tests/ardupilot flies the real comparison."""
+arithmetic, grouping by mission and seed, the table, figure and report section. What these check is the
+bookkeeping and the rendering, not any autopilot: the runs are synthetic run directories of
+tests/report/synth_runs.py (real deposition model), the second one a copy of the first filed under another
+autopilot name and firmware ("other", "Test 0.0"), so both columns hold the same figures by construction.
+The real three-way comparison (built-in, PX4 and ArduPilot flying pipelines/missions/spray-two-rows.yaml,
+the dose of each row judged) is tests/ardupilot/test_three_way.py, which needs ../shared."""
 
 from __future__ import annotations
 
@@ -33,16 +36,18 @@ def test_hot_spots_and_gaps_are_shares_of_row_length(tmp_path: Path) -> None:
 
 @pytest.fixture
 def two_autopilots(tmp_path: Path) -> Path:
+    """A built-in run and its copy filed as flown by autopilot "other" (firmware "Test 0.0"), plus a run of
+    another mission by one autopilot only."""
     runs = tmp_path / "runs"
     import shutil
 
     builtin = write_run(runs, "spray", run_id="spray-builtin", seed=0)
-    px4 = runs / "spray-px4"
-    shutil.copytree(builtin, px4)
-    s = json.loads((px4 / "summary.json").read_text())
-    s["autopilot"], s["run_id"], s["case"] = "px4", "spray-px4", "spray-px4"
-    s["firmware"] = {"firmware": "PX4", "version": "1.15.4", "git_hash": "56c8da05", "files": []}
-    (px4 / "summary.json").write_text(json.dumps(s))
+    other = runs / "spray-other"
+    shutil.copytree(builtin, other)
+    s = json.loads((other / "summary.json").read_text())
+    s["autopilot"], s["run_id"], s["case"] = "other", "spray-other", "spray-other"
+    s["firmware"] = {"firmware": "Test", "version": "0.0", "git_hash": "00000000", "files": []}
+    (other / "summary.json").write_text(json.dumps(s))
     write_run(runs, "gust", run_id="gust-builtin", seed=0)  # one autopilot only: not compared
     return runs
 
@@ -53,14 +58,16 @@ def test_runs_of_one_mission_and_seed_are_compared(two_autopilots: Path, tmp_pat
     cmp = groups[0]
     assert cmp["mission"] == "spray" and cmp["seed"] == 0
     by = {r["autopilot"]: r for r in cmp["runs"]}
-    assert by["px4"]["firmware"] == "PX4 1.15.4" and by["builtin"]["firmware"] == "vinecli built-in"
+    assert by["other"]["firmware"] == "Test 0.0" and by["builtin"]["firmware"] == "vinecli built-in"
+    assert {k: v for k, v in by["other"].items() if k not in ("run_id", "dir", "autopilot", "firmware", "behaviour")} == \
+        {k: v for k, v in by["builtin"].items() if k not in ("run_id", "dir", "autopilot", "firmware", "behaviour")}  # a copy
     s = json.loads((two_autopilots / "spray-builtin" / "summary.json").read_text())
     assert by["builtin"]["energy_wh"] == s["metrics"].get("energy_wh")
     assert by["builtin"]["tracking_error_m"] == pytest.approx(s["metrics"]["cross_track_rms_m"])
     assert by["builtin"]["row_coverage_fraction"] == pytest.approx(s["metrics"]["row_coverage_fraction"])
     assert 0.0 <= by["builtin"]["gap_fraction"] <= 1.0 and len(by["builtin"]["rows"]) == 6
     md = markdown_table(cmp)
-    assert "px4 (PX4 1.15.4)" in md and "row 5 dose, covered" in md
+    assert "other (Test 0.0)" in md and "row 5 dose (vs asked), covered" in md and "| dose checks |" in md
     png = comparison_png(cmp)
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
     assert compare_runs([two_autopilots / "spray-builtin"])["runs"][0]["autopilot"] == "builtin"

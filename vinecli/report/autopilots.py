@@ -45,9 +45,17 @@ def markdown_table(cmp: dict[str, Any]) -> str:
         cells = []
         for r in runs:
             row = r["rows"][i] if i < len(r["rows"]) else {}
-            cells.append(f"{format_value(row.get('mean_rate_lpha'))} L/ha, {format_value(row.get('covered_fraction'))}")
-        lines.append(f"| row {i} dose, covered | " + " | ".join(cells) + " |")
+            cells.append(f"{format_value(row.get('mean_rate_lpha'))} L/ha ({_pct(row.get('rate_ratio'))}), "
+                         f"{format_value(row.get('covered_fraction'))}")
+        lines.append(f"| row {i} dose (vs asked), covered | " + " | ".join(cells) + " |")
+    lines.append("| dose checks | " + " | ".join({True: "pass", False: "FAIL", None: "-"}[r.get("dose_checks_passed")]
+                                                 for r in runs) + " |")
     return f"### {md_text(cmp['mission'])}, seed {cmp['seed']}\n\n" + head + "\n".join(lines) + "\n"
+
+
+def _pct(ratio: float | None) -> str:
+    """A dose ratio as a signed percentage from the asked rate ('-' without one)."""
+    return "-" if ratio is None else f"{100.0 * (ratio - 1.0):+.1f} %"
 
 
 def markdown_section(comparisons: Sequence[dict[str, Any]]) -> str:
@@ -71,10 +79,11 @@ def comparison_png(cmp: dict[str, Any]) -> bytes:
     fig.subplots_adjust(left=0.07, right=0.98, top=0.91, bottom=0.08, hspace=0.35, wspace=0.32)
     track = ax[0][0]
     rows_drawn = False
-    for r, c in zip(runs, colours, strict=True):
+    for k, (r, c) in enumerate(zip(runs, colours, strict=True)):
         d = Path(r["dir"])
-        ts = rundir.read_timeseries(d / rundir.TIMESERIES)
-        track.plot(ts["pos_enu_x_m"], ts["pos_enu_y_m"], color=c, lw=1.0, label=r["autopilot"])
+        ts = rundir.read_timeseries(d / rundir.TIMESERIES)  # widest first, dashed on top: overlapping tracks stay seen
+        track.plot(ts["pos_enu_x_m"], ts["pos_enu_y_m"], color=c, lw=2.5 - 0.7 * k, ls=("-", "--", ":")[k % 3],
+                   label=r["autopilot"])
         if not rows_drawn:
             for row in (rundir.read_summary(d).get("world") or {}).get("rows_enu") or []:
                 p = np.asarray(row, dtype=float)
@@ -93,7 +102,7 @@ def comparison_png(cmp: dict[str, Any]) -> bytes:
         for i, v in enumerate(vals):
             a.text(i, v or 0.0, format_value(v), ha="center", va="bottom", fontsize=8)
     _dose_panel(ax[1][1], runs, names, colours, cmp)
-    _hot_gap_panel(ax[1][2], runs, names)
+    _hot_gap_panel(ax[1][2], runs, names, cmp)
     fig.suptitle(f"Autopilots side by side — {cmp['mission']}, seed {cmp['seed']}", fontsize=11)
     return png_bytes(fig)
 
@@ -111,6 +120,9 @@ def _dose_panel(a: Any, runs: list[dict[str, Any]], names: list[str], colours: l
     nominal = next((r.get("nominal_rate_lpha") for r in runs if r.get("nominal_rate_lpha")), None)
     if nominal:
         a.axhline(nominal, color="k", ls="--", lw=1, label=f"asked {nominal:g} L/ha")
+        tol = next((r["rate_tolerance"] for r in runs if r.get("rate_tolerance")), None)
+        if tol:
+            a.axhspan(nominal * (1 - tol), nominal * (1 + tol), color="k", alpha=0.08, label=f"±{tol:.0%} (dose check)")
     a.set_xticks(range(n_rows))
     longest = max(runs, key=lambda r: len(r["rows"]))["rows"]
     a.set_xticklabels([str(row.get("row", i)) for i, row in enumerate(longest)])
@@ -119,15 +131,19 @@ def _dose_panel(a: Any, runs: list[dict[str, Any]], names: list[str], colours: l
     a.legend(fontsize=7)
 
 
-def _hot_gap_panel(a: Any, runs: list[dict[str, Any]], names: list[str]) -> None:
+def _hot_gap_panel(a: Any, runs: list[dict[str, Any]], names: list[str], cmp: dict[str, Any]) -> None:
     x = np.arange(len(runs))
     hot = [r.get("hot_spot_fraction") or 0.0 for r in runs]
     gap = [r.get("gap_fraction") or 0.0 for r in runs]
-    a.bar(x - 0.2, hot, 0.4, color="#d62728", label="over-dosed (> 2x asked)")
-    a.bar(x + 0.2, gap, 0.4, color="#9467bd", label="under-dosed (< 0.5x asked)")
+    hf = next((r["hot_factor"] for r in runs if r.get("hot_factor")), cmp.get("hot_factor"))
+    gf = next((r["gap_factor"] for r in runs if r.get("gap_factor")), cmp.get("gap_factor"))
+    a.bar(x - 0.2, hot, 0.4, color="#d62728", label=f"hot spots (> {hf:g}x asked)")
+    a.bar(x + 0.2, gap, 0.4, color="#9467bd", label=f"gaps (< {gf:g}x asked)")
+    verdicts = [{True: "\ndose checks pass", False: "\ndose checks FAIL", None: ""}[r.get("dose_checks_passed")]
+                for r in runs]
     a.set_xticks(x)
-    a.set_xticklabels(names)
-    a.set_title("share of row length", fontsize=9)
+    a.set_xticklabels([n + v for n, v in zip(names, verdicts, strict=True)], fontsize=7)
+    a.set_title("share of the rows' planned length (1 m windows)", fontsize=9)
     a.legend(fontsize=7)
 
 

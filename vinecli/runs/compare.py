@@ -4,9 +4,11 @@ ArduPilot, compared on what a spraying operator looks at.
 Per run directory (:func:`autopilot_figures`): status, the firmware that flew; tracking error (cross-track
 RMS while spraying, else the horizontal hold error), mission time (lift-off to the last touchdown, and the
 whole run), energy drawn from the pack; from the deposition (``deposition.json``), the dose on each
-targeted row (mean rate, L/ha) and the share of the rows' length that got a hot spot (more than
-:data:`HOT_FACTOR` x the asked rate) or a gap (less than :data:`GAP_FACTOR` x, the coverage threshold of
-``row_coverage_fraction``). :func:`compare_runs` groups runs of one mission and seed by autopilot.
+targeted row (mean rate, L/ha, and its ratio to the asked rate) and the share of the rows' planned length in a
+hot spot or a gap as the run's default dose checks judge them (``dose_hot_spots`` / ``dose_gaps``: 1 m windows
+above the mission's ``dose.hot_ratio`` or below its ``gap_ratio`` x the asked rate, :mod:`vinecli.missions.dose`);
+a deposition without those bands (older runs) falls back to 0.5 m segments above :data:`HOT_FACTOR` or below
+:data:`GAP_FACTOR` x. :func:`compare_runs` groups runs of one mission and seed by autopilot.
 """
 
 from __future__ import annotations
@@ -45,12 +47,23 @@ def dose_figures(run_dir: Path) -> dict[str, Any]:
         return {"rows": [], "hot_spot_fraction": None, "gap_fraction": None}
     doc = json.loads(path.read_text(encoding="utf-8"))
     nominal = _num((doc.get("metrics") or {}).get("nominal_rate_lpha"))
+    bands = doc.get("dose_bands") or {}
+    judged = bool(bands) and all("faults" in r for r in doc.get("rows") or [])
     rows, hot, gap, total = [], 0.0, 0.0, 0.0
     for r in doc.get("rows") or []:
+        mean = _num(r.get("mean_rate_lpha"))
+        rows.append({"row": r.get("row"), "mean_rate_lpha": mean, "covered_fraction": _num(r.get("covered_fraction")),
+                     "rate_ratio": mean / nominal if mean is not None and nominal else None})
+        if judged:  # the dose checks' own stretches
+            planned = r.get("planned_m") or [0.0, r.get("length_m") or 0.0]
+            total += max(0.0, float(planned[1]) - float(planned[0]))
+            for f in r["faults"]:
+                span = max(0.0, float(f["to_m"]) - float(f["from_m"]))
+                hot += span if f.get("kind") == "hot" else 0.0
+                gap += span if f.get("kind") == "gap" else 0.0
+            continue
         rate = np.asarray(r.get("rate_lpha") or [], dtype=float)
         seg = float(r.get("segment_m") or 0.0)
-        rows.append({"row": r.get("row"), "mean_rate_lpha": _num(r.get("mean_rate_lpha")),
-                     "covered_fraction": _num(r.get("covered_fraction"))})
         if nominal and rate.size and seg > 0:
             lengths = np.full(rate.size, seg)
             lengths[-1] = max(0.0, float(r.get("length_m") or rate.size * seg) - seg * (rate.size - 1))
@@ -58,6 +71,9 @@ def dose_figures(run_dir: Path) -> dict[str, Any]:
             gap += float(lengths[rate < GAP_FACTOR * nominal].sum())
             total += float(lengths.sum())
     return {"rows": rows, "nominal_rate_lpha": nominal,
+            "hot_factor": float(bands["hot_ratio"]) if judged else HOT_FACTOR,
+            "gap_factor": float(bands["gap_ratio"]) if judged else GAP_FACTOR,
+            "rate_tolerance": float(bands["rate_tolerance"]) if judged else None,
             "hot_spot_fraction": hot / total if total else None, "gap_fraction": gap / total if total else None}
 
 
@@ -89,8 +105,19 @@ def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
         "row_coverage_fraction": _num(m.get("row_coverage_fraction")),
         "hot_spot_fraction": dose["hot_spot_fraction"], "gap_fraction": dose["gap_fraction"],
         "rows": dose["rows"], "nominal_rate_lpha": dose.get("nominal_rate_lpha"),
+        "hot_factor": dose.get("hot_factor"), "gap_factor": dose.get("gap_factor"),
+        "rate_tolerance": dose.get("rate_tolerance"),
+        "dose_checks_passed": _dose_verdict(s),
         "behaviour": beh,
     }
+
+
+def _dose_verdict(summary: dict[str, Any]) -> bool | None:
+    """True when every default dose check of the run passed (None: it has none)."""
+    from vinecli.missions.dose import DOSE_CHECKS
+
+    got = [c for c in summary.get("checks") or [] if c.get("name") in DOSE_CHECKS]
+    return all(bool(c.get("passed")) for c in got) if got else None
 
 
 def compare_runs(run_dirs: Sequence[str | Path]) -> dict[str, Any]:

@@ -21,7 +21,9 @@ state (mode, current item, events, error, finished). Sequence, each with a wall-
    the mission state is COMPLETE) and, if the mission lands, PX4 reports on-ground and disarmed.
    Once PX4 has flown in Mission mode, a switch to any other mode before the mission is done
    (a failsafe: geofence Hold, RTL, Land...) is a ``failsafe`` event whose cause is PX4's latest
-   warning STATUSTEXT, and ends the run with status ``failsafe``. PX4 v1.15 sends HEARTBEAT at 1 Hz
+   warning STATUSTEXT, and ends the run with status ``failsafe``, except the switch to RTL that the
+   mission's own last item (NAV_RETURN_TO_LAUNCH) makes: PX4 executes it as its RTL mode, so the
+   mission is then complete once PX4 is on the ground and disarmed. PX4 v1.15 sends HEARTBEAT at 1 Hz
    and refuses a faster interval, so the switch is heard up to 1 s of flight after PX4 acted.
 
 The client sends a GCS HEARTBEAT every second of wall time *or* of sim time, whichever comes
@@ -122,6 +124,7 @@ class Px4MissionClient:
         self.was_airborne = False
         self.started = False
         self.in_mission = False
+        self.rtl_item = False  # PX4 flies the mission's closing NAV_RETURN_TO_LAUNCH as its RTL mode
         self.warnings: list[tuple[float, str]] = []  # (wall time, text) of STATUSTEXT <= WARNING
         self._chunks: dict[int, str] = {}
         # state messages are handled in the link's reader thread as they arrive, so the run sees a
@@ -233,6 +236,14 @@ class Px4MissionClient:
             return
         if not self.in_mission or (self.mission_done() and name in ("hold", "ready")):
             return
+        if self.rtl_item and self.landed_state == M.LANDED_ON_GROUND and not self.armed:
+            return  # returned and disarmed: the mission's end, whatever mode PX4 shows next
+        if name == "rtl" and self._at_rtl_item():
+            if not self.rtl_item:
+                self.rtl_item = True
+                self._event("mission_rtl", f"PX4 returns to launch: the mission's last item {self.current_seq}",
+                            {"seq": self.current_seq})
+            return
         cause = self.failsafe_cause()
         data: dict[str, object] = {"cause": cause, "action": name, "mode": name, "seq": self.current_seq}
         self._event("failsafe", f"PX4 left the mission: {cause} -> {name}", data)
@@ -245,6 +256,14 @@ class Px4MissionClient:
             if time.monotonic() - w < 5.0 and t not in recent:
                 recent.append(t)
         return "; ".join(recent) if recent else f"mode changed from mission to {self.mode_name}"
+
+    def _at_rtl_item(self) -> bool:
+        """PX4 is at the mission's closing NAV_RETURN_TO_LAUNCH (the current item, or the next after the one reached)."""
+        items = self.plan.items if self.plan is not None else []
+        last = len(items) - 1
+        if last < 0 or items[last].command != M.CMD_NAV_RETURN_TO_LAUNCH:
+            return False
+        return self.current_seq == last or (self.current_seq == last - 1 and (last - 1) in self.reached)
 
     def mission_done(self) -> bool:
         """The last item was reached (or PX4 reports the mission complete)."""
@@ -392,8 +411,10 @@ class Px4MissionClient:
             if self.finished is not None:
                 return
             if lands:  # complete only when PX4 reported the last item done and is on the ground, disarmed
-                if done_items and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND and not self.armed:
-                    self.finished = (RunStatus.COMPLETED, "PX4 mission completed, landed and disarmed")
+                if (done_items or self.rtl_item) and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND \
+                        and not self.armed:
+                    how = "returned to launch, " if self.rtl_item else ""
+                    self.finished = (RunStatus.COMPLETED, f"PX4 mission completed, {how}landed and disarmed")
                     return
             elif done_items:
                 self.finished = (RunStatus.COMPLETED, "PX4 mission completed")
