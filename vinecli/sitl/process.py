@@ -149,9 +149,11 @@ class FirmwareProcess(ABC):
         return "\n".join(text.splitlines()[-lines:])
 
     def log_note(self, lines: int = 8) -> str:
-        """``"; <firmware> log (<path>) ends: a | b | c"`` for an error message ('' when it printed nothing)."""
+        """``"; <firmware> log (<path>) ends: a | b | c"`` for an error message ('' when it printed nothing); a
+        temporary working directory is removed at the end, so the path named is the run folder's kept copy."""
         tail = self.log_tail(lines).strip()
-        return f"; {self.firmware} log ({self.log_path}) ends: " + " | ".join(tail.splitlines()) if tail else ""
+        where = f"firmware/{self.log_name} in the run folder" if self._own_dir else str(self.log_path)
+        return f"; {self.firmware} log ({where}) ends: " + " | ".join(tail.splitlines()) if tail else ""
 
     def stop(self, timeout_s: float = 5.0, while_waiting: Callable[[], None] | None = None) -> int | None:
         """SIGTERM the process group, SIGKILL after ``timeout_s``; ``while_waiting()`` is called in the

@@ -258,12 +258,15 @@ class Px4MissionClient:
         return "; ".join(recent) if recent else f"mode changed from mission to {self.mode_name}"
 
     def _at_rtl_item(self) -> bool:
-        """PX4 is at the mission's closing NAV_RETURN_TO_LAUNCH (the current item, or the next after the one reached)."""
+        """PX4 is at the mission's closing NAV_RETURN_TO_LAUNCH: it is the current item, PX4 reported it reached,
+        or PX4 reached the last navigation item before it (the DO items between report nothing, and MISSION_CURRENT
+        may arrive after the mode change)."""
         items = self.plan.items if self.plan is not None else []
         last = len(items) - 1
         if last < 0 or items[last].command != M.CMD_NAV_RETURN_TO_LAUNCH:
             return False
-        return self.current_seq == last or (self.current_seq == last - 1 and (last - 1) in self.reached)
+        nav_before = max((i for i in range(last) if items[i].command < 100), default=-1)  # MAV_CMD_NAV_* < 100
+        return self.current_seq == last or last in self.reached or nav_before in self.reached
 
     def mission_done(self) -> bool:
         """The last item was reached (or PX4 reports the mission complete)."""
