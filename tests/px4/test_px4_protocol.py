@@ -15,7 +15,8 @@ from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import quat_from_euler
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpClientLink
-from vinecli.sitl.px4.backend import Px4SitlAutopilot, px4_start_command
+from vinecli.sitl.px4.backend import Px4SitlAutopilot
+from vinecli.sitl.px4.process import px4_start_command
 from vinecli.specs.mission import MissionSpec
 from vinecli.types import BaroSample, GnssSample, ImuSample, MagSample, Observation, RigidState
 from vinecli.vehicle import load_vehicle

@@ -34,8 +34,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
-import shlex
 import time
 from typing import Any
 
@@ -46,6 +44,7 @@ from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, qu
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sitl.converter import pump_max_flow_lps
+from vinecli.sitl.px4.process import px4_start_command
 from vinecli.sitl.takeoff import TakeoffWatch
 from vinecli.specs.mission import TakeoffPhase
 from vinecli.types import ActuatorCommand, Event, Observation
@@ -60,21 +59,6 @@ G0 = STANDARD_GRAVITY
 EPOCH_US = 1_751_328_000_000_000
 #: files of PX4's working directory kept in the run folder: its logs, console output, boot parameters
 KEEP = ("rootfs/log/*/*.ulg", "px4.log", "rc/px4-rc.params")
-
-
-def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
-                      workdir: str | None = None) -> str:
-    """The shell command that starts PX4 SITL against vinecli (daemon mode, no data-link failsafe)."""
-    bin_path = px4_bin
-    etc = "build/px4_sitl_default/etc"
-    if os.sep in px4_bin and os.path.basename(os.path.dirname(os.path.abspath(px4_bin))) == "bin":
-        build = os.path.dirname(os.path.dirname(os.path.abspath(px4_bin)))  # build/px4_sitl_default/{bin,etc}
-        etc = os.path.join(build, "etc")
-    env = [f"PX4_SIM_MODEL={airframe}", "PX4_PARAM_NAV_DLL_ACT=0", "PX4_PARAM_COM_RC_IN_MODE=1"]
-    if host not in ("127.0.0.1", "localhost"):
-        env.append(f"PX4_SIM_HOST_ADDR={host}")
-    wd = workdir or f"/tmp/px4-sitl-{instance}"
-    return " ".join([*env, shlex.quote(bin_path), "-d", "-i", str(instance), "-w", shlex.quote(wd), shlex.quote(etc)])
 
 
 class Px4SitlAutopilot:
@@ -495,4 +479,4 @@ def _i16(x: float) -> int:
     return max(-32767, min(32767, round(x)))
 
 
-__all__ = ["Px4SitlAutopilot", "px4_start_command"]
+__all__ = ["Px4SitlAutopilot"]

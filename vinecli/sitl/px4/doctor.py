@@ -24,7 +24,8 @@ from pathlib import Path
 from vinecli.errors import InputError
 from vinecli.sitl.options import PX4_DEFAULT_INSTANCE, PX4_DEFAULTS, PX4_PROBE_TIMEOUT_S
 from vinecli.sitl.process import port_free
-from vinecli.sitl.px4.backend import API_PORT_BASE, PX4_API_LOCAL_BASE, SIM_PORT_BASE, px4_start_command
+from vinecli.sitl.px4.backend import API_PORT_BASE, PX4_API_LOCAL_BASE, SIM_PORT_BASE
+from vinecli.sitl.px4.process import px4_start_command
 
 
 @dataclass

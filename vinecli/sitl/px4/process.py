@@ -14,6 +14,7 @@ a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` (:func:`boot_params
 from __future__ import annotations
 
 import os
+import shlex
 import socket
 from pathlib import Path
 
@@ -25,6 +26,21 @@ from vinecli.sitl.process import reserve_instance as reserve_firmware_instance
 SIM_PORT_BASE = 4560
 #: UDP ports PX4 binds for instance i (GCS, API/offboard, payload, gimbal links)
 PX4_UDP_BASES = (18570, 14580, 14280, 13030)
+
+
+def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
+                      workdir: str | None = None) -> str:
+    """The shell command that starts PX4 SITL against vinecli (daemon mode, no data-link failsafe)."""
+    bin_path = px4_bin
+    etc = "build/px4_sitl_default/etc"
+    if os.sep in px4_bin and os.path.basename(os.path.dirname(os.path.abspath(px4_bin))) == "bin":
+        build = os.path.dirname(os.path.dirname(os.path.abspath(px4_bin)))  # build/px4_sitl_default/{bin,etc}
+        etc = os.path.join(build, "etc")
+    env = [f"PX4_SIM_MODEL={airframe}", "PX4_PARAM_NAV_DLL_ACT=0", "PX4_PARAM_COM_RC_IN_MODE=1"]
+    if host not in ("127.0.0.1", "localhost"):
+        env.append(f"PX4_SIM_HOST_ADDR={host}")
+    wd = workdir or f"/tmp/px4-sitl-{instance}"
+    return " ".join([*env, shlex.quote(bin_path), "-d", "-i", str(instance), "-w", shlex.quote(wd), shlex.quote(etc)])
 
 
 def etc_dir_for(px4_bin: Path) -> Path:
@@ -96,4 +112,4 @@ class Px4Process(FirmwareProcess):
             (rc / "px4-rc.params").write_text(self.params, encoding="utf-8")
 
 
-__all__ = ["Px4Process", "boot_params_script", "etc_dir_for", "reserve_instance"]
+__all__ = ["Px4Process", "boot_params_script", "etc_dir_for", "px4_start_command", "reserve_instance"]
