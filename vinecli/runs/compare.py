@@ -85,6 +85,7 @@ def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
     events = rundir.read_events(run_dir / rundir.EVENTS)
     ups = [float(e["t_s"]) for e in events if e["kind"] == "liftoff"]
     downs = [float(e["t_s"]) for e in events if e["kind"] == "touchdown"]
+    beh: dict[str, Any]
     try:
         beh = behaviour_figures(run_dir)
     except VinecliError as exc:  # e.g. a run whose mission.yaml cannot be read any more: its other figures stand

@@ -71,7 +71,7 @@ def identity_from_message(firmware: str, msg: Any, binary: str | os.PathLike[str
         ident.git_hash = decode_git_hash(msg.flight_custom_version)
     if binary is not None:
         ident.binary = str(Path(binary).resolve())
-        ident.sha256 = binary_sha256(binary)
+        ident.sha256 = binary_sha256(Path(binary))
     return ident
 
 
