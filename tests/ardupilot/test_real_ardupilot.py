@@ -87,6 +87,15 @@ def test_the_pump_follows_arducopters_sprayer(ci_ardupilot):
     asked = 0.1 * float(parm.split("SPRAY_PUMP_RATE ")[1].split()[0]) / 100.0  # L/s per m/s at full pump 0.1 L/s
     assert on.sum() > 2000 and abs(np.median(per_m) / asked - 1.0) < 0.02
     assert np.percentile(per_m, 95) / np.percentile(per_m, 5) < 1.05
+    # the pump output goes through the pump model: at each switch-on the delivered flow lags the command by
+    # its first-order lag (tau_up 0.3 s: 63 % after tau), the tank drains what is delivered
+    t, q = ts["t_s"], ts["tank_flow_lps"]
+    starts = [(i, int(np.searchsorted(t, t[i] + 0.3))) for i in np.flatnonzero((flow[1:] > 0) & (flow[:-1] == 0)) + 1]
+    starts = [(i, k) for i, k in starts if k < len(t) and flow[i:k + 1].min() > 0]  # on for 0.3 s at least
+    assert len(starts) >= 3  # one per pass
+    for i, k in starts:
+        assert q[i] < 0.5 * flow[i] and 0.5 * flow[k] < q[k] < 0.8 * flow[k], (t[i], q[i], q[k], flow[k])
+    assert "SPRAY_SPEED_MIN 100\n" in parm  # the sprayer's control.speed_min_mps, 1 m/s
 
 
 def test_the_battery_arducopter_logged_is_the_simulated_pack(ci_ardupilot):
