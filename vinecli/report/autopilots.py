@@ -2,7 +2,7 @@
 (:func:`vinecli.runs.compare.compare_runs`), as a table (Markdown) and one figure ("figA").
 
 The figure: ground tracks over the rows; tracking error, mission time and energy per autopilot; the dose
-on each targeted row against the asked rate; the shares of row length over-dosed and under-dosed.
+on each targeted row against the asked rate; the shares of the rows' planned length in hot spots and gaps.
 """
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ def markdown_table(cmp: dict[str, Any]) -> str:
             row = r["rows"][i] if i < len(r["rows"]) else {}
             cells.append(f"{format_value(row.get('mean_rate_lpha'))} L/ha ({_pct(row.get('rate_ratio'))}), "
                          f"{format_value(row.get('covered_fraction'))}")
-        lines.append(f"| row {i} dose (vs asked), covered | " + " | ".join(cells) + " |")
+        label = next((r["rows"][i].get("label") for r in runs if i < len(r["rows"])), None) or f"target {i}"
+        lines.append(f"| {md_text(label)} dose (vs asked), covered | " + " | ".join(cells) + " |")
     lines.append("| dose checks | " + " | ".join({True: "pass", False: "FAIL", None: "-"}[r.get("dose_checks_passed")]
                                                  for r in runs) + " |")
     return f"### {md_text(cmp['mission'])}, seed {cmp['seed']}\n\n" + head + "\n".join(lines) + "\n"
@@ -125,8 +126,8 @@ def _dose_panel(a: Any, runs: list[dict[str, Any]], names: list[str], colours: l
             a.axhspan(nominal * (1 - tol), nominal * (1 + tol), color="k", alpha=0.08, label=f"±{tol:.0%} (dose check)")
     a.set_xticks(range(n_rows))
     longest = max(runs, key=lambda r: len(r["rows"]))["rows"]
-    a.set_xticklabels([str(row.get("row", i)) for i, row in enumerate(longest)])
-    a.set_xlabel("targeted row (in flight order)")
+    a.set_xticklabels([str(row.get("label") or row.get("row", i)) for i, row in enumerate(longest)])
+    a.set_xlabel("targeted rows, as the mission lists them")
     a.set_title("mean dose per row (L/ha)", fontsize=9)
     a.legend(fontsize=7)
 

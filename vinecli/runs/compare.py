@@ -35,8 +35,8 @@ FIGURES: dict[str, tuple[str, str]] = {
     "energy_wh": ("energy", "Wh"),
     "mean_rate_lpha_on_rows": ("mean dose on rows", "L/ha"),
     "row_coverage_fraction": ("rows covered", "1"),
-    "hot_spot_fraction": ("rows over-dosed", "1"),
-    "gap_fraction": ("rows under-dosed", "1"),
+    "hot_spot_fraction": ("row length in hot spots", "1"),
+    "gap_fraction": ("row length in gaps", "1"),
 }
 
 
@@ -70,11 +70,30 @@ def dose_figures(run_dir: Path) -> dict[str, Any]:
             hot += float(lengths[rate > HOT_FACTOR * nominal].sum())
             gap += float(lengths[rate < GAP_FACTOR * nominal].sum())
             total += float(lengths.sum())
+    listed = _listed_rows(run_dir)
+    for r in rows:  # the world's row index as the mission lists it (the deposition counts targets in list order)
+        i = r["row"]
+        r["label"] = f"row {listed[i]}" if isinstance(i, int) and len(listed) == len(rows) else f"target {i}"
     return {"rows": rows, "nominal_rate_lpha": nominal,
             "hot_factor": float(bands["hot_ratio"]) if judged else HOT_FACTOR,
             "gap_factor": float(bands["gap_ratio"]) if judged else GAP_FACTOR,
             "rate_tolerance": float(bands["rate_tolerance"]) if judged else None,
             "hot_spot_fraction": hot / total if total else None, "gap_fraction": gap / total if total else None}
+
+
+def _listed_rows(run_dir: Path) -> list[Any]:
+    """The row indices the run's first spray phase lists ([] when it targets the world's rows or polylines)."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load((run_dir / rundir.MISSION).read_text(encoding="utf-8")) or {}
+    except (OSError, yaml.YAMLError):
+        return []
+    for ph in doc.get("phases") or []:
+        if isinstance(ph, dict) and ph.get("type") == "spray":
+            rows = ph.get("rows")
+            return list(rows) if isinstance(rows, list) and all(isinstance(x, int) for x in rows) else []
+    return []
 
 
 def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
