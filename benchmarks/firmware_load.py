@@ -68,6 +68,8 @@ def _pass(pipe: Path, out: Path, jobs: int, bins: dict[str, str]) -> dict[str, d
 
     t0 = time.perf_counter()
     res = run_batch(pipe, out, jobs=jobs, **bins)
+    if res.signum is not None:  # SIGTERM / SIGINT: the batch wrote its partial runs; no verdicts to compare
+        raise SystemExit(128 + res.signum)
     cases = {}
     for c in res.cases:
         s = json.loads((out / c.run_id / "summary.json").read_text()) if (out / c.run_id / "summary.json").is_file() else {}
