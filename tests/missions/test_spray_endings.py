@@ -46,3 +46,21 @@ def test_a_job_the_battery_cannot_finish_is_aborted_and_exits_non_zero(flat_worl
     assert ends[-1]["data"].get("last") is True and ends[-1]["data"]["spraying_left_m"] > 10.0
     # the vehicle came down: landed and disarmed at home
     assert s["metrics"]["touchdown_s"] is not None
+
+
+def test_a_spraying_run_that_sprayed_nothing_is_not_completed_and_rows_carry_the_worlds_numbers() -> None:
+    import numpy as np
+
+    from vinecli.runs.spray_report import judge_ending, row_label
+    from vinecli.specs.mission import MissionSpec
+
+    spec = MissionSpec.model_validate({"name": "p", "phases": [
+        {"type": "takeoff", "altitude_agl_m": 3.0},
+        {"type": "spray", "rows": [8], "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 50.0}, {"type": "land"}]})
+    down = {"armed": np.array([1.0, 0.0]), "on_ground": np.array([0.0, 1.0])}
+    status, msg = judge_ending("completed", "all phases completed", spec, None, down)  # no deposition at all
+    assert status == "aborted" and "nothing was sprayed" in msg
+    row = {"row": 0, "world_row": 8, "planned_m": [0.0, 60.0], "covered_fraction": 0.09}
+    status, msg = judge_ending("completed", "all phases completed", spec, [row], down)
+    assert status == "aborted" and "rows 8 (9%)" in msg
+    assert row_label(row) == 8 and row_label({"row": 3, "world_row": None}) == 3

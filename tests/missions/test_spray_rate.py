@@ -87,3 +87,16 @@ def test_nozzles_outside_their_pressure_range_are_refused() -> None:
     assert sp.flow_range_lps(0.1) == pytest.approx((0.05 * (0.5 ** 0.5), 0.05 * (8.0 / 3.0) ** 0.5))
     with pytest.raises(InputError, match="nozzles need at least 0.0354 L/s"):
         resolve_spray_rates(_mission(rate_lpha=20.0, speed_mps=2.0), v, _rows(0.9, n=6))
+
+
+def test_rows_that_cannot_be_sprayed_are_refused_with_a_clear_line() -> None:
+    v = load_vehicle("x500-sprayer")
+    point = MissionSpec.model_validate({"name": "r", "phases": [
+        {"type": "takeoff", "altitude_agl_m": 3.0},
+        {"type": "spray", "rows": [[[1.0, 1.0], [1.0, 1.0]]], "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 50.0}]})
+    with pytest.raises(InputError, match=r"phases\.1 \(spray\): target row 0 is 0 m long"):
+        resolve_spray_rates(point, v, [])
+    far = [(500.0, 0.0), (500.0, 30.0)]  # a row entirely outside the fence: no pass to fly
+    fence = [(-10.0, -10.0), (40.0, -10.0), (40.0, 40.0), (-10.0, 40.0)]
+    with pytest.raises(InputError, match=r"phases\.1 \(spray\): no row left to spray inside the geofence"):
+        resolve_spray_rates(_mission(rows=[0]), v, [far], fence_enu=fence)

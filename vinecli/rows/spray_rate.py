@@ -119,6 +119,15 @@ def _check_range(i: int, p: SprayPhase, vehicle: VehicleSpec, width: float) -> S
     return p
 
 
+def _check_rows(i: int, rows: Rows) -> None:
+    """InputError when a target row cannot be sprayed: fewer than two points, or no length."""
+    for k, r in enumerate(rows):
+        length = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(r[:-1], r[1:], strict=True))
+        if len(r) < 2 or not length > 0.0:
+            raise InputError(f"phases.{i} (spray): target row {k} is {length:g} m long ({len(r)} point(s)): "
+                             "a row needs two distinct points")
+
+
 def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: Rows = (), *,
                         fence_enu: Sequence[tuple[float, float]] | None = None,
                         terrain_bounds: tuple[float, float, float, float] | None = None,
@@ -134,11 +143,12 @@ def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: 
             if p.canopy_width_m is None:
                 p = SprayPhase.model_construct(**{**dict(p), "canopy_width_m": float(canopy_width_m)})
             rows = phase_rows(p, world_rows)
+            _check_rows(i, rows)
             for _ in range(3) if rows else ():  # a slower speed changes the pattern a little: plan again
                 plan = phase_plan(p, vehicle, rows, rows[0][0], fence_enu=fence_enu, terrain_bounds=terrain_bounds,
                                   air_density=air_density)
                 if not plan.legs:
-                    break
+                    raise InputError(f"phases.{i} (spray): no row left to spray inside the geofence and the terrain")
                 if p.rate_lpha is not None:
                     q = flow_for_rate(float(p.rate_lpha), plan.flow_width_m, p.speed_mps)
                     p = SprayPhase.model_construct(**{**dict(p), "flow_lps": q})

@@ -8,8 +8,8 @@
   planned stretch (cut-outs over the run-on past the row ends or the headlands are no dose matter).
 * :func:`judge_ending`: a spraying mission whose run says ``completed`` is completed only when every
   planned row stretch of a ``rows_done`` phase was sprayed (90 % of it got half the asked rate or more)
-  and the vehicle is down (disarmed on the ground); otherwise ``aborted`` with the cause and the rows
-  left. Positions world ENU m, times s.
+  and the vehicle is down (disarmed on the ground), and a run of any spraying mission only when liquid
+  left the nozzles; otherwise ``aborted`` with the cause and the rows left. Positions world ENU m, times s.
 """
 
 from __future__ import annotations
@@ -22,10 +22,17 @@ import numpy as np
 
 from vinecli.specs.mission import MissionSpec, SprayPhase
 
-__all__ = ["ROW_SPRAYED", "describe_spray", "judge_ending", "locate_cutouts", "locate_faults"]
+__all__ = ["ROW_SPRAYED", "describe_spray", "judge_ending", "locate_cutouts", "locate_faults", "row_label"]
 
 #: a planned row stretch counts as sprayed when this share of it got >= 50 % of the asked rate
 ROW_SPRAYED = 0.9
+
+
+def row_label(row: Mapping[str, Any]) -> int:
+    """The number a grower knows a row of ``deposition.json`` by: its index among the world's rows when the mission
+    targets world rows, else its index among the mission's own rows."""
+    w = row.get("world_row")
+    return int(w) if w is not None else int(row["row"])
 
 
 def _spraying_xy(ts: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -60,7 +67,7 @@ def locate_faults(rows: Sequence[Mapping[str, Any]], ts: Mapping[str, np.ndarray
                 d = np.hypot(xy[:, 0] - x, xy[:, 1] - y)
                 i = int(np.argmin(d))
                 when = float(t[i]) if d[i] <= reach_m else math.nan
-            out.append({"row": int(r["row"]), **f, "t_s": when, "position_enu": [x, y]})
+            out.append({"row": row_label(r), **f, "t_s": when, "position_enu": [x, y]})
     return out
 
 
@@ -80,7 +87,7 @@ def _row_at(x: float, y: float, rows: Sequence[Mapping[str, Any]], reach_m: floa
             d = math.hypot(ax + u * dx - x, ay + u * dy - y)
             s = s0 + u * seg
             if d <= reach_m and planned[0] <= s <= planned[1] and (best is None or d < best[0]):
-                best = (d, int(r["row"]), s)
+                best = (d, row_label(r), s)
             s0 += seg
     return (best[1], best[2]) if best is not None else None
 
@@ -112,8 +119,10 @@ def judge_ending(status: str, message: str, spec: MissionSpec, rows: Sequence[Ma
     ground = np.asarray(ts.get("on_ground", [1.0]), dtype=float)
     if armed.size and (armed[-1] > 0.5 or ground[-1] < 0.5):
         problems.append("the vehicle is not down (still armed or in the air at the end)")
-    if phase.until == "rows_done" and rows is not None:
-        left = [(int(r["row"]), float(r["covered_fraction"])) for r in rows
+    if rows is None:  # no deposition: not a drop left the nozzles
+        problems.append("nothing was sprayed (no liquid left the nozzles)")
+    elif phase.until == "rows_done":
+        left = [(row_label(r), float(r["covered_fraction"])) for r in rows
                 if r.get("planned_m") and not float(r.get("covered_fraction") or 0.0) >= ROW_SPRAYED]
         if left:
             listed = ", ".join(f"{i} ({c:.0%})" if c == c else f"{i} (0%)" for i, c in left[:12])
