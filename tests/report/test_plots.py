@@ -128,3 +128,15 @@ def test_a_run_without_samples_gets_notes_not_figures(tmp_path: Path, ci_runs: P
     pq.write_table(pq.read_table(d / "timeseries.parquet").slice(0, 0), d / "timeseries.parquet")
     figs = render_figures(str(d))
     assert all(f["png"] is None and f["note"].startswith("no ") for f in figs.values())
+
+
+def test_the_dose_colour_scale_is_fixed_on_the_asked_rate() -> None:
+    from vinecli.report.deposition_plots import dose_scale
+
+    rates = np.array([0.0, 20.0, 24.0, 26.0, 29.0, np.nan])
+    _cmap, norm = dose_scale(25.0, rates)  # the same colour is the same share of the asked rate in every run
+    assert (norm.vmin, norm.vcenter, norm.vmax) == (0.0, 25.0, 50.0) and float(norm(25.0)) == pytest.approx(0.5)
+    _cmap, over = dose_scale(25.0, np.full(100, 80.0))  # an overdosed field keeps its pattern
+    assert over.vmax == pytest.approx(80.0)
+    _cmap, free = dose_scale(float("nan"), rates)  # no asked rate: 0 to the highest
+    assert free.vmax == pytest.approx(29.0)

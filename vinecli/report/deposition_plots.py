@@ -41,7 +41,47 @@ def _fmt_pct(v: Any) -> str:
 
 
 def _fmt(v: Any, unit: str, nd: int = 1) -> str:
-    return f"{v:.{nd}f} {unit}" if isinstance(v, (int, float)) and math.isfinite(v) else "n/a"
+    if not (isinstance(v, (int, float)) and math.isfinite(v)):
+        return "n/a"
+    return f"{(v if abs(v) >= 0.5 * 10.0 ** -nd else 0.0):.{nd}f} {unit}"  # rounding noise is no "-0.0000"
+
+
+def _asked(nominal: Any) -> bool:
+    return isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal > 0
+
+
+def dose_scale(nominal: Any, rates: np.ndarray) -> tuple[Any, Any]:
+    """(colour map, norm) of an application rate (L/ha) as a grower reads it: a diverging scale fixed on the asked
+    rate, pale yellow there, blue below (0.6x: light blue), red above (1.3x: orange); 0 to twice the asked rate, or
+    further when most of the wet area is above that (an overdosed field keeps its pattern). The same colour means the
+    same share of the asked rate in every run. Without an asked rate: viridis from 0 to the highest rate."""
+    from matplotlib import colormaps
+    from matplotlib.colors import Normalize, TwoSlopeNorm
+
+    finite = rates[np.isfinite(rates)]
+    top = float(np.max(finite)) if finite.size else 1.0
+    if not _asked(nominal):
+        return colormaps["viridis_r"], Normalize(0.0, max(top, 1e-9))
+    wet = finite[finite > 0.02 * nominal]
+    p98 = float(np.percentile(wet, 98)) if wet.size else 0.0
+    return colormaps["RdYlBu_r"], TwoSlopeNorm(vmin=0.0, vcenter=float(nominal), vmax=max(2.0 * nominal, p98))
+
+
+def _mark_bands(cb: Any, nominal: Any, bands: dict[str, Any]) -> None:
+    """The asked rate and the hot / gap bands as the ticks of a colour bar of :func:`dose_scale` (L/ha and what
+    they are), with lines across it."""
+    if not _asked(nominal):
+        return
+    hot, gap = float(bands.get("hot_ratio", 1.3)), float(bands.get("gap_ratio", 0.6))
+    top = float(cb.norm.vmax)
+    marks = {0.0: ("0", 0.0, "-"), gap * nominal: (f"{gap * nominal:.3g} gap {gap:g}x", 1.2, "--"),
+             nominal: (f"{nominal:.3g} asked", 2.0, "-"), hot * nominal: (f"{hot * nominal:.3g} hot {hot:g}x", 1.2, "--"),
+             top: (f"{top:.3g}", 0.0, "-")}
+    marks = {v: m for v, m in marks.items() if v <= top}
+    cb.set_ticks(list(marks), labels=[m[0] for m in marks.values()], fontsize=7)
+    for v, (_lab, lw, ls) in marks.items():
+        if lw > 0:
+            cb.ax.axhline(v, color="k", lw=lw, ls=ls)
 
 
 def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], faults: list[Any]) -> list[str]:
@@ -59,7 +99,8 @@ def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], fau
         f"asked rate         {_fmt(nominal, 'L/ha')}",
         f"swath (geometric)  {_fmt(sp.get('swath_m'), 'm', 2)}",
         f"effective swath    {_fmt(sp.get('effective_swath_m'), 'm', 2)}",
-        f"passes             {passes.get('count', 'n/a')} x {_fmt(sp.get('track_width_m'), 'm', 2)} ({passes.get('mode', '')})",
+        f"passes             {passes.get('count', 'n/a')} x {_fmt(sp.get('track_width_m'), 'm', 2)}",
+        f"  laid out         {passes.get('mode', 'n/a')}",
         f"rows within band   {in_tol} of {n_rows}",
         f"dose faults        {len(faults)}",
         f"mean on rows       {_fmt(m.get('mean_rate_lpha_on_rows'), 'L/ha')}",
@@ -75,7 +116,6 @@ def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], fau
 
 def fig23_deposition(data: Any) -> bytes:
     """Application rate map (L/ha) over the terrain with the rows, the flown path and the fence."""
-    from matplotlib import colormaps
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import LightSource
     from matplotlib.figure import Figure
@@ -98,37 +138,24 @@ def fig23_deposition(data: Any) -> bytes:
         dx, dy = abs(pv["x"][1] - pv["x"][0]), abs(pv["y"][1] - pv["y"][0])
         shade = LightSource(azdeg=315, altdeg=45).hillshade(pv["z"], vert_exag=3.0, dx=dx, dy=dy)
         ax.imshow(shade, extent=pext, origin="lower", cmap="gray", alpha=0.5, aspect="equal", zorder=0)
-    finite = rate[np.isfinite(rate)]
-    vmax = float(np.max(finite)) if finite.size else 1.0
-    if isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal > 0:
-        # colour range: up to 3x the asked rate, or further when most of the wet area is above that (overdosed
-        # field: keep its pattern visible); a few hot spots beyond are shown as the top colour
-        wet = finite[finite > 0.02 * nominal]
-        p98 = float(np.percentile(wet, 98)) if wet.size else 0.0
-        vmax = min(vmax, max(3.0 * nominal, p98))
-    vmax = max(vmax, 1e-9)
+    cmap, norm = dose_scale(nominal, rate)
+    vmax = float(norm.vmax)
     shown = np.where(rate > 0.02 * vmax, rate, np.nan)  # dry cells stay transparent over the terrain
-    cmap = colormaps["viridis_r"].copy()
-    im = ax.imshow(shown, extent=ext, origin="lower", cmap=cmap, vmin=0.0, vmax=vmax, alpha=0.9, aspect="equal",
+    im = ax.imshow(shown, extent=ext, origin="lower", cmap=cmap, norm=norm, alpha=0.9, aspect="equal",
                    zorder=1, interpolation="nearest")
     cb = fig.colorbar(im, cax=cax, extend="max" if float(np.nanmax(rate, initial=0)) > vmax else "neither")
     cb.set_label("application rate, L/ha")
-    if isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal <= vmax:
-        cb.ax.axhline(nominal, color="k", lw=2.0)
-        cb.ax.axhline(0.5 * nominal, color="k", lw=1.2, ls=":")
-        cb.ax.text(-0.3, nominal, "asked ", fontsize=7, va="center", ha="right", transform=cb.ax.get_yaxis_transform())
-        cb.ax.text(-0.3, 0.5 * nominal, "50 % ", fontsize=7, va="center", ha="right",
-                   transform=cb.ax.get_yaxis_transform())
+    _mark_bands(cb, nominal, doc.get("dose_bands") or {})
     summary_world = (data.summary or {}).get("world") or {}
     all_rows = summary_world.get("rows_enu") or []
     targets = [r["polyline_enu"] for r in doc.get("rows", [])]
     for i, r in enumerate(all_rows):
         r = np.asarray(r, float)
         if r.ndim == 2 and len(r) >= 2:
-            ax.plot(r[:, 0], r[:, 1], color="#1b5e20", lw=0.6, alpha=0.6, zorder=2, label="vine rows" if i == 0 else None)
+            ax.plot(r[:, 0], r[:, 1], color="#66bb6a", lw=0.6, alpha=0.8, zorder=2, label="vine rows" if i == 0 else None)
     for i, r in enumerate(targets):
         r = np.asarray(r, float)
-        ax.plot(r[:, 0], r[:, 1], color="#e65100", lw=1.3, ls=(0, (3, 4)), zorder=6,
+        ax.plot(r[:, 0], r[:, 1], color="#1b5e20", lw=1.1, ls=(0, (3, 4)), zorder=6,
                 label="targeted rows" if i == 0 else None)
     c = data.cols
     if data.has("pos_enu_x_m", "pos_enu_y_m"):
@@ -171,18 +198,88 @@ def fig23_deposition(data: Any) -> bytes:
     ax.apply_aspect()
     pos = ax.get_position()
     cax.set_position((pos.x1 + 0.07, pos.y0 + 0.35 * pos.height, 0.018, 0.6 * pos.height))
-    xt = min(pos.x1 + 0.19, 0.745)
+    xt = min(pos.x1 + 0.19, 0.71)
     fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="lower left", bbox_to_anchor=(xt, pos.y0),
                frameon=False)
     lines = _fig23_key_figures(doc, nominal, m, faults)
-    fig.text(xt, pos.y1, "\n".join(lines), fontsize=9, family="monospace", va="top")
+    fig.text(xt, pos.y1, "\n".join(lines), fontsize=8.5, family="monospace", va="top")
     set_title(fig, data, "Fig. 23  Spray deposition, L/ha")
     return png_bytes(fig)
 
 
+def _row_rates(r: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """(segment centres along the row m, rate L/ha with NaN outside the planned stretch) of a deposition.json row."""
+    rate = np.array([np.nan if v is None else v for v in r["rate_lpha"]], float)
+    s = (np.arange(rate.size) + 0.5) * float(r.get("segment_m", 0.5))
+    planned = r.get("planned_m") or [0.0, float(r.get("length_m", s[-1] if s.size else 0.0))]
+    return s, np.where((s >= planned[0]) & (s <= planned[1]), rate, np.nan)
+
+
+def _row_name(r: dict[str, Any]) -> str:
+    """The row's number in the world (the mission's own index for rows it gives as polylines)."""
+    w = r.get("world_row")
+    return str(w if w is not None else r["row"])
+
+
+#: above this many targeted rows fig. 24 draws the rates as a map (a row per line) instead of one curve per row
+_CURVES_MAX = 6
+
+
+def _rate_curves(ax: Any, rows: list[dict[str, Any]], nominal: Any, bands: dict[str, Any]) -> None:
+    """Fig. 24 top, few rows: the rate along each row against the asked band and the hot / gap lines (legend beside)."""
+    from matplotlib import colormaps
+
+    from vinecli.report.figure_base import C_FAIL
+
+    cm = colormaps["tab10"]
+    for i, r in enumerate(rows):
+        s, rate = _row_rates(r)
+        ax.plot(s, rate, lw=1.0, color=cm(i % 10), label=f"row {_row_name(r)}")
+    tol = float(bands["rate_tolerance"])
+    if _asked(nominal):
+        ax.axhspan((1 - tol) * nominal, (1 + tol) * nominal, color="k", alpha=0.07, label=f"asked ±{tol:.0%}")
+        ax.axhline(nominal, color="k", lw=1.2, label=f"asked {nominal:.1f} L/ha")
+        ax.axhline(float(bands["hot_ratio"]) * nominal, color=C_FAIL, lw=0.9, ls="--",
+                   label=f"hot spot > {float(bands['hot_ratio']):g}x")
+        ax.axhline(float(bands["gap_ratio"]) * nominal, color="#1565c0", lw=0.9, ls="--",
+                   label=f"gap < {float(bands['gap_ratio']):g}x")
+    ax.set_ylabel("rate in the row band, L/ha")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.set_ylim(bottom=0, top=max(ax.get_ylim()[1], 1.6 * nominal if _asked(nominal) else 0.0))
+
+
+def _rate_map(fig: Any, ax: Any, rows: list[dict[str, Any]], nominal: Any, bands: dict[str, Any]) -> None:
+    """Fig. 24 top, many rows: the rate along every row as a map (a row per line, the colours of fig. 23), the dose
+    faults framed."""
+    from matplotlib.patches import Rectangle
+
+    from vinecli.report.figure_base import C_FAIL
+
+    profiles = [_row_rates(r) for r in rows]
+    seg = float(rows[0].get("segment_m", 0.5))
+    n = max(p[1].size for p in profiles)
+    grid = np.full((len(rows), n), np.nan)
+    for k, (_s, rate) in enumerate(profiles):
+        grid[k, :rate.size] = rate
+    cmap, norm = dose_scale(nominal, grid)
+    im = ax.imshow(grid, aspect="auto", origin="lower", cmap=cmap, norm=norm, interpolation="nearest",
+                   extent=(0.0, n * seg, -0.5, len(rows) - 0.5))
+    cb = fig.colorbar(im, ax=ax, pad=0.01, fraction=0.04)
+    cb.set_label("L/ha", fontsize=8)
+    _mark_bands(cb, nominal, bands)
+    for k, r in enumerate(rows):
+        for f in r.get("faults") or []:
+            ax.add_patch(Rectangle((f["from_m"], k - 0.5), f["to_m"] - f["from_m"], 1.0, fill=False, lw=1.5,
+                                   ec=C_FAIL if f["kind"] == "hot" else "#0d47a1"))
+    step = max(1, int(math.ceil(len(rows) / 20)))
+    ax.set_yticks(range(0, len(rows), step), [_row_name(r) for r in rows][::step], fontsize=7)
+    ax.set_ylabel("row")
+
+
 def fig24_row_coverage(data: Any) -> bytes:
-    """Per targeted row: rate along its planned stretch against the asked rate and the dose bands, and its mean
-    (with the lowest and highest dose window) against the rate tolerance."""
+    """Per targeted row: rate along its planned stretch against the asked rate and the dose bands (curves for a few
+    rows, a map for many), and its mean (with the lowest and highest dose window) against the rate tolerance."""
     from vinecli.report.figure_base import C_FAIL, C_OK, NoData, new_figure, png_bytes, set_title
 
     doc, _rate = load_deposition(getattr(data, "run_dir", None))
@@ -190,37 +287,18 @@ def fig24_row_coverage(data: Any) -> bytes:
     if not rows:
         raise NoData("no targeted rows to chart")
     nominal = (doc.get("metrics") or {}).get("nominal_rate_lpha")
-    bands = doc.get("dose_bands") or {"rate_tolerance": 0.15, "hot_ratio": 1.3, "gap_ratio": 0.6}
+    bands = {"rate_tolerance": 0.15, "hot_ratio": 1.3, "gap_ratio": 0.6, **(doc.get("dose_bands") or {})}
     tol = float(bands["rate_tolerance"])
     fig, axes = new_figure("fig24", rows=2, cols=1, sharex=False)
-    fig.subplots_adjust(hspace=0.35)
+    fig.subplots_adjust(hspace=0.35, right=0.84)
     ax, axb = axes[0, 0], axes[1, 0]
-    cmap_n = max(len(rows), 1)
-    from matplotlib import colormaps
-
-    cm = colormaps["tab10" if cmap_n <= 10 else "viridis"]
-    for i, r in enumerate(rows):
-        rate = np.array([np.nan if v is None else v for v in r["rate_lpha"]], float)
-        s = (np.arange(rate.size) + 0.5) * float(r.get("segment_m", 0.5))
-        planned = r.get("planned_m") or [0.0, float(r.get("length_m", s[-1] if s.size else 0.0))]
-        inside = (s >= planned[0]) & (s <= planned[1])
-        ax.plot(np.where(inside, s, np.nan), rate, lw=1.0, color=cm(i % 10 if cmap_n <= 10 else i / cmap_n),
-                label=f"row {r['row']}")
-    ok_nominal = isinstance(nominal, (int, float)) and math.isfinite(nominal) and nominal > 0
-    if ok_nominal:
-        ax.axhspan((1 - tol) * nominal, (1 + tol) * nominal, color="k", alpha=0.07, label=f"asked ±{tol:.0%}")
-        ax.axhline(nominal, color="k", lw=1.2, label=f"asked {nominal:.1f} L/ha")
-        ax.axhline(float(bands["hot_ratio"]) * nominal, color=C_FAIL, lw=0.9, ls="--",
-                   label=f"hot spot > {float(bands['hot_ratio']):g}x")
-        ax.axhline(float(bands["gap_ratio"]) * nominal, color="#1565c0", lw=0.9, ls="--",
-                   label=f"gap < {float(bands['gap_ratio']):g}x")
+    if len(rows) <= _CURVES_MAX:
+        _rate_curves(ax, rows, nominal, bands)
+    else:
+        _rate_map(fig, ax, rows, nominal, bands)
     ax.set_xlabel("distance along the row (its planned stretch), m")
-    ax.set_ylabel("rate in the row band, L/ha")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=min(6, len(rows) + 4), loc="upper right")
-    ax.set_ylim(bottom=0, top=max(ax.get_ylim()[1], 1.6 * nominal if ok_nominal else 0.0))
-    names = [str(r["row"]) for r in rows]
-    means = np.array([float(r["mean_rate_lpha"]) / nominal * 100 if ok_nominal and r.get("mean_rate_lpha") is not None
+    names = [_row_name(r) for r in rows]
+    means = np.array([float(r["mean_rate_lpha"]) / nominal * 100 if _asked(nominal) and r.get("mean_rate_lpha") is not None
                       else np.nan for r in rows])
     lo = np.array([100 * r["window_ratio"][0] if r.get("window_ratio") else np.nan for r in rows])
     hi = np.array([100 * r["window_ratio"][1] if r.get("window_ratio") else np.nan for r in rows])
@@ -228,12 +306,12 @@ def fig24_row_coverage(data: Any) -> bytes:
     axb.bar(names, np.nan_to_num(means), color=[C_OK if g else C_FAIL for g in good])
     axb.errorbar(np.arange(len(rows)), np.nan_to_num(means), yerr=[np.nan_to_num(means - lo), np.nan_to_num(hi - means)],
                  fmt="none", ecolor="k", elinewidth=0.8, capsize=2, label=f"lowest / highest {bands.get('window_m', 1.0):g} m")
-    axb.axhspan(100 * (1 - tol), 100 * (1 + tol), color="k", alpha=0.07)
+    axb.axhspan(100 * (1 - tol), 100 * (1 + tol), color="k", alpha=0.07, label=f"asked ±{tol:.0%}")
     axb.axhline(100, color="k", lw=0.8)
     axb.set_ylim(0, max(140.0, float(np.nanmax(hi, initial=0.0)) * 1.05))
-    axb.set_xlabel("targeted row (index in the mission's rows)")
+    axb.set_xlabel("row (the world's row number)")
     axb.set_ylabel("row mean / asked rate, %")
-    axb.legend(fontsize=7, loc="lower right")
+    axb.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     axb.grid(alpha=0.3, axis="y")
     set_title(fig, data, "Fig. 24  Dose along the targeted rows")
     return png_bytes(fig)
