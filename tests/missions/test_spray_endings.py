@@ -64,3 +64,20 @@ def test_a_spraying_run_that_sprayed_nothing_is_not_completed_and_rows_carry_the
     status, msg = judge_ending("completed", "all phases completed", spec, [row], down)
     assert status == "aborted" and "rows 8 (9%)" in msg
     assert row_label(row) == 8 and row_label({"row": 3, "world_row": None}) == 3
+
+
+def test_cutouts_are_located_on_the_row_and_so_is_the_place_a_tank_ran_dry() -> None:
+    import numpy as np
+
+    from vinecli.runs.spray_report import describe_spray, locate_cutouts
+
+    rows = [{"row": 0, "world_row": 8, "planned_m": [0.0, 60.0], "polyline_enu": [[2.0, 0.0], [2.0, 60.0]]}]
+    ts = {"t_s": np.array([10.0, 11.0, 12.0]), "pos_enu_x_m": np.array([2.0, 2.05, 2.1]),
+          "pos_enu_y_m": np.array([20.0, 23.0, 26.0])}
+    events = [(5.0, "sprayer_cutout", {"reason": "ground speed 0.80 m/s", "position_est_enu": [2.2, 14.0, 2.0]}),
+              (7.0, "sprayer_cutout", {"reason": "tank empty", "position_est_enu": [2.0, 75.0, 2.0]}),  # headland
+              (11.5, "sortie", {"event": "end", "reason": "tank empty", "last": True, "spraying_left_m": 40.0})]
+    cuts = locate_cutouts(events, rows, 1.0, ts)
+    assert cuts == [{"t_s": 5.0, "reason": "ground speed 0.80 m/s", "row": 8, "at_m": 14.0},
+                    {"t_s": 11.5, "reason": "tank empty", "row": 8, "at_m": 23.0}]
+    assert "sprayer cut-out on row 8 at 23.0 m (11.5 s: tank empty)" in describe_spray([], cuts)

@@ -270,7 +270,8 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
                                           float(dep_metrics.get("treated_area_ha", math.nan))),
                  "dose_faults": locate_faults(dep_rows or [], result.timeseries),
                  "sprayer_cutouts": locate_cutouts([(e.t_us * 1e-6, e.kind, e.data) for e in result.events],
-                                                   dep_rows or [], 0.5 * float(dep_metrics.get("spray_track_width_m", 1.0)))}
+                                                   dep_rows or [], 0.5 * float(dep_metrics.get("spray_track_width_m", 1.0)),
+                                                   result.timeseries)}
         if dep_doc is not None:
             dep_doc.update(spray)
         note = describe_spray(spray["dose_faults"], spray["sprayer_cutouts"])

@@ -4,8 +4,9 @@
   below the gap band) gets the time the vehicle sprayed there (the nearest spraying sample in the time
   series; NaN when nothing was sprayed near it).
 * :func:`locate_cutouts`: each ``sprayer_cutout`` event of the autopilot (an open section the sprayer did
-  not serve) gets the row and the metres along it where it happened, when that lies over a row's
-  planned stretch (cut-outs over the run-on past the row ends or the headlands are no dose matter).
+  not serve), and the place a phase without refills ran dry with passes left, gets the row and the
+  metres along it where it happened, when that lies over a row's planned stretch (cut-outs over the
+  run-on past the row ends or the headlands are no dose matter).
 * :func:`judge_ending`: a spraying mission whose run says ``completed`` is completed only when every
   planned row stretch of a ``rows_done`` phase was sprayed (90 % of it got half the asked rate or more)
   and the vehicle is down (disarmed on the ground), and a run of any spraying mission only when liquid
@@ -92,18 +93,32 @@ def _row_at(x: float, y: float, rows: Sequence[Mapping[str, Any]], reach_m: floa
     return (best[1], best[2]) if best is not None else None
 
 
+def _position_at(ts: Mapping[str, np.ndarray], t: float) -> list[float]:
+    """The vehicle's position (ENU m, x y) at the last sample at or before ``t`` s; NaNs without samples."""
+    times = np.asarray(ts.get("t_s", []), dtype=float)
+    if not times.size or "pos_enu_x_m" not in ts:
+        return [math.nan, math.nan]
+    i = max(int(np.searchsorted(times, t, side="right")) - 1, 0)
+    return [float(np.asarray(ts["pos_enu_x_m"])[i]), float(np.asarray(ts["pos_enu_y_m"])[i])]
+
+
 def locate_cutouts(events: Sequence[tuple[float, str, Mapping[str, Any]]], rows: Sequence[Mapping[str, Any]],
-                   reach_m: float) -> list[dict[str, Any]]:
+                   reach_m: float, ts: Mapping[str, np.ndarray] | None = None) -> list[dict[str, Any]]:
     """The ``sprayer_cutout`` events over a planned row stretch (within ``reach_m`` of the row): time, reason, row,
-    metres along it."""
+    metres along it; with the time series ``ts``, also where a phase without refills ran dry with passes left (its
+    last ``sortie`` event: the deposit stops there)."""
     out = []
     for t, kind, data in events:
-        if kind != "sprayer_cutout":
+        if kind == "sprayer_cutout":
+            p = data.get("position_est_enu") or [math.nan, math.nan]
+        elif (kind == "sortie" and ts is not None and data.get("last") and data.get("reason") == "tank empty"
+              and data.get("spraying_left_m", 0.0) > 0.0):
+            p = _position_at(ts, t)
+        else:
             continue
-        p = data.get("position_est_enu") or [math.nan, math.nan]
         where = _row_at(float(p[0]), float(p[1]), rows, reach_m)
         if where is not None:
-            out.append({"t_s": float(t), "reason": data.get("reason", ""), "row": where[0], "at_m": round(where[1], 2)})
+            out.append({"t_s": float(t), "reason": data.get("reason", ""), "row": where[0], "at_m": round(float(where[1]), 2)})
     return out
 
 
