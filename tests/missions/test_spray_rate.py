@@ -100,3 +100,14 @@ def test_rows_that_cannot_be_sprayed_are_refused_with_a_clear_line() -> None:
     fence = [(-10.0, -10.0), (40.0, -10.0), (40.0, 40.0), (-10.0, 40.0)]
     with pytest.raises(InputError, match=r"phases\.1 \(spray\): no row left to spray inside the geofence"):
         resolve_spray_rates(_mission(rows=[0]), v, [far], fence_enu=fence)
+
+
+def test_a_spray_speed_above_the_vehicles_top_speed_is_refused_or_flown_at_it() -> None:
+    v = load_vehicle("x500-sprayer")  # control.max_vel_xy 5 m/s
+    rows = _rows(0.9, n=6)
+    with pytest.raises(InputError, match=r"speed 6 m/s is above x500-sprayer's top speed 5 m/s \(control\.max_vel_xy\)"):
+        resolve_spray_rates(_mission(speed_mps=6.0, rate_lpha=20.0), v, rows)
+    top = resolve_spray_rates(_mission(speed_mps=6.0, rate_lpha=20.0, allow_slower=True), v, rows).phases[1]
+    assert isinstance(top, SprayPhase) and top.speed_mps == pytest.approx(5.0)
+    plan = phase_plan(top, v, phase_rows(top, rows), (0.0, 0.0))
+    assert top.flow_lps == pytest.approx(flow_for_rate(20.0, plan.flow_width_m, 5.0))  # the asked rate at 5 m/s

@@ -9,8 +9,8 @@ in flight the built-in autopilot scales it with the ground speed (litres per met
 
 :func:`resolve_spray_rates` turns every ``rate_lpha`` phase into its flow and checks it against the
 sprayer's flow range (pump maximum, nozzle pressure range): a rate or speed the sprayer cannot
-deliver is refused with the numbers (InputError, exit 2), or flown slower when the phase says
-``allow_slower``. The nozzle height above the terrain is the phase height (skids above terrain, as
+deliver, or a speed above the vehicle's top speed (``control.max_vel_xy``), is refused with the numbers
+(InputError, exit 2), or flown slower when the phase says ``allow_slower``. The nozzle height above the terrain is the phase height (skids above terrain, as
 ``height_agl_m``) + the landing-gear height + the nozzle's z in body FLU (negative below the CoM).
 """
 
@@ -99,6 +99,14 @@ def _check_range(i: int, p: SprayPhase, vehicle: VehicleSpec, width: float) -> S
     if p.speed_mps < ctl.speed_min_mps:
         raise InputError(f"{name}: speed {p.speed_mps:g} m/s is below the sprayer's minimum {ctl.speed_min_mps:g} m/s "
                          f"({vehicle.name}: sprayer.control.speed_min_mps): it would never switch on")
+    top = float(vehicle.control.max_vel_xy)
+    if p.speed_mps > top * (1 + 1e-9):  # the velocity controller would clamp it: the plan's turns and times are wrong
+        if p.allow_slower:
+            q = float(p.flow_lps or 0.0) * top / p.speed_mps
+            return _check_range(i, SprayPhase.model_construct(**{**dict(p), "speed_mps": top, "flow_lps": q}), vehicle,
+                                width)
+        raise InputError(f"{name}: speed {p.speed_mps:g} m/s is above {vehicle.name}'s top speed {top:g} m/s "
+                         "(control.max_vel_xy): fly at most that (or allow_slower: true)")
     tank = vehicle.tank
     if tank is None:
         raise InputError(f"{name}: vehicle {vehicle.name!r} has no tank to spray from")
