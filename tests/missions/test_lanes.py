@@ -62,3 +62,17 @@ def test_pass_paths_interpolate_between_rows_and_shift_beyond_them() -> None:
     assert (1.1, 5.0) in [pytest.approx(p) for p in mid]  # the bend of the second row, halved
     beyond = lane_polyline(rows, [0.0, 2.0], -1.5, (1.0, 0.0))
     assert beyond == [pytest.approx((-1.5, 0.0)), pytest.approx((-1.5, 10.0))]
+
+
+def test_passes_survive_a_pattern_a_little_wider_or_narrower_than_planned() -> None:
+    """The sprayer-class drone over its block (rows 2.8 m apart): 14 passes 4.03 m apart planned the rows within 7.9 %
+    but within 11.4 % only for a pattern 5 % off, and flown they dosed the rows midway between passes 11-15 % low;
+    the layout now holds every row within 10 % of the asked rate for a pattern 5 % wider or narrower."""
+    from vinecli.rows.lanes import PATTERN_WIDTH_ERROR, ROW_TARGET_WIDTH, _row_doses
+
+    pat = swath_pattern(load_vehicle("ag-hexa-16"), 2.5, 5.0)
+    rows = np.arange(20) * 2.8
+    lay = layout_lanes(rows, pat, 0.8)
+    assert lay.mode == "broadcast" and lay.worst_row_error <= 0.08
+    for f in (1.0 - PATTERN_WIDTH_ERROR, 1.0 + PATTERN_WIDTH_ERROR):
+        assert max(abs(d - 1.0) for d in _row_doses(pat, rows, lay.across_m, lay.spacing_m, 0.8, f)) <= ROW_TARGET_WIDTH

@@ -38,6 +38,12 @@ ROW_TARGET_OFF_TRACK = 0.12
 #: cross-track error of a flown pass the layouts must tolerate, m (the built-in autopilot's position estimate drifts
 #: by ~0.1-0.15 m over a pass on the x500-sprayer's GNSS)
 TRACK_ERROR_M = 0.1
+#: ... and with every pass's pattern PATTERN_WIDTH_ERROR wider or narrower than planned (the spray height held within
+#: ~0.1 m, the downwash of a fuller or emptier tank): rows midway between passes sit on two patterns' flanks. Flown,
+#: the ag-hexa-16's 14 passes 4.03 m apart over rows 2.8 m apart (planned worst row 7.9 %, 11.4 % at ±5 % width)
+#: dosed the rows midway between passes 11-15 % low over six seeds
+PATTERN_WIDTH_ERROR = 0.05
+ROW_TARGET_WIDTH = 0.10
 _E_STEP = 0.05  # m, edge offsets tried
 _BAND_STEP = 0.02  # m, samples across a row's band
 
@@ -61,14 +67,32 @@ class LaneLayout:
         return max((abs(d - 1.0) for d in self.row_dose), default=0.0)
 
 
-def _row_doses(pattern: object, rows: np.ndarray, lanes: Sequence[float], width: float, band_m: float) -> list[float]:
+def _row_doses(pattern: object, rows: np.ndarray, lanes: Sequence[float], width: float, band_m: float,
+               scale: float = 1.0) -> list[float]:
     """Expected mean rate on each row's band (relative to the asked one) of passes at ``lanes`` alternating in
-    direction, each with the flow of ``width``."""
+    direction, each with the flow of ``width``; ``scale``: each pass's pattern that much wider (same litres)."""
     half = 0.5 * band_m
     off = np.arange(-half, half + 1e-9, _BAND_STEP)
     ys = (rows[:, None] + off[None, :]).ravel()
-    dose = pattern.dose(ys, [(c, 1 if k % 2 == 0 else -1) for k, c in enumerate(lanes)])  # type: ignore[attr-defined]
+    passes = [(c, 1 if k % 2 == 0 else -1) for k, c in enumerate(lanes)]
+    if scale == 1.0:
+        dose = pattern.dose(ys, passes)  # type: ignore[attr-defined]
+    else:
+        dose = sum(pattern.dose(c + (ys - c) / scale, [(c, d)]) for c, d in passes) / scale  # type: ignore[attr-defined]
     return [float(v) for v in (dose.reshape(rows.size, off.size).mean(axis=1) * width)]
+
+
+def _robust(pattern: object, rows: np.ndarray, lay: LaneLayout, band_m: float) -> bool:
+    """The layout keeps every row within ROW_TARGET_OFF_TRACK with any one pass flown TRACK_ERROR_M off its line, and
+    within ROW_TARGET_WIDTH with every pass's pattern PATTERN_WIDTH_ERROR wider or narrower than planned."""
+    def worst(doses: list[float]) -> float:
+        return max(abs(d - 1.0) for d in doses)
+
+    if max(worst(_row_doses(pattern, rows, shifted, lay.spacing_m, band_m)) for shifted in _off_track(lay.across_m)) \
+            > ROW_TARGET_OFF_TRACK:
+        return False
+    return all(worst(_row_doses(pattern, rows, lay.across_m, lay.spacing_m, band_m, f)) <= ROW_TARGET_WIDTH
+               for f in (1.0 - PATTERN_WIDTH_ERROR, 1.0 + PATTERN_WIDTH_ERROR))
 
 
 def _off_track(lanes: list[float]) -> list[list[float]]:
@@ -109,12 +133,10 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
             candidates.append((err, lay))
             if fallback is None or err < fallback[0]:
                 fallback = (err, lay)
-        for err, lay in sorted(candidates, key=lambda c: c[0]):  # the best planned dose that survives a pass off line
+        for err, lay in sorted(candidates, key=lambda c: c[0]):  # the best planned dose that survives flight errors
             if err > target:
                 break
-            off = max(max(abs(d - 1.0) for d in _row_doses(pattern, xs, shifted, lay.spacing_m, band_m))
-                      for shifted in _off_track(lay.across_m))
-            if off <= ROW_TARGET_OFF_TRACK:
+            if _robust(pattern, xs, lay, band_m):
                 return lay
     if fallback is None:  # no spacing passes the CV limit: one pass per row
         lanes = [float(x) for x in xs]
