@@ -130,7 +130,7 @@ def fig23_deposition(data: Any) -> bytes:
     nominal = m.get("nominal_rate_lpha")
     fig = Figure(figsize=SIZES["fig23"], dpi=DPI)
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.07, 0.07, 0.55, 0.85))
+    ax = fig.add_axes((0.07, 0.07, 0.50, 0.85))
     cax = fig.add_axes((0.66, 0.40, 0.018, 0.50))  # moved next to the map once its aspect is applied
     pv = data.preview
     if pv is not None and pv["x"].size > 1 and pv["y"].size > 1:
@@ -198,7 +198,7 @@ def fig23_deposition(data: Any) -> bytes:
     ax.apply_aspect()
     pos = ax.get_position()
     cax.set_position((pos.x1 + 0.07, pos.y0 + 0.35 * pos.height, 0.018, 0.6 * pos.height))
-    xt = min(pos.x1 + 0.19, 0.71)
+    xt = min(pos.x1 + 0.22, 0.78)  # beside the colour bar and its tick labels
     fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="lower left", bbox_to_anchor=(xt, pos.y0),
                frameon=False)
     lines = _fig23_key_figures(doc, nominal, m, faults)
