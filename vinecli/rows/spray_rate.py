@@ -10,7 +10,8 @@ in flight the built-in autopilot scales it with the ground speed (litres per met
 :func:`resolve_spray_rates` turns every ``rate_lpha`` phase into its flow and checks it against the
 sprayer's flow range (pump maximum, nozzle pressure range): a rate or speed the sprayer cannot
 deliver, or a speed above the vehicle's top speed (``control.max_vel_xy``), is refused with the numbers
-(InputError, exit 2), or flown slower when the phase says ``allow_slower``. The nozzle height above the terrain is the phase height (skids above terrain, as
+(InputError, exit 2), or flown slower when the phase says ``allow_slower``; so are target rows of no length or
+none left inside the fence. The nozzle height above the terrain is the phase height (skids above terrain, as
 ``height_agl_m``) + the landing-gear height + the nozzle's z in body FLU (negative below the CoM).
 """
 
