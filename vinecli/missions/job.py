@@ -112,7 +112,7 @@ def operations(ts: Mapping[str, np.ndarray], events: Sequence[tuple[float, str, 
     air = ~(np.asarray(ts.get("on_ground", np.zeros(t.size)), dtype=float) > 0.5)
     flow = np.nan_to_num(np.asarray(ts.get("tank_flow_lps", np.zeros(t.size)), dtype=float))
     job_s = t1 - t0
-    air_s = min(float(dt[span & air].sum()), job_s)  # sample-held sums can pass the span by part of a sample
+    air_s = float(dt[span & air].sum())
     litres = integral(ts, "tank_flow_lps") if "tank_flow_lps" in ts else 0.0
     energy = integral(ts, "power_elec_w") / 3600.0 if "power_elec_w" in ts else nan
     n_sorties = float(np.nanmax(ts["sortie"])) if "sortie" in ts and np.isfinite(ts["sortie"]).any() else 1.0

@@ -309,7 +309,7 @@ def fig24_row_coverage(data: Any) -> bytes:
     axb.axhspan(100 * (1 - tol), 100 * (1 + tol), color="k", alpha=0.07, label=f"asked ±{tol:.0%}")
     axb.axhline(100, color="k", lw=0.8)
     axb.set_ylim(0, max(140.0, float(np.nanmax(hi, initial=0.0)) * 1.05))
-    axb.set_xlabel("row (the world's row number)")
+    axb.set_xlabel("targeted row (the world's number when the mission names world rows, else its index)")
     axb.set_ylabel("row mean / asked rate, %")
     axb.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     axb.grid(alpha=0.3, axis="y")

@@ -142,7 +142,7 @@ def _treated_area_ha(plan: Any, rows: list[list[tuple[float, float]]]) -> float:
     return sum(b - a for a, b in plan.stretches.values()) * spacing / 1e4
 
 
-def _world_row(phase: SprayPhase | None, i: int) -> int | None:
+def world_row(phase: SprayPhase | None, i: int) -> int | None:
     """The world's index of the phase's ``i``-th target row (None for rows the phase gives as polylines)."""
     if phase is None or phase.rows == "world":
         return i
@@ -213,8 +213,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
         "transport_s": dep.transport_s,
         "metrics": metrics,
         "path_enu": dep.parcels.path_xy[:: max(1, len(dep.parcels.path_xy) // 2000)],
-        "rows": [{"row": p["row"], "world_row": _world_row(phase, p["row"]), "length_m": p["length_m"],
-                  "planned_m": p["planned_m"],
+        "rows": [{"row": p["row"], "length_m": p["length_m"], "planned_m": p["planned_m"],
                   "covered_fraction": p["covered_fraction"], "mean_rate_lpha": p["mean_rate_lpha"],
                   "sprayed_m": p["sprayed_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
                   "in_band_fraction": p["in_band_fraction"],

@@ -260,9 +260,11 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         budget = evaluate_budget(result.deposition, world, all_rows, dep_metrics.get("nominal_rate_lpha", math.nan))
         dep_metrics.update(budget.metrics)
     if any(isinstance(p, SprayPhase) for p in spec.phases):  # did every vine get its dose, and where not
+        from vinecli.runs.deposition_out import world_row
         from vinecli.runs.spray_report import describe_spray, judge_ending, locate_cutouts, locate_faults
 
-        dep_rows = dep_doc["rows"] if dep_doc is not None else None
+        phase = next((p for p in run.flight.phases if isinstance(p, SprayPhase)), None)  # rows named as the world's
+        dep_rows = [{**r, "world_row": world_row(phase, r["row"])} for r in dep_doc["rows"]] if dep_doc is not None else None
         status, status_message = judge_ending(status, status_message, spec, dep_rows, result.timeseries)
         from vinecli.missions.job import operations
 
