@@ -126,8 +126,7 @@ def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Pat
 def test_deposition_map_of_a_dsm_world_is_in_the_dsm_crs(tmp_path: Path) -> None:
     from pyproj import Transformer
 
-    from vinecli.geo import GeoOrigin
-    from vinecli.world import build_world
+    from vinecli.world import build_world, load_world
 
     world = tmp_path / "sample"
     build_world(REPO / "worlds" / "vineyard-sample.yaml", world)
@@ -136,7 +135,7 @@ def test_deposition_map_of_a_dsm_world_is_in_the_dsm_crs(tmp_path: Path) -> None
         "[[[0.0, 2.0], [0.0, 14.0]], [[3.6, 14.0], [3.6, 2.0]]]", "[[[-3.0, -10.0], [-3.0, 0.0]]]"))
     s = run_mission(m, world, tmp_path / "runs", seed=2)
     doc = json.loads((Path(s.run_dir) / "deposition.json").read_text())
-    origin = GeoOrigin.from_dict(json.loads((world / "world.json").read_text())["origin"])
+    origin = load_world(world).origin  # the world's georeference: the DSM's CRS grid (vinecli.geo.GeoFrame)
     dsm = REPO / "worlds" / "sample" / "fieldimager_potato_plots_dsm_3cm_utm16n.tif"
     with rasterio.open(dsm) as d, rasterio.open(Path(s.run_dir) / "deposition.tif") as dep:
         assert dep.crs == d.crs
