@@ -162,9 +162,14 @@ def test_killing_arducopter_mid_run_is_an_error_and_the_batch_goes_on(ardupilot_
     from vinecli.batch import run_batch
 
     (tmp_path / "short.yaml").write_text(yaml.safe_dump(SHORT))
+    # the victim hovers 30 s: at ~3x real time the short mission was over before a kill 2 s after arming landed
+    long_hold = {**SHORT, "max_duration_s": 90.0,
+                 "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 30.0},
+                            {"type": "land"}]}
+    (tmp_path / "long.yaml").write_text(yaml.safe_dump(long_hold))
     pipe = tmp_path / "pipe.yaml"
     pipe.write_text(yaml.safe_dump({"name": "kill", "world": str(flat_world_dir), "autopilot": "ardupilot",
-                                    "timeout_s": 300, "missions": [{"mission": "short.yaml", "name": "victim"},
+                                    "timeout_s": 300, "missions": [{"mission": "long.yaml", "name": "victim"},
                                                                    {"mission": "short.yaml", "name": "survivor"}]}))
     killed: list[int] = []
 
