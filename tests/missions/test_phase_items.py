@@ -136,3 +136,23 @@ def test_items_round_trip_to_phases() -> None:
         assert flows == pytest.approx([0.1 if sprayer is DO_SPRAYER else 0.05])
     lat, lon = enu_to_degE7(ORIGIN, 100.0, -50.0)
     assert degE7_to_enu(ORIGIN, lat, lon) == pytest.approx((100.0, -50.0), abs=0.02)
+
+
+def test_headings_round_trip_on_a_crs_world() -> None:
+    """On a world on a CRS grid a goto's yaw goes out as a heading from true north (turned by the grid convergence)
+    and comes back as the same yaw, in MAVLink's degE7 and in a plan file's float degrees."""
+    from pyproj import Transformer
+
+    from vinecli.geo import GeoFrame
+
+    cx, cy = Transformer.from_crs("EPSG:4326", "EPSG:32632", always_xy=True).transform(ORIGIN.lon, ORIGIN.lat)
+    geo = GeoFrame(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt, crs="EPSG:32632", crs_centre=(cx, cy))
+    assert abs(math.degrees(geo.convergence_rad)) > 0.5
+    m = mission({"type": "takeoff", "altitude_agl_m": 4}, {"type": "goto", "position_enu": [5, 6], "yaw_deg": 30})
+    for degrees in (False, True):
+        ctx = PlanContext(origin=geo, home_enu=(0.0, 0.0, 0.0), degrees=degrees)
+        items = phases_to_items(m, ctx, sprayer=DO_SET_ACTUATOR).items
+        assert items[1].param4 == pytest.approx(60.0 - math.degrees(geo.convergence_rad), abs=1e-9)
+        back, _ = items_to_phases(items, geo, geo.alt, None, degrees=degrees)
+        assert back[1].yaw_deg == pytest.approx(30.0, abs=1e-9)
+        assert back[1].position_enu == pytest.approx((5.0, 6.0), abs=0.01 if not degrees else 1e-6)

@@ -16,7 +16,9 @@ from vinecli.mavlink import px4modes as M
 
 @dataclass
 class MissionItem:
-    """One MISSION_ITEM_INT (without seq/target): x, y degE7 (or int params), z float."""
+    """One MISSION_ITEM_INT (without seq/target): x, y degE7 ints (or int params), z float. An item of a plan file
+    (a QGroundControl ``.plan``) carries x, y as float degrees instead (:func:`item_xy` with ``degrees``); those are
+    never encoded for the wire."""
 
     command: int
     frame: int = M.MAV_FRAME_MISSION
@@ -24,8 +26,8 @@ class MissionItem:
     param2: float = 0.0
     param3: float = 0.0
     param4: float = 0.0
-    x: int = 0
-    y: int = 0
+    x: float = 0
+    y: float = 0
     z: float = 0.0
     autocontinue: int = 1
     mission_type: int = M.MAV_MISSION_TYPE_MISSION
@@ -58,10 +60,28 @@ def enu_to_degE7(origin: GeoOrigin, x: float, y: float) -> tuple[int, int]:
     return round(lat * 1e7), round(lon * 1e7)
 
 
-def degE7_to_enu(origin: GeoOrigin, lat_e7: int, lon_e7: int) -> tuple[float, float]:
+def degE7_to_enu(origin: GeoOrigin, lat_e7: float, lon_e7: float) -> tuple[float, float]:
     """(lat degE7, lon degE7) -> ENU (x, y) m, inverse of :func:`enu_to_degE7`."""
     e, n, _ = origin.geodetic_to_enu_fast(lat_e7 * 1e-7, lon_e7 * 1e-7, origin.alt)
     return (e, n)
+
+
+def item_xy(origin: GeoOrigin, x: float, y: float, *, degrees: bool = False) -> tuple[float, float]:
+    """World ENU (x, y) m -> an item's (x, y): MAVLink's (lat, lon) degE7 ints (:func:`enu_to_degE7`), or with
+    ``degrees`` a plan file's float (lat, lon) degrees through the world's georeference exactly
+    (:meth:`GeoOrigin.enu_to_geodetic`: the tangent plane, or a CRS world's grid)."""
+    if not degrees:
+        return enu_to_degE7(origin, x, y)
+    lat, lon, _ = origin.enu_to_geodetic(x, y, 0.0)
+    return lat, lon
+
+
+def item_enu(origin: GeoOrigin, ix: float, iy: float, *, degrees: bool = False) -> tuple[float, float]:
+    """An item's (x, y) -> world ENU (x, y) m, the inverse of :func:`item_xy`."""
+    if not degrees:
+        return degE7_to_enu(origin, ix, iy)
+    e, n, _ = origin.geodetic_to_enu(ix, iy, origin.alt)
+    return e, n
 
 
 # ---------------------------------------------------------------- what an endpoint accepts

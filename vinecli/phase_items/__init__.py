@@ -6,13 +6,16 @@
 * :func:`items_to_phases` (:mod:`~vinecli.phase_items.to_phases`): items back to phases the built-in
   autopilot flies (the MAVLink vehicle endpoint, an uploaded or imported mission).
 
-Firmware parameters (PX4: :mod:`vinecli.mavlink.px4params`) and the transport (upload, plan files) are the
-callers'. The wire type is :class:`vinecli.mavlink.mission_items.MissionItem`.
+Positions are MAVLink's degE7 ints, or float degrees for a plan file (``PlanContext.degrees``,
+``items_to_phases(degrees=True)``: QGroundControl ``.plan`` export and import, :mod:`vinecli.missions.qgc_export`,
+:mod:`vinecli.missions.qgc_import`), both through the world's georeference. Firmware parameters (PX4:
+:mod:`vinecli.mavlink.px4params`) and the transport (upload, the .plan JSON) are the callers'.
+The wire type is :class:`vinecli.mavlink.mission_items.MissionItem`.
 """
 
 from vinecli.phase_items.sprayer import DO_SET_ACTUATOR, DO_SPRAYER, SprayerCommand, do_set_servo, sprayer_fraction
-from vinecli.phase_items.to_items import ItemPlan, PlanContext, fence_items, phases_to_items
+from vinecli.phase_items.to_items import ItemPlan, PlanContext, fence_items, phases_to_items, sortie_to_items
 from vinecli.phase_items.to_phases import items_to_phases
 
 __all__ = ["DO_SET_ACTUATOR", "DO_SPRAYER", "ItemPlan", "PlanContext", "SprayerCommand", "do_set_servo", "fence_items",
-           "items_to_phases", "phases_to_items", "sprayer_fraction"]
+           "items_to_phases", "phases_to_items", "sortie_to_items", "sprayer_fraction"]

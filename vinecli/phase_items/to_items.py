@@ -12,9 +12,11 @@ geofence with a 1 m margin) flown as terrain-following waypoints with the spraye
 (mission_type 1). Firmware parameters (PX4's MIS_TAKEOFF_ALT, GF_*, ...) are the caller's
 (:mod:`vinecli.mavlink.px4params` for PX4).
 
-Geometry: x/y are degE7 of WGS84 lat/lon from the world's origin by the local-tangent approximation
-(:func:`~vinecli.mavlink.mission_items.enu_to_degE7`); altitudes in MAV_FRAME_GLOBAL_RELATIVE_ALT (3) are
-metres above home; spray heights are above the surface under each waypoint, expressed above home.
+Geometry: x/y are degE7 of WGS84 lat/lon of the world point through the world's georeference
+(:func:`~vinecli.mavlink.mission_items.enu_to_degE7`), or float degrees through it exactly for a plan file
+(``PlanContext.degrees``: a QGroundControl ``.plan``, :mod:`vinecli.missions.qgc_export`); altitudes in
+MAV_FRAME_GLOBAL_RELATIVE_ALT (3) are metres above home; spray heights are above the surface under each waypoint,
+expressed above home. Yaw goes out as a heading from true north (turned by the world's grid convergence).
 """
 
 from __future__ import annotations
@@ -27,10 +29,10 @@ from vinecli.errors import SpecError
 from vinecli.frames import yaw_enu_to_heading_ned
 from vinecli.geo import GeoOrigin
 from vinecli.mavlink import px4modes as M
-from vinecli.mavlink.mission_items import MissionItem, enu_to_degE7
+from vinecli.mavlink.mission_items import MissionItem, item_xy
 from vinecli.phase_items.spray_legs import leg_actions
 from vinecli.phase_items.sprayer import SprayerCommand
-from vinecli.rows.plan import PATH_ACCEL_MPS2, plan_rows
+from vinecli.rows.plan import PATH_ACCEL_MPS2, Leg, plan_rows
 from vinecli.specs.mission import (
     GeofenceSpec,
     GotoPhase,
@@ -45,7 +47,7 @@ from vinecli.specs.mission import (
     WaypointsPhase,
 )
 
-__all__ = ["ItemPlan", "PlanContext", "fence_items", "phases_to_items"]
+__all__ = ["ItemPlan", "PlanContext", "fence_items", "phases_to_items", "sortie_to_items"]
 
 NAN = math.nan
 
@@ -66,6 +68,8 @@ class PlanContext:
     vehicle: object = None
     terrain_bounds: tuple[float, float, float, float] | None = None
     air_density: float = 1.225
+    #: item x/y as float degrees (a plan file) instead of MAVLink's degE7 ints
+    degrees: bool = False
 
     def home_ground_z(self) -> float:
         hx, hy, hz = self.home_enu
@@ -120,7 +124,7 @@ class _Items:
 
     def wp(self, x: float, y: float, z_rel: float, accept: float = 0.5, yaw_ned_deg: float = NAN,
            cmd: int = M.CMD_NAV_WAYPOINT, p1: float = 0.0) -> None:
-        lat, lon = enu_to_degE7(self.ctx.origin, x, y)
+        lat, lon = item_xy(self.ctx.origin, x, y, degrees=self.ctx.degrees)
         self.items.append(MissionItem(cmd, M.MAV_FRAME_GLOBAL_RELATIVE_ALT, p1, accept, 0.0, yaw_ned_deg, lat, lon,
                                       z_rel, phase_index=self.phase))
         self.pos, self.alt = (x, y), z_rel
@@ -159,10 +163,17 @@ def _spray_phase(ph: SprayPhase, out: _Items, fence: Sequence[tuple[float, float
         plan = plan_rows(rows, out.pos, speed_mps=ph.speed_mps, accel_mps2=ctx.accel_mps2, fence_enu=fence)
     if not plan.legs:
         raise SpecError(f"{where}: no rows left inside the geofence")
-    out.speed(ph.speed_mps)
+    _fly_legs(out, plan.legs, ph.speed_mps, ph.height_agl_m, ph.flow_lps, where)
+
+
+def _fly_legs(out: _Items, legs: Sequence[Leg], speed_mps: float, height_m: float, flow_lps: float,
+              where: str) -> None:
+    """Planned legs as terrain-following waypoints, the sprayer on over the spray legs only (leg_actions)."""
+    ctx = out.ctx
+    out.speed(speed_mps)
     out.spray(0.0, where)  # off during the transit, whatever an earlier phase left on
     surface = ctx.terrain_height if callable(ctx.terrain_height) else None
-    for kind, a, b, c in leg_actions(plan.legs, height_m=ph.height_agl_m, flow_lps=ph.flow_lps, surface=surface,
+    for kind, a, b, c in leg_actions(legs, height_m=height_m, flow_lps=flow_lps, surface=surface,
                                      home_z=ctx.home_ground_z()):
         if kind == "wp":
             out.wp(a, b, c)
@@ -209,10 +220,27 @@ def phases_to_items(mission: MissionSpec, ctx: PlanContext, *, sprayer: SprayerC
         else:  # pragma: no cover - exhaustive over the Phase union
             raise SpecError(f"{where}: unsupported phase type")
     items = out.items
-    return ItemPlan(items=items, fence=fence_items(gf, ctx.origin), phase_of_item=[it.phase_index for it in items])
+    return ItemPlan(items=items, fence=fence_items(gf, ctx.origin, degrees=ctx.degrees),
+                    phase_of_item=[it.phase_index for it in items])
 
 
-def fence_items(fence: GeofenceSpec | None, origin: GeoOrigin) -> list[MissionItem]:
+def sortie_to_items(legs: Sequence[Leg], ctx: PlanContext, *, sprayer: SprayerCommand, takeoff_m: float,
+                    height_m: float, speed_mps: float, flow_lps: float) -> ItemPlan:
+    """One sortie of an already planned and split spray job (:func:`vinecli.rows.plan.split_sorties`) as
+    items: take-off at home to ``takeoff_m``, the transit from home to the first leg and the legs as a spray
+    phase flies them (``height_m`` above the surface, ``flow_lps`` over the rows, ``speed_mps``), return to
+    launch."""
+    out = _Items(ctx, sprayer)
+    where = "sortie"
+    _flow_fraction(flow_lps, ctx, where)
+    out.here(M.CMD_NAV_TAKEOFF, z_rel=takeoff_m)
+    transit = Leg([out.pos, legs[0].points[0]], False, None, "transit")
+    _fly_legs(out, [transit, *legs], speed_mps, height_m, flow_lps, where)
+    out.items.append(MissionItem(M.CMD_NAV_RETURN_TO_LAUNCH, M.MAV_FRAME_MISSION))
+    return ItemPlan(items=out.items, phase_of_item=[it.phase_index for it in out.items])
+
+
+def fence_items(fence: GeofenceSpec | None, origin: GeoOrigin, *, degrees: bool = False) -> list[MissionItem]:
     """The geofence's inclusion polygon as fence items (mission_type 1, NAV_FENCE_POLYGON_VERTEX_INCLUSION,
     param1 = the vertex count); the distance and altitude limits are firmware parameters (the caller's)."""
     if fence is None or not fence.polygon_enu:
@@ -220,7 +248,7 @@ def fence_items(fence: GeofenceSpec | None, origin: GeoOrigin) -> list[MissionIt
     n = len(fence.polygon_enu)
     items = []
     for x, y in fence.polygon_enu:
-        lat, lon = enu_to_degE7(origin, x, y)
+        lat, lon = item_xy(origin, x, y, degrees=degrees)
         items.append(MissionItem(M.CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, M.MAV_FRAME_GLOBAL, float(n), 0.0, 0.0, 0.0,
                                  lat, lon, 0.0, mission_type=M.MAV_MISSION_TYPE_FENCE))
     return items
