@@ -108,11 +108,11 @@ def test_a_row_drawn_in_a_gis_lands_on_the_same_ground_in_the_world_the_plan_the
     assert max(near) < 0.03, near
 
     # and back: the .plan imported into the world puts its waypoints on the world's rows
-    from vinecli.missions.qgc_geometry import enu_of
+    from vinecli.mavlink.mission_items import item_enu
 
     world_lines = [LineString(r) for r in w.vine_rows_enu]
     for it in items:
         if it.get("command") == 16:
-            e, n = enu_of(w.origin, it["params"][4], it["params"][5])
+            e, n = item_enu(w.origin, it["params"][4], it["params"][5], degrees=True)
             d = min(ln.distance(Point(e, n)) for ln in world_lines)
             assert d < 0.03 or d > 0.5

@@ -7,9 +7,10 @@ import math
 from pathlib import Path
 
 import pytest
+from pyproj import Transformer
 
 from vinecli.errors import SpecError
-from vinecli.geo import GeoOrigin
+from vinecli.geo import GeoFrame, GeoOrigin
 from vinecli.missions.qgc_export import export_plan
 from vinecli.missions.qgc_format import write_plan
 from vinecli.missions.qgc_import import import_plan
@@ -109,57 +110,148 @@ def test_ardupilot_sprayer_items(plan_file: Path, tmp_path: Path) -> None:
     assert flows[:2] == pytest.approx([0.04, 0.025])
 
 
-def test_round_trip_export_import(tmp_path: Path) -> None:
-    rows = [[(0.0, 0.0), (20.0, 0.0)], [(0.0, 2.5), (20.0, 2.5)], [(0.0, 5.0), (20.0, 5.0)]]
-    m = MissionSpec(
+UTM32 = "EPSG:32632"
+
+
+def _utm_world() -> GeoFrame:
+    """A world on the UTM 32N grid about ORIGIN (grid convergence about -0.68 deg there: 0.97 deg west of the
+    central meridian)."""
+    cx, cy = Transformer.from_crs("EPSG:4326", UTM32, always_xy=True).transform(ORIGIN.lon, ORIGIN.lat)
+    return GeoFrame(ORIGIN.lat, ORIGIN.lon, ORIGIN.alt, crs=UTM32, crs_centre=(cx, cy))
+
+
+def _spray_mission() -> MissionSpec:
+    return MissionSpec(
         name="rt",
         phases=[
             TakeoffPhase(altitude_agl_m=3.0),
-            GotoPhase(position_enu=(-2.0, -1.0), altitude_agl_m=3.0, speed_mps=2.0),
+            GotoPhase(position_enu=(-2.0, -1.0), altitude_agl_m=3.0, speed_mps=2.0, yaw_deg=30.0),
             SprayPhase(rows="world", height_agl_m=2.0, speed_mps=1.5, flow_lps=0.05),
             HoldPhase(duration_s=2.0),
             LandPhase(),
         ],
         geofence={"polygon_enu": [(-10, -10), (30, -10), (30, 15), (-10, 15)], "max_horizontal_distance_m": 80},
     )
-    plan = export_plan(m, ORIGIN, (0.0, 0.0, 0.0), rows_enu=rows, nozzle_max_flow_lps=0.1)
-    assert plan["fileType"] == "Plan" and plan["mission"]["firmwareType"] == 12
-    cmds = [it["command"] for it in plan["mission"]["items"]]
-    assert cmds.count(187) == 6 and cmds[0] == 22 and cmds[-1] == 21
+
+
+ROWS = [[(0.0, 0.0), (20.0, 0.0)], [(0.0, 2.5), (20.0, 2.5)], [(0.0, 5.0), (20.0, 5.0)]]
+
+
+def _positions(phases: list) -> list[tuple[float, float, float]]:
+    """Every position the phases fly to, in order (x, y, altitude above home)."""
+    out = []
+    for ph in phases:
+        if isinstance(ph, GotoPhase):
+            out.append((*ph.position_enu, ph.altitude_agl_m))
+        elif isinstance(ph, WaypointsPhase):
+            out += [tuple(w) for w in ph.waypoints]
+    return out
+
+
+def _close(a: object, b: object, tol: float) -> bool:
+    """Two phase dumps equal, floats within ``tol``."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k], tol) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_close(x, y, tol) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) or isinstance(b, float):
+        return a is not None and b is not None and abs(a - b) <= tol
+    return a == b
+
+
+def test_export_is_what_the_px4_bridge_uploads_through_the_worlds_georeference(tmp_path: Path) -> None:
+    """The .plan's items are the converter's (phase_items, as the PX4 bridge uploads them: same commands, frames,
+    parameters, sprayer switches), with float degrees through the world's CRS grid, and headings from true north."""
+    from pyproj import Geod
+
+    from vinecli.mavlink.mission_items import degE7_to_enu
+    from vinecli.phase_items import DO_SET_ACTUATOR, PlanContext, phases_to_items
+
+    geo = _utm_world()
+    m = _spray_mission()
+    plan = export_plan(m, geo, (0.0, 0.0, 0.0), rows_enu=ROWS, nozzle_max_flow_lps=0.1)
+    items = plan["mission"]["items"]
+    bridge = phases_to_items(m, PlanContext(origin=geo, home_enu=(0.0, 0.0, 0.0), vine_rows_enu=ROWS,
+                                            nozzle_max_flow_lps=0.1), sprayer=DO_SET_ACTUATOR).items
+    assert [(i["command"], i["frame"]) for i in items] == [(b.command, b.frame) for b in bridge]
+    nan_null = lambda v: None if math.isnan(v) else v  # noqa: E731
+    assert [i["params"][:4] for i in items] == [[nan_null(p) for p in (b.param1, b.param2, b.param3, b.param4)]
+                                                for b in bridge]
+    assert [i["params"][6] for i in items] == [b.z for b in bridge]
+    to_wgs = Transformer.from_crs(UTM32, "EPSG:4326", always_xy=True)
+    for i, b in zip(items, bridge, strict=True):
+        if b.x == 0 and b.y == 0:
+            assert i["params"][4:6] == [0, 0]
+            continue
+        e, n = degE7_to_enu(geo, b.x, b.y)  # the bridge's degE7 (1.1 cm steps) back in the world
+        lon, lat = to_wgs.transform(e + geo.crs_centre[0], n + geo.crs_centre[1])  # independent of vinecli
+        m_lat, m_lon = geo.metres_per_degree
+        assert math.hypot((i["params"][4] - lat) * m_lat, (i["params"][5] - lon) * m_lon) < 0.01
+    # the goto's yaw (30 deg from the world's x axis) as a heading from true north: the geodesic azimuth
+    goto = next(i for i in items if i["command"] == 16)
+    a = to_wgs.transform(-2.0 + geo.crs_centre[0], -1.0 + geo.crs_centre[1])
+    d = (math.cos(math.radians(30.0)), math.sin(math.radians(30.0)))
+    b2 = to_wgs.transform(-2.0 + 10 * d[0] + geo.crs_centre[0], -1.0 + 10 * d[1] + geo.crs_centre[1])
+    azimuth = Geod(ellps="WGS84").inv(a[0], a[1], b2[0], b2[1])[0]
+    assert goto["params"][3] == pytest.approx(azimuth % 360.0, abs=0.01)
+    assert abs(goto["params"][3] - 60.0) > 0.5  # the grid convergence turned it (UTM grid north is not true north)
+
+
+def test_a_spray_mission_round_trips_through_a_plan_file(tmp_path: Path) -> None:
+    """Exported and imported back on a CRS world: the same positions within 1 cm, the same sprayer switches, the
+    same take-off, yaw, hold, landing and geofence; a second round trip gives the same phases."""
+    geo = _utm_world()
+    m = _spray_mission()
+    plan = export_plan(m, geo, (0.0, 0.0, 0.0), rows_enu=ROWS, nozzle_max_flow_lps=0.1)
     p = tmp_path / "rt.plan"
     write_plan(p, plan)
-    back = import_plan(p, ORIGIN, nozzle_max_flow_lps=0.1)
-    # spray rows come back as waypoints with sprayer switches along each row
-    wps = [w for ph in back.phases if isinstance(ph, WaypointsPhase) for w in ph.waypoints]
+    back = import_plan(p, geo, nozzle_max_flow_lps=0.1)
+    # the flight: the converter's own phases of the items, flown point for point
+    from vinecli.phase_items import DO_SET_ACTUATOR, PlanContext, phases_to_items
+
+    ctx = PlanContext(origin=geo, home_enu=(0.0, 0.0, 0.0), vine_rows_enu=ROWS, nozzle_max_flow_lps=0.1, degrees=True)
+    flown = [it for it in phases_to_items(m, ctx, sprayer=DO_SET_ACTUATOR).items if it.command == 16]
+    pts = _positions(back.phases)
+    assert len(pts) == len(flown)
+    for (x, y, h), it in zip(pts, flown, strict=True):
+        e, n, _ = geo.geodetic_to_enu(it.x, it.y, geo.alt)
+        assert math.hypot(x - e, y - n) < 0.01 and h == pytest.approx(it.z, abs=1e-3)
     flows = [ph.flow_lps for ph in back.phases if isinstance(ph, SprayerPhase)]
-    assert flows == pytest.approx([0.05, 0.0] * 3)
-    assert all(h == pytest.approx(2.0) for x, y, h in wps if y >= -0.01)  # flat: the spray height throughout
-    # the row ends: the waypoint where the sprayer goes on, the last one before it goes off
-    row_pts, last = [], None
+    assert flows == pytest.approx([0.0] + [0.05, 0.0] * 3)  # off for the transit, on over each row
+    # the row ends: the waypoint where the sprayer goes on, the last one before it goes off (after the transit's off)
+    switched_at, last = [], None
     for ph in back.phases:
-        if isinstance(ph, WaypointsPhase):
-            last = ph.waypoints[-1]
-        elif isinstance(ph, SprayerPhase) and last is not None:
-            row_pts.append((round(last[0], 2), round(last[1], 2)))
+        if isinstance(ph, (GotoPhase, WaypointsPhase)):
+            last = _positions([ph])[-1]
+        elif isinstance(ph, SprayerPhase):
+            switched_at.append((round(last[0], 2), round(last[1], 2)))
+    row_pts = switched_at[1:]
     assert set(row_pts) == {(0.0, 0.0), (20.0, 0.0), (0.0, 2.5), (20.0, 2.5), (0.0, 5.0), (20.0, 5.0)}
     # the row nearest the goto point (-2, -1) first, then boustrophedon: rows flown in alternate directions
     legs = [row_pts[i:i + 2] for i in range(0, 6, 2)]
     assert legs[0][0] == (0.0, 0.0)
     dirs = [math.copysign(1, b[0] - a[0]) for a, b in legs]
     assert dirs[0] == -dirs[1] == dirs[2]
-    # headland turns past the row ends (stop turns: 1.5 m/s at 1.5 m/s² run out 0.75 m)
-    xs = [x for x, y, h in wps if y >= -0.01]
+    # headland turns past the row ends (stop turns: 1.5 m/s at 1.5 m/s² run out 0.75 m), the spray height on flat
+    xs = [x for x, y, h in pts if y >= -0.01]
     assert min(xs) == pytest.approx(-0.75, abs=1e-3) and max(xs) == pytest.approx(20.75, abs=1e-3)
+    assert all(h == pytest.approx(2.0) for x, y, h in pts if y >= -0.01)
     assert isinstance(back.phases[0], TakeoffPhase) and back.phases[0].altitude_agl_m == 3.0
-    assert isinstance(back.phases[-1], LandPhase)
+    goto = back.phases[1]
+    assert isinstance(goto, GotoPhase) and goto.yaw_deg == pytest.approx(30.0, abs=1e-6) and goto.speed_mps == 2.0
+    assert [ph.type for ph in back.phases[-3:]] == ["sprayer", "hold", "land"]  # no goto to where it already is
+    assert back.phases[-2].duration_s == 2.0
     assert back.geofence is not None and back.geofence.max_horizontal_distance_m == 80
-    assert back.geofence.polygon_enu[2] == pytest.approx((30.0, 15.0), abs=2e-3)
-    # export of the imported mission gives the same items again
-    again = export_plan(back, ORIGIN, (0.0, 0.0, 0.0), nozzle_max_flow_lps=0.1)
-    strip = lambda items: [(i["command"], [None if v is None else round(v, 6) for v in i["params"]]) for i in items]  # noqa: E731
-    a = [x for x in strip(plan["mission"]["items"]) if x[0] != 178]
-    b = [x for x in strip(again["mission"]["items"]) if x[0] != 178]
-    assert a == b
+    assert all(math.dist(a, b) < 0.01 for a, b in zip(back.geofence.polygon_enu, m.geofence.polygon_enu, strict=True))
+    # and once more: the imported mission exports to the same items (but a speed item for each waypoints phase,
+    # at the speed already set) and imports to the same phases
+    again = export_plan(back, geo, (0.0, 0.0, 0.0), nozzle_max_flow_lps=0.1)
+    strip = lambda items: [(i["command"], [None if v is None else round(v, 6) for v in i["params"]])  # noqa: E731
+                           for i in items if i["command"] != 178]
+    assert strip(again["mission"]["items"]) == strip(plan["mission"]["items"])
+    write_plan(p2 := tmp_path / "rt2.plan", again)
+    twice = import_plan(p2, geo, nozzle_max_flow_lps=0.1)
+    assert _close([ph.model_dump() for ph in twice.phases], [ph.model_dump() for ph in back.phases], 1e-3)
 
 
 def test_imported_mission_names_are_safe(plan_file: Path, tmp_path: Path) -> None:

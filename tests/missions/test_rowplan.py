@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from vinecli.geo import GeoOrigin
-from vinecli.missions.qgc_spray import leg_actions, sortie_plan
+from vinecli.missions.qgc_export import sortie_plan
+from vinecli.phase_items.spray_legs import leg_actions
 from vinecli.rows.plan import Leg, plan_rows, split_sorties
 
 ORIGIN = GeoOrigin(44.70, 8.03, 250.0)
@@ -125,7 +126,7 @@ def test_sortie_plan_items() -> None:
     cmds = [it["command"] for it in items]
     assert cmds[0] == 22 and cmds[1] == 178 and cmds[-1] == 20  # take-off, speed, ..., return to launch
     on = [it["params"][0] for it in items if it["command"] == 187]
-    assert on == [0.5, 0.0] * (len(on) // 2) and len(on) >= 2
+    assert on == [0.0] + [0.5, 0.0] * (len(on) // 2) and len(on) >= 3  # off for the transit, on over each row
     assert [it["doJumpId"] for it in items] == list(range(1, len(items) + 1))
     assert len(doc["geoFence"]["polygons"]) == 1
 

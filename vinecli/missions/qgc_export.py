@@ -1,70 +1,98 @@
-"""MissionSpec -> QGroundControl ``.plan``: the inverse of :mod:`vinecli.missions.qgc_import`. Spray phases are
-expanded into the operator plan of :mod:`vinecli.rows.plan` with DO_SET_ACTUATOR on/off around each row; one
-``.plan`` per sortie: :func:`vinecli.missions.qgc_spray.sortie_plan`.
+"""MissionSpec -> QGroundControl ``.plan``, through THE phase <-> mission-item converter
+(:func:`vinecli.phase_items.phases_to_items`, float-degree positions): the items the PX4 bridge uploads, the sprayer
+on DO_SET_ACTUATOR (set 1, p1 = flow / the nozzle maximum), spray phases as THE spray plan with the sprayer on over
+the rows only, the mission's geofence as the plan's inclusion polygon (and its distance limit as a circle about
+home). One ``.plan`` per sortie of a planned job: :func:`sortie_plan` (:func:`vinecli.phase_items.sortie_to_items`).
+Latitude/longitude come from the world's georeference (:func:`~vinecli.mavlink.mission_items.item_xy`), written
+with 8 decimals (~1 mm); :mod:`vinecli.missions.qgc_import` reads them back.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
-from vinecli.missions.qgc_format import (
-    DEFAULT_NOZZLE_MAX_FLOW_LPS,
-    DO_CHANGE_SPEED,
+from vinecli.mavlink.mission_items import MissionItem, item_xy
+from vinecli.missions.qgc_format import DEFAULT_NOZZLE_MAX_FLOW_LPS
+from vinecli.phase_items import (
     DO_SET_ACTUATOR,
-    FRAME_GLOBAL_RELATIVE_ALT,
-    FRAME_MISSION,
-    NAV_LAND,
-    NAV_LOITER_TIME,
-    NAV_RTL,
-    NAV_TAKEOFF,
-    NAV_WAYPOINT,
-    plan_item,
+    ItemPlan,
+    PlanContext,
+    fence_items,
+    phases_to_items,
+    sortie_to_items,
 )
-from vinecli.missions.qgc_geometry import latlon_of
-from vinecli.specs.mission import (
-    GotoPhase,
-    HoldPhase,
-    LandPhase,
-    MissionSpec,
-    RtlPhase,
-    SprayerPhase,
-    SprayPhase,
-    TakeoffPhase,
-    WaypointsPhase,
-)
+from vinecli.rows.plan import PATH_ACCEL_MPS2, Leg
+from vinecli.specs.mission import GeofenceSpec, MissionSpec
 
-__all__ = ["PlanItems", "export_plan", "plan_document"]
+__all__ = ["export_plan", "plan_document", "sortie_plan"]
+
+_FIRMWARE = "a QGroundControl .plan"
 
 
-class PlanItems:
-    """Mission items under construction: numbered in order, ENU points as rounded latitude/longitude."""
-
-    def __init__(self, origin: GeoOrigin) -> None:
-        self.origin = origin
-        self.items: list[dict[str, Any]] = []
-
-    def ll(self, x: float, y: float) -> tuple[float, float]:
-        """(lat, lon) in degrees, 8 decimals, of the ENU point (x, y) m."""
-        return latlon_of(self.origin, x, y)
-
-    def add(self, command: int, frame: int, params: Sequence[float | None]) -> None:
-        """Append one item with the next sequence number."""
-        self.items.append(plan_item(command, frame, params, len(self.items) + 1))
+def _plan_context(origin: GeoOrigin, home_enu: tuple[float, float, float], nozzle_max_flow_lps: float, *,
+                  rows_enu: Sequence[Sequence[tuple[float, float]]] = (), accel_mps2: float = PATH_ACCEL_MPS2,
+                  surface: Callable[[float, float], float] | None = None) -> PlanContext:
+    return PlanContext(origin=origin, home_enu=home_enu, vine_rows_enu=rows_enu, terrain_height=surface,
+                       nozzle_max_flow_lps=nozzle_max_flow_lps, accel_mps2=accel_mps2, firmware=_FIRMWARE,
+                       degrees=True)
 
 
+def export_plan(
+    mission: MissionSpec,
+    origin: GeoOrigin,
+    home_enu: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    *,
+    rows_enu: Sequence[Sequence[tuple[float, float]]] = (),
+    nozzle_max_flow_lps: float = DEFAULT_NOZZLE_MAX_FLOW_LPS,
+    accel_mps2: float = PATH_ACCEL_MPS2,
+    surface: Callable[[float, float], float] | None = None,
+) -> dict[str, Any]:
+    """A MissionSpec -> .plan JSON (dict). Spray phases fly ``rows_enu`` (the world's rows) or their own, planned
+    by :func:`~vinecli.rows.plan.plan_rows` (a pass per row, nearest first, headland turns for ``accel_mps2``,
+    clipped to the mission's geofence with a 1 m margin); with ``surface`` (ENU z of the DSM surface, m) the spray
+    waypoints follow it. SpecError for phases a .plan cannot carry (open loop, ``until: empty``, refill)."""
+    ctx = _plan_context(origin, home_enu, nozzle_max_flow_lps, rows_enu=rows_enu, accel_mps2=accel_mps2,
+                        surface=surface)
+    gf = mission.geofence
+    return plan_document(phases_to_items(mission, ctx, sprayer=DO_SET_ACTUATOR), origin, home_enu,
+                         fence_radius_m=gf.max_horizontal_distance_m if gf is not None else None)
 
-def plan_document(items: list[dict[str, Any]], origin: GeoOrigin, home_enu: tuple[float, float, float], *,
-                  fence_enu: Sequence[tuple[float, float]] | None = None,
+
+def sortie_plan(legs: Sequence[Leg], origin: GeoOrigin, home_enu: tuple[float, float, float], *, height_m: float,
+                speed_mps: float, flow_lps: float, nozzle_max_flow_lps: float, takeoff_m: float,
+                surface: Callable[[float, float], float] | None = None,
+                fence_enu: Sequence[tuple[float, float]] | None = None) -> dict[str, Any]:
+    """One sortie as a ``.plan``: take-off at home, transit to the first row, the legs, return to launch."""
+    ctx = _plan_context(origin, home_enu, nozzle_max_flow_lps, surface=surface)
+    plan = sortie_to_items(legs, ctx, sprayer=DO_SET_ACTUATOR, takeoff_m=takeoff_m, height_m=height_m,
+                           speed_mps=speed_mps, flow_lps=flow_lps)
+    if fence_enu:
+        plan.fence = fence_items(GeofenceSpec(polygon_enu=list(fence_enu)), origin, degrees=True)
+    return plan_document(plan, origin, home_enu)
+
+
+def _param(v: float) -> float | None:
+    """A .plan parameter: NaN (unchanged / none) is JSON null."""
+    return None if isinstance(v, float) and math.isnan(v) else v
+
+
+def _plan_item(it: MissionItem, seq: int) -> dict[str, Any]:
+    """One QGC SimpleItem: params 1-4, latitude, longitude (8 decimals), altitude."""
+    lat, lon = (round(it.x, 8), round(it.y, 8)) if isinstance(it.x, float) else (it.x, it.y)
+    params = [_param(p) for p in (it.param1, it.param2, it.param3, it.param4, lat, lon, it.z)]
+    return {"type": "SimpleItem", "command": it.command, "frame": it.frame, "params": params,
+            "autoContinue": bool(it.autocontinue), "doJumpId": seq}
+
+
+def plan_document(plan: ItemPlan, origin: GeoOrigin, home_enu: tuple[float, float, float], *,
                   fence_radius_m: float | None = None) -> dict[str, Any]:
-    """The ``.plan`` JSON around mission items: planned home, geofence polygon / circle about home."""
-    def ll(x: float, y: float) -> tuple[float, float]:
-        return latlon_of(origin, x, y)
-
-    hlat, hlon = ll(home_enu[0], home_enu[1])
-    plan: dict[str, Any] = {
+    """The ``.plan`` JSON of converted items: planned home, the mission items, the fence items as an inclusion
+    polygon, ``fence_radius_m`` as an inclusion circle about home."""
+    hlat, hlon = (round(v, 8) for v in item_xy(origin, home_enu[0], home_enu[1], degrees=True))
+    doc: dict[str, Any] = {
         "fileType": "Plan",
         "version": 1,
         "groundStation": "QGroundControl",
@@ -76,98 +104,15 @@ def plan_document(items: list[dict[str, Any]], origin: GeoOrigin, home_enu: tupl
             "hoverSpeed": 2,
             "globalPlanAltitudeMode": 1,
             "plannedHomePosition": [hlat, hlon, round(origin.alt + home_enu[2], 3)],
-            "items": items,
+            "items": [_plan_item(it, k + 1) for k, it in enumerate(plan.items)],
         },
         "geoFence": {"version": 2, "polygons": [], "circles": []},
         "rallyPoints": {"version": 2, "points": []},
     }
-    if fence_enu:
-        plan["geoFence"]["polygons"].append(
-            {"polygon": [list(ll(x, y)) for x, y in fence_enu], "inclusion": True, "version": 1})
+    if plan.fence:
+        doc["geoFence"]["polygons"].append(
+            {"polygon": [[round(it.x, 8), round(it.y, 8)] for it in plan.fence], "inclusion": True, "version": 1})
     if fence_radius_m:
-        plan["geoFence"]["circles"].append(
+        doc["geoFence"]["circles"].append(
             {"circle": {"center": [hlat, hlon], "radius": fence_radius_m}, "inclusion": True, "version": 1})
-    return plan
-
-
-def export_plan(
-    mission: MissionSpec,
-    origin: GeoOrigin,
-    home_enu: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    *,
-    rows_enu: Sequence[Sequence[tuple[float, float]]] = (),
-    nozzle_max_flow_lps: float = DEFAULT_NOZZLE_MAX_FLOW_LPS,
-    accel_mps2: float = 1.5,
-    surface: Callable[[float, float], float] | None = None,
-) -> dict[str, Any]:
-    """A MissionSpec -> .plan JSON (dict). Spray phases become the operator plan of
-    :func:`~vinecli.rows.plan.plan_rows` over ``rows_enu`` (or the phase's explicit rows): nearest
-    row first, headland turns for ``accel_mps2``, rows clipped to the mission's geofence with a 1 m margin,
-    DO_SET_ACTUATOR (p1 = flow / nozzle_max_flow_lps) on over each row and off after it. With ``surface``
-    (ENU z of the DSM surface) the spray waypoints follow it (see :mod:`vinecli.missions.qgc_spray`)."""
-    from vinecli.phase_items.spray_legs import leg_actions
-    from vinecli.rows.plan import plan_rows
-
-    built = PlanItems(origin)
-    items, ll, add = built.items, built.ll, built.add
-    cur = [home_enu[0], home_enu[1], 0.0]
-    home_z = surface(home_enu[0], home_enu[1]) if surface is not None else 0.0
-
-    def wp(x: float, y: float, h: float) -> None:
-        lat, lon = ll(x, y)
-        add(NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT, [0, 0, 0, None, lat, lon, round(h, 3)])
-        cur[:] = [x, y, h]
-
-    def actuator(flow: float) -> None:
-        add(DO_SET_ACTUATOR, FRAME_MISSION, [round(flow / nozzle_max_flow_lps, 6), None, None, None, None, None, 1])
-
-    gf = mission.geofence
-    fence = gf.polygon_enu if gf is not None and gf.polygon_enu else None
-    for i, ph in enumerate(mission.phases):
-        if isinstance(ph, TakeoffPhase):
-            lat, lon = ll(cur[0], cur[1])
-            add(NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, [0, 0, 0, None, lat, lon, ph.altitude_agl_m])
-            cur[2] = ph.altitude_agl_m
-        elif isinstance(ph, HoldPhase):
-            lat, lon = ll(cur[0], cur[1])
-            add(NAV_LOITER_TIME, FRAME_GLOBAL_RELATIVE_ALT, [ph.duration_s, 0, 0, None, lat, lon, cur[2]])
-        elif isinstance(ph, GotoPhase):
-            if ph.speed_mps:
-                add(DO_CHANGE_SPEED, FRAME_MISSION, [1, ph.speed_mps, -1, 0, 0, 0, 0])
-            wp(ph.position_enu[0], ph.position_enu[1], ph.altitude_agl_m if ph.altitude_agl_m is not None else cur[2])
-        elif isinstance(ph, WaypointsPhase):
-            add(DO_CHANGE_SPEED, FRAME_MISSION, [1, ph.speed_mps, -1, 0, 0, 0, 0])
-            if ph.flow_lps is not None:
-                actuator(ph.flow_lps)
-            for x, y, h in ph.waypoints:
-                wp(x, y, h)
-        elif isinstance(ph, SprayerPhase):
-            actuator(ph.flow_lps)
-        elif isinstance(ph, SprayPhase):
-            if ph.rows == "world":
-                rows = [list(r) for r in rows_enu]
-            elif ph.rows and isinstance(ph.rows[0], int):
-                rows = [list(rows_enu[int(k)]) for k in ph.rows]  # type: ignore[arg-type]
-            else:
-                rows = [[tuple(p) for p in r] for r in ph.rows]  # type: ignore[union-attr]
-            if not rows:
-                raise SpecError(f"phases.{i}: spray phase has no rows to export", path=mission.name)
-            plan = plan_rows(rows, (cur[0], cur[1]), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=fence)
-            if not plan.legs:
-                raise SpecError(f"phases.{i}: no rows left inside the geofence", path=mission.name)
-            add(DO_CHANGE_SPEED, FRAME_MISSION, [1, ph.speed_mps, -1, 0, 0, 0, 0])
-            for kind, a, b, c in leg_actions(plan.legs, height_m=ph.height_agl_m, flow_lps=ph.flow_lps,
-                                             surface=surface, home_z=home_z):
-                if kind == "wp":
-                    wp(a, b, c)
-                else:
-                    actuator(a)
-        elif isinstance(ph, LandPhase):
-            lat, lon = ll(cur[0], cur[1])
-            add(NAV_LAND, FRAME_GLOBAL_RELATIVE_ALT, [0, 0, 0, None, lat, lon, 0])
-        elif isinstance(ph, RtlPhase):
-            add(NAV_RTL, FRAME_MISSION, [0, 0, 0, 0, 0, 0, 0])
-        else:
-            raise SpecError(f"phases.{i}: {ph.type!r} phases have no .plan equivalent", path=mission.name)
-    return plan_document(items, origin, home_enu, fence_enu=fence,
-                         fence_radius_m=gf.max_horizontal_distance_m if gf is not None else None)
+    return doc

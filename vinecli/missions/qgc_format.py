@@ -1,13 +1,12 @@
-"""The QGroundControl ``.plan`` file format (JSON): the MAVLink commands and frames vinecli reads and writes, the
-model of the fields it uses, reading (validated, SpecError naming the file and field) and writing (atomic), items and
-the document around them. Coordinates: :mod:`vinecli.missions.qgc_geometry`.
+"""The QGroundControl ``.plan`` file format (JSON): the model of the fields vinecli uses, reading (validated,
+SpecError naming the file and field) and writing (atomic). Items <-> phases: :mod:`vinecli.missions.qgc_import`,
+:mod:`vinecli.missions.qgc_export` (through :mod:`vinecli.phase_items`).
 """
 
 from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -22,13 +21,6 @@ from vinecli.specs.vehicle import VehicleSpec
 #: the flow (L/s) an actuator value of 1.0 stands for when the vehicle has no tank
 DEFAULT_NOZZLE_MAX_FLOW_LPS = 0.1
 
-NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_DELAY = 16, 19, 20, 21, 22, 93
-DO_CHANGE_SPEED, DO_SET_SERVO, DO_SET_ACTUATOR, DO_SPRAYER = 178, 183, 187, 216
-FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT, FRAME_TERRAIN = 0, 2, 3, 10
-SUPPORTED = {NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, NAV_LAND, NAV_TAKEOFF, NAV_DELAY, DO_CHANGE_SPEED,
-             DO_SET_SERVO, DO_SET_ACTUATOR, DO_SPRAYER}
-
-
 
 class _Loose(BaseModel):
     model_config = ConfigDict(extra="allow")
@@ -37,7 +29,7 @@ class _Loose(BaseModel):
 class SimpleItem(_Loose):
     type: Literal["SimpleItem"] = "SimpleItem"
     command: int
-    frame: int = FRAME_GLOBAL_RELATIVE_ALT
+    frame: int = 3  # MAV_FRAME_GLOBAL_RELATIVE_ALT
     params: list[float | None] = Field(min_length=7, max_length=7)
     autoContinue: bool = True
     doJumpId: int | None = None
@@ -119,13 +111,6 @@ def vehicle_nozzle_flow_lps(vehicle: VehicleSpec) -> float:
     """The flow (L/s) a .plan's actuator value 1.0 stands for on ``vehicle``: its nozzle's maximum
     (:data:`DEFAULT_NOZZLE_MAX_FLOW_LPS` without a tank)."""
     return vehicle.tank.nozzle_max_flow_lps if vehicle.tank is not None else DEFAULT_NOZZLE_MAX_FLOW_LPS
-
-
-def plan_item(command: int, frame: int, params: Sequence[float | None], seq: int) -> dict[str, Any]:
-    """One QGC SimpleItem (NaN parameters become null)."""
-    ps = [None if (p is None or (isinstance(p, float) and math.isnan(p))) else p for p in params]
-    return {"type": "SimpleItem", "command": command, "frame": frame, "params": ps, "autoContinue": True,
-            "doJumpId": seq}
 
 
 def write_plan(path: Path | str, plan: dict[str, Any]) -> None:

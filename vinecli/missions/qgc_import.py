@@ -1,73 +1,53 @@
-"""QGroundControl ``.plan`` -> :class:`~vinecli.specs.mission.MissionSpec`.
+"""QGroundControl ``.plan`` -> :class:`~vinecli.specs.mission.MissionSpec`, through THE phase <-> mission-item
+converter (:func:`vinecli.phase_items.items_to_phases`, its ``compact`` form: consecutive waypoints as one
+``waypoints`` phase).
 
-Simple items are mapped in order onto mission phases; survey /
-corridor items are flattened from ``TransectStyleComplexItem.Items`` (QGC stores the generated
-waypoints there); ``geoFence`` becomes the mission's geofence. Latitude/longitude go to the
-world's ENU frame through its :class:`~vinecli.geo.GeoOrigin`; altitudes become heights
-above home (frame 3 = relative already; frame 0 = AMSL minus the home altitude; frame 10 =
-terrain altitude, taken as above home). Unsupported items raise a SpecError naming the item
-index (``mission.items[4]`` or ``mission.items[2].TransectStyleComplexItem.Items[7]``).
-
-=====  ======================  ====================================================
-cmd    MAVLink                 phase
-=====  ======================  ====================================================
-22     NAV_TAKEOFF             takeoff to the item's altitude
-16     NAV_WAYPOINT            consecutive waypoints -> one ``waypoints`` phase; p1 > 0 adds a hold
-178    DO_CHANGE_SPEED         speed (p2, m/s) of the following waypoints
-187    DO_SET_ACTUATOR         sprayer: p1 = fraction of the nozzle's maximum flow (<= 0 off, NaN unchanged)
-183    DO_SET_SERVO            sprayer (ArduPilot style): p2 PWM 1000..2000 µs -> 0..1 of max flow
-216    DO_SPRAYER              sprayer (ArduPilot): p1 1 on (at ``spray_flow_lps``), 0 off
-19     NAV_LOITER_TIME         goto the item's position, hold p1 s
-93     NAV_DELAY               hold p1 s
-21     NAV_LAND                goto the item's position (if given), land
-20     NAV_RETURN_TO_LAUNCH    rtl
-=====  ======================  ====================================================
+The plan's simple items are read in order as mission items; survey / corridor items are flattened from
+``TransectStyleComplexItem.Items`` (QGC stores the generated waypoints there); ``geoFence`` becomes the mission's
+geofence. Latitude/longitude (float degrees) go to the world's frame through its georeference
+(:func:`~vinecli.mavlink.mission_items.item_enu`: the tangent plane at the origin, or a CRS world's
+:class:`~vinecli.geo.GeoFrame`; headings turned by its grid convergence); altitudes become heights above home
+(frame 3 = relative already; frame 0 = AMSL minus the home altitude; frame 10 = terrain altitude, taken as above
+home). What the converter would skip or guess is refused here, naming the file and the item
+(``mission.items[4]`` or ``mission.items[2].TransectStyleComplexItem.Items[7]``): unsupported commands or
+frames, waypoints without a position or an altitude, a take-off not above home, DO_SET_SERVO without a PWM, a
+delay without seconds. Commands: :mod:`vinecli.phase_items.to_phases`; the sprayer: DO_SET_ACTUATOR p1 = fraction
+of the nozzle's maximum flow, DO_SET_SERVO (output 9) PWM 1000..2000 µs, DO_SPRAYER on = ``spray_flow_lps``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from pydantic import ValidationError
 
 from vinecli.errors import SpecError
 from vinecli.geo import GeoOrigin
 from vinecli.inputs import note_input, reading_inputs
+from vinecli.mavlink import px4modes as M
+from vinecli.mavlink.mission_items import SUPPORTED_MISSION_COMMANDS, MissionItem, item_enu
 from vinecli.missions.qgc_format import (
     DEFAULT_NOZZLE_MAX_FLOW_LPS,
-    DO_CHANGE_SPEED,
-    DO_SET_ACTUATOR,
-    DO_SET_SERVO,
-    DO_SPRAYER,
-    FRAME_GLOBAL,
-    FRAME_GLOBAL_RELATIVE_ALT,
-    FRAME_MISSION,
-    FRAME_TERRAIN,
-    NAV_DELAY,
-    NAV_LAND,
-    NAV_LOITER_TIME,
-    NAV_RTL,
-    NAV_TAKEOFF,
-    NAV_WAYPOINT,
-    SUPPORTED,
+    GeoFence,
+    Plan,
     SimpleItem,
     read_plan,
     vehicle_nozzle_flow_lps,
 )
-from vinecli.missions.qgc_geometry import enu_of, fence_from_plan
 from vinecli.names import check_name, name_from
 from vinecli.outputs import check_output_file
+from vinecli.phase_items import items_to_phases
 from vinecli.specs import format_validation_error
 from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import (
+    GeofenceSpec,
     GotoPhase,
     HoldPhase,
     LandPhase,
     MissionSpec,
     RtlPhase,
-    SprayerPhase,
     TakeoffPhase,
     WaypointsPhase,
 )
@@ -118,123 +98,106 @@ def import_plan_for_world(plan: Path | str, world: Path | str, out: Path | str, 
     return mission
 
 
+_POSITIONED = {M.CMD_NAV_WAYPOINT, M.CMD_NAV_LOITER_TIME, M.CMD_NAV_LAND, M.CMD_NAV_TAKEOFF}
+_FRAMES = (0, 3, 10)  # global: AMSL, above home, above terrain
+
+
 def _import_plan(path: Path, origin: GeoOrigin, nozzle_max_flow_lps: float, spray_flow_lps: float | None,
                  name: str, home_alt_m: float | None) -> MissionSpec:
     plan = read_plan(path)
-    home = plan.mission.plannedHomePosition
-    h_alt = float(home[2]) if home_alt_m is None else home_alt_m
+    h_alt = float(plan.mission.plannedHomePosition[2]) if home_alt_m is None else home_alt_m
+    items = [_mission_item(where, it, h_alt, path) for where, it in _flat_items(plan, path)]
+    spray_on = spray_flow_lps if spray_flow_lps is not None else 0.5 * nozzle_max_flow_lps
+    speed = float(plan.mission.hoverSpeed) if plan.mission.hoverSpeed > 0 else 2.0
+    phases, _ = items_to_phases(items, origin, h_alt, nozzle_max_flow_lps, degrees=True,
+                                sprayer_on=spray_on / nozzle_max_flow_lps, compact=True, speed_mps=speed)
+    if not phases:
+        raise SpecError("mission.items: nothing to fly", path=path)
+    geofence = _fence_from_plan(plan.geoFence, origin, path) if plan.geoFence else None
+    est = _estimated_s(phases, speed)
+    return MissionSpec(name=name, description=f"imported from {path.name}", phases=phases, geofence=geofence,
+                       max_duration_s=min(MAX_DURATION_S, round(max(60.0, 1.5 * est + 60.0), 1)))
+
+
+def _flat_items(plan: Plan, path: Path) -> list[tuple[str, SimpleItem]]:
+    """The plan's simple items in order, each with where it is in the file; complex items flattened."""
     flat: list[tuple[str, SimpleItem]] = []
     for i, it in enumerate(plan.mission.items):
         if isinstance(it, SimpleItem):
             flat.append((f"mission.items[{i}]", it))
-        else:
-            ts = it.TransectStyleComplexItem
-            if ts is None or not ts.Items:
-                raise SpecError(f"mission.items[{i}]: complex item {it.complexItemType!r} has no "
-                                "TransectStyleComplexItem.Items to flatten", path=path)
-            flat += [(f"mission.items[{i}].TransectStyleComplexItem.Items[{j}]", s) for j, s in enumerate(ts.Items)]
-
-    spray_on = spray_flow_lps if spray_flow_lps is not None else 0.5 * nozzle_max_flow_lps
-    phases: list[Any] = []
-    wps: list[tuple[float, float, float]] = []
-    speed = float(plan.mission.hoverSpeed) if plan.mission.hoverSpeed > 0 else 2.0
-    wp_speed = speed
-    length = 0.0
-    last_xy: tuple[float, float] = (0.0, 0.0)
-    last_h = 0.0
-
-    def flush() -> None:
-        nonlocal wps
-        if wps:
-            phases.append(WaypointsPhase(waypoints=wps, speed_mps=wp_speed))
-            wps = []
-
-    def pos(where: str, it: SimpleItem, need_alt: bool = True) -> tuple[float, float, float] | None:
-        lat, lon, alt = it.p(5), it.p(6), it.p(7)
-        if math.isnan(lat) or math.isnan(lon) or (lat == 0.0 and lon == 0.0):
-            return None
-        if need_alt and math.isnan(alt):
-            raise SpecError(f"{where}: altitude (param 7) is missing", path=path)
-        e, n = enu_of(origin, lat, lon)
-        if it.frame in (FRAME_GLOBAL_RELATIVE_ALT, FRAME_TERRAIN, FRAME_MISSION):
-            h = alt
-        elif it.frame == FRAME_GLOBAL:
-            h = alt - h_alt
-        else:
-            raise SpecError(f"{where}: unsupported frame {it.frame} (use 0, 3 or 10)", path=path)
-        return (e, n, h)
-
-    for where, it in flat:
-        c = it.command
-        if c not in SUPPORTED:
-            raise SpecError(f"{where}: unsupported command {c} (supported: {sorted(SUPPORTED)})", path=path)
-        if c == NAV_WAYPOINT:
-            p = pos(where, it)
-            if p is None:
-                raise SpecError(f"{where}: waypoint without a position", path=path)
-            if wps and wp_speed != speed:
-                flush()
-            wp_speed = speed
-            length += math.hypot(p[0] - last_xy[0], p[1] - last_xy[1])
-            last_xy, last_h = (p[0], p[1]), p[2]
-            wps.append(p)
-            if it.p(1) > 0:
-                flush()
-                phases.append(HoldPhase(duration_s=it.p(1)))
             continue
-        flush()
-        if c == NAV_TAKEOFF:
-            p = pos(where, it, need_alt=True)
-            alt = p[2] if p is not None else it.p(7)
-            if math.isnan(alt) or alt <= 0:
-                raise SpecError(f"{where}: takeoff altitude must be > 0 m above home", path=path)
-            phases.append(TakeoffPhase(altitude_agl_m=alt))
-            last_h = alt
-        elif c == DO_CHANGE_SPEED:
-            if it.p(2) > 0:
-                speed = it.p(2)
-        elif c == DO_SET_ACTUATOR:
-            v = it.p(1)
-            if not math.isnan(v):
-                phases.append(SprayerPhase(flow_lps=round(max(0.0, min(1.0, v)) * nozzle_max_flow_lps, 9)))
-        elif c == DO_SET_SERVO:
-            pwm = it.p(2)
-            if math.isnan(pwm):
-                raise SpecError(f"{where}: DO_SET_SERVO without a PWM value (param 2)", path=path)
-            frac = max(0.0, min(1.0, (pwm - 1000.0) / 1000.0))
-            phases.append(SprayerPhase(flow_lps=round(frac * nozzle_max_flow_lps, 9)))
-        elif c == DO_SPRAYER:
-            phases.append(SprayerPhase(flow_lps=spray_on if it.p(1) >= 0.5 else 0.0))
-        elif c == NAV_LOITER_TIME:
-            p = pos(where, it)
-            if p is not None and (math.hypot(p[0] - last_xy[0], p[1] - last_xy[1]) > 0.5 or abs(p[2] - last_h) > 0.1):
-                phases.append(GotoPhase(position_enu=(p[0], p[1]), altitude_agl_m=p[2], speed_mps=speed))
-                length += math.hypot(p[0] - last_xy[0], p[1] - last_xy[1])
-                last_xy, last_h = (p[0], p[1]), p[2]
-            phases.append(HoldPhase(duration_s=max(it.p(1), 0.1)))
-        elif c == NAV_DELAY:
-            if not it.p(1) > 0:
-                raise SpecError(f"{where}: NAV_DELAY needs a delay in seconds (param 1)", path=path)
-            phases.append(HoldPhase(duration_s=it.p(1)))
-        elif c == NAV_LAND:
-            p = pos(where, it, need_alt=False)
-            if p is not None and math.hypot(p[0] - last_xy[0], p[1] - last_xy[1]) > 0.5:
-                phases.append(GotoPhase(position_enu=(p[0], p[1]), speed_mps=speed))
-                length += math.hypot(p[0] - last_xy[0], p[1] - last_xy[1])
-            phases.append(LandPhase())
-        elif c == NAV_RTL:
-            phases.append(RtlPhase())
-    flush()
-    if not phases:
-        raise SpecError("mission.items: nothing to fly", path=path)
-    holds = sum(p.duration_s for p in phases if isinstance(p, HoldPhase))
-    est = length / max(speed, 0.5) + holds + 30.0 * sum(isinstance(p, (TakeoffPhase, LandPhase, RtlPhase))
-                                                        for p in phases)
-    geofence = fence_from_plan(plan.geoFence, origin, path) if plan.geoFence else None
-    return MissionSpec(
-        name=name,
-        description=f"imported from {path.name}",
-        phases=phases,
-        geofence=geofence,
-        max_duration_s=min(MAX_DURATION_S, round(max(60.0, 1.5 * est + 60.0), 1)),
-    )
+        ts = it.TransectStyleComplexItem
+        if ts is None or not ts.Items:
+            raise SpecError(f"mission.items[{i}]: complex item {it.complexItemType!r} has no "
+                            "TransectStyleComplexItem.Items to flatten", path=path)
+        flat += [(f"mission.items[{i}].TransectStyleComplexItem.Items[{j}]", s) for j, s in enumerate(ts.Items)]
+    return flat
+
+
+def _mission_item(where: str, it: SimpleItem, home_alt: float, path: Path) -> MissionItem:
+    """One plan item as a mission item (x, y float degrees), or a SpecError naming it (module doc)."""
+    c = it.command
+    if c not in SUPPORTED_MISSION_COMMANDS:
+        raise SpecError(f"{where}: unsupported command {c} (supported: {sorted(SUPPORTED_MISSION_COMMANDS)})",
+                        path=path)
+    lat, lon, alt = it.p(5), it.p(6), it.p(7)
+    positioned = c in _POSITIONED and math.isfinite(lat) and math.isfinite(lon) and not (lat == 0.0 and lon == 0.0)
+    if positioned and it.frame not in _FRAMES:
+        raise SpecError(f"{where}: unsupported frame {it.frame} (use 0, 3 or 10)", path=path)
+    if c == M.CMD_NAV_WAYPOINT and not positioned:
+        raise SpecError(f"{where}: waypoint without a position", path=path)
+    if positioned and c != M.CMD_NAV_LAND and math.isnan(alt):
+        raise SpecError(f"{where}: altitude (param 7) is missing", path=path)
+    if c == M.CMD_NAV_TAKEOFF and not (alt - (home_alt if it.frame == 0 else 0.0)) > 0:
+        raise SpecError(f"{where}: takeoff altitude must be > 0 m above home", path=path)
+    if c == M.CMD_DO_SET_SERVO and math.isnan(it.p(2)):
+        raise SpecError(f"{where}: DO_SET_SERVO without a PWM value (param 2)", path=path)
+    if c in (M.CMD_NAV_DELAY, M.CMD_CONDITION_DELAY) and not it.p(1) > 0:
+        raise SpecError(f"{where}: a delay needs seconds (param 1)", path=path)
+    return MissionItem(c, it.frame, it.p(1), it.p(2), it.p(3), it.p(4), lat if positioned else 0,
+                       lon if positioned else 0, alt)
+
+
+def _estimated_s(phases: Sequence[object], default_speed: float) -> float:
+    """Rough flight time, s: the path from home at each phase's speed, the holds, 30 s per take-off/landing/RTL."""
+    t, at = 0.0, (0.0, 0.0)
+    for p in phases:
+        if isinstance(p, (GotoPhase, WaypointsPhase)):
+            pts = [p.position_enu] if isinstance(p, GotoPhase) else [w[:2] for w in p.waypoints]
+            v = p.speed_mps or default_speed
+            for q in pts:
+                t += math.dist(at, q) / max(v, 0.5)
+                at = (q[0], q[1])
+        elif isinstance(p, HoldPhase):
+            t += p.duration_s
+        elif isinstance(p, (TakeoffPhase, LandPhase, RtlPhase)):
+            t += 30.0
+    return t
+
+
+def _fence_from_plan(fence: GeoFence, origin: GeoOrigin, path: Path) -> GeofenceSpec | None:
+    """The plan's geoFence as a GeofenceSpec in world ENU (one inclusion polygon, or a circle: about home the
+    horizontal distance limit, elsewhere a 32-gon); None when it has neither; SpecError for what has no equivalent."""
+    polygon: list[tuple[float, float]] | None = None
+    radius: float | None = None
+    for i, poly in enumerate(fence.polygons):
+        if not poly.inclusion:
+            raise SpecError(f"geoFence.polygons[{i}]: exclusion polygons are not supported", path=path)
+        if polygon is not None:
+            raise SpecError(f"geoFence.polygons[{i}]: only one inclusion polygon is supported", path=path)
+        pts = [item_enu(origin, v[0], v[1], degrees=True) for v in poly.polygon]
+        polygon = [(round(e, 4), round(n, 4)) for e, n in pts]
+    for i, c in enumerate(fence.circles):
+        if not c.inclusion:
+            raise SpecError(f"geoFence.circles[{i}]: exclusion circles are not supported", path=path)
+        e, n = item_enu(origin, c.circle.center[0], c.circle.center[1], degrees=True)
+        if math.hypot(e, n) <= 1.0:  # a cylinder about home: PX4's GF_MAX_HOR_DIST
+            radius = c.circle.radius if radius is None else min(radius, c.circle.radius)
+        elif polygon is None:
+            polygon = [(round(e + c.circle.radius * math.cos(a), 4), round(n + c.circle.radius * math.sin(a), 4))
+                       for a in (2 * math.pi * k / 32 for k in range(32))]
+        else:
+            raise SpecError(f"geoFence.circles[{i}]: an off-home circle and a polygon cannot be combined", path=path)
+    if polygon is None and radius is None:
+        return None
+    return GeofenceSpec(polygon_enu=polygon, max_horizontal_distance_m=radius)

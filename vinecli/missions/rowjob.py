@@ -84,9 +84,8 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
                    fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
                    overwrite: bool) -> RowsJob:
     from vinecli.missions.patterns import spray_mission
-    from vinecli.missions.qgc_export import export_plan
+    from vinecli.missions.qgc_export import export_plan, sortie_plan
     from vinecli.missions.qgc_format import vehicle_nozzle_flow_lps, write_plan
-    from vinecli.missions.qgc_spray import sortie_plan
     from vinecli.names import name_from
     from vinecli.vehicle import load_vehicle
 
