@@ -104,7 +104,8 @@ def test_cli_plan_rows_from_dsm(tmp_path: Path) -> None:
     cmds = [it["command"] for it in plan["mission"]["items"]]
     assert cmds[0] == 22 and cmds[-1] == 21 and cmds.count(187) >= 20
     on = [it["params"][0] for it in plan["mission"]["items"] if it["command"] == 187]
-    assert on[0] == pytest.approx(0.4) and on[1] == 0.0  # 0.04 L/s of the 0.1 L/s nozzle, then off
+    assert on[0] == 0.0 and on[1] == pytest.approx(0.4) and on[2] == 0.0  # off for the transit, 0.04 L/s of the
+    # 0.1 L/s nozzle over the first row, then off
     assert "spray" in mission.read_text()
 
 
