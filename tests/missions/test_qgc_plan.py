@@ -83,6 +83,14 @@ def _mutate(plan_file: Path, tmp_path: Path, fn) -> Path:
         (lambda d: d.__setitem__("fileType", "Mission"), "fileType"),
         (lambda d: d["mission"]["items"][2].__setitem__("params", [0, 0]), "params"),
         (lambda d: d["geoFence"]["polygons"][0].__setitem__("inclusion", False), "geoFence.polygons[0]"),
+        (lambda d: d["mission"]["items"][2].__setitem__("params", [0, 0, 0, None, None, None, 2.5]),
+         "mission.items[2]: waypoint without a position"),
+        (lambda d: d["mission"]["items"][4]["params"].__setitem__(6, None), "mission.items[4]: altitude (param 7)"),
+        (lambda d: d["mission"]["items"][0]["params"].__setitem__(6, 0), "mission.items[0]: takeoff altitude"),
+        (lambda d: d["mission"]["items"].__setitem__(5, {**d["mission"]["items"][5], "command": 183,
+                                                         "params": [9, None, 0, 0, 0, 0, 0]}),
+         "mission.items[5]: DO_SET_SERVO without a PWM"),
+        (lambda d: d["mission"]["items"][8]["params"].__setitem__(0, 0), "mission.items[8]: a delay needs seconds"),
     ],
 )
 def test_import_errors_name_the_item(plan_file: Path, tmp_path: Path, mutate, needle: str) -> None:
@@ -90,6 +98,17 @@ def test_import_errors_name_the_item(plan_file: Path, tmp_path: Path, mutate, ne
     with pytest.raises(SpecError) as ei:
         import_plan(p, ORIGIN)
     assert needle in str(ei.value) and "bad.plan" in str(ei.value)
+
+
+def test_terrain_frame_altitudes_are_above_home(plan_file: Path, tmp_path: Path) -> None:
+    """Frame 10 (MAV_FRAME_GLOBAL_TERRAIN_ALT) reads as above home, like frame 3; frame 0 is AMSL minus home."""
+    def frames(d):
+        d["mission"]["items"][2]["frame"] = 10
+        d["mission"]["items"][4] = {**d["mission"]["items"][4], "frame": 0,
+                                    "params": [*d["mission"]["items"][4]["params"][:6], 252.5]}
+
+    m = import_plan(_mutate(plan_file, tmp_path, frames), ORIGIN)
+    assert [w[2] for w in m.phases[1].waypoints] == [2.5] and [w[2] for w in m.phases[3].waypoints] == [2.5]
 
 
 def test_invalid_json(tmp_path: Path) -> None:
