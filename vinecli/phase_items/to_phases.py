@@ -159,5 +159,6 @@ def items_to_phases(
             out.add(LandPhase(), k)
         elif c == M.CMD_NAV_RETURN_TO_LAUNCH:
             out.add(RtlPhase(), k)
+            out.pos = None  # home: not an item's position
     out.flush()
     return out.phases, out.src
