@@ -76,3 +76,10 @@ def test_passes_survive_a_pattern_a_little_wider_or_narrower_than_planned() -> N
     assert lay.mode == "broadcast" and lay.worst_row_error <= 0.08
     for f in (1.0 - PATTERN_WIDTH_ERROR, 1.0 + PATTERN_WIDTH_ERROR):
         assert max(abs(d - 1.0) for d in _row_doses(pat, rows, lay.across_m, lay.spacing_m, 0.8, f)) <= ROW_TARGET_WIDTH
+
+
+def test_rows_of_different_extent_do_not_bend_the_pass_between_them() -> None:
+    full, piece = [(-12.0, 0.0), (12.0, 0.0)], [(2.0, 2.5), (12.0, 2.5)]
+    mid = lane_polyline([full, piece], [0.0, 2.5], 1.25, (0.0, 1.0))
+    assert {round(y, 9) for _, y in mid} == {1.25}  # straight, halfway (arc-length fractions gave a slanted pass)
+    assert mid[0][0] == pytest.approx(-12.0) and mid[-1][0] == pytest.approx(12.0)  # over both rows' extent

@@ -15,8 +15,9 @@ cross-track pattern of one pass (:class:`~vinecli.physics.swath.SwathPattern`):
   :data:`ROW_TARGET_OFF_TRACK` with any one pass flown :data:`TRACK_ERROR_M` off its line (the estimate's
   bias differs from pass to pass; a row on the steep flank of a pattern would take it as a dose error).
 
-:func:`lane_polyline` builds a pass's path: the rows it lies between interpolated (arc-length
-fractions), or the edge row shifted across.
+:func:`lane_polyline` builds a pass's path: the rows it lies between interpolated at matching positions along
+the block (not at matching arc-length fractions: rows of different extent would bend the pass), or the edge
+row shifted across.
 """
 
 from __future__ import annotations
@@ -144,39 +145,33 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
     return fallback[1]
 
 
-def _resample(line: np.ndarray, fractions: np.ndarray) -> np.ndarray:
-    """Points at arc-length ``fractions`` (0..1) of a polyline (N, 2)."""
-    seg = np.hypot(*np.diff(line, axis=0).T)
-    cum = np.concatenate([[0.0], np.cumsum(seg)])
-    s = fractions * cum[-1]
-    return np.column_stack([np.interp(s, cum, line[:, 0]), np.interp(s, cum, line[:, 1])])
-
-
-def _fractions(line: np.ndarray) -> np.ndarray:
-    """Arc-length fractions (0..1) of a polyline's vertices."""
-    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
-    return cum / (cum[-1] or 1.0)
+def _along_across(line: np.ndarray, u: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(along, across) coordinates (m) of a polyline's vertices, along made non-decreasing (np.interp's grid)."""
+    return np.maximum.accumulate(line @ u), line @ n
 
 
 def lane_polyline(rows: Sequence[Polyline], across: Sequence[float], c: float,
                   normal: tuple[float, float]) -> list[tuple[float, float]]:
-    """The path of a pass at across position ``c`` (m): between the two rows around it, interpolated at matching
-    arc-length fractions (each row oriented as the first); beyond the outer rows, the outer row shifted
-    across by the distance (``normal`` the unit across vector). ``rows`` and ``across`` are aligned."""
+    """The path of a pass at across position ``c`` (m): between the two rows around it, their across positions
+    interpolated at matching positions ALONG the block (each row held at its end's across position beyond its
+    end), over the union of the two rows' along extents, so rows of different length (a row beside a shorter one,
+    a row cut by a no-spray zone) do not bend the pass; beyond the outer rows, the outer row shifted across by the
+    distance (``normal`` the unit across vector). ``rows`` and ``across`` are aligned."""
     order = np.argsort(np.asarray(across, dtype=np.float64))
     xs = np.asarray(across, dtype=np.float64)[order]
     lines = [np.asarray(rows[i], dtype=np.float64) for i in order]
-    ref = lines[0][-1] - lines[0][0]
-    lines = [ln if float(np.dot(ln[-1] - ln[0], ref)) >= 0 else ln[::-1] for ln in lines]
     nx, ny = normal
+    u, n = np.array([ny, -nx]), np.array([nx, ny])
+    u = u if float(np.dot(lines[0][-1] - lines[0][0], u)) >= 0 else -u  # the pass runs as the first row
+    lines = [ln if float(np.dot(ln[-1] - ln[0], u)) >= 0 else ln[::-1] for ln in lines]
     if c <= xs[0] or c >= xs[-1] or xs.size == 1:
         k = 0 if c <= xs[0] else xs.size - 1
         d = c - float(xs[k])
         return [(float(x + d * nx), float(y + d * ny)) for x, y in lines[k]]
     j = int(np.searchsorted(xs, c))  # xs[j-1] < c <= xs[j]
-    a, b = lines[j - 1], lines[j]
+    (ta, sa), (tb, sb) = _along_across(lines[j - 1], u, n), _along_across(lines[j], u, n)
     w = (c - float(xs[j - 1])) / (float(xs[j] - xs[j - 1]) or 1.0)
-    f = np.unique(np.round(np.concatenate([_fractions(a), _fractions(b)]), 9))
-    pa, pb = _resample(a, f), _resample(b, f)
-    pts = (1.0 - w) * pa + w * pb
+    t = np.unique(np.round(np.concatenate([ta, tb]), 9))
+    s = (1.0 - w) * np.interp(t, ta, sa) + w * np.interp(t, tb, sb)
+    pts = t[:, None] * u[None, :] + s[:, None] * n[None, :]
     return [(float(x), float(y)) for x, y in pts]
