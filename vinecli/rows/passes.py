@@ -1,7 +1,8 @@
 """Where each pass of a spray plan flies (ENU m), for :func:`vinecli.rows.plan.plan_rows`: rows clipped to a region
 (:func:`clip_rows`), the passes laid out over them from the sprayer's pattern (:func:`lay_passes`: one per lane of
 :func:`~vinecli.rows.lanes.layout_lanes`; rows cut into stretches by a no-spray zone get a pass per stretch and
-none over the gap, :mod:`vinecli.rows.stretches`) and run on past the row ends (:func:`extend_pass`).
+none over the gap, :mod:`vinecli.rows.stretches`) and run on past the row ends (:func:`extend_pass`); every pass
+closes its sections the footprint's clearance before a no-spray zone (``blocked``, :mod:`vinecli.rows.no_spray`).
 """
 
 from __future__ import annotations
@@ -11,9 +12,10 @@ import math
 from vinecli.rows.detect import Polyline
 from vinecli.rows.geometry import polyline_length
 from vinecli.rows.lanes import LaneLayout, lane_polyline, layout_lanes
+from vinecli.rows.no_spray import pass_pieces
 from vinecli.rows.stretches import SAME_LINE_M, cut_path, line_spans, merge_spans, row_lines
 
-__all__ = ["clip_rows", "extend_pass", "lay_passes", "room_ahead"]
+__all__ = ["Pass", "clip_rows", "extend_pass", "lay_passes", "room_ahead"]
 
 Point = tuple[float, float]
 
@@ -94,19 +96,23 @@ def extend_pass(path: Polyline, pattern: object, inner: object | None, margin: f
     return pts
 
 
+Pass = tuple[int, int | None, Polyline]  # lane index, row flown over or None, path
+
+
 def lay_passes(keep: list[tuple[int, Polyline]], u: tuple[float, float], pattern: object | None, band_m: float,
-            inner: object | None, warnings: list[str], end_margin: float = 0.0
-            ) -> tuple[list[tuple[int, int | None, Polyline]], LaneLayout | None]:
-    """(lane index, row flown over or None, path) of every pass, and the layout (None: a pass per row)."""
+            inner: object | None, warnings: list[str], end_margin: float = 0.0, blocked: object | None = None
+            ) -> tuple[list[Pass], LaneLayout | None]:
+    """(lane index, row flown over or None, path) of every pass piece, and the layout (None: a pass per row);
+    the pieces of a pass lie outside ``blocked`` (the no-spray zones grown by the clearance), in order along it."""
     if pattern is None:
-        return [(i, i, r) for i, r in keep], None
+        return [(i, i, c) for i, r in keep for c in pass_pieces(r, blocked)], None
     normal = (-u[1], u[0])
     across = [sum(normal[0] * x + normal[1] * y for x, y in r) / len(r) for _, r in keep]
     lines = row_lines(across, [r for _, r in keep], u)
     if any(len(ln) > 1 for ln in lines):  # rows cut into stretches: a pass per stretch, none over the gaps
-        return _cutlay_passes(keep, lines, across, u, pattern, band_m, inner, end_margin)
+        return _cutlay_passes(keep, lines, across, u, pattern, band_m, inner, end_margin, blocked)
     lay = layout_lanes(across, pattern, band_m)
-    out: list[tuple[int, int | None, Polyline]] = []
+    out: list[Pass] = []
     cut = 0
     for k, c in enumerate(lay.across_m):
         near = min(range(len(keep)), key=lambda j: abs(across[j] - c))
@@ -117,15 +123,16 @@ def lay_passes(keep: list[tuple[int, Polyline]], u: tuple[float, float], pattern
             cut += len(clipped) >= 2 and abs(polyline_length(clipped) - polyline_length(path)) > 0.05
             path = clipped
         if len(path) >= 2:
-            out.append((k, keep[near][0] if abs(across[near] - c) < 0.05 else None, extend_pass(path, pattern, inner, end_margin)))
+            row = keep[near][0] if abs(across[near] - c) < 0.05 else None
+            out += [(k, row, q) for q in pass_pieces(extend_pass(path, pattern, inner, end_margin), blocked)]
     if cut:
         warnings.append(f"{cut} of {len(lay.across_m)} passes beyond the outer rows leave the fence: clipped")
     return out, lay
 
 
 def _cutlay_passes(keep: list[tuple[int, Polyline]], lines: list[list[int]], across: list[float], u: tuple[float, float],
-                pattern: object, band_m: float, inner: object | None, end_margin: float
-                ) -> tuple[list[tuple[int, int | None, Polyline]], LaneLayout]:
+                pattern: object, band_m: float, inner: object | None, end_margin: float, blocked: object | None
+                ) -> tuple[list[Pass], LaneLayout]:
     """:func:`_passes` for rows cut into stretches (:mod:`vinecli.rows.stretches`): the layout over the row lines; a
     pass on a line flies each of its stretches, a pass between lines the spans where either neighbour has canopy;
     runs on past the lines' outer ends only."""
@@ -134,7 +141,7 @@ def _cutlay_passes(keep: list[tuple[int, Polyline]], lines: list[list[int]], acr
     line_across = [sum(across[j] for j in ln) / len(ln) for ln in lines]
     hulls = [[p for j in ln for p in (paths[j] if _along_sign(paths[j], u) else paths[j][::-1])] for ln in lines]
     lay = layout_lanes(line_across, pattern, band_m)
-    out: list[tuple[int, int | None, Polyline]] = []
+    out: list[Pass] = []
     for k, c in enumerate(lay.across_m):
         near = min(range(len(lines)), key=lambda j: abs(line_across[j] - c))
         if abs(line_across[near] - c) < SAME_LINE_M:
@@ -151,7 +158,7 @@ def _cutlay_passes(keep: list[tuple[int, Polyline]], lines: list[list[int]], acr
         for row, piece, a, b in pieces:
             path = clip_rows([piece], inner, "", [])[0] if inner is not None else piece
             if len(path) >= 2:
-                out.append((k, row, extend_pass(path, pattern, inner, end_margin, (a, b))))
+                out += [(k, row, q) for q in pass_pieces(extend_pass(path, pattern, inner, end_margin, (a, b)), blocked)]
     return out, lay
 
 

@@ -18,7 +18,8 @@
   then brakes inside the pass end, where the speed-scaled flow keeps the dose (a warning says so); the
   passes are never shortened for the turns;
 * spray on only over the passes (legs flagged ``spray``: section control closes the sections in turns,
-  headlands, transits and outside the fence);
+  headlands, transits, outside the fence and a footprint's clearance before a no-spray zone:
+  :mod:`vinecli.rows.no_spray`);
 * plan length and estimated time (trapezoidal speed profiles with ``a``; take-off and landing at the
   climb / descent speeds); sorties split by tank volume (:func:`split_sorties`).
 """
@@ -32,7 +33,8 @@ from dataclasses import dataclass, field
 from vinecli.rows.detect import Polyline
 from vinecli.rows.geometry import polyline_length
 from vinecli.rows.lanes import LaneLayout
-from vinecli.rows.passes import clip_rows, lay_passes, room_ahead
+from vinecli.rows.no_spray import blocked_area, clearance_m, dosed_stretch, taper_m
+from vinecli.rows.passes import Pass, clip_rows, lay_passes, room_ahead
 
 __all__ = ["PATH_ACCEL_MPS2", "Leg", "RowPlan", "plan_accel", "plan_rows", "split_sorties"]
 
@@ -75,13 +77,16 @@ class RowPlan:
     time_s: float = 0.0
     #: planned stretch of each row (index into the rows given): (start, end) along the row, m
     stretches: dict[int, tuple[float, float]] = field(default_factory=dict)
+    #: stretches inside a row's planned stretch not judged: the taper beside a no-spray zone (rows.no_spray)
+    holes: dict[int, list[tuple[float, float]]] = field(default_factory=dict)
     #: how the passes were laid out (None: one pass per row, no pattern given)
     layout: LaneLayout | None = None
 
     @property
     def order(self) -> list[int]:
         """Pass indices (lanes across the block; the row indices when every row is a pass) in spraying order."""
-        return [leg.lane for leg in self.legs if leg.spray and leg.lane is not None]
+        lanes = [leg.lane for leg in self.legs if leg.spray and leg.lane is not None]
+        return [k for j, k in enumerate(lanes) if j == 0 or k != lanes[j - 1]]  # a pass cut by a zone: once
 
     @property
     def flow_width_m(self) -> float:
@@ -226,15 +231,6 @@ def _leg_time(leg: Leg, v: float, a: float) -> float:
 
 
 # ---------------------------------------------------------------- the plan
-def _stretch(orig: Polyline, clipped: Polyline) -> tuple[float, float]:
-    """(start, end) of ``clipped`` along ``orig`` (m)."""
-    from shapely.geometry import LineString, Point
-
-    line = LineString(orig)
-    s0, s1 = line.project(Point(clipped[0])), line.project(Point(clipped[-1]))
-    return (min(s0, s1), max(s0, s1))
-
-
 def plan_rows(
     rows: Sequence[Sequence[tuple[float, float]]],
     start_xy: tuple[float, float],
@@ -249,12 +245,15 @@ def plan_rows(
     pattern: object | None = None,
     band_m: float = 0.6,
     end_margin_m: float = 0.0,
+    no_spray: Sequence[Sequence[tuple[float, float]]] = (),
 ) -> RowPlan:
     """Operator-style plan over ``rows`` (ENU polylines, indices kept) from ``start_xy``; see the module
     docstring. ``climb`` = (altitude m, climb speed m/s, descent speed m/s) adds take-off and landing
     time to the estimate; ``pattern`` (a :class:`~vinecli.physics.swath.SwathPattern`) lays the passes out
     for an even dose on every row's ``band_m`` wide canopy band and runs them on past the row ends by its
-    footprint + ``end_margin_m`` (the sprayer's ramp up and down), within the fence."""
+    footprint + ``end_margin_m`` (the sprayer's ramp up and down), within the fence. ``no_spray``: the world's
+    no-spray zones (rings, grown by their buffer): the passes close their sections the footprint's clearance before
+    them and a row's planned stretch ends where the full dose can reach it (:mod:`vinecli.rows.no_spray`)."""
     from shapely.geometry import LineString, Point, Polygon, box
 
     v, a = float(speed_mps), float(accel_mps2)
@@ -277,11 +276,14 @@ def plan_rows(
     if not keep:
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
     ux, uy = _direction([r for _, r in keep])
-    passes, layout = lay_passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m)
+    blocked = blocked_area(no_spray, clearance_m(pattern, end_margin_m))
+    passes, layout = lay_passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m, blocked)
+    if not passes:
+        return RowPlan([], v, a, [*warnings, "no passes left outside the no-spray zones"])
     # the pieces of one lane (a row cut into stretches) fly as one pass, the gaps with the sprayer off
-    groups: list[list[tuple[int, int | None, Polyline]]] = []
+    groups: list[list[Pass]] = []
     for p in passes:
-        if groups and layout is not None and layout.mode != "listed" and p[0] == groups[-1][0][0]:
+        if groups and (layout is None or layout.mode != "listed") and p[0] == groups[-1][0][0]:
             groups[-1].append(p)
         else:
             groups.append([p])
@@ -318,7 +320,8 @@ def plan_rows(
         where = fence_name if fence_enu is not None and len(fence_enu) >= 3 else "terrain"
         warnings.append(f"{len(short)} headland turns shortened to fit the {where}: the vehicle brakes inside "
                         f"the pass end (up to {max(short):.1f} m of run-out left out; the speed-scaled flow keeps the dose)")
-    plan = RowPlan(legs, v, a, warnings, stretches={i: _stretch(src[i], r) for i, r in keep}, layout=layout)
+    stretches, holes = _judged(src, keep, no_spray, taper_m(pattern, end_margin_m), warnings)
+    plan = RowPlan(legs, v, a, warnings, stretches=stretches, holes=holes, layout=layout)
     t = sum(_leg_time(leg, v, a) for leg in legs)
     if climb is not None:
         alt, up, down = climb
@@ -327,8 +330,22 @@ def plan_rows(
     return plan
 
 
-def _from_nearer_end(group: list[tuple[int, int | None, Polyline]], pos: Point, u: tuple[float, float]
-                     ) -> list[tuple[int, int | None, Polyline]]:
+def _judged(src: list[Polyline], keep: list[tuple[int, Polyline]], no_spray: Sequence[Sequence[tuple[float, float]]],
+            taper: float, warnings: list[str]
+            ) -> tuple[dict[int, tuple[float, float]], dict[int, list[tuple[float, float]]]]:
+    """The planned stretch of each kept row (along its source polyline, m) and its unjudged holes: the row clipped
+    to the fence, less the ``taper`` beside the no-spray zones (:func:`~vinecli.rows.no_spray.dosed_stretch`)."""
+    clear = blocked_area(no_spray, taper)
+    dosed = {i: dosed_stretch(src[i], r, clear) for i, r in keep}
+    lost = [i for i, (st, _) in dosed.items() if st is None]
+    if lost:
+        warnings.append(f"rows {lost} lie within {taper:.1f} m of a no-spray zone: no stretch of them can get the "
+                        "full dose without spraying into the zone (not judged)")
+    return ({i: st for i, (st, _) in dosed.items() if st is not None},
+            {i: h for i, (st, h) in dosed.items() if st is not None and h})
+
+
+def _from_nearer_end(group: list[Pass], pos: Point, u: tuple[float, float]) -> list[Pass]:
     """The stretches of one pass in flight order: along the rows from the end nearer to ``pos``."""
     if len(group) == 1:
         return group

@@ -70,18 +70,20 @@ def spray_pattern(vehicle: VehicleSpec, height_agl_m: float, speed_mps: float, a
 def phase_plan(phase: SprayPhase, vehicle: VehicleSpec, rows: Rows, start_xy: tuple[float, float], *,
                fence_enu: Sequence[tuple[float, float]] | None = None,
                terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225,
-               climb: tuple[float, float, float] | None = None) -> RowPlan:
+               climb: tuple[float, float, float] | None = None, no_spray: Rows = ()) -> RowPlan:
     """THE plan of a spray phase over ``rows`` (its target rows) from ``start_xy``: passes laid out from the
     vehicle's pattern at the phase's height and speed and run on past the row ends by its footprint and the pump's
-    ramp (speed x time constant), turns for the vehicle's acceleration, clipped to the fence (1 m margin) and the
-    terrain. The built-in autopilot flies it, the run set-up takes its flow from it,
-    the exports and the deposition evaluation use it."""
+    ramp (speed x time constant), turns for the vehicle's acceleration, clipped to the fence (1 m margin), the
+    terrain and the world's no-spray zones ``no_spray`` less the footprint's clearance (:mod:`vinecli.rows.no_spray`).
+    The built-in autopilot flies it, the run set-up takes its flow from it, the exports and the deposition
+    evaluation use it."""
     pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, air_density)
     band = phase.canopy_width_m if phase.canopy_width_m is not None else DEFAULT_BAND_M
     pump = vehicle.sprayer.pump
     ramp = phase.speed_mps * max(pump.tau_up_s, pump.tau_down_s)  # the flow's ramp, spread by the pump's lag
     return plan_rows(rows, start_xy, speed_mps=phase.speed_mps, accel_mps2=plan_accel(vehicle), fence_enu=fence_enu,
-                     terrain_bounds=terrain_bounds, climb=climb, pattern=pattern, band_m=band, end_margin_m=ramp)
+                     terrain_bounds=terrain_bounds, climb=climb, pattern=pattern, band_m=band, end_margin_m=ramp,
+                     no_spray=no_spray)
 
 
 def nominal_rate_lpha(phase: SprayPhase, vehicle: VehicleSpec, plan: RowPlan) -> float:
@@ -140,7 +142,8 @@ def _check_rows(i: int, rows: Rows) -> None:
 def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: Rows = (), *,
                         fence_enu: Sequence[tuple[float, float]] | None = None,
                         terrain_bounds: tuple[float, float, float, float] | None = None,
-                        air_density: float = 1.225, canopy_width_m: float = DEFAULT_BAND_M) -> MissionSpec:
+                        air_density: float = 1.225, canopy_width_m: float = DEFAULT_BAND_M,
+                        no_spray: Rows = ()) -> MissionSpec:
     """``mission`` with every spray phase's canopy band resolved (the world's ``canopy_width_m`` unless the phase
     gives one), every ``rate_lpha`` turned into the flow of its plan's track width at the phase's speed (both
     fields kept), and the flow checked against the sprayer (see the module docstring)."""
@@ -155,7 +158,7 @@ def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: 
             _check_rows(i, rows)
             for _ in range(3) if rows else ():  # a slower speed changes the pattern a little: plan again
                 plan = phase_plan(p, vehicle, rows, rows[0][0], fence_enu=fence_enu, terrain_bounds=terrain_bounds,
-                                  air_density=air_density)
+                                  air_density=air_density, no_spray=no_spray)
                 if not plan.legs:
                     raise InputError(f"phases.{i} (spray): no row left to spray inside the geofence and the terrain")
                 if p.rate_lpha is not None:
