@@ -84,6 +84,8 @@ class AutopilotContext:
     estimator: StateEstimate | None = None
     #: air density of the world, kg/m³ (the spray plan's pattern depends on it through the downwash)
     air_density_kgm3: float = 1.225
+    #: the world's no-spray zones (rings grown by their buffer, x y m): the spray plan closes the sections at them
+    no_spray_enu: tuple[tuple[tuple[float, float], ...], ...] = ()
 
     def terrain_height(self, x: float, y: float) -> float:
         """Terrain z (ENU m) of the map at (x, y); flat at the home ground without a map."""

@@ -115,7 +115,8 @@ class MavlinkControlledAutopilot:
         params["MPC_XY_CRUISE"] = float(min(5.0, v.control.max_vel_xy))
         pc = PlanContext(ctx.origin, ctx.home_enu, ctx.vine_rows_enu,
                          ctx.terrain_height if callable(ctx.terrain_height) else None,  # type: ignore[arg-type]
-                         v.tank.nozzle_max_flow_lps if v.tank is not None else None, accel_mps2=plan_accel(v))
+                         v.tank.nozzle_max_flow_lps if v.tank is not None else None, accel_mps2=plan_accel(v),
+                         no_spray_enu=ctx.no_spray_enu)
         try:  # the endpoint speaks PX4's dialect: DO_SET_ACTUATOR for the sprayer, PX4's parameter names
             preload = phases_to_items(ctx.mission, pc, sprayer=DO_SET_ACTUATOR)
             items, fence = preload.items, preload.fence

@@ -58,7 +58,7 @@ def make_phase(p: object, ctx: AutopilotContext) -> Phase:
 
         return FollowPath("waypoints", make_wp, p.timeout_s, flow=p.flow_lps)
     if isinstance(p, SprayPhase):
-        return Spray(p, spray_rows(p, ctx), ctx.terrain_bounds, ctx.air_density_kgm3)
+        return Spray(p, spray_rows(p, ctx), ctx.terrain_bounds, ctx.air_density_kgm3, ctx.no_spray_enu)
     if isinstance(p, SprayerPhase):
         return SetSprayerFlow(p.flow_lps)
     if isinstance(p, LandPhase):

@@ -96,7 +96,7 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
                 terrain_height: Callable[[float, float], float] | None, landing_gear_m: float, *,
                 fence: GeofenceSpec | None = None, accel_mps2: float | None = None, vehicle: VehicleSpec | None = None,
                 terrain_bounds: tuple[float, float, float, float] | None = None,
-                air_density: float = 1.225) -> list[PlanPoint]:
+                air_density: float = 1.225, no_spray: Sequence[Sequence[tuple[float, float]]] = ()) -> list[PlanPoint]:
     """The points the mission's phases fly to (z above home). A spray phase contributes the path the
     built-in spray phase flies: with ``vehicle`` its plan (:func:`~vinecli.rows.spray_rate.phase_plan`: the
     passes from the sprayer's pattern), else :func:`~vinecli.rows.plan.plan_rows` over its rows with headland
@@ -131,9 +131,10 @@ def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[
                 from vinecli.rows.spray_rate import phase_plan
 
                 plan = phase_plan(ph, vehicle, sel, (x, y), fence_enu=polygon, terrain_bounds=terrain_bounds,
-                                  air_density=air_density)
+                                  air_density=air_density, no_spray=no_spray)
             elif accel_mps2 is not None and sel:
-                plan = plan_rows(sel, (x, y), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=polygon)
+                plan = plan_rows(sel, (x, y), speed_mps=ph.speed_mps, accel_mps2=accel_mps2, fence_enu=polygon,
+                                 no_spray=no_spray)
             if plan is not None:
                 path = [(p, "path point" if leg.spray else f"{leg.kind} point", not leg.spray)
                         for leg in plan.legs for p in leg.points]

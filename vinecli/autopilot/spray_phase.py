@@ -30,6 +30,7 @@ the return altitude above home; speeds m/s, flows L/s, times s. Events: ``spray_
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.autopilot.flight_phases import Rtl, Takeoff
@@ -71,8 +72,10 @@ class Spray(Phase):
     type = "spray"
 
     def __init__(self, spec: SprayPhase, rows: list[list[tuple[float, float]]],
-                 terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225) -> None:
+                 terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225,
+                 no_spray: Sequence[Sequence[tuple[float, float]]] = ()) -> None:
         self.spec = spec
+        self.no_spray = no_spray  # the world's no-spray zones: the plan closes the sections at them
         self.rows = rows
         self.terrain_bounds = terrain_bounds
         self.air_density = air_density
@@ -103,7 +106,7 @@ class Spray(Phase):
 
         fence = ap.geofence.spec.polygon_enu if ap.geofence is not None and ap.geofence.spec.polygon_enu else None
         plan = phase_plan(self.spec, ap.vehicle, self.rows, start_xy, fence_enu=fence,
-                          terrain_bounds=self.terrain_bounds, air_density=self.air_density)
+                          terrain_bounds=self.terrain_bounds, air_density=self.air_density, no_spray=self.no_spray)
         if not plan.legs:
             raise InputError("spray phase: no rows left inside the geofence")
         if not self.announced:

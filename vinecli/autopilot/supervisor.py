@@ -126,7 +126,7 @@ class FlightSupervisor:
             out.append(spawn)
         pts = plan_points(ctx.mission, self.home, ctx.vine_rows_enu, self.terrain, v.frame.landing_gear_height_m,
                           fence=ctx.geofence, accel_mps2=plan_accel(v), vehicle=v, terrain_bounds=ctx.terrain_bounds,
-                          air_density=ctx.air_density_kgm3)
+                          air_density=ctx.air_density_kgm3, no_spray=ctx.no_spray_enu)
         out += check_plan(pts, ctx.geofence, self.home, margins, ctx.terrain_bounds)
         return out
 

@@ -116,6 +116,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         fence = fence or [(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)]
         bounds: tuple[float, float, float, float] | None = w.terrain.bounds
         surface = w.terrain_height
+        zones = w.no_spray_enu  # the grower's no-spray zones: the passes close their sections at them
     else:
         if world_rows:
             raise InputError("--world-rows needs a world directory", path=source)
@@ -134,6 +135,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         fence_name = "DSM's data extent"
         margin = 0.0 if fence_margin is None else fence_margin
         bounds = None
+        zones = []
         if home is not None:
             start = home
         elif rows:  # the end of the first row nearest the raster's south-west corner
@@ -151,7 +153,8 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         raise InputError("no rows found (try --spacing)", path=source)
     accel = plan_accel(veh)
     plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
-                     fence_name=fence_name, terrain_bounds=bounds, climb=(takeoff, veh.control.max_vel_up, veh.control.max_vel_down))
+                     fence_name=fence_name, terrain_bounds=bounds, climb=(takeoff, veh.control.max_vel_up, veh.control.max_vel_down),
+                     no_spray=zones)
     if not plan.legs:
         raise InputError(f"no rows left to plan ({'; '.join(plan.warnings)})", path=source)
     planned = [leg.points for leg in plan.legs if leg.spray]

@@ -70,6 +70,8 @@ class PlanContext:
     air_density: float = 1.225
     #: item x/y as float degrees (a plan file) instead of MAVLink's degE7 ints
     degrees: bool = False
+    #: the world's no-spray zones (rings, ENU m): the spray plan closes the sections at them
+    no_spray_enu: Sequence[Sequence[tuple[float, float]]] = ()
 
     def home_ground_z(self) -> float:
         hx, hy, hz = self.home_enu
@@ -158,9 +160,10 @@ def _spray_phase(ph: SprayPhase, out: _Items, fence: Sequence[tuple[float, float
         from vinecli.rows.spray_rate import phase_plan
 
         plan = phase_plan(ph, ctx.vehicle, rows, out.pos, fence_enu=fence,  # type: ignore[arg-type]
-                          terrain_bounds=ctx.terrain_bounds, air_density=ctx.air_density)
+                          terrain_bounds=ctx.terrain_bounds, air_density=ctx.air_density, no_spray=ctx.no_spray_enu)
     else:
-        plan = plan_rows(rows, out.pos, speed_mps=ph.speed_mps, accel_mps2=ctx.accel_mps2, fence_enu=fence)
+        plan = plan_rows(rows, out.pos, speed_mps=ph.speed_mps, accel_mps2=ctx.accel_mps2, fence_enu=fence,
+                         no_spray=ctx.no_spray_enu)
     if not plan.legs:
         raise SpecError(f"{where}: no rows left inside the geofence")
     _fly_legs(out, plan.legs, ph.speed_mps, ph.height_agl_m, ph.flow_lps, where)

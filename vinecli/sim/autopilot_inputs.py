@@ -43,6 +43,7 @@ def autopilot_context(run: PreparedRun, home: Vec3, dt_us: int, seed: int,
         estimator=PerfectEstimator() if run.flight.truth else None,
         should_stop=should_stop,
         air_density_kgm3=float(run.world.air_density),
+        no_spray_enu=tuple(tuple(p) for p in run.world.no_spray_enu),
     )
 
 

@@ -103,6 +103,8 @@ class World:
     canopy_width_m: float = 0.6  # m, row band width for the spray metrics
     canopy: dict[str, Any] | None = None  # world.json "canopy": each row's hedge (canopy_model())
     air: tuple[float, float] | None = None  # temperature °C, relative humidity % (drop evaporation)
+    #: the grower's no-spray zones (world.json gis.no_spray_enu: rings grown by their buffer), ENU m
+    no_spray_enu: list[list[tuple[float, float]]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         # bind the fast lookup directly (no extra call layer in the 250 Hz loop)
@@ -215,6 +217,7 @@ def _parse_world(root: Path, wj: Path, d: dict[str, Any]) -> World:
         canopy_width_m=float(d.get("canopy_width_m", 0.6)),
         canopy=d.get("canopy"),
         air=(float(d["air"]["temperature_c"]), float(d["air"]["relative_humidity_pct"])) if d.get("air") else None,
+        no_spray_enu=[[(float(p[0]), float(p[1])) for p in z] for z in (d.get("gis") or {}).get("no_spray_enu") or []],
     )
 
 
