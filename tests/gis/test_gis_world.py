@@ -109,11 +109,17 @@ def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Pat
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
                    {"type": "spray", "rows": "world", "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 20.0},
                    {"type": "land"}],
-        # the sprayer stops at the zone's buffer (no run-on into it): the metre of row beside a cut gets ~0.6x
-        "dose": {"gap_ratio": 0.5},
         "checks": [{"name": "covered", "quantity": "metric:row_coverage_fraction", "op": ">=", "bound": 0.9}]}))
     s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=1)
     assert s.passed, (s.status, s.status_message, [(c["name"], c["value"], c["passed"]) for c in s.checks])
+    dep = json.loads((Path(s.run_dir) / "deposition.json").read_text())
+    assert dep["metrics"]["deposit_in_no_spray_fraction"] < 1e-3  # the sections closed a footprint before the zone
+    assert "dose_no_spray" in {c["name"] for c in s.checks}
+    for r in dep["rows"]:  # both pieces of the cut row and the rows beside the zone get the asked rate
+        assert abs(r["mean_rate_lpha"] / 20.0 - 1.0) <= 0.15 and r["covered_fraction"] == 1.0, r["row"]
+    (_, end1), (start2, _) = dep["rows"][1]["planned_m"], dep["rows"][2]["planned_m"]
+    assert end1 < 10.0 - 2.0 and start2 > 2.0  # judged up to where the full dose reaches without the zone
+    assert dep["rows"][0]["not_judged_m"] and dep["rows"][3]["not_judged_m"]  # beside the zone: the taper
 
     r = CliRunner().invoke(app, ["gis", "export", str(s.run_dir), "--out", str(tmp_path / "out.geojson")])
     assert r.exit_code == 0, r.output
@@ -139,7 +145,7 @@ def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Pat
     assert zone.contains(core) and zone.area == pytest.approx(16.0, rel=1e-3)
     for p in by["passes"]:
         line = LineString([to_utm.transform(*c) for c in p["geometry"]["coordinates"]])
-        assert line.intersection(core).length < 0.3  # the valve closes within a step or two of the zone edge
+        assert line.intersection(zone).length < 0.3  # the valve closed before the zone (the pump's run-down aside)
 
     # outputs aimed at the inputs (the grower's files, even with --overwrite; the run; the world): exit 2, untouched
     before = (tmp_path / "rows.gpkg").read_bytes()
@@ -149,6 +155,26 @@ def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Pat
         assert r.exit_code == 2 and "input" in r.output and len(r.output.strip().splitlines()) == 1, r.output
     assert (tmp_path / "rows.gpkg").read_bytes() == before
     assert not (run_dir / "x.geojson").exists() and not (world / "x.gpkg").exists()
+
+
+def test_a_plan_spraying_up_to_the_zone_fails_the_no_spray_check(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same job with the plan's clearance at the zone set to 0 (the passes end at the zone's edge, as before the
+    clearance): the footprint and the pump's run-down put liquid into the zone, and the default check says so."""
+    import vinecli.rows.plan
+    from vinecli.runs import run_mission
+    from vinecli.world import build_world
+
+    monkeypatch.setattr(vinecli.rows.plan, "clearance_m", lambda pattern, end_margin_m: 0.0)
+    world = build_world(grower_world(tmp_path), tmp_path / "world")
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({
+        "name": "grower-no-clearance", "vehicle": "x500-sprayer", "max_duration_s": 120,
+        "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
+                   {"type": "spray", "rows": "world", "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 20.0},
+                   {"type": "land"}]}))
+    s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=1)
+    check = next(c for c in s.checks if c["name"] == "dose_no_spray")
+    assert not s.passed and not check["passed"] and check["value"] > 0.01, check  # 3.5 % of the liquid
 
 
 def test_bad_gis_inputs_exit_2_naming_the_feature_and_write_nothing(tmp_path: Path) -> None:

@@ -58,7 +58,8 @@ def test_spray_run_writes_deposition_and_is_deterministic(flat_world_dir: Path, 
     assert "speed-scaled" in doc["sprayer_law"]["flow"]
     # the dose judged by default on each row's planned stretch: the default checks are in the summary and pass
     checks = {c["name"]: c for c in a.checks}
-    assert {"dose_row_rates", "dose_hot_spots", "dose_gaps", "dose_coverage", "dose_drift"} <= set(checks)
+    assert {"dose_row_rates", "dose_hot_spots", "dose_gaps", "dose_coverage", "dose_drift",
+            "dose_no_spray"} <= set(checks)
     assert all(checks[n]["passed"] and checks[n]["implicit"] for n in checks if n.startswith("dose_"))
     for row in doc["rows"]:
         assert row["planned_m"] == pytest.approx([0.0, 12.0]) and row["segment_m"] == 0.5

@@ -22,7 +22,8 @@ import numpy as np
 
 from vinecli.physics.deposit_grid import GridSpec
 
-__all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "points_in_polygon", "row_profiles"]
+__all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "points_in_polygon",
+           "row_profiles"]
 
 Polyline = Sequence[tuple[float, float]]
 
@@ -45,6 +46,8 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
     "row_in_band_fraction_min": ("1", "Lowest share of a row's planned stretch (0.5 m pieces) within the rate tolerance "
                                       "(±15 % by default) of the asked rate"),
     "drift_outside_fence_fraction": ("1", "Share of the emitted volume landing outside the geofence (or the field)"),
+    "deposit_in_no_spray_fraction": ("1", "Share of the emitted volume landing in the world's no-spray zones (grown by "
+                                          "their buffer; 0 without zones)"),
     "nominal_rate_lpha": ("L/ha", "Rate the spray phase asked for (rate_lpha, or 10 000 q / (v track width)), L/ha"),
     "spray_swath_m": ("m", "Geometric swath of the nozzles at the spray height, m"),
     "spray_track_width_m": ("m", "Track width of the flow (flow = rate x width x speed): lane spacing, or the single-pass width, m"),
@@ -181,6 +184,8 @@ def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: fl
     s0, s1 = pr["planned_m"]
     r, s = pr["rate_lpha"], pr["s_m"]
     inside = (s >= s0 - 1e-9) & (s <= s1 + 1e-9)
+    for a, b in pr.get("holes_m", []):  # the taper beside a no-spray zone: expected, not judged
+        inside &= (s <= a) | (s >= b)
     seg_len = pr["seg_len_m"][inside]
     rin = r[inside]
     ok = np.nan_to_num(rin, nan=0.0) >= 0.5 * nominal if nominal > 0 else np.zeros(rin.shape, bool)
@@ -203,7 +208,8 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
                        stretches: dict[int, tuple[float, float]] | None = None, window_m: float = 1.0,
-                       bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15
+                       bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15,
+                       holes: dict[int, list[tuple[float, float]]] | None = None
                        ) -> tuple[dict[str, float], list[dict[str, Any]]]:
     """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`.
 
@@ -211,7 +217,8 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``;
     ``stretches``: the planned stretch of each targeted row (index into ``rows``: (start, end) m along it; rows
     missing from it were not planned); default: every row whole. ``bands``: (gap, hot) ratios of the dose faults;
-    ``tolerance``: the rate band of ``row_in_band_fraction_min`` (share of a row within ±tolerance of the asked rate).
+    ``tolerance``: the rate band of ``row_in_band_fraction_min`` (share of a row within ±tolerance of the asked rate);
+    ``holes``: stretches inside a row's planned stretch that are not judged (the taper beside a no-spray zone).
     """
     p = dep.parcels
     em = float(dep.emitted_l)
@@ -256,12 +263,13 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
         pr["row"] = i
         planned = (stretches or {}).get(i) if stretches is not None else (0.0, pr["length_m"])
         pr["planned_m"] = [float(planned[0]), float(planned[1])] if planned is not None else None
+        pr["holes_m"] = [[float(a), float(b)] for a, b in (holes or {}).get(i, [])]
         if planned is None:  # not planned (outside the fence): reported, not judged
             pr.update(covered_fraction=nan, sprayed_m=None, mean_rate_lpha=nan, window_ratio=None, faults=[],
                       in_band_fraction=nan)
             continue
         vals, win = _row_dose(pr, nominal_rate_lpha, segment_m, window_m, bands, tolerance)
-        length = planned[1] - planned[0]
+        length = planned[1] - planned[0] - sum(b - a for a, b in pr["holes_m"])
         tot_len += length
         cov_len += pr["covered_fraction"] * length if pr["covered_fraction"] == pr["covered_fraction"] else 0.0
         pieces.append(vals)
@@ -285,6 +293,22 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     inband = [pr["in_band_fraction"] for pr in profiles if pr.get("planned_m")]
     m["row_in_band_fraction_min"] = float(np.nanmin(inband)) if inband and ok else nan
     return m, profiles
+
+
+def no_spray_fraction(dep: Any, zones: Sequence[Sequence[tuple[float, float]]]) -> float:
+    """Share of the emitted volume of ``dep`` landing in the no-spray ``zones`` (rings, ENU m; grid cells by their
+    centres); 0 without zones, NaN when nothing was emitted."""
+    em = float(dep.emitted_l)
+    if not zones:
+        return 0.0
+    if em <= 0:
+        return math.nan
+    xc, yc = dep.grid.centres()
+    gx, gy = np.meshgrid(xc, yc)
+    inside = np.zeros(gx.shape, dtype=bool)
+    for z in zones:
+        inside |= points_in_polygon(gx, gy, z)
+    return _fraction(float(dep.volume_l[inside].sum()), em)
 
 
 def _fraction(part: float, whole: float) -> float:

@@ -8,7 +8,8 @@ target row's planned stretch (:mod:`vinecli.missions.deposition_metrics`), with 
 * ``dose_hot_spots``: no ``window_m`` (1 m) stretch above ``hot_ratio`` (1.3) x the asked rate;
 * ``dose_gaps``: no such stretch below ``gap_ratio`` (0.6) x inside a planned stretch;
 * ``dose_coverage``: at least ``coverage_min`` (98 %) of the planned stretches got half the asked rate;
-* ``dose_drift``: at most ``drift_max`` (5 %) of the liquid outside the geofence (or the field).
+* ``dose_drift``: at most ``drift_max`` (5 %) of the liquid outside the geofence (or the field);
+* ``dose_no_spray``: at most ``no_spray_max`` (0.1 %) of the liquid in the world's no-spray zones (0 without zones).
 
 A mission check of the same name replaces the default one (its own bounds, windows, description).
 """
@@ -22,7 +23,7 @@ from vinecli.specs.mission import CheckSpec, MissionSpec, SprayPhase
 __all__ = ["DOSE_CHECKS", "default_checks", "default_dose_checks"]
 
 #: names of the default dose checks
-DOSE_CHECKS = ("dose_row_rates", "dose_hot_spots", "dose_gaps", "dose_coverage", "dose_drift")
+DOSE_CHECKS = ("dose_row_rates", "dose_hot_spots", "dose_gaps", "dose_coverage", "dose_drift", "dose_no_spray")
 
 
 def default_checks(spec: MissionSpec, metrics: dict[str, Any]) -> list[CheckSpec]:
@@ -53,6 +54,8 @@ def default_dose_checks(spec: MissionSpec) -> list[CheckSpec]:
                               "(default dose check)"),
         CheckSpec(name="dose_drift", quantity="metric:drift_outside_fence_fraction", op="<=", bound=d.drift_max,
                   description=f"at most {d.drift_max:.0%} of the liquid outside the geofence (default dose check)"),
+        CheckSpec(name="dose_no_spray", quantity="metric:deposit_in_no_spray_fraction", op="<=", bound=d.no_spray_max,
+                  description=f"at most {d.no_spray_max:.1%} of the liquid in the no-spray zones (default dose check)"),
     ]
     own = {c.name for c in spec.checks}
     return [c for c in checks if c.name not in own]

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.missions.deposition_metrics import deposition_metrics
+from vinecli.missions.deposition_metrics import deposition_metrics, no_spray_fraction
 from vinecli.rows.spray_rate import nominal_rate_lpha, phase_plan, spray_pattern, spray_swath_m
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
@@ -139,7 +139,8 @@ def _treated_area_ha(plan: Any, rows: list[list[tuple[float, float]]]) -> float:
     if plan is None or not plan.stretches:
         return math.nan
     spacing = row_spacing_m(rows) if len(rows) >= 2 else plan.flow_width_m
-    return sum(b - a for a, b in plan.stretches.values()) * spacing / 1e4
+    holes = sum(b - a for h in plan.holes.values() for a, b in h)
+    return (sum(b - a for a, b in plan.stretches.values()) - holes) * spacing / 1e4
 
 
 def world_row(phase: SprayPhase | None, i: int) -> int | None:
@@ -164,7 +165,8 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     bounds = tuple(terrain.bounds) if terrain is not None else None
     rho = float(getattr(world, "air_density", 1.225))
     if phase is not None and rows:
-        plan = phase_plan(phase, vehicle, rows, rows[0][0], fence_enu=polygon, terrain_bounds=bounds, air_density=rho)
+        plan = phase_plan(phase, vehicle, rows, rows[0][0], fence_enu=polygon, terrain_bounds=bounds, air_density=rho,
+                          no_spray=getattr(world, "no_spray_enu", ()))
     nominal = nominal_rate_lpha(phase, vehicle, plan) if phase is not None and plan is not None else math.nan
     swath = spray_swath_m(vehicle, phase.height_agl_m) if phase is not None else math.nan
     all_rows = [[tuple(q) for q in r] for r in getattr(world, "vine_rows_enu", []) or []] or rows
@@ -172,12 +174,13 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
     metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows,
                                            stretches=plan.stretches if plan is not None else None,
                                            window_m=dose.window_m, bands=(dose.gap_ratio, dose.hot_ratio),
-                                           tolerance=dose.rate_tolerance)
+                                           tolerance=dose.rate_tolerance, holes=plan.holes if plan is not None else None)
     metrics["spray_swath_m"] = swath
     metrics["spray_track_width_m"] = plan.flow_width_m if plan is not None else math.nan
     pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, rho) if phase is not None else None
     metrics["spray_effective_swath_m"] = pattern.effective_m if pattern is not None else math.nan
     metrics["treated_area_ha"] = _treated_area_ha(plan, rows)
+    metrics["deposit_in_no_spray_fraction"] = no_spray_fraction(dep, getattr(world, "no_spray_enu", None) or [])
     lay = plan.layout if plan is not None else None
     sp = vehicle.sprayer
     doc = {
@@ -215,7 +218,7 @@ def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world
         "path_enu": dep.parcels.path_xy[:: max(1, len(dep.parcels.path_xy) // 2000)],
         "rows": [{"row": p["row"], "length_m": p["length_m"], "planned_m": p["planned_m"],
                   "covered_fraction": p["covered_fraction"], "mean_rate_lpha": p["mean_rate_lpha"],
-                  "sprayed_m": p["sprayed_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
+                  "sprayed_m": p["sprayed_m"], "not_judged_m": p["holes_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
                   "in_band_fraction": p["in_band_fraction"],
                   "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]]}
                  for p in profiles],

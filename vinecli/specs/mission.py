@@ -225,6 +225,7 @@ class DoseSpec(StrictModel):
     window_m: float = Field(1.0, gt=0, le=100, description="length of the windows along the rows, m")
     coverage_min: float = Field(0.98, ge=0, le=1, description="share of the planned stretches with >= 50 % of the asked rate")
     drift_max: float = Field(0.05, ge=0, le=1, description="share of the liquid landing outside the geofence (or the field)")
+    no_spray_max: float = Field(0.001, ge=0, le=1, description="share of the liquid landing in the world's no-spray zones")
 
 
 class MissionSpec(StrictModel):
