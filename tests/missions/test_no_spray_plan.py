@@ -53,3 +53,40 @@ def test_the_passes_close_before_the_zone_and_each_piece_keeps_its_stretch() -> 
                                                                                   abs=0.02)
     assert 1 not in plan.holes and 2 not in plan.holes
     assert free.stretches[1] == pytest.approx((0.0, 10.0))
+
+
+def test_a_firmware_mission_closes_the_sprayer_at_the_zone_too() -> None:
+    """THE converter (PX4 / ArduPilot missions) plans with the world's zones from its PlanContext: every stretch
+    flown with the sprayer on stays the clearance away from the zone; without them it comes within it."""
+    from vinecli.geo import GeoOrigin
+    from vinecli.mavlink import px4modes as M
+    from vinecli.mavlink.mission_items import degE7_to_enu
+    from vinecli.phase_items import DO_SET_ACTUATOR, PlanContext, phases_to_items
+    from vinecli.specs.mission import MissionSpec
+
+    v = load_vehicle("x500-sprayer")
+    origin = GeoOrigin(46.0705, 11.1204, 210.0)
+    m = MissionSpec.model_validate({"name": "m", "phases": [
+        {"type": "takeoff", "altitude_agl_m": 3},
+        {"type": "spray", "height_agl_m": 2.0, "speed_mps": 3.0, "flow_lps": 0.03, "rows": ROWS}, {"type": "land"}]})
+    pat = spray_pattern(v, 2.0, 3.0)
+    g = clearance_m(pat, 3.0 * max(v.sprayer.pump.tau_up_s, v.sprayer.pump.tau_down_s))
+
+    def sprayed(zones: list) -> list[LineString]:
+        ctx = PlanContext(origin=origin, home_enu=(-14.5, 1.25, 0.0), nozzle_max_flow_lps=0.1, vehicle=v,
+                          no_spray_enu=zones)
+        out: list[list[tuple[float, float]]] = []
+        on, last = False, (-14.5, 1.25)
+        for it in phases_to_items(m, ctx, sprayer=DO_SET_ACTUATOR).items:
+            if it.command == M.CMD_DO_SET_ACTUATOR:
+                on = it.param1 > 0
+                out += [[last]] if on else []
+            elif it.command == M.CMD_NAV_WAYPOINT:
+                last = degE7_to_enu(origin, it.x, it.y)
+                if on:
+                    out[-1].append(last)
+        return [LineString(s) for s in out if len(s) >= 2]
+
+    zone = Polygon(ZONE)
+    assert min(s.distance(zone) for s in sprayed([ZONE])) >= g - 0.05
+    assert min(s.distance(zone) for s in sprayed([])) < 0.05
