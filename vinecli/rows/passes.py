@@ -142,6 +142,7 @@ def _cutlay_passes(keep: list[tuple[int, Polyline]], lines: list[list[int]], acr
     hulls = [[p for j in ln for p in (paths[j] if _along_sign(paths[j], u) else paths[j][::-1])] for ln in lines]
     lay = layout_lanes(line_across, pattern, band_m)
     out: list[Pass] = []
+    pieces: list[tuple[int | None, Polyline, bool, bool]]
     for k, c in enumerate(lay.across_m):
         near = min(range(len(lines)), key=lambda j: abs(line_across[j] - c))
         if abs(line_across[near] - c) < SAME_LINE_M:
