@@ -8,8 +8,9 @@ relief (m above the ground estimated from the DSM itself). The field is cut into
   the relief variance the comb explains (``r2``: 0 for noise, ~0.5-0.9 for rows); windows with a clear comb
   make the row region, and the unwrapped phase along the strips is ``delta(t)``, the shift all rows share
   (their common curvature, and any error of the global direction).
-* Each row ``k`` then gets, per strip, its own centre (the peak of the strip's mean lateral profile within a
-  third of a spacing of the comb's prediction) and contrast (peak minus the inter-row ground beside it).
+* Each row ``k`` then gets, per strip, its own centre (the strip's mean lateral profile peaking within a third
+  of a spacing of the comb's prediction: the midpoint of the peak's half-height crossings, so a flat-topped
+  canopy is centred on its width) and contrast (peak minus the inter-row ground beside it).
 * :func:`fit_row` fits a row's centre line through its knots robustly: a RANSAC line first (outliers beyond
   a sixth of a spacing dropped), then a cubic smoothing spline whose smoothing matches the knots' own
   noise (gentle curvature only), refitted once without the knots it misses by more than 3 sigma.
@@ -221,12 +222,7 @@ def row_knots(st: Strips, comb: Comb) -> RowKnots:
             side = np.array([pj[i - gap] if i >= gap else np.nan, pj[i + gap] if i + gap < pj.size else np.nan])
             if not np.isfinite(side).any():  # the ground beside the row: both sides, or the one with data
                 continue
-            shift = 0.0
-            if lo < i < hi - 1:
-                a, b, cc = pj[i - 1], pj[i], pj[i + 1]
-                den = a - 2 * b + cc
-                shift = 0.5 * (a - cc) / den if den != 0 else 0.0
-            s_c = float(axis[i] + shift * st.bin_m)
+            s_c = _peak_centre(pj, i, float(np.nanmean(side)), gap, axis, st.bin_m)
             wsum = float(w[j, i - 1:i + 2].sum())
             t_c = float(tw[j, i - 1:i + 2].sum()) / wsum if wsum > 0 else float(st.t_centre[j])
             S[r, j] = s_c + float(comb.skew[j]) * (t_c - float(st.t_centre[j]))
@@ -237,6 +233,31 @@ def row_knots(st: Strips, comb: Comb) -> RowKnots:
     jj = np.broadcast_to(np.arange(n_k), S.shape)
     inside[fin] = comb.in_region(jj[fin], S[fin])
     return RowKnots(ks, S, T, C, inside)
+
+
+def _peak_centre(pj: np.ndarray, i: int, ground: float, gap: int, axis: np.ndarray, bin_m: float) -> float:
+    """Lateral centre (m) of the profile's peak at bin ``i``: the midpoint of its two half-height crossings
+    (halfway between the peak and the ground beside it, each within ``gap`` bins), so a flat-topped canopy
+    (a wide hedge, a bed, a band of plots) is centred on its width, not on whichever bin of its top is
+    highest; a peak without both crossings (the edge of the data) keeps the parabola through its top."""
+    level = 0.5 * (float(pj[i]) + ground)
+    edges = []
+    for step in (-1, 1):
+        j = i
+        while 0 <= j + step < pj.size and abs(j + step - i) <= gap and np.isfinite(pj[j + step]) and pj[j + step] >= level:
+            j += step
+        n = j + step
+        if not (0 <= n < pj.size and abs(n - i) <= gap and np.isfinite(pj[n])):
+            break
+        edges.append(axis[j] + (axis[n] - axis[j]) * (float(pj[j]) - level) / (float(pj[j]) - float(pj[n])))
+    if len(edges) == 2:
+        return float(0.5 * (edges[0] + edges[1]))
+    shift = 0.0
+    if 0 < i < pj.size - 1 and np.isfinite(pj[i - 1:i + 2]).all():
+        a, b, cc = pj[i - 1], pj[i], pj[i + 1]
+        den = a - 2 * b + cc
+        shift = 0.5 * (a - cc) / den if den != 0 else 0.0
+    return float(axis[i] + shift * bin_m)
 
 
 def fit_row(t: np.ndarray, s: np.ndarray, p: float) -> tuple[np.ndarray, float] | None:
