@@ -64,6 +64,9 @@ class CheckResult:
 
 #: lockstep stalls a firmware backend counts (steps that went on without the firmware's answer)
 FIRMWARE_STALLS = ("px4_stalls", "ardupilot_stalls")
+#: faults the firmware's own log shows in the firmware (vinecli.sitl.px4.log_audit), each an implicit check
+FIRMWARE_FAULTS = {"px4_scheduler_faults": "PX4 ran its periodic work (battery simulator, load monitor) to the end "
+                                           "of its log; a stop is PX4's own scheduler fault (implicit)"}
 
 
 def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | None = None,
@@ -71,7 +74,8 @@ def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | No
     """The checks actually evaluated: the mission's, the ``defaults`` (e.g. the dose checks), plus
     ``status == completed`` if none tests the status, and, for a firmware run (its stall counter in
     ``metrics``), ``<firmware>_stalls == 0`` unless the mission checks that counter itself: a step without
-    the firmware's answer is not the firmware's flight."""
+    the firmware's answer is not the firmware's flight; likewise ``px4_scheduler_faults == 0`` when PX4's log was
+    audited (:data:`FIRMWARE_FAULTS`)."""
     out = [*checks, *defaults]
     if not any(c.quantity == "status" for c in checks):
         out.append(
@@ -82,6 +86,9 @@ def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | No
         if metrics is not None and name in metrics and not any(c.quantity == f"metric:{name}" for c in checks):
             out.append(CheckSpec(name=name, quantity=f"metric:{name}", op="<=", bound=0.0,
                                  description="every lockstep step had the firmware's answer (implicit)"))
+    for name, description in FIRMWARE_FAULTS.items():
+        if metrics is not None and name in metrics and not any(c.quantity == f"metric:{name}" for c in checks):
+            out.append(CheckSpec(name=name, quantity=f"metric:{name}", op="<=", bound=0.0, description=description))
     return out
 
 

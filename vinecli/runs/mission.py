@@ -221,6 +221,8 @@ def _run_prepared(
                 close()
     wall = time.perf_counter() - t0
     record = getattr(ap, "firmware_record", None)  # a firmware backend's identity and kept logs
+    if record is not None:
+        record.amend(result.metrics, result.events)  # what the firmware's own logs say about the firmware
     try:
         return _write_run(run, result, record, world_dir, run_id, out, seed=seed, mission_path=mission_path,
                           mcap=mcap, wall=wall, stop=stop, wall_timeout_s=wall_timeout_s, case=case,

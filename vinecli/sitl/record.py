@@ -7,11 +7,17 @@ from __future__ import annotations
 
 import shutil
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from vinecli.sitl.identity import FirmwareIdentity
+from vinecli.types import Event
+
+#: a firmware's check of its own kept logs: (kept files, the run's metrics, its events) -> findings; it adds
+#: what it finds to the metrics and events (e.g. :func:`vinecli.sitl.px4.log_audit.apply_audit`)
+LogAuditor = Callable[[list[Path], dict[str, float], list[Event]], Any]
 
 #: the run-folder directory the firmware files go to
 FIRMWARE_DIR = "firmware"
@@ -24,6 +30,13 @@ class FirmwareRecord:
     identity: FirmwareIdentity
     dir: Path = field(default_factory=lambda: Path(tempfile.mkdtemp(prefix="vinecli-firmware-")))
     files: list[Path] = field(default_factory=list)
+    auditor: LogAuditor | None = None
+
+    def amend(self, metrics: dict[str, float], events: list[Event]) -> None:
+        """Add what the firmware's own logs say about the firmware (:attr:`auditor`) to a run's metrics and events."""
+        if self.auditor is not None:
+            self.auditor(self.files, metrics, events)
+            events.sort(key=lambda e: e.t_us)
 
     def summary(self) -> dict[str, Any]:
         """summary.json ``firmware``: the identity and the kept files (names under ``firmware/``)."""
@@ -42,4 +55,4 @@ class FirmwareRecord:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
-__all__ = ["FIRMWARE_DIR", "FirmwareRecord"]
+__all__ = ["FIRMWARE_DIR", "FirmwareRecord", "LogAuditor"]

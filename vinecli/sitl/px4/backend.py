@@ -461,6 +461,9 @@ class Px4SitlAutopilot:
             version = self.mission_version
             rec = FirmwareRecord(identity_from_message("PX4", version, self.px4_bin))
             rec.files = self.process.keep(KEEP, rec.dir)
+            from vinecli.sitl.px4.log_audit import apply_audit
+
+            rec.auditor = apply_audit  # PX4's own log: did its periodic work (battery, load monitor) run to the end?
             self.firmware_record = rec
             self.process.discard()
         if self._instance_lock is not None:

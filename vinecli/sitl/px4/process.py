@@ -8,7 +8,8 @@ when PX4's TCP and UDP ports for it are free. Command (PX4's own README)::
     PX4_SIM_MODEL=none_iris <bin>/px4 -d -i N -w WORKDIR <bin>/../etc
 
 The run's PX4 parameters (the vehicle's ``px4.params`` and the mission's) are set at boot through
-a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` (:func:`boot_params_script`).
+a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` (:func:`boot_params_script`), after
+:data:`SAFE_BOOT_PARAMS` (which a run's own value overrides).
 """
 
 from __future__ import annotations
@@ -26,6 +27,15 @@ from vinecli.sitl.process import reserve_instance as reserve_firmware_instance
 SIM_PORT_BASE = 4560
 #: UDP ports PX4 binds for instance i (GCS, API/offboard, payload, gimbal links)
 PX4_UDP_BASES = (18570, 14580, 14280, 13030)
+#: parameters every PX4 that vinecli starts boots with. ``IMU_GYRO_CAL_EN = 0``: PX4 v1.15's ``gyro_calibration``
+#: (rcS starts it when the parameter is 1, the default) re-arms its own periodic timer from its work item at
+#: each arming (``ScheduleOnInterval(10_s)``), while the HRT thread may still be between that timer's callout
+#: and re-taking its lock in ``hrt_call_invoke`` (platforms/posix drv_hrt.cpp); the entry is then queued twice,
+#: the callout list is cut after it, and the purely periodic work items behind it never run again:
+#: ``battery_simulator`` (battery_status stops, and 5 s later "Preflight Fail: Battery unhealthy" and a failsafe)
+#: and ``load_mon`` (cpuload stops). Measured: BENCHMARKS.md "PX4 battery". The module only calibrates after
+#: 10 s at rest disarmed; vinecli arms at ~4 s, so it never calibrated anything in a vinecli run.
+SAFE_BOOT_PARAMS: dict[str, int | float] = {"IMU_GYRO_CAL_EN": 0}
 
 
 def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
@@ -83,7 +93,7 @@ class Px4Process(FirmwareProcess):
     def __init__(self, px4_bin: str | Path, instance: int, *, workdir: str | Path | None = None,
                  airframe: str = "none_iris", sim_host: str = "127.0.0.1",
                  params: dict[str, int | float] | None = None) -> None:
-        params_script = boot_params_script(params or {})  # validated before anything is created
+        params_script = boot_params_script({**SAFE_BOOT_PARAMS, **(params or {})})  # validated before anything exists
         super().__init__(px4_bin, instance, workdir=workdir)
         self.etc = etc_dir_for(self.bin)
         self.airframe, self.sim_host = airframe, sim_host
@@ -112,4 +122,4 @@ class Px4Process(FirmwareProcess):
             (rc / "px4-rc.params").write_text(self.params, encoding="utf-8")
 
 
-__all__ = ["Px4Process", "boot_params_script", "etc_dir_for", "px4_start_command", "reserve_instance"]
+__all__ = ["SAFE_BOOT_PARAMS", "Px4Process", "boot_params_script", "etc_dir_for", "px4_start_command", "reserve_instance"]
