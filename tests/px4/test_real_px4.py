@@ -20,6 +20,7 @@ from tests.px4.conftest import flat_world
 from tests.repo_paths import REPO
 from vinecli.autopilot.base import RunStatus
 from vinecli.sim.runner import run_simulation
+from vinecli.sitl.px4.log_audit import audit_ulog
 from vinecli.specs.mission import MissionSpec
 
 pytestmark = [pytest.mark.px4, pytest.mark.timeout(300)]
@@ -54,6 +55,11 @@ def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4, px4_bin):
         # the lockstep waits for PX4's answer however loaded the machine: no stall; PX4's battery drains over the
         # pack's endurance and reports no warning
         assert m["px4_stalls"] == 0 and m["px4_lockstep_steps"] > 1000 and m["px4_battery_warnings"] == 0
+        # PX4's own log: its battery simulator and load monitor ran to the end (no scheduler race at arming:
+        # IMU_GYRO_CAL_EN=0 at boot), so battery_status was never older than a few samples in the flight
+        assert m["px4_scheduler_faults"] == 0 and "IMU_GYRO_CAL_EN 0" in (out / case / "firmware" / "px4-rc.params").read_text()
+        ulg = next((out / case / "firmware").glob("*.ulg"))
+        assert audit_ulog(ulg).stops == [], (case, audit_ulog(ulg).describe())
         fw = summary["firmware"]  # auditable: identity and PX4's own log kept in the run folder
         assert summary["autopilot"] == "px4" and fw["firmware"] == "PX4" and fw["version"] == "1.15.4"
         assert fw["git_hash"] and len(fw["sha256"]) == 64 and fw["binary"] == str(px4_bin.resolve())
