@@ -33,7 +33,7 @@ PX4_UDP_BASES = (18570, 14580, 14280, 13030)
 #: and re-taking its lock in ``hrt_call_invoke`` (platforms/posix drv_hrt.cpp); the entry is then queued twice,
 #: the callout list is cut after it, and the purely periodic work items behind it never run again:
 #: ``battery_simulator`` (battery_status stops, and 5 s later "Preflight Fail: Battery unhealthy" and a failsafe)
-#: and ``load_mon`` (cpuload stops). Measured: BENCHMARKS.md "PX4 battery". The module only calibrates after
+#: and ``load_mon`` (cpuload stops). Measured: BENCHMARKS.md "PX4's periodic work". The module only calibrates after
 #: 10 s at rest disarmed; vinecli arms at ~4 s, so it never calibrated anything in a vinecli run.
 SAFE_BOOT_PARAMS: dict[str, int | float] = {"IMU_GYRO_CAL_EN": 0}
 
