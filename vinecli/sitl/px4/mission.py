@@ -259,14 +259,15 @@ class Px4MissionClient:
 
     def _at_rtl_item(self) -> bool:
         """PX4 is at the mission's closing NAV_RETURN_TO_LAUNCH: it is the current item, PX4 reported it reached,
-        or PX4 reached the last navigation item before it (the DO items between report nothing, and MISSION_CURRENT
-        may arrive after the mode change)."""
+        or PX4 reached the last navigation item before it or an item after that (PX4 may report only a DO item
+        between them, and MISSION_CURRENT may arrive after the mode change)."""
         items = self.plan.items if self.plan is not None else []
         last = len(items) - 1
         if last < 0 or items[last].command != M.CMD_NAV_RETURN_TO_LAUNCH:
             return False
         nav_before = max((i for i in range(last) if items[i].command < 100), default=-1)  # MAV_CMD_NAV_* < 100
-        return self.current_seq == last or last in self.reached or nav_before in self.reached
+        # PX4 may report only a DO item after the last navigation item reached (item 27 of 29, never 26)
+        return self.current_seq == last or max(self.reached, default=-1) >= max(nav_before, 0)
 
     def mission_done(self) -> bool:
         """The last item was reached (or PX4 reports the mission complete)."""
