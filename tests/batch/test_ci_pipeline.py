@@ -93,7 +93,10 @@ def test_plan_rows_on_the_built_sample_world(ci_runs: Path, tmp_path: Path) -> N
     r = CliRunner().invoke(app, ["plan", "rows", str(world), "--out", str(out), "--world-rows"])
     assert r.exit_code == 0, r.output
     items = json.loads(out.read_text())["mission"]["items"]
-    assert sum(i["command"] == 187 for i in items) == 2 * 16
+    duty = [i["params"][0] for i in items if i["command"] == 187]  # DO_SET_ACTUATOR: the pump's duty
+    # the sprayer closed before the first transit (as PX4's upload), then on and off along each of the 16 rows
+    assert duty[0] == 0 and sum(d > 0 for d in duty) == 16
+    assert all(a > 0 and b == 0 for a, b in zip(duty[1::2], duty[2::2], strict=True))
     # --overwrite: the rows.geojson beside it is the first call's (vinecli refuses to replace a file it cannot
     # tell from a user's)
     r = CliRunner().invoke(app, ["plan", "rows", str(world), "--out", str(tmp_path / "det.plan"), "--detect",
