@@ -157,7 +157,7 @@ def identity() -> dict[str, object]:
     """Which kernel this process runs and its build identity, as every run records it (summary.json ``kernel``):
     ``kind`` "compiled" or "pure" (``state`` says why: asked for, no build, or stale), ``sources_sha256`` (one
     digest of every kernel source this process runs: the same in both kernels of one checkout) and, compiled,
-    the compiler, Python and C flags of the build."""
+    the compiler, Python and C flags of the build and how it was built (``make native`` or ``wheel``)."""
     h = hashlib.sha256()
     for rel in KERNEL:
         h.update(f"{rel} {_digest(PACKAGE_DIR / rel)}\n".encode())
@@ -168,7 +168,7 @@ def identity() -> dict[str, object]:
             built = json.loads(MANIFEST.read_text())
         except (OSError, ValueError):
             built = {}
-        doc.update({k: built.get(k) for k in ("compiler", "python", "cflags")})
+        doc.update({k: built.get(k) for k in ("compiler", "python", "cflags", "build")})
     return doc
 
 
