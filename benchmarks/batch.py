@@ -2,7 +2,7 @@
 real-time factor of each mission.
 
 The world is built once (not timed). Each configuration runs the CI missions (chapter 5 + the job)
-``--repeat`` times (replicate seeds) with ``vinecli run batch --jobs N``, each configuration in
+``--repeat`` times (replicate seeds) with ``vinecli run batch --workers N``, each configuration in
 its own process (workers forked from a preloaded fork server); wall time is the whole command:
 Python's start-up, the fork server's imports, the workers, the cases and ``batch.json``. Target:
 2 workers >= 1.9x the throughput of 1 worker on a 2-core machine (longest cases are started first;
@@ -13,7 +13,7 @@ script prints that bound (longest-first packing of the 1-worker case times). Wit
 three ~4.5 s job cases leave one worker with two of them (bound ~1.76x); the default ``--repeat 4``
 pairs them up.
 
-    .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--jobs 1 2] [--json out.json]
+    .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--workers 1 2] [--json out.json]
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, one trial")
     ap.add_argument("--repeat", type=int, default=4, help="replicates (seeds) of each mission per configuration")
     ap.add_argument("--trials", type=int, default=3, help="alternating runs of each configuration (median)")
-    ap.add_argument("--jobs", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--json", type=Path, default=None, help="also write the results as JSON")
     args = ap.parse_args()
     repeat, trials = (1, 1) if args.quick else (args.repeat, args.trials)
@@ -56,25 +56,25 @@ def main() -> None:
             "name": "bench-ci", "world": str(world), "seed": 0, "timeout_s": 900,
             "missions": [{"mission": m, "seeds": repeat} for m in missions],
         }))
-        walls: dict[int, list[float]] = {j: [] for j in args.jobs}
+        walls: dict[int, list[float]] = {j: [] for j in args.workers}
         cases: dict[int, list[dict]] = {}
         for trial in range(trials):  # alternate the configurations: slow drifts of the machine hit both
-            for jobs in args.jobs:
-                walls[jobs].append(_run_batch(pipe, tmp / f"runs-j{jobs}-t{trial}", jobs))
-                cases[jobs] = json.loads((tmp / f"runs-j{jobs}-t{trial}" / "batch.json").read_text())["cases"]
+            for workers in args.workers:
+                walls[workers].append(_run_batch(pipe, tmp / f"runs-j{workers}-t{trial}", workers))
+                cases[workers] = json.loads((tmp / f"runs-j{workers}-t{trial}" / "batch.json").read_text())["cases"]
         results: dict[str, object] = {"repeat": repeat, "trials": trials, "cases": len(missions) * repeat,
                                       "configs": {}}
-        for jobs in args.jobs:
-            wall = statistics.median(walls[jobs])
-            bad = [c["case"] for c in cases[jobs] if not c["passed"]]
-            per_min = len(cases[jobs]) / wall * 60.0
-            results["configs"][str(jobs)] = {  # type: ignore[index]
-                "wall_s": round(wall, 2), "wall_s_trials": [round(w, 2) for w in walls[jobs]],
+        for workers in args.workers:
+            wall = statistics.median(walls[workers])
+            bad = [c["case"] for c in cases[workers] if not c["passed"]]
+            per_min = len(cases[workers]) / wall * 60.0
+            results["configs"][str(workers)] = {  # type: ignore[index]
+                "wall_s": round(wall, 2), "wall_s_trials": [round(w, 2) for w in walls[workers]],
                 "cases_per_min": round(per_min, 1), "failed": bad,
-                "sim_s": round(sum(c["sim_time_s"] for c in cases[jobs]), 1),
+                "sim_s": round(sum(c["sim_time_s"] for c in cases[workers]), 1),
             }
-            print(f"jobs={jobs}: {len(cases[jobs])} cases in {wall:.1f} s (median of "
-                  f"{', '.join(f'{w:.1f}' for w in walls[jobs])}) -> {per_min:.1f} cases/min"
+            print(f"workers={workers}: {len(cases[workers])} cases in {wall:.1f} s (median of "
+                  f"{', '.join(f'{w:.1f}' for w in walls[workers])}) -> {per_min:.1f} cases/min"
                   + (f"  (not passed: {', '.join(bad)})" if bad else ""))
         if 1 in walls and 2 in walls:
             ratios = [a / b for a, b in zip(walls[1], walls[2], strict=True)]
@@ -94,15 +94,15 @@ def main() -> None:
             args.json.write_text(json.dumps(results, indent=2) + "\n")
 
 
-def _run_batch(pipe: Path, out: Path, jobs: int) -> float:
-    """Wall seconds of ``vinecli run batch PIPE --out OUT --jobs JOBS`` in a fresh process: each configuration
+def _run_batch(pipe: Path, out: Path, workers: int) -> float:
+    """Wall seconds of ``vinecli run batch PIPE --out OUT --workers JOBS`` in a fresh process: each configuration
     pays the same start-up (the interpreter, the fork server's imports), as a user's command does."""
     # Python's default: compiled bytecode cached in __pycache__ (a PYTHONDONTWRITEBYTECODE=1 in the caller's
     # environment would make every process compile the modules it lacks a .pyc for)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     t0 = time.perf_counter()
     subprocess.run([str(Path(sys.executable).with_name("vinecli")), "run", "batch", str(pipe), "--out", str(out),
-                    "--jobs", str(jobs)], check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+                    "--workers", str(workers)], check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     return time.perf_counter() - t0
 
 

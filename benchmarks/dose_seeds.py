@@ -14,7 +14,7 @@ Missions (``--missions``): ``spray`` and ``job`` of ``pipelines/ci.yaml`` (sampl
 ``seed: 0, seeds: N``. ``--runs DIR`` only summarises run directories already flown (e.g. by an earlier call with
 ``--keep``, or ``vinecli run batch``). A CPU-heavy sweep: ~1 min of CPU per block-job run.
 
-    .venv/bin/python benchmarks/dose_seeds.py [--seeds 50] [--jobs 2] [--missions spray job block-job]
+    .venv/bin/python benchmarks/dose_seeds.py [--seeds 50] [--workers 2] [--missions spray job block-job]
                                               [--keep RUNS_DIR] [--runs RUNS_DIR ...] [--json out.json]
 """
 
@@ -41,7 +41,7 @@ _BOUNCE_S = 5.0  # a touchdown followed by a lift-off within this is a landing b
 _NEAR_BP_M = 3.0  # windows this close to a breakpoint along its row are the resume's
 
 
-def fly(missions: Sequence[str], n_seeds: int, jobs: int, work: Path) -> Path:
+def fly(missions: Sequence[str], n_seeds: int, workers: int, work: Path) -> Path:
     """Fly ``missions`` for seeds 0..n_seeds-1 under ``work``; the runs directory."""
     from vinecli.batch import run_batch
     from vinecli.batch.runner import build_world_once
@@ -53,7 +53,7 @@ def fly(missions: Sequence[str], n_seeds: int, jobs: int, work: Path) -> Path:
         entries.append({"mission": str(REPO / mission), "world": str(built), "seed": 0, "seeds": n_seeds})
     pipe = work / "dose-seeds.yaml"
     pipe.write_text(json.dumps({"name": "dose-seeds", "seed": 0, "timeout_s": 3600, "missions": entries}))
-    run_batch(pipe, work / "runs", jobs=jobs)
+    run_batch(pipe, work / "runs", workers=workers)
     return work / "runs"
 
 
@@ -183,7 +183,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=50, help="seeds 0..N-1 per mission")
     ap.add_argument("--quick", action="store_true", help="smoke run: 2 seeds")
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--missions", nargs="+", default=list(MISSIONS), choices=list(MISSIONS))
     ap.add_argument("--keep", type=Path, default=None, help="keep the run directories here (default: a temp dir)")
     ap.add_argument("--runs", type=Path, nargs="+", default=None, help="only summarise these runs directories")
@@ -195,7 +195,7 @@ def main() -> int:
         else:
             work = args.keep or Path(tmp_s)
             work.mkdir(parents=True, exist_ok=True)
-            dirs = [fly(args.missions, 2 if args.quick else args.seeds, args.jobs, work)]
+            dirs = [fly(args.missions, 2 if args.quick else args.seeds, args.workers, work)]
         runs = [p.parent for d in dirs for p in sorted(Path(d).glob("*/summary.json"))]
         figures = [run_figures(r) for r in runs if json.loads((r / "summary.json").read_text())["status"] != "interrupted"]
     summary = summarise(figures)

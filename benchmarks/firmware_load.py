@@ -7,7 +7,7 @@ mission link is its own threads, so its trajectories may shift while the verdict
 firmware is the lockstep or simulated time: a verdict must not depend on the load.
 
     .venv/bin/python benchmarks/firmware_load.py --ardupilot-bin AP/bin/arducopter --px4-bin PX4/bin/px4 \\
-        [--seeds 10] [--first-seed 0] [--jobs 2] [--hog 2] [--pipelines ci-ardupilot ci-px4] [--json out.json]
+        [--seeds 10] [--first-seed 0] [--workers 2] [--hog 2] [--pipelines ci-ardupilot ci-px4] [--json out.json]
         [--keep DIR]
 
 ``--hog 0`` flies one pass only (a seed sweep: pass counts, stalls, dose).
@@ -63,11 +63,11 @@ def _trajectory_hash(run: Path) -> str | None:
     return h.hexdigest()
 
 
-def _pass(pipe: Path, out: Path, jobs: int, bins: dict[str, str]) -> dict[str, dict[str, Any]]:
+def _pass(pipe: Path, out: Path, workers: int, bins: dict[str, str]) -> dict[str, dict[str, Any]]:
     from vinecli.batch import run_batch
 
     t0 = time.perf_counter()
-    res = run_batch(pipe, out, jobs=jobs, **bins)
+    res = run_batch(pipe, out, workers=workers, **bins)
     if res.signum is not None:  # SIGTERM / SIGINT: the batch wrote its partial runs; no verdicts to compare
         raise SystemExit(128 + res.signum)
     cases = {}
@@ -97,18 +97,18 @@ def _worst_dose(passes: list[dict[str, dict[str, Any]]]) -> dict[str, float]:
     return out
 
 
-def run(name: str, n_seeds: int, jobs: int, hog: float, work: Path, bins: dict[str, str], first: int = 0
+def run(name: str, n_seeds: int, workers: int, hog: float, work: Path, bins: dict[str, str], first: int = 0
         ) -> dict[str, Any]:
     """Both passes of one pipeline (one without ``hog``) and their comparison."""
     pipe = _pipeline(name, n_seeds, work, first)
     print(f"{name}: seeds {first}-{first + n_seeds - 1}", flush=True)
-    quiet = _pass(pipe, work / f"{name}-as-is", jobs, bins)
+    quiet = _pass(pipe, work / f"{name}-as-is", workers, bins)
     n_hog = max(1, round(hog * (os.cpu_count() or 1))) if hog > 0 else 0
     loaded: dict[str, dict[str, Any]] = {}
     if n_hog:
         hogs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(n_hog)]
         try:
-            loaded = _pass(pipe, work / f"{name}-hog", jobs, bins)
+            loaded = _pass(pipe, work / f"{name}-hog", workers, bins)
         finally:
             for p in hogs:
                 p.kill()
@@ -133,7 +133,7 @@ def main() -> int:
     ap.add_argument("--pipelines", nargs="+", default=["ci-ardupilot", "ci-px4"])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0)
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--hog", type=float, default=2.0, help="busy processes per CPU beside the second pass (0: one pass)")
     ap.add_argument("--px4-bin")
     ap.add_argument("--ardupilot-bin")
@@ -143,7 +143,7 @@ def main() -> int:
     bins = {k: v for k, v in (("px4_bin", a.px4_bin), ("ardupilot_bin", a.ardupilot_bin)) if v}
     work = Path(a.keep) if a.keep else Path(tempfile.mkdtemp(prefix="vinecli-load-"))
     work.mkdir(parents=True, exist_ok=True)
-    results = [run(p, a.seeds, a.jobs, a.hog, work, bins, a.first_seed) for p in a.pipelines]
+    results = [run(p, a.seeds, a.workers, a.hog, work, bins, a.first_seed) for p in a.pipelines]
     for r in results:
         hogged = (f"{r['passed_beside_hog']}/{r['cases']} beside {r['hog_processes']} busy processes; verdicts differ: "
                   f"{r['verdicts_differ'] or 'none'}; bit-identical trajectories {r['identical_trajectories']}/{r['cases']}; "

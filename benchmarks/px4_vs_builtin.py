@@ -2,7 +2,7 @@
 
 Runs ``pipelines/ci-px4.yaml`` (takeoff, overload, spray on two rows, gust on the sample vineyard)
 once per seed with ``autopilot: builtin`` and once with PX4 (``--px4-bin``, each case its own PX4
-process, ``--jobs 2``), then prints the behaviour figures (:mod:`vinecli.runs.behaviour`),
+process, ``--workers 2``), then prints the behaviour figures (:mod:`vinecli.runs.behaviour`),
 checks passed, wall time and lockstep stalls as a Markdown table (median over seeds).
 
     .venv/bin/python benchmarks/px4_vs_builtin.py --px4-bin /tmp/px4/px4-sitl-v1.15.4-linux-x86_64/bin/px4 [--seeds 3]
@@ -37,7 +37,7 @@ def run(pipeline: Path, out: Path, seed: int, autopilot: str, px4_bin: Path | No
     spec = load_pipeline(pipeline).model_copy(update={"autopilot": autopilot, "seed": seed})
     os.chdir(pipeline.parent)  # a PipelineSpec's relative paths resolve against the working directory
     t0 = time.perf_counter()
-    res = run_batch(spec, out, jobs=2, px4_bin=px4_bin if autopilot == "px4" else None, world=_world(out))
+    res = run_batch(spec, out, workers=2, px4_bin=px4_bin if autopilot == "px4" else None, world=_world(out))
     wall = time.perf_counter() - t0
     cases: dict[str, Any] = {"_batch_wall_s": wall}
     for c in res.cases:
@@ -103,7 +103,7 @@ def main() -> None:
             bad = [r[case]["status"] for r in results[who] if not r[case]["passed"]]
             print(f"| {case} | checks passed ({who}) | {args.seeds - len(bad)}/{args.seeds} {bad or ''} | |")
     for who in ("builtin", "px4"):
-        print(f"batch wall ({who}, --jobs 2): " + _med([r["_batch_wall_s"] for r in results[who]]) + " s")
+        print(f"batch wall ({who}, --workers 2): " + _med([r["_batch_wall_s"] for r in results[who]]) + " s")
 
 
 if __name__ == "__main__":

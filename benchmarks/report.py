@@ -1,6 +1,6 @@
 """Benchmark of ``vinecli report`` on large synthetic batches.
 
-Usage: ``python benchmarks/report.py [--quick] [--runs 1000] [--jobs N]``
+Usage: ``python benchmarks/report.py [--quick] [--runs 1000] [--workers N]``
 
 Writes four synthetic chapter-5 runs (tests/report/synth_runs.py), clones them into a batch of
 ``--runs`` run directories (5 % with a failed check) and times ``build_report`` on it and on a
@@ -24,7 +24,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smoke run (100 runs)")
     ap.add_argument("--runs", type=int, default=1000, help="runs in the large batch")
-    ap.add_argument("--jobs", type=int, default=None, help="figure processes (default min(4, CPUs))")
+    ap.add_argument("--workers", type=int, default=None, help="figure processes (default min(4, CPUs))")
     ap.add_argument("--keep", type=Path, default=None, help="keep the generated batches and reports here")
     args = ap.parse_args()
     n = 100 if args.quick else args.runs
@@ -46,7 +46,7 @@ def main() -> None:
     results = {}
     for label, runs in (("10", small), (str(n), large)):
         t1 = time.perf_counter()
-        res = build_report(runs, root / f"report-{label}", jobs=args.jobs, overwrite=True)
+        res = build_report(runs, root / f"report-{label}", workers=args.workers, overwrite=True)
         dt = time.perf_counter() - t1
         results[label] = dt
         stages = ", ".join(f"{k} {v:.2f}" for k, v in res.timings.items() if k != "total")

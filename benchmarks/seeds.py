@@ -5,7 +5,7 @@ The pipeline's world is built once (not timed); each mission runs as one batch e
 ``seed: 0, seeds: N`` (seeds 0, 1, ..., N-1) on the local process pool. Too slow for the test
 suite (800 runs, ~15 min on 2 cores); ``tests/batch/test_seed_sweep.py`` runs a handful of seeds.
 
-    .venv/bin/python benchmarks/seeds.py [--quick] [--seeds 100] [--jobs 2] [--pipelines ci ci-hills]
+    .venv/bin/python benchmarks/seeds.py [--quick] [--seeds 100] [--workers 2] [--pipelines ci ci-hills]
                                          [--missions takeoff spray ...] [--json out.json] [--keep RUNS_DIR]
 """
 
@@ -23,7 +23,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 
 
-def sweep(pipeline: Path, n_seeds: int, jobs: int, work: Path, only: Sequence[str] = ()) -> dict[str, Any]:
+def sweep(pipeline: Path, n_seeds: int, workers: int, work: Path, only: Sequence[str] = ()) -> dict[str, Any]:
     """Run every mission of ``pipeline`` (or those named in ``only``) for seeds 0..n_seeds-1 under ``work``;
     failures per mission."""
     from vinecli.batch import run_batch
@@ -41,7 +41,7 @@ def sweep(pipeline: Path, n_seeds: int, jobs: int, work: Path, only: Sequence[st
         "missions": [{"mission": m, "seed": 0, "seeds": n_seeds} for m in missions],
     }))
     t0 = time.perf_counter()
-    res = run_batch(pipe, work / f"runs-{ci.name}", jobs=jobs)
+    res = run_batch(pipe, work / f"runs-{ci.name}", workers=workers)
     wall = time.perf_counter() - t0
     per: dict[str, dict[str, Any]] = {}
     for c in res.cases:
@@ -63,7 +63,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="smoke run: 3 seeds")
     ap.add_argument("--seeds", type=int, default=100, help="seeds 0..N-1 per mission")
-    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--pipelines", nargs="+", default=["ci", "ci-hills"], help="names in pipelines/")
     ap.add_argument("--missions", nargs="+", default=[], help="only these missions (file stems), default all")
     ap.add_argument("--json", type=Path, default=None, help="also write the results as JSON")
@@ -75,7 +75,7 @@ def main() -> int:
         work = args.keep or Path(tmp_s)
         work.mkdir(parents=True, exist_ok=True)
         for name in args.pipelines:
-            r = sweep(REPO / "pipelines" / f"{name}.yaml", n, args.jobs, work, args.missions)
+            r = sweep(REPO / "pipelines" / f"{name}.yaml", n, args.workers, work, args.missions)
             results.append(r)
             for mission, m in r["missions"].items():
                 print(f"{r['pipeline']:9s} {mission:9s} {m['failed']} of {m['runs']} failed")

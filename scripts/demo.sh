@@ -25,7 +25,7 @@ $VINECLI world build worlds/vineyard-sample.yaml --out "$OUT/world"
 
 step "5/6 the CI pipeline: takeoff, overload, spray, gust (thesis chapter 5) and a whole-field refill job"
 set +e
-$VINECLI run batch pipelines/ci.yaml --world "$OUT/world" --out "$OUT/runs" --jobs 2
+$VINECLI run batch pipelines/ci.yaml --world "$OUT/world" --out "$OUT/runs" --workers 2
 batch_rc=$?
 set -e
 

@@ -29,11 +29,11 @@ pytestmark = [pytest.mark.ardupilot, pytest.mark.timeout(900)]
 
 @pytest.fixture(scope="module")
 def ci_ardupilot(ardupilot_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    """pipelines/ci-ardupilot.yaml run once with --jobs 2 (three ArduPilot processes, two at a time)."""
+    """pipelines/ci-ardupilot.yaml run once with --workers 2 (three ArduPilot processes, two at a time)."""
     from vinecli.batch import run_batch
 
     out = tmp_path_factory.mktemp("ci-ardupilot")
-    return run_batch(REPO / "pipelines" / "ci-ardupilot.yaml", out, jobs=2, ardupilot_bin=ardupilot_bin), out
+    return run_batch(REPO / "pipelines" / "ci-ardupilot.yaml", out, workers=2, ardupilot_bin=ardupilot_bin), out
 
 
 def _summary(out: Path, case: str) -> dict[str, Any]:
@@ -131,7 +131,7 @@ def test_compared_with_the_builtin_beside_a_cpu_hog_it_is_the_same_flight(ci_ard
     case = next(c for c in result.cases if c.case == "takeoff")
     with cpu_hog(2.0):
         res, cmp = compare_autopilots(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
-                                      tmp_path / "cmp", autopilots=("builtin", "ardupilot"), seed=case.seed, jobs=2,
+                                      tmp_path / "cmp", autopilots=("builtin", "ardupilot"), seed=case.seed, workers=2,
                                       ardupilot_bin=ardupilot_bin)
     assert res.passed and cmp is not None
     a = read_timeseries(out / "takeoff" / "timeseries.parquet")
@@ -201,7 +201,7 @@ def test_killing_arducopter_mid_run_is_an_error_and_the_batch_goes_on(ardupilot_
 
     th = threading.Thread(target=killer, daemon=True)
     th.start()
-    res = run_batch(pipe, tmp_path / "runs", jobs=1, ardupilot_bin=ardupilot_bin)
+    res = run_batch(pipe, tmp_path / "runs", workers=1, ardupilot_bin=ardupilot_bin)
     th.join(5)
     by = {c.case: c for c in res.cases}
     assert killed, "no ArduPilot was killed"

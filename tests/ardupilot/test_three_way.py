@@ -32,7 +32,7 @@ def three_way(px4_bin: Path, ardupilot_bin: Path, tmp_path_factory: pytest.TempP
 
     out = tmp_path_factory.mktemp("three-way")
     _res, cmp = compare_autopilots(REPO / "pipelines" / "missions" / "spray-two-rows.yaml",
-                                   REPO / "worlds" / "vineyard-sample.yaml", out, jobs=3, px4_bin=px4_bin,
+                                   REPO / "worlds" / "vineyard-sample.yaml", out, workers=3, px4_bin=px4_bin,
                                    ardupilot_bin=ardupilot_bin)
     assert cmp is not None
     return cmp, out

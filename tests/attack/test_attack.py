@@ -124,7 +124,7 @@ def test_attack(sandbox: Path, tmp_path: Path) -> None:
     finally:
         kill_session(first)
     # 4. kill -9 of a running batch: no process left within 5 s
-    batch = vinecli_proc("run", "batch", sb / "specs" / "pidle.yaml", "--out", tmp_path / "runs3", "--jobs", "2")
+    batch = vinecli_proc("run", "batch", sb / "specs" / "pidle.yaml", "--out", tmp_path / "runs3", "--workers", "2")
     try:
         assert wait_for(lambda: sum(map(simulating, descendants(batch.pid))) >= 2 or batch.poll() is not None, 180)
         tree = descendants(batch.pid)

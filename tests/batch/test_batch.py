@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 import pytest
-from _batch_jobs import job_light
+from _batch_cases import case_light
 
 from vinecli.batch import run_batch
 from vinecli.batch.spec import derive_seed, expand_cases, load_pipeline
@@ -108,7 +108,7 @@ missions: [missions/hover.yaml, missions/boom.yaml, missions/crash.yaml, mission
 """)
     runs = tmp_path / "runs"
     seen: list[tuple[str, int]] = []
-    res = run_batch(p, runs, jobs=2, job=job_light, progress=lambda r, d, n: seen.append((r.case, n)))
+    res = run_batch(p, runs, workers=2, run_case=case_light, progress=lambda r, d, n: seen.append((r.case, n)))
     by = {c.case: c for c in res.cases}
     assert by["hover"].passed and by["ok2"].passed
     assert by["boom"].status == "error" and "exploded" in by["boom"].error
@@ -123,7 +123,7 @@ missions: [missions/hover.yaml, missions/boom.yaml, missions/crash.yaml, mission
     assert pid != os.getpid()
     # resume: finished cases are skipped, the others run again
     mtime = (runs / "hover" / "summary.json").stat().st_mtime_ns
-    res2 = run_batch(p, runs, jobs=1, job=job_light, resume=True)
+    res2 = run_batch(p, runs, workers=1, run_case=case_light, resume=True)
     by2 = {c.case: c for c in res2.cases}
     assert by2["hover"].skipped and by2["ok2"].skipped and not by2["boom"].skipped
     assert (runs / "hover" / "summary.json").stat().st_mtime_ns == mtime
@@ -131,7 +131,7 @@ missions: [missions/hover.yaml, missions/boom.yaml, missions/crash.yaml, mission
 
 def test_hanging_case_is_killed_and_batch_goes_on(pipe_dir: Path, tmp_path: Path) -> None:
     p = write_pipe(pipe_dir, "missions: [missions/hang.yaml, missions/hover.yaml, missions/ok2.yaml]\n")
-    res = run_batch(p, tmp_path / "runs", jobs=2, job=job_light, timeout_s=1.0, grace_s=2.0)
+    res = run_batch(p, tmp_path / "runs", workers=2, run_case=case_light, timeout_s=1.0, grace_s=2.0)
     by = {c.case: c for c in res.cases}
     assert by["hang"].status == "error" and "timeout" in by["hang"].error
     assert by["hover"].passed and by["ok2"].passed
@@ -139,7 +139,7 @@ def test_hanging_case_is_killed_and_batch_goes_on(pipe_dir: Path, tmp_path: Path
 
 def test_dask_local_cluster_same_code_path(pipe_dir: Path, tmp_path: Path) -> None:
     p = write_pipe(pipe_dir, "missions: [missions/hover.yaml, missions/boom.yaml, missions/ok2.yaml]\n")
-    res = run_batch(p, tmp_path / "runs", jobs=1, executor="dask", job=job_light, dask_processes=False)
+    res = run_batch(p, tmp_path / "runs", workers=1, executor="dask", run_case=case_light, dask_processes=False)
     by = {c.case: c for c in res.cases}
     assert by["hover"].passed and by["ok2"].passed
     assert by["boom"].status == "error" and "exploded" in by["boom"].error
@@ -165,8 +165,8 @@ def test_dask_scheduler_address(pipe_dir: Path, tmp_path: Path) -> None:
 
     p = write_pipe(pipe_dir, "missions: [missions/hover.yaml, missions/ok2.yaml]\n")
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
-        res = run_batch(p, tmp_path / "runs", jobs=1, executor="dask", scheduler=cluster.scheduler_address,
-                        job=job_light)
+        res = run_batch(p, tmp_path / "runs", workers=1, executor="dask", scheduler=cluster.scheduler_address,
+                        run_case=case_light)
     assert res.passed and len(res.cases) == 2
 
 
@@ -178,8 +178,8 @@ def test_bad_executor_options(pipe_dir: Path, tmp_path: Path) -> None:
         run_batch(p, tmp_path / "r", executor="ray")
     with pytest.raises(InputError, match="--scheduler needs --executor dask"):
         run_batch(p, tmp_path / "r", scheduler="tcp://127.0.0.1:1")
-    with pytest.raises(InputError, match="--jobs"):
-        run_batch(p, tmp_path / "r", jobs=0)
+    with pytest.raises(InputError, match="--workers"):
+        run_batch(p, tmp_path / "r", workers=0)
 
 
 def test_world_override(pipe_dir: Path, tmp_path: Path) -> None:
@@ -188,7 +188,7 @@ def test_world_override(pipe_dir: Path, tmp_path: Path) -> None:
     (other / "world.json").write_text("{}")
     p = write_pipe(pipe_dir, "missions: [missions/hover.yaml, {mission: missions/ok2.yaml, world: world}]\n")
     runs = tmp_path / "runs"
-    run_batch(p, runs, jobs=1, job=job_light, world=other)
+    run_batch(p, runs, workers=1, run_case=case_light, world=other)
     assert json.loads((runs / "hover" / "summary.json").read_text())["world_dir"] == str(other.resolve())
     assert json.loads((runs / "ok2" / "summary.json").read_text())["world_dir"] == str((pipe_dir / "world").resolve())
 
@@ -201,7 +201,7 @@ def test_world_as_a_sweep_axis(pipe_dir: Path, tmp_path: Path) -> None:
     cases = expand_cases(load_pipeline(p), p)
     assert [Path(c.world).name for c in cases] == ["world", "world2"]
     assert cases[0].name != cases[1].name
-    res = run_batch(p, tmp_path / "runs", jobs=1, job=job_light)
+    res = run_batch(p, tmp_path / "runs", workers=1, run_case=case_light)
     dirs = {json.loads((tmp_path / "runs" / c.run_id / "summary.json").read_text())["world_dir"] for c in res.cases}
     assert dirs == {str((pipe_dir / "world").resolve()), str(other.resolve())}
 
@@ -209,7 +209,7 @@ def test_world_as_a_sweep_axis(pipe_dir: Path, tmp_path: Path) -> None:
 def test_batch_counts_keep_interrupted_cases_apart() -> None:
     """passed / failed checks / could not run / interrupted are disjoint: an interrupted case (partial run, or
     never started) is neither a check failure nor an error, so the CLI can say which it was."""
-    from vinecli.batch.job import CaseResult
+    from vinecli.batch.case import CaseResult
     from vinecli.batch.runner import BatchResult
 
     cases = [CaseResult("a", "a", "completed", True), CaseResult("b", "b", "completed", False),

@@ -12,7 +12,7 @@ from vinecli.batch import run_batch
 
 
 def test_ci_hills_pipeline_passes_every_check(tmp_path: Path) -> None:
-    res = run_batch(REPO / "pipelines" / "ci-hills.yaml", tmp_path / "runs", jobs=2)
+    res = run_batch(REPO / "pipelines" / "ci-hills.yaml", tmp_path / "runs", workers=2)
     assert [c.case for c in res.cases] == ["takeoff", "overload", "spray", "gust"]
     batch = json.loads((tmp_path / "runs" / "batch.json").read_text())
     assert batch["pipeline"] == "ci-hills" and batch["passed"] is True

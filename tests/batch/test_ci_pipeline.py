@@ -23,7 +23,7 @@ EXPECTED = {
 @pytest.fixture(scope="module")
 def ci_runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("ci") / "runs"
-    res = run_batch(REPO / "pipelines" / "ci.yaml", out, jobs=2)
+    res = run_batch(REPO / "pipelines" / "ci.yaml", out, workers=2)
     assert [c.case for c in res.cases] == list(EXPECTED)
     return out
 
@@ -69,7 +69,7 @@ def test_ci_thesis_numbers(ci_runs: Path) -> None:
 
 
 def test_resume_skips_the_finished_ci_cases(ci_runs: Path) -> None:
-    res = run_batch(REPO / "pipelines" / "ci.yaml", ci_runs, jobs=1, resume=True)
+    res = run_batch(REPO / "pipelines" / "ci.yaml", ci_runs, workers=1, resume=True)
     assert all(c.skipped and c.passed for c in res.cases)
 
 
@@ -77,7 +77,7 @@ def test_dask_executor_runs_a_real_mission(tmp_path: Path, ci_runs: Path) -> Non
     world = ci_runs / "_worlds" / "vineyard-sample"
     pipe = tmp_path / "p.yaml"
     pipe.write_text(f"name: dask-real\nworld: {world}\nmissions: [{REPO / 'pipelines' / 'missions' / 'takeoff.yaml'}]\n")
-    res = run_batch(pipe, tmp_path / "runs", jobs=1, executor="dask", dask_processes=False)
+    res = run_batch(pipe, tmp_path / "runs", workers=1, executor="dask", dask_processes=False)
     assert res.cases[0].passed and res.cases[0].status == "completed"
     assert json.loads((tmp_path / "runs" / "batch.json").read_text())["executor"] == "dask"
 

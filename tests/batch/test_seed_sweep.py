@@ -24,7 +24,7 @@ def test_ci_missions_pass_for_a_handful_of_seeds(tmp_path: Path) -> None:
     pipe.write_text(json.dumps({
         "name": "seeds", "world": str(ci.parent / "../worlds/vineyard-sample.yaml"), "seed": 0, "timeout_s": 600,
         "missions": [{"mission": m, "seed": SEEDS[0], "seeds": len(SEEDS)} for m in missions]}))
-    res = run_batch(pipe, tmp_path / "runs", jobs=2)
+    res = run_batch(pipe, tmp_path / "runs", workers=2)
     assert sorted(c.seed for c in res.cases) == sorted(SEEDS * len(missions))
     failed = {c.case: (c.status, c.failed_checks, c.error) for c in res.cases if not c.passed}
     assert not failed, failed

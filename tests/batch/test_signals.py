@@ -55,7 +55,7 @@ def test_signal_stops_workers_and_writes_interrupted_runs(flat_world_dir: Path, 
                                                           code: int) -> None:
     p = pipeline(tmp_path, flat_world_dir, hold=HOURS)
     runs = tmp_path / "runs"
-    proc = subprocess.Popen(vinecli_cmd("run", "batch", str(p), "--out", str(runs), "--jobs", "2"), env=env(),
+    proc = subprocess.Popen(vinecli_cmd("run", "batch", str(p), "--out", str(runs), "--workers", "2"), env=env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         _signal_and_check(proc, runs, signum, code)

@@ -175,7 +175,7 @@ missions:
   - {{mission: slow.yaml, name: slow}}
 """)
     out = tmp_path / "runs"
-    r = runner.invoke(app, ["run", "batch", str(pipe), "--out", str(out), "--jobs", "2", "--timeout", "4"])
+    r = runner.invoke(app, ["run", "batch", str(pipe), "--out", str(out), "--workers", "2", "--timeout", "4"])
     assert r.exit_code == 3, r.output  # a case could not run
     b = json.loads((out / "batch.json").read_text())
     by = {c["case"]: c for c in b["cases"]}

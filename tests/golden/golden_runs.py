@@ -112,12 +112,12 @@ def build_worlds(cases: Iterable[str], into: Path) -> dict[str, Path]:
     return {spec: build_world(spec, into) for spec in sorted({CASES[c][1] for c in cases})}
 
 
-def fly_all(cases: Iterable[str], world_dirs: dict[str, Path], out: Path, jobs: int = 2) -> dict[tuple[str, str], Path]:
-    """Every (case, kernel) run, ``jobs`` processes at a time, in the built worlds ``world_dirs``
+def fly_all(cases: Iterable[str], world_dirs: dict[str, Path], out: Path, workers: int = 2) -> dict[tuple[str, str], Path]:
+    """Every (case, kernel) run, ``workers`` processes at a time, in the built worlds ``world_dirs``
     (:func:`build_worlds`)."""
     cases = list(cases)
     todo = [(c, k) for c in cases for k in KERNELS]
-    with ThreadPoolExecutor(jobs) as pool:
+    with ThreadPoolExecutor(workers) as pool:
         runs = pool.map(lambda ck: fly(ck[0], ck[1], world_dirs[CASES[ck[0]][1]], out / ck[0]), todo)
         return dict(zip(todo, runs, strict=True))
 

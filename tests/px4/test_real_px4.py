@@ -28,11 +28,11 @@ pytestmark = [pytest.mark.px4, pytest.mark.timeout(300)]
 
 @pytest.fixture(scope="module")
 def ci_px4(px4_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    """pipelines/ci-px4.yaml run once with --jobs 2 (four PX4 processes, two at a time)."""
+    """pipelines/ci-px4.yaml run once with --workers 2 (four PX4 processes, two at a time)."""
     from vinecli.batch import run_batch
 
     out = tmp_path_factory.mktemp("ci-px4")
-    return run_batch(REPO / "pipelines" / "ci-px4.yaml", out, jobs=2, px4_bin=px4_bin), out
+    return run_batch(REPO / "pipelines" / "ci-px4.yaml", out, workers=2, px4_bin=px4_bin), out
 
 
 def _events(run_dir: Path) -> list[dict[str, Any]]:

@@ -27,7 +27,7 @@ def validate_junit(path: Path) -> etree._ElementTree:
 
 @pytest.fixture(scope="module")
 def ci_report(ci_runs: Path, tmp_path_factory: pytest.TempPathFactory):
-    return build_report(ci_runs, tmp_path_factory.mktemp("rep") / "report", jobs=1)
+    return build_report(ci_runs, tmp_path_factory.mktemp("rep") / "report", workers=1)
 
 
 def test_passing_batch(ci_report) -> None:
@@ -164,7 +164,7 @@ def test_tolerance_override_silences_the_regression(ci_runs: Path, drifting_runs
 
 def test_large_batch_paginates_with_per_run_pages(ci_runs: Path, tmp_path: Path) -> None:
     big = clone_batch(ci_runs, tmp_path / "big", 130, fail_every=10)
-    res = build_report(big, tmp_path / "rep", max_figure_runs=1, page_size=50, inline_limit=20, jobs=1)
+    res = build_report(big, tmp_path / "rep", max_figure_runs=1, page_size=50, inline_limit=20, workers=1)
     assert res.n_runs == 130 and res.n_failed == 13 and res.figure_runs == 1
     out = res.out_dir
     assert sorted(p.name for p in (out / "pages").iterdir()) == ["overview-2.html", "overview-3.html"]
@@ -190,6 +190,6 @@ def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None
 
     runs = [r for r in load_runs(ci_runs) if r.case in ("overload", "takeoff")]
     calls: list[tuple[int, int]] = []
-    figs = render_all(runs, jobs=2, progress=lambda i, n: calls.append((i, n)))
+    figs = render_all(runs, workers=2, progress=lambda i, n: calls.append((i, n)))
     assert sorted(figs) == ["overload", "takeoff"] and calls[-1] == (2, 2)
     assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig23", "fig24", "fig25"))

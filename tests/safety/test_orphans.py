@@ -35,7 +35,7 @@ def test_kill_9_of_the_batch_leaves_no_process(flat_world_dir: Path, tmp_path: P
         mission(tmp_path, name, text=IDLE)
     p = tmp_path / "p.yaml"
     p.write_text(f"name: p\nworld: {flat_world_dir}\nmissions: [a.yaml, b.yaml]\n")
-    proc = vinecli_proc("run", "batch", p, "--out", tmp_path / "runs", "--jobs", "2")
+    proc = vinecli_proc("run", "batch", p, "--out", tmp_path / "runs", "--workers", "2")
     try:
         tree = _batch_tree(proc, 2)
         assert len(tree) >= 3  # the fork server and two workers at least
@@ -57,10 +57,10 @@ def test_kill_9_of_the_batch_leaves_no_process(flat_world_dir: Path, tmp_path: P
 SECOND_SIGNAL = """
 import sys
 sys.path.insert(0, {kit!r})
-from attack_jobs import job_slow_write
+from attack_cases import case_slow_write
 from vinecli.batch import run_batch
 if __name__ == "__main__":
-    run_batch({pipeline!r}, {runs!r}, jobs=2, job=job_slow_write)
+    run_batch({pipeline!r}, {runs!r}, workers=2, run_case=case_slow_write)
 """
 
 

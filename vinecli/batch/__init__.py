@@ -1,6 +1,6 @@
 """Batch runs: pipelines of missions and sweeps on a local process pool or Dask."""
 
-from vinecli.batch.job import CaseResult, RunSpec, run_one
+from vinecli.batch.case import CaseResult, RunSpec, run_one
 from vinecli.batch.runner import BatchResult, run_batch
 from vinecli.batch.spec import PipelineSpec, expand_cases, load_pipeline
 

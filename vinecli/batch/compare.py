@@ -23,7 +23,7 @@ COMPARISON_PNG = "comparison.png"
 
 
 def compare_autopilots(mission: str | Path, world: str | Path, runs_dir: str | Path, *,
-                       autopilots: Sequence[str] = AUTOPILOTS, seed: int = 0, jobs: int = 1,
+                       autopilots: Sequence[str] = AUTOPILOTS, seed: int = 0, workers: int = 1,
                        px4_bin: str | Path | None = None, ardupilot_bin: str | Path | None = None,
                        timeout_s: float | None = None, progress: ProgressFn | None = None
                        ) -> tuple[BatchResult, dict[str, Any] | None]:
@@ -48,7 +48,7 @@ def compare_autopilots(mission: str | Path, world: str | Path, runs_dir: str | P
         missions=[MissionEntry(mission=str(mpath), name=f"{spec.name}-{ap}", seed=seed, set={"autopilot": ap})
                   for ap in names])
     out = Path(runs_dir)
-    result = run_batch(pipeline, out, jobs=jobs, px4_bin=px4_bin, ardupilot_bin=ardupilot_bin, progress=progress)
+    result = run_batch(pipeline, out, workers=workers, px4_bin=px4_bin, ardupilot_bin=ardupilot_bin, progress=progress)
     dirs = [out / c.run_id for c in result.cases if (out / c.run_id / "summary.json").is_file()]
     if len(dirs) < 2:
         return result, None

@@ -31,7 +31,7 @@ EXECUTORS = ("local", "dask")
 WORKER_CASES = 32
 #: modules the fork server imports before forking workers: the case runner and what a case imports
 #: on first use (row coverage's KD-tree, the sprayer's filters, the Parquet writer)
-WORKER_PRELOAD = ["vinecli.batch.job", "vinecli.runs.mission", "vinecli.world.engine", "vinecli.missions.job",
+WORKER_PRELOAD = ["vinecli.batch.case", "vinecli.runs.mission", "vinecli.world.engine", "vinecli.missions.job",
                   "vinecli.phase_items.spray_legs", "scipy.spatial", "scipy.ndimage", "pyarrow.parquet"]
 
 
@@ -52,11 +52,11 @@ def start_fork_server() -> None:
     forkserver.ensure_running()
 
 
-def make_local_executor(jobs: int, max_tasks_per_child: int = WORKER_CASES, stop_flag: Any = None) -> ProcessPoolExecutor:
+def make_local_executor(workers: int, max_tasks_per_child: int = WORKER_CASES, stop_flag: Any = None) -> ProcessPoolExecutor:
     """Process pool, workers forked from the preloaded fork server and recycled every ``max_tasks_per_child``
     cases, stops handled as :func:`vinecli.batch.signals.worker_init` sets up (``stop_flag``: from
     :func:`local_stop_flag`; the workers follow this process when it dies, ``kill -9`` included)."""
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=_context(),
+    return ProcessPoolExecutor(max_workers=workers, mp_context=_context(),
                                max_tasks_per_child=max_tasks_per_child, initializer=worker_init,
                                initargs=(stop_flag, os.getpid()))
 
@@ -67,8 +67,8 @@ def local_stop_flag() -> Any:
 
 
 @contextmanager
-def dask_executor(jobs: int, scheduler: str | None = None, *, processes: bool = True) -> Iterator[Executor]:
-    """A Dask-backed Executor: connect to ``scheduler`` or start a LocalCluster of ``jobs`` workers."""
+def dask_executor(workers: int, scheduler: str | None = None, *, processes: bool = True) -> Iterator[Executor]:
+    """A Dask-backed Executor: connect to ``scheduler`` or start a LocalCluster of ``workers`` processes."""
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - the dask extra is not installed
@@ -78,7 +78,7 @@ def dask_executor(jobs: int, scheduler: str | None = None, *, processes: bool = 
         if scheduler:
             client = Client(scheduler, timeout="20s")
         else:
-            cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=processes,
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
                                    dashboard_address=None, silence_logs=logging.WARNING)
             client = Client(cluster)
     except OSError as exc:

@@ -1,7 +1,7 @@
 """``run_batch``: every case of a pipeline, in parallel, into one runs directory.
 
 Cases are submitted to a ``concurrent.futures.Executor`` (local process pool or Dask), at most
-``jobs`` at a time so a case's wall-clock limit counts from its start. A case that raises,
+``workers`` at a time so a case's wall-clock limit counts from its start. A case that raises,
 crashes its worker process or runs past its limit is recorded as an error and the batch goes
 on: the limit is enforced cooperatively inside the worker (the loop stops at ``timeout_s``)
 and, as a last resort, by the parent, which kills a local pool that stops answering
@@ -30,6 +30,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from vinecli.batch.case import CaseResult, RunSpec, run_one
 from vinecli.batch.executors import (
     EXECUTORS,
     WORKER_CASES,
@@ -38,7 +39,6 @@ from vinecli.batch.executors import (
     make_local_executor,
     start_fork_server,
 )
-from vinecli.batch.job import CaseResult, RunSpec, run_one
 from vinecli.batch.preflight import check_case_targets, check_cases_memory, note_case_inputs
 from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
@@ -97,14 +97,14 @@ ProgressFn = Callable[[CaseResult, int, int], None]
 def run_batch(
     pipeline: str | Path | PipelineSpec,
     runs_dir: str | Path,
-    jobs: int = 1,
+    workers: int = 1,
     executor: str = "local",
     scheduler: str | None = None,
     resume: bool = False,
     timeout_s: float | None = None,
     *,
     progress: ProgressFn | None = None,
-    job: Callable[[RunSpec], CaseResult] = run_one,
+    run_case: Callable[[RunSpec], CaseResult] = run_one,
     dask_processes: bool = True,
     max_tasks_per_child: int = WORKER_CASES,
     grace_s: float | None = None,
@@ -115,14 +115,14 @@ def run_batch(
 ) -> BatchResult:
     """Run a pipeline's cases; returns the :class:`BatchResult` (also written to ``RUNS/batch.json``).
 
-    ``timeout_s`` (wall seconds per case) overrides the pipeline's. ``job`` is the top-level,
-    picklable function executed per case (default :func:`~vinecli.batch.job.run_one`). ``world`` (a built
+    ``timeout_s`` (wall seconds per case) overrides the pipeline's. ``run_case`` is the top-level,
+    picklable function executed per case (default :func:`~vinecli.batch.case.run_one`). ``world`` (a built
     world dir or a world spec) replaces the pipeline's default world (entries naming their own keep theirs).
     ``px4_bin`` / ``ardupilot_bin`` (or the pipeline's): PX4 / ArduPilot cases start their own SITL process,
     one per case.
     """
-    if jobs < 1:
-        raise InputError(f"--jobs must be >= 1, got {jobs}")
+    if workers < 1:
+        raise InputError(f"--workers must be >= 1, got {workers}")
     if executor not in EXECUTORS:
         raise InputError(f"unknown executor {executor!r} (choose from {', '.join(EXECUTORS)})")
     if scheduler and executor != "dask":
@@ -155,15 +155,15 @@ def run_batch(
         with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
             remove_stale_temps(runs_dir)
             try:
-                return _run(spec, ppath, cases, runs_dir, jobs, executor, scheduler, resume, timeout_s, progress,
-                            job, dask_processes, max_tasks_per_child, grace_s, mcap, ap_opts)
+                return _run(spec, ppath, cases, runs_dir, workers, executor, scheduler, resume, timeout_s, progress,
+                            run_case, dask_processes, max_tasks_per_child, grace_s, mcap, ap_opts)
             finally:  # what workers killed by a second signal left half-written
                 remove_stale_temps(runs_dir)
 
 
-def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, jobs: int, executor: str,
+def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, workers: int, executor: str,
          scheduler: str | None, resume: bool, timeout_s: float | None, progress: ProgressFn | None,
-         job: Callable[[RunSpec], CaseResult], dask_processes: bool, max_tasks_per_child: int, grace_s: float | None,
+         run_case: Callable[[RunSpec], CaseResult], dask_processes: bool, max_tasks_per_child: int, grace_s: float | None,
          mcap: bool, ap_opts: dict[str, dict[str, Any]]) -> BatchResult:
     """:func:`run_batch` once its inputs are read and its outputs checked (the runs folder locked)."""
     limit = timeout_s if timeout_s is not None else spec.timeout_s
@@ -184,10 +184,10 @@ def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, job
         hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
 
         def execute(todo: Sequence[RunSpec], record: Callable[[CaseResult], None]) -> None:
-            _execute(todo, job, jobs, executor, scheduler, dask_processes, max_tasks_per_child, hard, record, stop)
+            _execute(todo, run_case, workers, executor, scheduler, dask_processes, max_tasks_per_child, hard, record, stop)
 
         def write(results: dict[str, CaseResult]) -> None:
-            _write_batch_json(runs_dir, spec, ppath, executor, jobs, run_specs, results, t0)
+            _write_batch_json(runs_dir, spec, ppath, executor, workers, run_specs, results, t0)
 
         results = _run_cases(run_specs, runs_dir, resume, stop, progress, execute, write)
     return BatchResult(spec.name, str(runs_dir), [results[rs.case] for rs in run_specs],
@@ -237,7 +237,7 @@ def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: Sto
     return results
 
 
-def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs: int, executor: str,
+def _execute(todo: Sequence[RunSpec], run_case: Callable[[RunSpec], CaseResult], workers: int, executor: str,
              scheduler: str | None, dask_processes: bool, max_tasks_per_child: int, hard_limit: float | None,
              record: Callable[[CaseResult], None], stop: StopRequest) -> None:
     # longest expected case first (max_duration_s as the estimate): a long case started last would leave
@@ -249,20 +249,20 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
     flag = local_stop_flag() if local else None
     with ExitStack() as stack:
         if local:
-            ex: Executor = make_local_executor(jobs, max_tasks_per_child, flag)
+            ex: Executor = make_local_executor(workers, max_tasks_per_child, flag)
         else:
-            ex = stack.enter_context(dask_executor(jobs, scheduler, processes=dask_processes))
+            ex = stack.enter_context(dask_executor(workers, scheduler, processes=dask_processes))
 
         def refill() -> None:
-            while pending and not suspects and len(inflight) < jobs:
+            while pending and not suspects and len(inflight) < workers:
                 s = pending.popleft()
-                inflight[ex.submit(job, s)] = (s, time.monotonic(), False)
+                inflight[ex.submit(run_case, s)] = (s, time.monotonic(), False)
 
         try:
             while (pending or suspects or inflight) and stop.signum is None:
                 while suspects and not inflight:
                     s = suspects.popleft()
-                    inflight[ex.submit(job, s)] = (s, time.monotonic(), True)
+                    inflight[ex.submit(run_case, s)] = (s, time.monotonic(), True)
                 refill()
                 done, _ = wait(list(inflight), timeout=0.5, return_when=FIRST_COMPLETED)
                 finished = [(f, inflight.pop(f)) for f in done]
@@ -285,7 +285,7 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                         suspects.append(s)
                         inflight.pop(f)
                     ex.shutdown(wait=False, cancel_futures=True)
-                    ex = make_local_executor(jobs, max_tasks_per_child, flag)
+                    ex = make_local_executor(workers, max_tasks_per_child, flag)
                 if hard_limit is not None:
                     now = time.monotonic()
                     expired = [f for f, (_s, t, _a) in inflight.items() if now - t > hard_limit]
@@ -298,7 +298,7 @@ def _execute(todo: Sequence[RunSpec], job: Callable[[RunSpec], CaseResult], jobs
                             pending.appendleft(s)
                             inflight.pop(f)
                         _kill_pool(ex)
-                        ex = make_local_executor(jobs, max_tasks_per_child, flag)
+                        ex = make_local_executor(workers, max_tasks_per_child, flag)
             if stop.signum is not None and inflight:
                 _drain(inflight, flag, record, stop.name)
         finally:
@@ -370,7 +370,7 @@ def _result_from_summary(s: RunSpec, run_dir: Path) -> CaseResult:
     )
 
 
-def _write_batch_json(runs_dir: Path, spec: PipelineSpec, ppath: Path, executor: str, jobs: int,
+def _write_batch_json(runs_dir: Path, spec: PipelineSpec, ppath: Path, executor: str, workers: int,
                       run_specs: Sequence[RunSpec], results: dict[str, CaseResult], t0: float) -> None:
     cases: list[dict[str, Any]] = []
     for rs in run_specs:
@@ -381,7 +381,7 @@ def _write_batch_json(runs_dir: Path, spec: PipelineSpec, ppath: Path, executor:
         "pipeline": spec.name,
         "pipeline_file": str(ppath),
         "executor": executor,
-        "jobs": jobs,
+        "workers": workers,
         "updated_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "wall_time_s": round(time.perf_counter() - t0, 3),
         "passed": all(c.get("passed") for c in cases),

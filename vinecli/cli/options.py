@@ -31,9 +31,9 @@ def world_option(help: str) -> Any:  # noqa: A002
     return typer.Option("--world", "-w", help=help)
 
 
-def jobs_option(help: str) -> Any:  # noqa: A002
-    """``--jobs/-j``: how many processes work in parallel."""
-    return typer.Option("--jobs", "-j", help=help)
+def workers_option(help: str) -> Any:  # noqa: A002
+    """``--workers/-j``: how many processes work in parallel (``--jobs``, its older name, still accepted)."""
+    return typer.Option("--workers", "-j", "--jobs", help=help)
 
 
 def mcap_option(help: str) -> Any:  # noqa: A002

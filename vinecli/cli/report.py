@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from vinecli.cli.console import handles_errors, out_console, progress
-from vinecli.cli.options import jobs_option, out_option, overwrite_option
+from vinecli.cli.options import out_option, overwrite_option, workers_option
 
 app = typer.Typer()
 
@@ -29,7 +29,7 @@ def report_cmd(
                                                            "none.")] = "auto",
     max_figure_runs: Annotated[int, typer.Option("--max-figure-runs", help="Figure budget (runs) for "
                                                                            "--figures auto/failed.")] = 20,
-    jobs: Annotated[int | None, jobs_option("Processes rendering figures (default: min(4, CPUs)).")] = None,
+    workers: Annotated[int | None, workers_option("Processes rendering figures (default: min(4, CPUs)).")] = None,
     overwrite: Annotated[bool, overwrite_option("Replace an existing, non-empty --out.")] = False,
 ) -> None:
     """Build the HTML/Markdown/JUnit/JSON report of a batch of runs (thesis figures 16-21 per run).
@@ -53,7 +53,7 @@ def report_cmd(
             bar.update(task, completed=done, total=total, info=stage)
 
         result = build_report(runs, out, fmt, baseline, tolerances=parse_tolerances(tolerance or []),
-                              figures=figures, max_figure_runs=max_figure_runs, jobs=jobs, overwrite=overwrite,
+                              figures=figures, max_figure_runs=max_figure_runs, workers=workers, overwrite=overwrite,
                               progress=on_progress)  # type: ignore[arg-type]
     out_console.print(f"{result.n_runs} runs: {result.n_passed} passed, {result.n_failed} failed, "
                       f"{result.n_errors} errors" + (f", {len(result.regressions)} regressions vs {baseline}"

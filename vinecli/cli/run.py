@@ -16,11 +16,11 @@ from vinecli.cli.options import (
     Px4LockstepTimeout,
     Seed,
     ardupilot_bin_option,
-    jobs_option,
     mcap_option,
     out_option,
     overwrite_option,
     px4_bin_option,
+    workers_option,
     world_option,
 )
 from vinecli.sitl.options import PX4_DEFAULTS
@@ -112,7 +112,7 @@ def mission_cmd(
 def batch_cmd(
     pipeline: Annotated[Path, typer.Argument(help="Pipeline YAML (pipelines/*.yaml).")],
     out: Annotated[Path, out_option("Runs directory (one run dir per case + batch.json).")],
-    jobs: Annotated[int, jobs_option("Parallel cases.")] = 1,
+    workers: Annotated[int, workers_option("Parallel cases.")] = 1,
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or dask.")] = "local",
     scheduler: Annotated[str | None, typer.Option("--scheduler", help="Dask scheduler address (default: local cluster).")] = None,
     resume: Annotated[bool, typer.Option("--resume", help="Skip cases whose run is already complete.")] = False,
@@ -121,7 +121,7 @@ def batch_cmd(
     world: Annotated[Path | None, world_option("Built world dir or world spec replacing the pipeline's default world.")
                      ] = None,
     px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary: each PX4 case starts its own PX4 (one process "
-                                                   "and instance per case, so --jobs runs them in parallel).")] = None,
+                                                   "and instance per case, so --workers runs them in parallel).")] = None,
     ardupilot_bin: Annotated[Path | None, ardupilot_bin_option(
         "ArduCopter SITL binary: each ArduPilot case starts its own ArduPilot (one process and instance per "
         "case).")] = None,
@@ -131,7 +131,7 @@ def batch_cmd(
     Exit 1 if a check failed, 3 if a case could not run, 143/130 after SIGTERM/SIGINT (running cases are
     written as "interrupted" partial runs, the rest marked "interrupted" in batch.json; --resume finishes).
 
-    Example: vinecli run batch pipelines/ci.yaml --out runs --jobs 2
+    Example: vinecli run batch pipelines/ci.yaml --out runs --workers 2
     """
     if executor == "local":  # the workers' fork server imports what a case needs while this process goes on
         from vinecli.batch.executors import start_fork_server
@@ -150,7 +150,7 @@ def batch_cmd(
             mark = "skipped" if r.skipped else ("ok" if r.passed else (r.error and "error") or "FAILED")
             bar.update(task, completed=done, info=f"{r.case}: {mark}")
 
-        result = run_batch(pipeline, out, jobs=jobs, executor=executor, scheduler=scheduler, resume=resume,
+        result = run_batch(pipeline, out, workers=workers, executor=executor, scheduler=scheduler, resume=resume,
                            timeout_s=timeout, progress=on_case, mcap=mcap, world=world, px4_bin=px4_bin,
                            ardupilot_bin=ardupilot_bin)
     _batch_table(result)
@@ -180,7 +180,7 @@ def compare_cmd(
     seed: Seed = 0,
     autopilots: Annotated[str, typer.Option("--autopilots", help="Comma-separated autopilots to compare.")
                           ] = "builtin,px4,ardupilot",
-    jobs: Annotated[int, jobs_option("Parallel runs.")] = 1,
+    workers: Annotated[int, workers_option("Parallel runs.")] = 1,
     px4_bin: Annotated[Path | None, px4_bin_option("PX4 SITL binary (for px4).")] = None,
     ardupilot_bin: Annotated[Path | None, ardupilot_bin_option("ArduCopter SITL binary (for ardupilot).")] = None,
 ) -> None:
@@ -200,7 +200,7 @@ def compare_cmd(
     with progress(transient=True) as bar:
         task = bar.add_task("runs", total=len(names), info="")
         result, cmp = compare_autopilots(
-            mission, world, out, autopilots=names, seed=seed, jobs=jobs, px4_bin=px4_bin, ardupilot_bin=ardupilot_bin,
+            mission, world, out, autopilots=names, seed=seed, workers=workers, px4_bin=px4_bin, ardupilot_bin=ardupilot_bin,
             progress=lambda r, done, total: bar.update(task, completed=done, info=f"{r.case}: {r.status}"))
     _batch_table(result)
     if cmp is not None:

@@ -100,15 +100,15 @@ def _render_one(run_dir: str) -> tuple[str, dict[str, dict[str, Any]]]:
     return run_dir, render_figures(run_dir)
 
 
-def render_all(runs: Sequence[Run], jobs: int = 1, progress: Callable[[int, int], None] | None = None
+def render_all(runs: Sequence[Run], workers: int = 1, progress: Callable[[int, int], None] | None = None
                ) -> dict[str, dict[str, dict[str, Any]]]:
-    """Figures of ``runs`` (case -> fig id -> {png, note, caption}); a spawn process pool when jobs > 1."""
+    """Figures of ``runs`` (case -> fig id -> {png, note, caption}); a spawn process pool when workers > 1."""
     by_dir = {str(r.dir): r.case for r in runs if r.dir is not None}
     out: dict[str, dict[str, dict[str, Any]]] = {}
     total = len(by_dir)
     if total == 0:
         return out
-    if jobs <= 1 or total == 1:
+    if workers <= 1 or total == 1:
         for i, d in enumerate(by_dir, 1):
             out[by_dir[d]] = _render_one(d)[1]
             if progress:
@@ -116,7 +116,7 @@ def render_all(runs: Sequence[Run], jobs: int = 1, progress: Callable[[int, int]
         return out
     import multiprocessing as mp
 
-    with ProcessPoolExecutor(max_workers=min(jobs, total), mp_context=mp.get_context("spawn")) as ex:
+    with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=mp.get_context("spawn")) as ex:
         futs = [ex.submit(_render_one, d) for d in by_dir]
         for i, fut in enumerate(as_completed(futs), 1):
             d, figs = fut.result()
@@ -206,7 +206,7 @@ def build_report(
     max_figure_runs: int = 20,
     inline_limit: int = 20,
     page_size: int = 100,
-    jobs: int | None = None,
+    workers: int | None = None,
     title: str | None = None,
     overwrite: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
@@ -217,7 +217,7 @@ def build_report(
     name (regressions per :mod:`vinecli.report.baseline`, ``tolerances`` override the defaults);
     ``figures``/``max_figure_runs``: which runs get figures (see :func:`select_figure_runs`); ``inline_limit``:
     batches up to this size put every run in report.html, larger ones get runs/<id>.html pages and an overview
-    paginated by ``page_size``; ``jobs``: figure processes (default min(4, CPUs)).
+    paginated by ``page_size``; ``workers``: figure processes (default min(4, CPUs)).
     Raises InputError (exit 2) for a bad runs/baseline directory or option, OutputError (exit 2, before any
     work) when ``out_dir`` is not writable or exists without ``overwrite``, and before anything is written when it
     is, contains or lies inside a run folder it reads (a report may go into the runs folder itself).
@@ -230,11 +230,11 @@ def build_report(
     runs_dir = Path(runs_dir)
     tops = [d / name for d in (runs_dir, *([Path(baseline)] if baseline is not None else [])) for name in (BATCH_JSON, SUMMARY)]
     check_output_target(Path(out_dir), overwrite=overwrite, inputs=tops)  # before reading the runs
-    jobs = jobs if jobs is not None else max(1, min(4, os.cpu_count() or 1))
+    workers = workers if workers is not None else max(1, min(4, os.cpu_count() or 1))
     manifest = Manifest(command="report", parameters={
         "runs_dir": str(runs_dir), "formats": list(fmts), "baseline": str(baseline) if baseline else None,
         "figures": figures, "max_figure_runs": max_figure_runs, "inline_limit": inline_limit,
-        "page_size": page_size, "jobs": jobs,
+        "page_size": page_size, "workers": workers,
         "tolerances": {k: vars(v) for k, v in (tolerances or {}).items()}})
     t0 = time.perf_counter()
     with manifest.stage("load"):
@@ -260,7 +260,7 @@ def build_report(
     figs: dict[str, dict[str, dict[str, Any]]] = {}
     with manifest.stage("figures"):
         if chosen:
-            figs = render_all(chosen, jobs, (lambda i, n: progress("figures", i, n)) if progress else None)
+            figs = render_all(chosen, workers, (lambda i, n: progress("figures", i, n)) if progress else None)
     notes, policy_note = _figure_notes(runs, chosen, want_figs, figures, max_figure_runs)
     ttl = title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
     result = ReportResult(out_dir=Path(out_dir), n_runs=len(runs), n_errors=sum(r.errored for r in runs),

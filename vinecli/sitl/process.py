@@ -5,7 +5,7 @@ SIGTERM-then-SIGKILL, its files kept before the working directory goes).
 
 An instance number is reserved with an exclusive lock file (``$TMPDIR/vinecli-<firmware>/instance-N.lock``)
 held for the life of the run, and only taken when the firmware's ports for it are free, so parallel
-batch workers (``run batch --jobs 2``) never share an instance.
+batch workers (``run batch --workers 2``) never share an instance.
 """
 
 from __future__ import annotations

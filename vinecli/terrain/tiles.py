@@ -46,7 +46,7 @@ from vinecli.terrain.raster import (
     read_heights,
     to_lonlat,
 )
-from vinecli.terrain.tin import Tin, job_finish, job_mesh, split_border
+from vinecli.terrain.tin import Tin, finish_task, mesh_task, split_border
 
 log = logging.getLogger(__name__)
 
@@ -236,7 +236,7 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
     gaps: list[float] = []
     with pool_ctx as ex:
         with manifest.stage("mesh"):
-            raw = dict(zip(keys, _map(ex, job_mesh, [(*sub(k), e_mesh[k], max_triangles) for k in keys]),
+            raw = dict(zip(keys, _map(ex, mesh_task, [(*sub(k), e_mesh[k], max_triangles) for k in keys]),
                            strict=True))
         with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
             (tmp / "tiles").mkdir()
@@ -245,9 +245,9 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
                 with manifest.stage("stitch"):
                     tins = _stitch(raw, cedges, redges)
                 with manifest.stage("measure+write"):
-                    jobs = [(tins[k], *sub(k), xcol, yrow,
+                    tasks = [(tins[k], *sub(k), xcol, yrow,
                              str(tmp / "tiles" / f"tile_r{k[0]:02d}_c{k[1]:02d}.{fmt}"), fmt) for k in todo]
-                    for k, res in zip(todo, _map(ex, job_finish, jobs), strict=True):
+                    for k, res in zip(todo, _map(ex, finish_task, tasks), strict=True):
                         stats[k] = res
                 bad = [k for k in keys if stats[k]["uncovered_samples"] or
                        (bounded and stats[k]["max_error_m"] > max_error)]
@@ -263,7 +263,7 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
                 for k in bad:
                     e_mesh[k] *= 0.5
                 with manifest.stage("mesh"):
-                    for k, tin in zip(bad, _map(ex, job_mesh, [(*sub(k), e_mesh[k], max_triangles) for k in bad]),
+                    for k, tin in zip(bad, _map(ex, mesh_task, [(*sub(k), e_mesh[k], max_triangles) for k in bad]),
                                       strict=True):
                         raw[k] = tin
                 dirty = {(k[0] + di, k[1] + dj) for k in bad for di in (-1, 0, 1) for dj in (-1, 0, 1)}

@@ -184,15 +184,15 @@ def export_mesh(tin: Tin, z_full_tile: np.ndarray, col0: int, row0: int, x_of_co
 
 
 # ----------------------------------------------------------------- worker entry points (picklable)
-def job_mesh(args: tuple[np.ndarray, int, int, float, int | None]) -> Tin:
-    """Process-pool job: mesh one tile."""
+def mesh_task(args: tuple[np.ndarray, int, int, float, int | None]) -> Tin:
+    """Process-pool task: mesh one tile."""
     z, col0, row0, max_error, max_triangles = args
     return mesh_grid(z, col0, row0, max_error, max_triangles)
 
 
-def job_finish(args: tuple[Tin, np.ndarray, int, int, tuple[float, float], tuple[float, float], str, str]
-               ) -> dict[str, float | int | list[float]]:
-    """Process-pool job: measure one stitched tile against the grid and write its mesh file."""
+def finish_task(args: tuple[Tin, np.ndarray, int, int, tuple[float, float], tuple[float, float], str, str]
+                ) -> dict[str, float | int | list[float]]:
+    """Process-pool task: measure one stitched tile against the grid and write its mesh file."""
     tin, z, col0, row0, xcol, yrow, path, fmt = args
     mx, rms, n, uncovered = tin_error(tin, z, col0, row0)
     info: dict[str, float | int | list[float]] = {"max_error_m": mx, "rms_error_m": rms, "samples": n,

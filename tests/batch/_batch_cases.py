@@ -1,6 +1,6 @@
 """Top-level job functions for batch tests (importable by spawned workers and Dask).
 
-``job_light`` writes a real, minimal run directory (summary.json via the run-dir writer) so
+``case_light`` writes a real, minimal run directory (summary.json via the run-dir writer) so
 ``--resume`` has something to find; cases named ``boom*`` raise, ``crash*`` kill their worker
 process, ``hang*`` sleep far past the limit.
 """
@@ -11,12 +11,12 @@ import os
 import time
 from pathlib import Path
 
-from vinecli.batch.job import CaseResult, RunSpec
+from vinecli.batch.case import CaseResult, RunSpec
 from vinecli.outputs import Manifest, atomic_output_dir
 from vinecli.runs import rundir
 
 
-def job_light(spec: RunSpec) -> CaseResult:
+def case_light(spec: RunSpec) -> CaseResult:
     if spec.case.startswith("boom"):
         raise RuntimeError(f"case {spec.case} exploded")
     if spec.case.startswith("crash"):
