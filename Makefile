@@ -6,24 +6,38 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 APT_PKGS := libusb-1.0-0 gdal-bin gcc
 DEMO_OUT ?= demo-out
+LOCK    := requirements.lock
+LOCK_ROTORPY := requirements-rotorpy.lock
 
-.PHONY: demo test install native sysdeps lint bench clean goldens
+.PHONY: demo test install native sysdeps lint bench clean goldens lock
 
 # the per-step kernel compiled with mypyc (vinecli/native.py); rebuilt when one of its sources changes
 KERNEL_SRC := $(addprefix vinecli/,$(shell grep -o '^    "[a-z_/]*\.py",' vinecli/native.py | tr -d '", '))
 NATIVE  := vinecli/native.json
 
-$(STAMP): pyproject.toml
+# requirements.lock: every package of `.[dev]` and of the build (requirements-build.in: hatchling, mypy,
+# setuptools) pinned with its hashes for Python 3.11 (`make lock`); vinecli itself installs editable on top,
+# built from those (no build isolation, so nothing unhashed is fetched)
+$(STAMP): pyproject.toml $(LOCK) $(LOCK_ROTORPY)
 	@$(MAKE) --no-print-directory sysdeps
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
-	$(BIN)/pip install -q --upgrade pip wheel
-	$(BIN)/pip install -q -e '.[dev]'
-	# RotorPy: independent reference simulator for tests/sim/test_rotorpy_agreement.py; its vehicle
-	# model needs only numpy + scipy, so none of its heavy optional dependencies
-	$(BIN)/pip install -q --no-deps 'rotorpy==3.0.0'
+	$(BIN)/pip install -q --require-hashes -r $(LOCK)
+	$(BIN)/pip install -q --no-deps --no-build-isolation -e .
+	# RotorPy, the reference simulator of tests/sim/test_rotorpy_agreement.py, without its optional dependencies
+	$(BIN)/pip install -q --require-hashes --no-deps -r $(LOCK_ROTORPY)
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# after a change of pyproject.toml's dependencies, requirements-build.in or requirements-rotorpy.in: resolve and
+# hash them again for Python 3.11 (uv in a venv of its own; pip installs the result) and commit both .lock files
+UV := build/uv/bin/uv
+lock:
+	test -x $(UV) || ($(PY) -m venv build/uv && build/uv/bin/pip install -q 'uv==0.13.8')
+	$(UV) pip compile -q pyproject.toml requirements-build.in --extra dev --generate-hashes --python-version 3.11 \
+	  --no-header -o $(LOCK)
+	$(UV) pip compile -q $(LOCK_ROTORPY:.lock=.in) --no-deps --generate-hashes --python-version 3.11 --no-header \
+	  -o $(LOCK_ROTORPY)
 
 $(NATIVE): $(STAMP) $(KERNEL_SRC) vinecli/native.py scripts/build_native.py
 	$(BIN)/python scripts/build_native.py
