@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The main job on the bundled sample: terrain -> world -> missions -> report.
+# The main workflow on the bundled sample: terrain -> world -> missions -> report.
 # Run through `make demo` (which installs what is missing first).
 set -euo pipefail
 cd "$(dirname "$0")/.."
