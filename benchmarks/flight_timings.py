@@ -3,6 +3,7 @@ per mission over its seeds: median and maximum of
 
 * ``arm_to_liftoff_s``: first arming -> the simulator's first ``liftoff`` event (ground truth);
 * ``takeoff_s``: take-off phase start -> its end (the altitude reached);
+* ``landing_s``: each land phase start -> its end (descent, touchdown and land detection);
 * ``land_detect_delay_s``: each truth ``touchdown`` -> the autopilot's next ``land_detected``
   (how long the land detector needs, per landing);
 * ``touchdown_speed_mps``: vertical speed (ground truth, down positive) in the last recorded row
@@ -43,6 +44,13 @@ def run_timings(run_dir: Path) -> dict[str, list[float]]:
                 and e["data"].get("event") == "end"), None)
     if start is not None and end is not None:
         out["takeoff_s"].append(end - start)
+    land_start: dict[object, float] = {}
+    for e in events:
+        if e["kind"] == "phase" and e["data"].get("type") == "land":
+            if e["data"].get("event") == "start":
+                land_start[e["data"].get("index")] = e["t_s"]
+            elif e["data"].get("index") in land_start:
+                out["landing_s"].append(e["t_s"] - land_start.pop(e["data"].get("index")))
     detected = [e["t_s"] for e in events if e["kind"] == "land_detected"]
     touchdowns = [e["t_s"] for e in events if e["kind"] == "touchdown"]
     for td in touchdowns:
