@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib.machinery
 import importlib.util
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -51,6 +52,7 @@ def kernel_files(package_dir: Path, kernel: tuple[str, ...]) -> dict[str, str]:
 
 class KernelBuildHook(BuildHookInterface):  # type: ignore[type-arg]
     PLUGIN_NAME = "custom"
+    _out: Path | None = None  # the compiler's output folder of this build, removed once the wheel is written
 
     def initialize(self, version: str, build_data: dict[str, Any]) -> None:
         if self.target_name != "wheel" or version == "editable":
@@ -64,7 +66,7 @@ class KernelBuildHook(BuildHookInterface):  # type: ignore[type-arg]
         if files:
             self.app.display_info("vinecli: packaging the compiled kernel this tree built (make native)")
         else:
-            out = Path(tempfile.mkdtemp(prefix="vinecli-kernel-"))
+            out = self._out = Path(tempfile.mkdtemp(prefix="vinecli-kernel-"))
             r = subprocess.run([sys.executable, str(root / "scripts" / "build_native.py"), "--out", str(out)],
                                cwd=root, check=False)
             files = kernel_files(out / "vinecli", native.KERNEL) if r.returncode == 0 else {}
@@ -75,3 +77,7 @@ class KernelBuildHook(BuildHookInterface):  # type: ignore[type-arg]
         build_data["force_include"].update(files)
         build_data["pure_python"] = False
         build_data["infer_tag"] = True
+
+    def finalize(self, version: str, build_data: dict[str, Any], artifact_path: str) -> None:
+        if self._out is not None:
+            shutil.rmtree(self._out, ignore_errors=True)
