@@ -36,7 +36,12 @@ __all__ = ["CV_LIMIT", "SwathPattern", "overlapped", "pattern_cv", "swath_patter
 
 #: default CV limit of the overlapped pattern that defines the effective swath
 CV_LIMIT = 0.10
-_DY = 0.01  # m, cross-track resolution of the pattern
+_DY = 0.01  # m, cross-track resolution of the pattern (finest; coarser for wide swaths, :func:`_resolution`)
+#: cross-track samples and lane spacings a pattern keeps at most: a pattern 80 m wide or more (a spray height
+#: above ~60 m, or a strong crosswind) and a swath over 20 m are sampled coarser, so the pattern of a 400 m spray
+#: height (460 m wide) takes seconds, not an hour (issue 20: every accepted height completes)
+_SAMPLES = 8000
+_SPACINGS = 400
 
 
 @dataclass(frozen=True)
@@ -81,13 +86,17 @@ class SwathPattern:
     def band_mean(self, half_width_m: float, centre_m: float = 0.0) -> float:
         """Mean of the forward and backward patterns over ``centre ± half_width`` (1/m)."""
         sel = np.abs(self.y_m - centre_m) <= half_width_m + 1e-9
+        if np.count_nonzero(sel) < 5:  # a band narrower than the samples (a coarse, wide pattern): interpolated
+            y = centre_m + np.linspace(-half_width_m, half_width_m, 5)
+            return float(0.5 * (np.interp(y, self.y_m, self.forward) + np.interp(y, self.y_m, self.backward)).mean())
         return float(0.5 * (self.forward[sel].mean() + self.backward[sel].mean()))
 
     def single_pass_width_m(self, band_m: float) -> float:
         """Width one pass doses at the asked rate on a band ``band_m`` wide under its centre, m:
         1 / (mean of k over the band). A single pass at flow = rate x this width x speed puts the
         asked rate on the band."""
-        return 1.0 / self.band_mean(0.5 * band_m)
+        mean = self.band_mean(0.5 * band_m)
+        return 1.0 / mean if mean > 0 else math.inf
 
     def dose(self, y: np.ndarray, lanes: list[tuple[float, int]]) -> np.ndarray:
         """Deposit at cross-track positions ``y`` (m) of passes at ``lanes`` [(position m, +1 along +x / -1)],
@@ -120,17 +129,30 @@ def _pass_record(veh: VehicleSpec, height_agl_m: float, speed: float, heading: f
     return rec, pitch
 
 
+def _resolution(width_m: float, geometric_m: float) -> tuple[float, float]:
+    """(cross-track sample step, lane spacing step), m, for a pattern ``width_m`` wide of a swath ``geometric_m``
+    wide: 1 cm and 5 cm up to 80 m / 20 m, then :data:`_SAMPLES` across the pattern, :data:`_SPACINGS` up to
+    the swath."""
+    return max(_DY, width_m / _SAMPLES), max(0.05, geometric_m / _SPACINGS)
+
+
+def _step(y: np.ndarray) -> float:
+    """The sample step of the cross-track positions ``y`` (m)."""
+    return float(y[1] - y[0]) if y.size > 1 else _DY
+
+
 def _cross_profile(y: np.ndarray, centre: np.ndarray, radius: np.ndarray, sigma: np.ndarray,
                    vol: np.ndarray) -> np.ndarray:
     """Sum of disc chord profiles (centre, radius) convolved with Gaussians (sigma), weights ``vol``; 1/m."""
     out = np.zeros_like(y)
+    dy = _step(y)
     for c, r, s, w in zip(centre, radius, sigma, vol, strict=True):
-        r = max(float(r), _DY)
+        r = max(float(r), dy)
         u = y - c
         prof = np.where(np.abs(u) < r, 2.0 * np.sqrt(np.maximum(r * r - u * u, 0.0)) / (math.pi * r * r), 0.0)
-        if s > _DY:
-            k = int(math.ceil(4.0 * s / _DY))
-            gx = np.arange(-k, k + 1) * _DY
+        if s > dy:
+            k = int(math.ceil(4.0 * s / dy))
+            gx = np.arange(-k, k + 1) * dy
             gk = np.exp(-0.5 * (gx / s) ** 2)
             prof = np.convolve(prof, gk / gk.sum(), mode="same")
         out += w * prof
@@ -140,9 +162,10 @@ def _cross_profile(y: np.ndarray, centre: np.ndarray, radius: np.ndarray, sigma:
 def overlapped(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """(y m, deposit relative to its mean) over one period of passes every ``spacing_m`` (2 spacings for
     back-and-forth passes, which alternate in direction), starting at the pass over y = 0."""
-    n = max(1, int(round(spacing_m / _DY)))
-    period = 2 * n if back_and_forth else n
     y, f, b = pattern.y_m, pattern.forward, pattern.backward
+    dy = _step(y)
+    n = max(1, int(round(spacing_m / dy)))
+    period = 2 * n if back_and_forth else n
     idx = np.arange(y.size) - y.size // 2  # samples from the pass centre
     seg = np.bincount(idx % period, weights=f, minlength=period)
     if back_and_forth:
@@ -150,7 +173,7 @@ def overlapped(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = T
     else:
         seg = seg * 1.0
     mean = float(seg.mean())
-    return np.arange(period) * _DY, seg / mean if mean > 0 else seg
+    return np.arange(period) * dy, seg / mean if mean > 0 else seg
 
 
 def pattern_cv(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = True) -> float:
@@ -169,7 +192,8 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
     nz = sum(n.position_m[2] for n in veh.sprayer.nozzles) / len(veh.sprayer.nozzles)
     geometric = veh.sprayer.swath_m(max(height_agl_m + veh.frame.landing_gear_height_m + nz, 0.0))
     half = 0.5 * geometric + 4.0 + 3.0 * abs(crosswind_mps) * max(height_agl_m, 1.0)
-    y = np.arange(-int(math.ceil(half / _DY)), int(math.ceil(half / _DY)) + 1) * _DY
+    dy, ds = _resolution(2.0 * half, geometric)
+    y = np.arange(-int(math.ceil(half / dy)), int(math.ceil(half / dy)) + 1) * dy
     profiles = []
     pitch = 0.0
     foot = along = 0.0
@@ -177,12 +201,12 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
         rec, pitch = _pass_record(veh, height_agl_m, speed_mps, heading, crosswind_mps, air_density, g, fill_fraction)
         p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, DepositionConfig(), g, expected=True)
         k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol)
-        profiles.append(k / (k.sum() * _DY))
+        profiles.append(k / (k.sum() * dy))
         if heading == 0.0:
             foot = float(np.max(p.radius + 2.0 * p.sigma))
             along = float(np.dot(p.x, p.vol) / p.vol.sum()) - float(np.mean(p.path_xy[:, 0]))
     fwd, back = profiles
-    spacing = np.round(np.arange(0.2, 1.6 * geometric + 1e-9, 0.05) * 100.0) / 100.0
+    spacing = np.round(np.arange(0.2, 1.6 * geometric + 1e-9, ds) * 100.0) / 100.0
     pat = SwathPattern(y, fwd, back, spacing, np.zeros(0), np.zeros(0), math.nan, cv_limit, geometric, height_agl_m,
                        speed_mps, crosswind_mps, math.degrees(pitch), foot, along)
     cv_bf = np.array([pattern_cv(pat, s, True) for s in spacing])
