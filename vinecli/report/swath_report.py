@@ -10,13 +10,16 @@ the overlapped pattern at the effective swath, CV against spacing), atomically. 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vinecli.outputs import Manifest, atomic_output_dir
+from vinecli.errors import SpecError
+from vinecli.outputs import Manifest, atomic_output_dir, jsonable
+from vinecli.specs.limits import MAX_DISTANCE_M, MAX_HEIGHT_M, MAX_SPEED_MPS
 
 __all__ = ["SWATH_JSON", "SWATH_PNG", "SwathReport", "swath_figure", "swath_report"]
 
@@ -95,14 +98,32 @@ def swath_figure(pattern: Any, vehicle: str) -> bytes:
     return png_bytes(fig)
 
 
+#: what each option may be: (option, lowest, highest, lowest excluded)
+_RANGES = {"height_agl_m": ("--height", 0.0, MAX_HEIGHT_M, True), "speed_mps": ("--speed", 0.0, MAX_SPEED_MPS, True),
+           "crosswind_mps": ("--crosswind", -MAX_SPEED_MPS, MAX_SPEED_MPS, False),
+           "cv_limit": ("--cv-limit", 0.0, 1.0, True), "band_m": ("--band", 0.0, MAX_DISTANCE_M, True)}
+
+
+def _check_options(**values: float) -> None:
+    """SpecError (exit 2, one line naming the option) for a value outside its range or not finite."""
+    for key, v in values.items():
+        opt, lo, hi, open_lo = _RANGES[key]
+        if not math.isfinite(v) or v > hi or v < lo or (open_lo and v == lo):
+            raise SpecError(f"{opt} {v:g}: use {'more than' if open_lo else 'at least'} {lo:g} and at most {hi:g}")
+
+
 def swath_report(vehicle: str | Path, out: Path, *, height_agl_m: float, speed_mps: float, crosswind_mps: float = 0.0,
                  cv_limit: float = 0.10, band_m: float = 0.6, air_density: float = 1.225,
                  overwrite: bool = False) -> SwathReport:
     """Compute the swath of ``vehicle`` (a name in vehicles/ or a path) and write ``out`` (module docstring)."""
+    from vinecli.outputs import check_output_target
     from vinecli.physics.swath import swath_pattern
     from vinecli.vehicle import load_vehicle
 
+    _check_options(height_agl_m=height_agl_m, speed_mps=speed_mps, crosswind_mps=crosswind_mps, cv_limit=cv_limit,
+                   band_m=band_m)
     veh = load_vehicle(str(vehicle))
+    check_output_target(Path(out), overwrite=overwrite, kind="plan swath")  # before the work
     pat = swath_pattern(veh, height_agl_m, speed_mps, crosswind_mps=crosswind_mps, air_density=air_density,
                         cv_limit=cv_limit)
     w1 = pat.single_pass_width_m(band_m)
@@ -121,7 +142,8 @@ def swath_report(vehicle: str | Path, out: Path, *, height_agl_m: float, speed_m
                                                           "speed_mps": speed_mps, "crosswind_mps": crosswind_mps,
                                                           "cv_limit": cv_limit})
     with atomic_output_dir(Path(out), manifest, overwrite=overwrite) as tmp:
-        (tmp / SWATH_JSON).write_text(json.dumps(doc, indent=1), encoding="utf-8")
+        (tmp / SWATH_JSON).write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False),  # RFC 8259: null
+                                         encoding="utf-8")
         (tmp / SWATH_PNG).write_bytes(swath_figure(pat, veh.name))
     return SwathReport(veh.name, height_agl_m, speed_mps, crosswind_mps, pat.effective_m, pat.cv_at_effective,
                        cv_limit, pat.geometric_m, w1, pat.footprint_radius_m, pat.pitch_deg,
