@@ -41,15 +41,27 @@ def write_marker(folder: Path, kind: str) -> None:
                                        encoding="utf-8")
 
 
-def _manifest_outputs(folder: Path) -> list[str] | None:
-    """The output paths a vinecli ``manifest.json`` in ``folder`` lists, or None (no vinecli manifest)."""
+def _manifest(folder: Path) -> dict[str, object] | None:
+    """The vinecli ``manifest.json`` of ``folder``, or None (none, unreadable or not vinecli's)."""
     try:
         doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-        if not isinstance(doc, dict) or doc.get("tool") != "vinecli":
-            return None
-        return [str(e["path"]) for e in doc.get("outputs", [])]
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    except (OSError, ValueError):
         return None
+    return doc if isinstance(doc, dict) and doc.get("tool") == "vinecli" else None
+
+
+def _manifest_outputs(folder: Path) -> list[str] | None:
+    """The output paths a vinecli ``manifest.json`` in ``folder`` lists, or None (no vinecli manifest)."""
+    doc = _manifest(folder)
+    try:
+        return None if doc is None else [str(e["path"]) for e in doc.get("outputs", [])]  # type: ignore[union-attr]
+    except (KeyError, TypeError, AttributeError):
+        return None
+
+
+def command_kind(command: str) -> str:
+    """What kind of folder a command writes: its first two words ("run mission", "terrain convert", ...)."""
+    return " ".join(str(command).split()[:2])
 
 
 def is_vinecli_dir(folder: str | Path) -> bool:
@@ -60,11 +72,14 @@ def is_vinecli_dir(folder: str | Path) -> bool:
     return (p / MARKER).is_file() or _manifest_outputs(p) is not None
 
 
-def replaceable_problem(folder: Path) -> str | None:
-    """Why ``folder`` must not be replaced (it is not vinecli's, or holds a user's file), or None.
+def replaceable_problem(folder: Path, kind: str | None = None) -> str | None:
+    """Why ``folder`` must not be replaced (it is not vinecli's, holds a user's file, or was written by another
+    command than ``kind``), or None.
 
     A marked folder with a manifest may hold only what the manifest lists (and the ``.aux.xml`` GDAL writes
-    beside a GeoTIFF it opened, and the manifests of nested steps in its folders); a marked folder without one (a runs folder) may not be replaced at all.
+    beside a GeoTIFF it opened, the manifests of nested steps in its folders, and empty folders); a marked folder
+    without one (a runs folder) may not be replaced at all. With ``kind`` (a command, :func:`command_kind`), only
+    a folder that command wrote: a mistyped ``--out`` of ``plan swath`` cannot replace a run.
     """
     if folder.is_symlink():
         return "is a symbolic link, not a folder vinecli made (kept)"
@@ -73,6 +88,9 @@ def replaceable_problem(folder: Path) -> str | None:
     listed = _manifest_outputs(folder)
     if listed is None:
         return "is a vinecli folder that holds other outputs (kept)"
+    made_by = command_kind(str((_manifest(folder) or {}).get("command", "")))
+    if kind is not None and made_by != command_kind(kind):
+        return f"was written by 'vinecli {made_by}', not 'vinecli {command_kind(kind)}' (kept; choose another output)"
     files = set(listed) | {MANIFEST, MARKER} | {f + ".aux.xml" for f in listed}  # + GDAL's sidecars of ours
     dirs = {parent.as_posix() for f in listed for parent in Path(f).parents}
     files |= {f"{d}/{MANIFEST}" for d in dirs if d != "."}  # the manifest a nested step wrote (terrain convert)
@@ -130,14 +148,15 @@ def _probe_writable(out: Path) -> None:
         raise OutputError(f"output location is not writable ({exc.strerror})", path=out) from None
 
 
-def check_output_target(out: Path, *, overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> None:
+def check_output_target(out: Path, *, overwrite: bool = False, inputs: Iterable[str | Path] = (),
+                        kind: str | None = None) -> None:
     """Fail early (OutputError, exit 2), before any heavy work, if the folder ``out`` cannot or must not be
     written.
 
     Refused: ``out`` is, contains or lies inside an input (``inputs`` and those of the running command,
     :mod:`vinecli.inputs`); ``out`` is a symbolic link or exists and is not a folder; it exists non-empty
     without ``overwrite``, or with ``overwrite`` but is not a folder vinecli made holding only its outputs
-    (:func:`replaceable_problem`); its nearest existing ancestor is not writable (probed for real, which
+    (by the command ``kind``, when given: :func:`replaceable_problem`); its nearest existing ancestor is not writable (probed for real, which
     catches read-only file systems and mounts where ``os.access`` says yes).
     """
     out = Path(out)
@@ -149,7 +168,7 @@ def check_output_target(out: Path, *, overwrite: bool = False, inputs: Iterable[
     if out.exists() and any(out.iterdir()):
         if not overwrite:
             raise OutputError("output directory exists and is not empty (use --overwrite)", path=out)
-        problem = replaceable_problem(out)
+        problem = replaceable_problem(out, kind)
         if problem is not None:
             raise OutputError(problem, path=out)
     _probe_writable(out)

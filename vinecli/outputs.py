@@ -48,6 +48,7 @@ from vinecli.output_guard import (
 
 __all__ = [
     "MANIFEST", "MARKER", "Manifest", "atomic_output_dir", "check_output_file", "check_output_target",
+    "write_bytes_atomic",
     "contained_path", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file",
     "timed_stage", "write_json", "write_text_atomic",
 ]
@@ -68,7 +69,13 @@ def write_json(path: Path, data: Any) -> None:
 
 
 def write_text_atomic(path: Path | str, text: str) -> None:
-    """Write ``text`` (UTF-8) to the file ``path`` atomically: a temporary sibling, then a rename.
+    """Write ``text`` (UTF-8) to the file ``path`` atomically (:func:`write_bytes_atomic`)."""
+    write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_bytes_atomic(path: Path | str, data: bytes) -> None:
+    """Write ``data`` to the file ``path`` atomically: a temporary sibling, then a rename (a symbolic link at
+    ``path`` is refused, never followed; an input of the running command is refused).
 
     On an OSError the temporary file is removed and OutputError (exit 2, ``cannot write: ...``) is
     raised; ``path`` is then left as it was.
@@ -81,7 +88,7 @@ def write_text_atomic(path: Path | str, text: str) -> None:
         raise OutputError("is a symbolic link (kept)", path=path)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        tmp.write_text(text, encoding="utf-8")
+        tmp.write_bytes(data)
         with _signals_held():
             os.replace(tmp, path)
     except OSError as exc:
@@ -265,11 +272,11 @@ def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False)
     Holds ``out``'s lock (a second writer: OutputError ``in use by pid N``, exit 2) from the checks to
     the swap. On any exception the temporary directory is deleted and ``out`` is left untouched. ``out``
     may not be, contain or lie inside an input (``manifest.inputs`` and the command's,
-    :mod:`vinecli.inputs`), and is replaced only when vinecli made it and it holds only its outputs
-    (:func:`check_output_target`, run again just before the swap). Directories follow the umask.
+    :mod:`vinecli.inputs`), and is replaced only when the same command (``manifest.command``) made it and it
+    holds only its outputs (:func:`check_output_target`, run again just before the swap). Directories follow the umask.
     """
     out = Path(out)
-    check_output_target(out, overwrite=overwrite, inputs=manifest.inputs)
+    check_output_target(out, overwrite=overwrite, inputs=manifest.inputs, kind=manifest.command)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -283,7 +290,7 @@ def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False)
         try:
             yield tmp
             write_json(tmp / MANIFEST, manifest.to_dict(tmp))
-            check_output_target(out, overwrite=overwrite, inputs=manifest.inputs)
+            check_output_target(out, overwrite=overwrite, inputs=manifest.inputs, kind=manifest.command)
             _commit(tmp, out)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)

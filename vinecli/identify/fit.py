@@ -145,7 +145,7 @@ def fit_vehicle(log_path: str | Path, out: str | Path, *, base: str = "x500", ma
     """Fit and write ``out`` atomically (module docstring): the one call of ``vinecli vehicle fit``."""
     from vinecli.outputs import check_output_target
 
-    check_output_target(Path(out), overwrite=overwrite, inputs=[log_path])
+    check_output_target(Path(out), overwrite=overwrite, inputs=[log_path], kind="vehicle fit")
     result = fit_flight_log(log_path, base=base, mass_kg=mass_kg, name=name, stage=stage)
     if stage:
         stage("writing")

@@ -79,11 +79,11 @@ def replay_vehicle(log_path: str | Path, vehicle: str | Path, out: str | Path, *
 
     if not 0.2 <= window_s <= 60.0:
         raise SpecError(f"--window {window_s} s: use 0.2-60 s")
-    check_output_target(Path(out), overwrite=overwrite, inputs=[log_path])
-    log = read_flight_log(log_path)
-    spec = load_vehicle(vehicle)
+    spec = load_vehicle(vehicle)  # the vehicle and the base it names are inputs, known before the check
     base_ref = base or (spec.provenance.base if spec.provenance is not None else "x500")
     base_spec = load_base(base_ref).spec
+    check_output_target(Path(out), overwrite=overwrite, inputs=[log_path], kind="vehicle replay")
+    log = read_flight_log(log_path)
     for v in (spec, base_spec):
         if v.n_rotors != log.config.n_motors:
             raise SpecError(f"vehicle {v.name!r} has {v.n_rotors} rotors, the log flies {log.config.n_motors} motors",

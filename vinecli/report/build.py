@@ -229,7 +229,7 @@ def build_report(
         raise InputError("max_figure_runs and inline_limit must be >= 0, page_size >= 1")
     runs_dir = Path(runs_dir)
     tops = [d / name for d in (runs_dir, *([Path(baseline)] if baseline is not None else [])) for name in (BATCH_JSON, SUMMARY)]
-    check_output_target(Path(out_dir), overwrite=overwrite, inputs=tops)  # before reading the runs
+    check_output_target(Path(out_dir), overwrite=overwrite, inputs=tops, kind="report")  # before reading the runs
     workers = workers if workers is not None else max(1, min(4, os.cpu_count() or 1))
     manifest = Manifest(command="report", parameters={
         "runs_dir": str(runs_dir), "formats": list(fmts), "baseline": str(baseline) if baseline else None,
@@ -253,7 +253,7 @@ def build_report(
     # the inputs are the run folders read (and batch.json): the report may go into the runs folder, not
     # over or into a run, nor contain one
     read = [r.dir for r in [*runs, *(base_runs if baseline is not None else [])] if r.dir is not None]
-    check_output_target(Path(out_dir), overwrite=overwrite, inputs=[*read, runs_dir / BATCH_JSON])
+    check_output_target(Path(out_dir), overwrite=overwrite, inputs=[*read, runs_dir / BATCH_JSON], kind="report")
     pipeline = _pipeline_name(runs_dir)
     want_figs = "html" in fmts
     chosen = select_figure_runs(runs, figures, max_figure_runs, comparison) if want_figs else []

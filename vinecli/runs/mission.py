@@ -164,7 +164,7 @@ def run_mission(
         runs_dir = Path(runs_dir)
         out = contained_path(runs_dir, run_id)
         world = load_world(Path(world_dir))
-        check_output_target(out, overwrite=overwrite)
+        check_output_target(out, overwrite=overwrite, kind="run mission")
         overrides = RunOverrides(autopilot=autopilot, truth=truth, record_rate_hz=record_rate)
         with output_folder(runs_dir, "runs"), output_lock(out), \
                 prepare_run(world, src.spec, vehicle=src.vehicle, overrides=overrides, source=mission_path) as run:

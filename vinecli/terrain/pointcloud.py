@@ -162,7 +162,7 @@ def reconstruct_cloud(path: str | Path, out: str | Path, options: ReconstructOpt
     options = options or ReconstructOptions()
     options.validate()
     path, out = Path(path), Path(out)
-    check_output_target(out, overwrite=options.overwrite, inputs=[path])
+    check_output_target(out, overwrite=options.overwrite, inputs=[path], kind="terrain reconstruct")
     timer = _Timer()
     clean = load_clean(path, classes=options.classes, bbox=options.bbox, timer=timer)
     prep.require_surface(clean.xyz_m, path, what="after cleaning and filtering")

@@ -293,7 +293,7 @@ def check_out_dir(out: Path, *, overwrite: bool = False, inputs: Sequence[Path] 
     """
     from vinecli.outputs import check_output_target
 
-    check_output_target(Path(out), overwrite=overwrite, inputs=inputs)
+    check_output_target(Path(out), overwrite=overwrite, inputs=inputs, kind="terrain convert")
 
 
 def read_format_json(directory: Path, kind: str, fmt: str) -> dict[str, Any]:
