@@ -5,10 +5,15 @@ degree (0.1 mm)."""
 from __future__ import annotations
 
 import json
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from vinecli.errors import OutputError
 from vinecli.gis.georef import Georef
 from vinecli.outputs import write_text_atomic
 
@@ -75,23 +80,16 @@ def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef
     ``.geojson``/``.json`` one RFC 7946 FeatureCollection whose features carry their layer name in the
     ``layer`` property (GeoJSON has no layers; QGIS splits it by geometry type and filters by property).
     Atomically: a temporary file, then rename."""
-    import os
-
     path = Path(path)
     if path.suffix.lower() != ".gpkg":
         feats = [LocalFeature(f.kind, f.coords, {"layer": name, **f.properties}, f.holes)
                  for name, fs in layers.items() for f in fs]
         write_text_atomic(path, json.dumps(feature_collection(feats, georef, path.stem)) + "\n")
         return path
-    tmp = path.with_name(f".{path.name}.tmp.gpkg")
-    tmp.unlink(missing_ok=True)
-    try:
+    with _gpkg_temp(path) as tmp:
         for name, fs in layers.items():
             if fs:
                 _write_gpkg_layer(tmp, feature_collection(fs, georef, name), name)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 
 
@@ -106,13 +104,26 @@ def _column(values: list[Any]) -> Any:
     return np.array([None if v is None else str(v) for v in values], dtype=object)
 
 
-def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
-    import os
+@contextmanager
+def _gpkg_temp(path: Path) -> Iterator[Path]:
+    """A GeoPackage path of this process's own beside ``path`` (``.NAME.tmp-PID-XXXX.gpkg``: never a user's file,
+    never another writer's), renamed to ``path`` when the block succeeds and removed when it fails."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}.gpkg")
+    try:
+        yield tmp
+        if path.is_symlink() or (path.exists() and not path.is_file()):
+            raise OutputError("is a symbolic link or not a regular file (kept)", path=path)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+    finally:
+        tmp.unlink(missing_ok=True)
 
-    tmp = path.with_name(f".{path.name}.tmp.gpkg")
-    tmp.unlink(missing_ok=True)
-    _write_gpkg_layer(tmp, fc, layer)
-    os.replace(tmp, path)
+
+def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
+    with _gpkg_temp(path) as tmp:
+        _write_gpkg_layer(tmp, fc, layer)
 
 
 def _write_gpkg_layer(path: Path, fc: dict[str, Any], layer: str) -> None:
