@@ -8,6 +8,7 @@ shows them, with the comparison on its first page); ``OUT/comparison.json``
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,8 @@ from typing import Any
 from vinecli.batch.runner import BatchResult, ProgressFn, run_batch
 from vinecli.batch.spec import MissionEntry, PipelineSpec
 from vinecli.errors import InputError
-from vinecli.outputs import write_json
+from vinecli.locks import output_lock
+from vinecli.outputs import jsonable, write_bytes_atomic, write_text_atomic
 
 AUTOPILOTS = ("builtin", "px4", "ardupilot")
 COMPARISON_JSON = "comparison.json"
@@ -53,8 +55,9 @@ def compare_autopilots(mission: str | Path, world: str | Path, runs_dir: str | P
     if len(dirs) < 2:
         return result, None
     cmp = compare_runs(dirs)
-    write_json(out / COMPARISON_JSON, cmp)
-    (out / COMPARISON_PNG).write_bytes(comparison_png(cmp))
+    with output_lock(out, inside=True):  # the batch's lock; a file or link planted in OUT is replaced, never followed
+        write_text_atomic(out / COMPARISON_JSON, json.dumps(jsonable(cmp), indent=2, allow_nan=False) + "\n")
+        write_bytes_atomic(out / COMPARISON_PNG, comparison_png(cmp))
     return result, cmp
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vinecli.errors import InputError
+from vinecli.inputs import note_input
 
 if TYPE_CHECKING:
     from vinecli.autopilot.base import Autopilot
@@ -52,6 +53,7 @@ def firmware_binary(path: Path | None, option: str = "--px4-bin", firmware: str 
         return None
     if not path.is_file():
         raise InputError(f"{firmware} binary not found ({option})", path=path)
+    note_input(path, f"{firmware} binary")  # no output may be, contain or lie inside it
     return str(path.resolve())
 
 
