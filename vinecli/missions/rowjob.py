@@ -13,12 +13,13 @@ the detector on the world's height grid; fence: the world's geofence, else its t
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from vinecli.errors import InputError
+from vinecli.errors import InputError, OutputError
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
@@ -65,12 +66,22 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     (OutputError, exit 2, nothing written)."""
     with reading_inputs():
         note_input(source, "world" if source.is_dir() else "DSM")
-        for t in (out, _geojson_path(out), mission_out):  # refused before the detection, not after
-            if t is not None:
-                check_output_file(t, overwrite=overwrite)
+        _check_targets([out, _geojson_path(out), *([mission_out] if mission_out is not None else [])], overwrite)
         return _plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
                               detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
                               fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
+
+
+def _check_targets(targets: list[Path], overwrite: bool) -> None:
+    """Refuse (OutputError, exit 2) before anything is written: two outputs at one path (``--mission`` naming the
+    plan or its rows file), or any output that must not be written (:func:`check_output_file`)."""
+    seen: dict[Path, Path] = {}
+    for t in targets:
+        key = Path(os.path.abspath(t))
+        if key in seen:
+            raise OutputError(f"two outputs would be written at one path ({seen[key]} and {t})", path=t)
+        seen[key] = t
+        check_output_file(t, overwrite=overwrite)
 
 
 def _geojson_path(out: Path) -> Path:
@@ -169,8 +180,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     sortie_files = [out.with_name(f"{out.stem}.sortie-{k}.plan") for k in range(1, len(sorties) + 1)] \
         if len(sorties) > 1 else []
     targets = [out, gj, *sortie_files, *([mission_out] if mission_out is not None else [])]
-    for t in targets:  # all checked before the first is written
-        check_output_file(t, overwrite=overwrite)
+    _check_targets(targets, overwrite)
     # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
     # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
