@@ -1,8 +1,8 @@
 """Peak memory (RSS) of a whole spraying run against the spray height, with the same run unsprayed as baseline.
 
-Each case is one ``vinecli run mission`` in a fresh process on the flat world (the mission's own 180 m
-fence with a 1 km ceiling): take off to the spray height, spray one 20 m row at ``height_agl_m`` = H
-(flow 0.02 L/s), land. The peak resident set of
+Each case is one ``vinecli run mission`` in a fresh process on a flat world with nine rows under a BBCH 75
+canopy, so the spray budget runs with its canopy maps (the mission's own 180 m fence with a 1 km ceiling):
+take off to the spray height, spray one 20 m row at ``height_agl_m`` = H (flow 0.02 L/s), land. The peak resident set of
 that process (``wait4``'s ``ru_maxrss``) is compared with the same flight along the row without the
 sprayer (a waypoints phase: no deposition), run right after it: the difference is what the deposition
 model (records, transport, grid, writing deposition.tif) adds at that height. Issue 20 item 5: no accepted
@@ -41,6 +41,15 @@ phases:
   - {fly}
   - {{type: land, timeout_s: {duration}}}
 """
+#: flat ground with nine 60 m rows 2.5 m apart under a BBCH 75 canopy: the spray budget runs with its canopy maps
+WORLD = """\
+name: canopy-flat
+terrain: {type: flat, z_m: 0.0, size_m: 200.0}
+origin: {lat: 47.397742, lon: 8.545594, alt: 488.0}
+vehicle: x500-sprayer
+rows: [""" + ", ".join(f"[[-20, {y}], [40, {y}]]" for y in (-10.0, -7.5, -5.0, -2.5, 0.0, 2.5, 5.0, 7.5, 10.0)) + """]
+canopy: {bbch: 75}
+"""
 SPRAY = "{{type: spray, rows: [[[0.0, 0.0], [20.0, 0.0]]], height_agl_m: {height}, speed_mps: 3.0, flow_lps: 0.02}}"
 DRY = "{{type: waypoints, waypoints: [[0.0, 0.0, {height}], [20.0, 0.0, {height}]], speed_mps: 3.0}}"
 
@@ -71,8 +80,9 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory(prefix="vinecli-depmem-") as tmp:
         work = Path(tmp)
-        subprocess.run([exe, "world", "build", str(REPO / "worlds" / "flat.yaml"), "--out", "world"], cwd=work,
-                       check=True, stdout=subprocess.DEVNULL)
+        (work / "world.yaml").write_text(WORLD)
+        subprocess.run([exe, "world", "build", "world.yaml", "--out", "world"], cwd=work, check=True,
+                       stdout=subprocess.DEVNULL)
         for h in args.heights:
             duration = 60.0 + 2.0 * h  # climb (~3 m/s up), the row, the descent
             res = {}

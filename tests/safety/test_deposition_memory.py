@@ -99,3 +99,56 @@ def test_a_mission_that_cannot_fit_is_refused_at_load(flat_world_dir: Path, tmp_
     r = CliRunner().invoke(app, ["run", "batch", str(tmp_path / "p.yaml"), "--out", str(tmp_path / "b")])
     assert r.exit_code == 2, r.output
     assert "case long" in r.stderr and not (tmp_path / "b" / "long").exists()
+
+
+CANOPY_WORLD = """\
+name: canopy-flat
+terrain: {type: flat, z_m: 0.0, size_m: 400.0}
+origin: {lat: 44.7, lon: 8.03, alt: 250.0}
+vehicle: x500-sprayer
+rows: [ROWS]
+canopy: {bbch: 75}
+""".replace("ROWS", ", ".join(f"[[-40, {y}], [40, {y}]]" for y in (-10.0, -7.5, -5.0, -2.5, 0.0, 2.5, 5.0, 7.5, 10.0)))
+
+BUDGET_AT = """
+import json, tracemalloc
+from pathlib import Path
+from vinecli.physics.deposition import SprayEmitter, SprayerGeometry
+from vinecli.runs.budget_out import evaluate_budget, write_budget
+from vinecli.sim.deposition import deposit
+from vinecli.sim.memory import _budget_mb
+from vinecli.world import load_world
+h, n, out = HEIGHT, RECORDS, OUT
+world = load_world(WORLD)
+em = SprayEmitter()
+for i in range(n):  # along the rows at 2 m/s, one record per 0.04 s
+    x = (0.08 * i) % 160 - 80
+    em.emit((0.04 * i, x, -10 + 2.5 * (int(0.08 * i // 160) % 9), h, 0.0, 0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0,
+             0.0, 30.0, 0.0008, 0.0))
+dep = deposit(em, world, world.vehicle, world.wind, seed=1)
+geo = SprayerGeometry.from_vehicle(world.vehicle, world.air_density)
+primary = n * len(world.vehicle.sprayer.nozzles) * world.vehicle.sprayer.droplets.classes
+bound = _budget_mb(world, dep.grid, primary, n, float(dep.parcels.radius.max()))
+tracemalloc.start()
+b = evaluate_budget(dep, world, world.vine_rows_enu, 200.0)
+write_budget(Path(out), b, dep, world, None)
+peak = tracemalloc.get_traced_memory()[1] / 1e6
+print(json.dumps({"peak_mb": peak, "bound_mb": bound, "balance": b.budget.balance_error}))
+"""
+
+
+@pytest.mark.parametrize("height", [2.0, 400.0])
+def test_the_spray_budget_stays_within_its_share_of_the_memory_estimate(tmp_path: Path, height: float) -> None:
+    """sim/memory.py counts the budget (its per-parcel arrays, the canopy points of every hedge a footprint reaches,
+    the canopy maps): what evaluating and writing it allocates (tracemalloc, imports included) stays below."""
+    from vinecli.world import build_world
+
+    (tmp_path / "w.yaml").write_text(CANOPY_WORLD)
+    world = build_world(tmp_path / "w.yaml", tmp_path / "w")
+    code = (BUDGET_AT.replace("HEIGHT", repr(height)).replace("RECORDS", "2500").replace("OUT", repr(str(tmp_path)))
+            .replace("WORLD", repr(str(world))))
+    r = run_python(code)
+    assert r.returncode == 0, r.stderr[-2000:]
+    d = json.loads(r.stdout.strip().splitlines()[-1])
+    assert d["balance"] < 1e-9
+    assert d["peak_mb"] < d["bound_mb"], d

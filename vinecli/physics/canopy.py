@@ -33,7 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["BBCH_DEFAULTS", "Canopy", "Hedge", "HedgeDims", "bbch_dims", "measure_row_heights", "row_spacing"]
+from vinecli.physics.deposit_grid import GridSpec
+
+__all__ = ["BBCH_DEFAULTS", "Canopy", "Hedge", "HedgeDims", "bbch_dims", "hedge_window", "measure_row_heights",
+           "row_spacing"]
 
 Polyline = Sequence[tuple[float, float]]
 HeightFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -151,6 +154,22 @@ class Canopy:
                    source=str(d.get("source", "bbch")), bbch=d.get("bbch"),  # type: ignore[arg-type]
                    spacing_m=float(d.get("spacing_m", math.nan)),  # type: ignore[arg-type]
                    notes=tuple(d.get("notes") or ()))  # type: ignore[arg-type]
+
+
+def hedge_window(grid: GridSpec, canopy: Canopy | None) -> GridSpec:
+    """The cells of ``grid`` over the hedges (their rows' extent + width + 2 cells), same alignment; the whole
+    grid when there are no hedges. The budget's canopy maps (:mod:`vinecli.runs.budget_out`) need no more."""
+    if canopy is None or not canopy.hedges:
+        return grid
+    pts = np.vstack([np.asarray(r, dtype=np.float64) for r in canopy.rows if len(r)])
+    pad = max(h.width_m for h in canopy.hedges) + 2 * grid.cell
+    ix0 = max(int(np.floor((pts[:, 0].min() - pad - grid.x0) / grid.cell)), 0)
+    iy0 = max(int(np.floor((pts[:, 1].min() - pad - grid.y0) / grid.cell)), 0)
+    ix1 = min(int(np.ceil((pts[:, 0].max() + pad - grid.x0) / grid.cell)), grid.nx)
+    iy1 = min(int(np.ceil((pts[:, 1].max() + pad - grid.y0) / grid.cell)), grid.ny)
+    if ix1 <= ix0 or iy1 <= iy0:
+        return grid
+    return GridSpec(grid.x0 + ix0 * grid.cell, grid.y0 + iy0 * grid.cell, grid.cell, ix1 - ix0, iy1 - iy0)
 
 
 def row_spacing(rows: Sequence[Polyline]) -> float:

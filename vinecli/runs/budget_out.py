@@ -78,24 +78,6 @@ def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
     return rasterise(grid, np.concatenate(xs), np.concatenate(ys), np.concatenate(ws))[0]
 
 
-def _hedge_window(grid: Any, canopy: Any) -> Any:
-    """The deposition grid's cells over the hedges (their rows' extent + width + 2 cells), same alignment; the whole
-    grid when there are no hedges. The canopy maps need no more memory than that."""
-    from vinecli.physics.deposit_grid import GridSpec
-
-    if canopy is None or not canopy.hedges:
-        return grid
-    pts = np.vstack([np.asarray(r, dtype=np.float64) for r in canopy.rows if len(r)])
-    pad = max(h.width_m for h in canopy.hedges) + 2 * grid.cell
-    ix0 = max(int(np.floor((pts[:, 0].min() - pad - grid.x0) / grid.cell)), 0)
-    iy0 = max(int(np.floor((pts[:, 1].min() - pad - grid.y0) / grid.cell)), 0)
-    ix1 = min(int(np.ceil((pts[:, 0].max() + pad - grid.x0) / grid.cell)), grid.nx)
-    iy1 = min(int(np.ceil((pts[:, 1].max() + pad - grid.y0) / grid.cell)), grid.ny)
-    if ix1 <= ix0 or iy1 <= iy0:
-        return grid
-    return GridSpec(grid.x0 + ix0 * grid.cell, grid.y0 + iy0 * grid.cell, grid.cell, ix1 - ix0, iy1 - iy0)
-
-
 def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np.ndarray:
     """Per parcel: the row it was released over (nearest row to its emission group's nozzle path point)."""
     if not rows or path_xy.size == 0 or group.size == 0:
@@ -109,7 +91,7 @@ def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np
 def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: float,
                     config: BudgetConfig | None = None) -> BudgetOutputs:
     """The budget of one run's deposition (:class:`~vinecli.sim.deposition.DepositionResult`) over ``world``."""
-    from vinecli.physics.canopy import row_spacing
+    from vinecli.physics.canopy import hedge_window, row_spacing
 
     config = config or BudgetConfig()
     canopy = world.canopy_model() if hasattr(world, "canopy_model") else None
@@ -117,7 +99,7 @@ def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: flo
     p = dep.parcels
     b = spray_budget(p, geo.diam_m, geo.v_t, canopy, rows_all, row_spacing(rows_all), applied_lpha, dep.wind_xy,
                      getattr(world, "air", None), config, float(world.gravity))
-    g = _hedge_window(dep.grid, canopy)
+    g = hedge_window(dep.grid, canopy)
     cx, cy, cv = b.canopy_points
     canopy_l, off = rasterise(g, cx, cy, cv)
     leaf = _hedge_cells(g, canopy)

@@ -4,7 +4,9 @@ A run keeps its time series (``max_duration_s`` × ``record_rate_hz`` rows of ev
 end: the recorder's chunks and the columns handed to the writer), the spray records and, after the
 flight, the transported parcels, the deposition grid and the padded disc convolution
 (:mod:`vinecli.physics.deposit_grid`, sized by :func:`~vinecli.physics.deposit_grid.grid_for` for the
-highest the mission flies over the whole terrain). :func:`check_run_memory` adds these upper bounds to
+highest the mission flies over the whole terrain), and the spray budget (:mod:`vinecli.physics.budget`: its
+per-parcel arrays, the canopy points of every hedge a parcel's footprint reaches, the canopy maps over the
+hedges' cells of the grid, the release row of every emission group). :func:`check_run_memory` adds these upper bounds to
 what the process holds anyway and refuses (InputError, exit 2, the numbers in one line) a mission whose
 bound exceeds :data:`RUN_MEMORY_LIMIT_MB` before anything is flown or written. The per-item sizes were
 measured (``benchmarks/deposition_memory.py``, tracemalloc on the transport and the emitter).
@@ -20,7 +22,8 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.physics.deposit_grid import FFT_BYTES_PER_CELL, fft_cells, grid_for
+from vinecli.physics.canopy import hedge_window, row_spacing
+from vinecli.physics.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
 from vinecli.physics.deposition import DepositionConfig
 from vinecli.sim.recorder import timeseries_columns
 from vinecli.specs.mission import MissionSpec
@@ -42,6 +45,15 @@ EMIT_RECORD_BYTES = 600
 PARCEL_BYTES = 340
 #: the deposition grid's arrays per cell (volume, rate, masks, the GeoTIFF, the metrics' bands), bytes
 GRID_BYTES_PER_CELL = 64
+#: the spray budget's arrays per primary parcel (merged, the outwash's lifted parcels, the five destinations),
+#: bytes (measured 65-380 at 2-10 m, benchmarks/deposition_memory.py --budget)
+BUDGET_BYTES_PER_PARCEL = 300
+#: the canopy points and interception temporaries per primary parcel and hedge its footprint reaches, bytes
+#: (measured: 770 per parcel at 400 m over 9 hedges)
+BUDGET_BYTES_PER_PARCEL_HEDGE = 60
+#: the canopy maps per cell of the hedges' window (deposit, leaf area, µL/cm², L/ha, mask, the GeoTIFF), bytes
+#: (measured 43)
+CANOPY_BYTES_PER_CELL = 64
 MB = 1e6
 
 
@@ -57,10 +69,11 @@ class MemoryEstimate:
     grid_mb: float
     grid_cell_m: float
     height_m: float
+    budget_mb: float = 0.0
 
     @property
     def total_mb(self) -> float:
-        return self.base_mb + self.timeseries_mb + self.spray_mb + self.grid_mb
+        return self.base_mb + self.timeseries_mb + self.spray_mb + self.grid_mb + self.budget_mb
 
 
 def _heights(value: Any, key: str = "") -> Iterator[float]:
@@ -101,7 +114,7 @@ def estimate_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World
     ts_mb = TIMESERIES_COPIES * rows * cols * 8 / MB
     grid = world.terrain.grid
     base_mb = BASE_MB + (3 * grid.z.nbytes / MB if grid is not None else 0.0)
-    spray_mb = grid_mb = cell = 0.0
+    spray_mb = grid_mb = budget_mb = cell = 0.0
     height = max(_heights([ph.model_dump() for ph in mission.phases]), default=0.0)
     if vehicle.tank is not None and _sprays(mission):
         cfg = config or DepositionConfig()
@@ -116,7 +129,24 @@ def estimate_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World
                      footprint_m=footprint, max_fft_cells=cfg.max_fft_cells)
         cell = g.cell
         grid_mb = (g.nx * g.ny * GRID_BYTES_PER_CELL + fft_cells(g.nx, g.ny, footprint, g.cell) * FFT_BYTES_PER_CELL) / MB
-    return MemoryEstimate(base_mb, ts_mb, rows, cols, spray_mb, grid_mb, cell, height)
+        budget_mb = _budget_mb(world, g, parcels, records, footprint)
+    return MemoryEstimate(base_mb, ts_mb, rows, cols, spray_mb, grid_mb, cell, height, budget_mb)
+
+
+def _budget_mb(world: World, grid: GridSpec, parcels: int, records: int, footprint_m: float) -> float:
+    """Upper bound of the spray budget's memory (MB) for ``parcels`` primary parcels of ``records`` emission groups
+    landing on discs up to ``footprint_m`` (m) on ``grid``."""
+    canopy = world.canopy_model()
+    reach = 0
+    if canopy is not None and canopy.has_foliage:
+        spacing = row_spacing(canopy.rows)
+        width = max((h.width_m for h in canopy.hedges), default=0.0)
+        across = 2.0 * footprint_m + width
+        reach = len(canopy.hedges) if not spacing > 0 else min(len(canopy.hedges), int(across / spacing) + 2)
+    win = hedge_window(grid, canopy)
+    n_rows = len(world.vine_rows_enu)
+    return (parcels * (BUDGET_BYTES_PER_PARCEL + BUDGET_BYTES_PER_PARCEL_HEDGE * reach)
+            + win.nx * win.ny * CANOPY_BYTES_PER_CELL + 16 * n_rows * records) / MB
 
 
 def check_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World, *, path: Any = None,
@@ -129,7 +159,8 @@ def check_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World, *
              f"{mission.record_rate_hz:g} Hz = {e.rows:,} rows × {e.columns} columns)"]
     if e.spray_mb or e.grid_mb:
         parts.append(f"spray records and parcels {e.spray_mb:.0f} MB, deposition grid {e.grid_mb:.0f} MB "
-                     f"({e.grid_cell_m:g} m cells up to {e.height_m:g} m above ground)")
+                     f"({e.grid_cell_m:g} m cells up to {e.height_m:g} m above ground), spray budget "
+                     f"{e.budget_mb:.0f} MB")
     raise InputError(f"the run could need {e.total_mb / 1e3:.1f} GB ({', '.join(parts)}, {e.base_mb:.0f} MB to run), "
                      f"more than the {RUN_MEMORY_LIMIT_MB / 1e3:.1f} GB a run may use: lower max_duration_s or "
                      "record_rate_hz", path=path)
