@@ -46,7 +46,7 @@ PARCEL_BYTES = 340
 #: the deposition grid's arrays per cell (volume, rate, masks, the GeoTIFF, the metrics' bands), bytes
 GRID_BYTES_PER_CELL = 64
 #: the spray budget's arrays per primary parcel (merged, the outwash's lifted parcels, the five destinations),
-#: bytes (measured 65-380 at 2-10 m, benchmarks/deposition_memory.py --budget)
+#: bytes (measured 65-380 at 2-10 m with tracemalloc, tests/safety/test_deposition_memory.py)
 BUDGET_BYTES_PER_PARCEL = 300
 #: the canopy points and interception temporaries per primary parcel and hedge its footprint reaches, bytes
 #: (measured: 770 per parcel at 400 m over 9 hedges)
