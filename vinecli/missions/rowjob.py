@@ -27,7 +27,7 @@ from vinecli.outputs import check_output_file
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
 from vinecli.rows.source import RowFrame
-from vinecli.specs.vehicle import DEFAULT_VEHICLE
+from vinecli.specs.vehicle import DEFAULT_VEHICLE, VehicleSpec
 from vinecli.spray_defaults import SPRAY_DEFAULTS
 
 __all__ = ["RowsJob", "plan_rows_job"]
@@ -82,6 +82,22 @@ def _check_targets(targets: list[Path], overwrite: bool) -> None:
             raise OutputError(f"two outputs would be written at one path ({seen[key]} and {t})", path=t)
         seen[key] = t
         check_output_file(t, overwrite=overwrite)
+
+
+def _check_options(veh: VehicleSpec, *, speed: float, height: float, flow: float, takeoff: float,
+                   tank_l: float | None) -> None:
+    """Each option finite and in its range for ``veh`` (InputError naming the option, exit 2): a speed above the
+    vehicle's top speed would be planned for turns and times never flown (and 1e308 m/s made the run-in
+    infinite)."""
+    top = veh.control.max_vel_xy
+    for name, value, ok, want in (
+            ("--speed", speed, 0.0 < speed <= top, f"in (0, {top:g}] m/s (the vehicle's control.max_vel_xy)"),
+            ("--height", height, 0.0 < height <= 1000.0, "in (0, 1000] m"),
+            ("--flow", flow, 0.0 <= flow <= 100.0, "in [0, 100] L/s"),
+            ("--takeoff", takeoff, 0.0 < takeoff <= 1000.0, "in (0, 1000] m"),
+            ("--tank", tank_l, tank_l is None or 0.0 <= tank_l <= 1e4, "in [0, 10000] L")):
+        if not ok:  # NaN compares false: refused here too
+            raise InputError(f"{name} {value!r} out of range: give a value {want}")
 
 
 def _geojson_path(out: Path) -> Path:
@@ -162,6 +178,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         home3 = (start[0], start[1], surface(*start))
     if not rows:
         raise InputError("no rows found (try --spacing)", path=source)
+    _check_options(veh, speed=speed, height=height, flow=flow, takeoff=takeoff, tank_l=tank_l)
     accel = plan_accel(veh)
     plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
                      fence_name=fence_name, terrain_bounds=bounds, climb=(takeoff, veh.control.max_vel_up, veh.control.max_vel_down),

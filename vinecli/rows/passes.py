@@ -56,6 +56,8 @@ def clip_rows(rows: list[Polyline], region: object, what: str, warnings: list[st
 
 def room_ahead(p: Point, d: tuple[float, float], inner: object | None, limit: float) -> float:
     """How far (m, up to ``limit``) one can go from ``p`` along the unit vector ``d`` inside ``inner`` (0.05 m steps)."""
+    if not math.isfinite(limit) or limit < 0.0:
+        raise ValueError(f"room_ahead: limit {limit!r} m is not a finite distance")
     if inner is None:
         return limit
     from shapely.geometry import Point as P
