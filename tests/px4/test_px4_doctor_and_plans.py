@@ -32,8 +32,8 @@ def test_doctor_with_binary_prints_exact_command(tmp_path):
     r = CliRunner().invoke(app, ["px4", "doctor", "--px4-bin", str(exe), "--instance", "3", "--timeout", "0.2"])
     assert r.exit_code == 0, r.output
     etc = exe.parent.parent / "etc"
-    assert (f"PX4_SIM_MODEL=none_iris PX4_PARAM_NAV_DLL_ACT=0 PX4_PARAM_COM_RC_IN_MODE=1 {exe} -d -i 3 "
-            f"-w /tmp/px4-sitl-3 {etc}") in r.output.replace("\n", "")
+    assert (f"PATH=/tmp/px4-sitl-3/rc:$PATH PX4_SIM_MODEL=none_iris {exe} -d -i 3 "
+            f"-w /tmp/px4-sitl-3/rootfs {etc}") in r.output.replace("\n", "")
     assert "4563" in r.output and "14543" in r.output
 
 

@@ -214,12 +214,31 @@ def test_options_are_validated():
 
 
 def test_start_command_is_exact():
-    assert px4_start_command(1) == ("PX4_SIM_MODEL=none_iris PX4_PARAM_NAV_DLL_ACT=0 PX4_PARAM_COM_RC_IN_MODE=1 "
-                                    "px4 -d -i 1 -w /tmp/px4-sitl-1 build/px4_sitl_default/etc")
+    assert px4_start_command(1) == (
+        "mkdir -p /tmp/px4-sitl-1/rc && printf '%s\\n' 'param set NAV_DLL_ACT 0' 'param set COM_RC_IN_MODE 1' "
+        "'param set IMU_GYRO_CAL_EN 0' > /tmp/px4-sitl-1/rc/px4-rc.params && PATH=/tmp/px4-sitl-1/rc:$PATH "
+        "PX4_SIM_MODEL=none_iris px4 -d -i 1 -w /tmp/px4-sitl-1/rootfs build/px4_sitl_default/etc")
     cmd = px4_start_command(0, host="10.0.0.5", px4_bin="/opt/PX4-Autopilot/build/px4_sitl_default/bin/px4")
     assert "PX4_SIM_HOST_ADDR=10.0.0.5" in cmd
-    assert cmd.endswith("/opt/PX4-Autopilot/build/px4_sitl_default/bin/px4 -d -i 0 -w /tmp/px4-sitl-0 "
+    assert cmd.endswith("/opt/PX4-Autopilot/build/px4_sitl_default/bin/px4 -d -i 0 -w /tmp/px4-sitl-0/rootfs "
                         "/opt/PX4-Autopilot/build/px4_sitl_default/etc")
+
+
+def test_start_command_gives_px4_its_boot_parameters(tmp_path):
+    """The hint runs in a real shell: PX4's rcS would find px4-rc.params on PATH with the parameters PX4 v1.15
+    needs at boot (it ignores PX4_PARAM_* in the environment). A stand-in px4 prints what rcS would source."""
+    import subprocess
+
+    fake = tmp_path / "bin" / "px4"
+    fake.parent.mkdir()
+    fake.write_text('#!/bin/sh\nfor d in $(echo "$PATH" | tr : " "); do\n'  # rcS: '. px4-rc.params' (PATH search)
+                    '  if [ -f "$d/px4-rc.params" ]; then cat "$d/px4-rc.params"; break; fi\ndone\n'
+                    'echo "model=$PX4_SIM_MODEL args=$*"\n')
+    fake.chmod(0o755)
+    cmd = px4_start_command(3, px4_bin=str(fake), workdir=str(tmp_path / "wd"))
+    out = subprocess.run(["/bin/sh", "-c", cmd], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out[:3] == ["param set NAV_DLL_ACT 0", "param set COM_RC_IN_MODE 1", "param set IMU_GYRO_CAL_EN 0"]
+    assert out[3].startswith("model=none_iris args=-d -i 3 -w " + str(tmp_path / "wd" / "rootfs"))
 
 
 def test_without_hil_state_only_sensors_and_gps_are_sent(ports):

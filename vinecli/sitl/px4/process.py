@@ -38,19 +38,28 @@ PX4_UDP_BASES = (18570, 14580, 14280, 13030)
 SAFE_BOOT_PARAMS: dict[str, int | float] = {"IMU_GYRO_CAL_EN": 0}
 
 
+#: parameters a PX4 started by hand needs against vinecli: no data-link or RC-loss failsafe, and the boot-safe ones
+HAND_START_PARAMS: dict[str, int | float] = {"NAV_DLL_ACT": 0, "COM_RC_IN_MODE": 1, **SAFE_BOOT_PARAMS}
+
+
 def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str = "px4", airframe: str = "none_iris",
                       workdir: str | None = None) -> str:
-    """The shell command that starts PX4 SITL against vinecli (daemon mode, no data-link failsafe)."""
+    """The shell command that starts PX4 SITL against vinecli (daemon mode): it writes :data:`HAND_START_PARAMS` into
+    a ``px4-rc.params`` that PX4's ``rcS`` sources from ``PATH`` at boot (PX4 v1.15 ignores ``PX4_PARAM_*``)."""
     bin_path = px4_bin
     etc = "build/px4_sitl_default/etc"
     if os.sep in px4_bin and os.path.basename(os.path.dirname(os.path.abspath(px4_bin))) == "bin":
         build = os.path.dirname(os.path.dirname(os.path.abspath(px4_bin)))  # build/px4_sitl_default/{bin,etc}
         etc = os.path.join(build, "etc")
-    env = [f"PX4_SIM_MODEL={airframe}", "PX4_PARAM_NAV_DLL_ACT=0", "PX4_PARAM_COM_RC_IN_MODE=1"]
+    wd = workdir or f"/tmp/px4-sitl-{instance}"
+    rc = shlex.quote(f"{wd}/rc")
+    lines = " ".join(shlex.quote(f"param set {k} {format_value(v)}") for k, v in HAND_START_PARAMS.items())
+    env = [f"PATH={rc}:$PATH", f"PX4_SIM_MODEL={airframe}"]
     if host not in ("127.0.0.1", "localhost"):
         env.append(f"PX4_SIM_HOST_ADDR={host}")
-    wd = workdir or f"/tmp/px4-sitl-{instance}"
-    return " ".join([*env, shlex.quote(bin_path), "-d", "-i", str(instance), "-w", shlex.quote(wd), shlex.quote(etc)])
+    return (f"mkdir -p {rc} && printf '%s\\n' {lines} > {rc}/px4-rc.params && "
+            + " ".join([*env, shlex.quote(bin_path), "-d", "-i", str(instance), "-w", shlex.quote(f"{wd}/rootfs"),
+                        shlex.quote(etc)]))
 
 
 def etc_dir_for(px4_bin: Path) -> Path:
@@ -122,4 +131,4 @@ class Px4Process(FirmwareProcess):
             (rc / "px4-rc.params").write_text(self.params, encoding="utf-8")
 
 
-__all__ = ["SAFE_BOOT_PARAMS", "Px4Process", "boot_params_script", "etc_dir_for", "px4_start_command", "reserve_instance"]
+__all__ = ["HAND_START_PARAMS", "SAFE_BOOT_PARAMS", "Px4Process", "boot_params_script", "etc_dir_for", "px4_start_command", "reserve_instance"]
