@@ -59,6 +59,13 @@ class AutopilotTimeout(AutopilotError, TimeoutError):
     """The autopilot backend did not answer in time."""
 
 
+class FirmwareUnreachable(AutopilotTimeout):
+    """No firmware answered where the user said one runs (an external PX4 never started): a set-up problem of the
+    command, exit 2, and no run is written (a firmware vinecli starts itself that fails is an error run, exit 3)."""
+
+    exit_code = 2
+
+
 class ChecksFailed(VinecliError):
     """The work finished but at least one check failed (exit 1)."""
 

@@ -56,12 +56,15 @@ def test_run_mission_with_px4_through_the_cli(flat_world_dir: Path, tmp_path: Pa
     assert manifest["parameters"]["px4_instance"] == INSTANCE
 
 
-def test_px4_never_connecting_is_exit_3_with_the_start_command(flat_world_dir: Path, tmp_path: Path) -> None:
+def test_px4_never_connecting_is_exit_2_with_the_start_command(flat_world_dir: Path, tmp_path: Path) -> None:
+    """An external PX4 that nobody started is the command's set-up problem: exit 2, one line with the command that
+    starts it, and no run written (a PX4 that vinecli starts and that fails is an error run, exit 3)."""
     m = tmp_path / "px4-quick.yaml"
     m.write_text(MISSION)
     r = runner.invoke(app, ["run", "mission", str(m), "--world", str(flat_world_dir), "--out", str(tmp_path / "runs"),
                             "--px4-instance", str(INSTANCE), "--px4-connect-timeout", "0.3"])
-    assert r.exit_code == 3
+    assert r.exit_code == 2
+    assert not (tmp_path / "runs").exists()
     err = " ".join(r.stderr.split())
     assert err.startswith("vinecli: error:") and err.count("vinecli: error:") == 1
     assert f"127.0.0.1:{4560 + INSTANCE}" in err and f"px4 -d -i {INSTANCE}" in err

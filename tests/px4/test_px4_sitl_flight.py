@@ -110,21 +110,27 @@ def test_spray_rows_drive_the_tank_through_do_set_actuator(tmp_path, ports):
     assert ts["tank_level_l"][-1] < ts["tank_level_l"][0] - 0.1
 
 
-def test_px4_never_connects_ends_the_run_as_error_quickly(world, ports):
+def test_px4_never_connects_is_refused_quickly(world, ports):
+    """No PX4 where the user said one runs: FirmwareUnreachable (exit 2) naming the port and the start command,
+    within the connect timeout, and nothing left listening."""
+    import socket
     import time
+
+    from vinecli.errors import FirmwareUnreachable
 
     ap = Px4SitlAutopilot(port=ports["sim"], api_port=ports["api"], px4_api_port=ports["px4"], connect_timeout_s=0.5)
     t0 = time.monotonic()
     try:
-        res = run_simulation(world, takeoff_hover_land(), ap, seed=1)
+        with pytest.raises(FirmwareUnreachable) as err:
+            run_simulation(world, takeoff_hover_land(), ap, seed=1)
     finally:
         ap.close()
-    assert time.monotonic() - t0 < 10
-    assert res.status is RunStatus.ERROR and res.sim_time_s == 0.0  # a run (one row) is still returned
-    msg = res.detail
+    assert time.monotonic() - t0 < 10 and err.value.exit_code == 2
+    msg = str(err.value)
     assert f"127.0.0.1:{ports['sim']}" in msg and "did not connect" in msg
     assert "PX4_SIM_MODEL=none_iris" in msg and "px4 -d -i 0" in msg
-    assert len(res.timeseries["t_s"]) == 1
+    with socket.socket() as s:  # the simulator port was released
+        s.bind(("127.0.0.1", ports["sim"]))
 
 
 def test_px4_going_silent_mid_run_is_an_error(world, ports):

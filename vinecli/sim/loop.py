@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, final
 import numpy as np
 
 from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotStatus, RunStatus
-from vinecli.errors import AutopilotError
+from vinecli.errors import AutopilotError, FirmwareUnreachable
 from vinecli.frames import BodyFrame, Vec3, quat_to_euler, tilt_angle
 from vinecli.physics.aero import body_drag
 from vinecli.physics.battery import Battery, ElectricalLoad
@@ -216,7 +216,9 @@ class Flight:
         self.ap_drain: Callable[[], list[Event]] = autopilot.drain_events
         try:
             autopilot.reset(ctx)
-        except AutopilotError as exc:  # e.g. PX4 never connected: the run ends at t = 0 with status error
+        except FirmwareUnreachable:  # an external firmware that is not there: no run to write (exit 2)
+            raise
+        except AutopilotError as exc:  # e.g. the PX4 vinecli started died at boot: the run ends at t = 0, status error
             self.ap_step = _raiser(exc)
         self.idle_cmd = ActuatorCommand((0.0,) * run.vehicle.n_rotors, 0.0, False)
 

@@ -39,7 +39,7 @@ from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.constants import STANDARD_GRAVITY
-from vinecli.errors import AutopilotError, InputError
+from vinecli.errors import AutopilotError, AutopilotTimeout, FirmwareUnreachable, InputError
 from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
@@ -193,7 +193,10 @@ class Px4SitlAutopilot:
                        {"instance": self.instance, "pid": self.process.proc.pid, "workdir": str(self.process.workdir)})
             self._accept_launched()
         else:
-            self.link.accept(self.connect_timeout_s, hint=self.start_command())
+            try:
+                self.link.accept(self.connect_timeout_s, hint=self.start_command())
+            except AutopilotTimeout as exc:  # nobody started PX4 where the user said: exit 2, no run written
+                raise FirmwareUnreachable(exc.problem) from None
         self._emit(0, "px4", f"PX4 connected on TCP {self.host}:{self.port}", {"peer": str(self.link.peer)})
         hb = self.link.recv_match("HEARTBEAT", timeout=min(5.0, self.connect_timeout_s))
         if hb is None:
@@ -218,8 +221,6 @@ class Px4SitlAutopilot:
 
     def _accept_launched(self) -> None:
         """Accept the PX4 we started; fail early (with its log) if it exits first."""
-        from vinecli.errors import AutopilotTimeout
-
         assert self.link is not None and self.process is not None
         deadline = time.monotonic() + self.connect_timeout_s
         while True:
