@@ -1,14 +1,16 @@
 """A MAVLink link to a firmware that is read only when polled: no reader thread.
 
-What the firmware sent is handled in the caller's thread at a point the caller chooses. In lockstep
-that point is "the firmware is blocked waiting for the physics' answer", so every message is seen at
-the same simulated time on a quiet and on a loaded machine, and every message sent before the answer
-is in the firmware's socket buffer before its clock moves again (loopback TCP delivers within the
-``send`` call): the conversation is part of the deterministic lockstep, not a race with the wall clock.
+What the firmware sent is handled in the caller's thread at a point the caller chooses: in lockstep, while
+the firmware is blocked waiting for the physics' answer. What vinecli sends before that answer is in the
+firmware's socket before its clock moves again, so the firmware consumes it at a fixed simulated time. The
+other direction is not ordered with the lockstep: when the firmware's bytes reach this socket, relative to
+its servo frames, depends on the kernel and the machine's load. A ground station that must act at the same
+frame on every run reads through :class:`vinecli.sitl.inbox.OrderedInbox`, not :meth:`PolledTcpLink.poll`.
 """
 
 from __future__ import annotations
 
+import select
 import socket
 from typing import Any
 
@@ -67,6 +69,13 @@ class PolledTcpLink:
             out += [m for m in (self._rx.parse_buffer(data) or []) if m.get_type() != "BAD_DATA"]
         self.rx_count += len(out)
         return out
+
+    def wait_readable(self, timeout_s: float) -> bool:
+        """Block up to ``timeout_s`` of wall time until the firmware's bytes (or its close) can be read."""
+        s = self.sock
+        if s is None:
+            return False
+        return bool(select.select([s], [], [], max(0.0, timeout_s))[0])
 
     def send(self, msg: Any) -> None:
         """Encode and send one message (AutopilotError when the firmware closed the link)."""
