@@ -52,7 +52,7 @@ def test_ci_ardupilot_passes_every_check_and_the_runs_are_audited(ci_ardupilot, 
         assert len(fw["git_hash"]) == 8 and fw["binary"] == str(ardupilot_bin.resolve()) and len(fw["sha256"]) == 64
         m = s["metrics"]
         assert m["ardupilot_stalls"] == 0 and m["ardupilot_lockstep_steps"] > 1000 and 20 < m["ardupilot_boot_s"] < 90
-        assert m["ardupilot_battery_warnings"] == 0
+        assert m["ardupilot_battery_warnings"] == 0 and m["ardupilot_late_markers"] == 0  # every marker answered
         assert any(k["name"] == "ardupilot_stalls" and k.get("implicit") for k in s["checks"])  # a stall fails the run
         names = {Path(f).name for f in fw["files"]}
         assert {"vinecli.parm", "ardupilot.log"} <= names and any(n.endswith(".BIN") for n in names)

@@ -137,7 +137,8 @@ class ArdupilotSitlAutopilot:
                                         params=self.params, workdir=self.workdir, sim_host=self.host)
         self.json = JsonPhysicsLink(self.host, JSON_PORT_BASE + 10 * i)
         link = PolledTcpLink(self.host, SERIAL0_PORT_BASE + 10 * i, name="ArduPilot")
-        self.client = ArdupilotClient(link, self.plan, self.params, boot_timeout_us=int(self.boot_timeout_s * 1e6))
+        self.client = ArdupilotClient(link, self.plan, self.params, boot_timeout_us=int(self.boot_timeout_s * 1e6),
+                                      alive=self.process.alive)
         self.process.start()
         self._emit(0, "ardupilot_process", f"ArduPilot started: instance {i}, pid {self.process.pid}",
                    {"instance": i, "pid": self.process.pid, "workdir": str(self.process.workdir)})
@@ -295,6 +296,9 @@ class ArdupilotSitlAutopilot:
             ex["ardupilot_armed"] = 1.0 if self.client.state.armed else 0.0
             ex["ardupilot_mission_seq"] = float(self.client.state.max_seq)
             ex["ardupilot_battery_warnings"] = float(self.client.state.battery_warnings)
+            inbox = self.client.inbox
+            ex["ardupilot_late_markers"] = float(inbox.late)
+            ex["ardupilot_postponed_frames"] = float(inbox.postponed)
         return st
 
     def drain_events(self) -> list[Event]:

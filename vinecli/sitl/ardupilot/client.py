@@ -4,6 +4,21 @@
 (:meth:`step`): it reads what ArduPilot sent (:class:`~vinecli.sitl.link.PolledTcpLink`, no thread),
 acts, and sends. Every deadline is simulated time, so the conversation is the same on a loaded machine.
 
+**What it sees, and when.** ArduPilot consumes what vinecli sends at fixed points of its simulated clock
+(its serial ports are read in its lockstep), but when its TCP output reaches vinecli's socket relative to
+its UDP servo frames is the kernel's doing: acting on what happened to be polled made the same seed arm at
+24 ms in one run and 28 ms in the other beside a CPU hog. The client reads through an
+:class:`~vinecli.sitl.inbox.OrderedInbox`: every 5 frames it sends a TIMESYNC request (``ts1`` = the frame),
+which ArduPilot answers from its main loop (``GCS_MAVLINK::handle_timesync``) in order with everything else
+it writes on SERIAL0; what ArduPilot wrote before the answer to the marker of frame ``f`` is handed to the
+client at frame ``f + 15`` (60 ms at 250 Hz; in flight ArduPilot's answer arrives 2 frames after the
+request). If the answer is not there then, the inbox waits for it on the socket (up to 0.5 s): ArduPilot,
+blocked until the physics answers, has either written it already (the kernel delivers it) or not handled
+the request yet (while it boots, before its MAVLink runs), and then the batch goes out at the first frame
+after the answer; ``ardupilot_late_markers`` counts markers given up after 25 such frames. So the client
+acts at frames fixed by ArduPilot's own output order: the boot, the parameter read-back, the uploads, the
+arming and the end of the run happen at the same frame on every run.
+
 Boot (:attr:`booted` once done): connect to SERIAL0 (TCP 5760 + 10 i), ask for AUTOPILOT_VERSION (the
 firmware's identity) and the state messages, read back every parameter vinecli wrote into the run's
 parameter file (:class:`~vinecli.sitl.params.ParamReadback`), wait for ArduPilot's pre-arm checks to
@@ -17,6 +32,7 @@ AUTO before that is a ``failsafe`` whose cause is ArduPilot's latest warning tex
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,6 +40,7 @@ from vinecli.autopilot.base import RunStatus
 from vinecli.errors import AutopilotError, AutopilotTimeout
 from vinecli.mavlink import px4modes as M
 from vinecli.sitl.ardupilot.plan import ArdupilotPlan
+from vinecli.sitl.inbox import OrderedInbox
 from vinecli.sitl.link import PolledTcpLink, statustext
 from vinecli.sitl.mission_upload import MissionUpload
 from vinecli.sitl.params import ParamReadback
@@ -84,8 +101,10 @@ class ArdupilotClient:
     """See the module docstring. ``events`` collects (kind, message, data) for the run's event log."""
 
     def __init__(self, link: PolledTcpLink, plan: ArdupilotPlan, expected_params: dict[str, int | float], *,
-                 target_system: int = 1, boot_timeout_us: int = 180_000_000) -> None:
+                 target_system: int = 1, boot_timeout_us: int = 180_000_000,
+                 alive: Callable[[], bool] | None = None) -> None:
         self.link, self.plan, self.target = link, plan, target_system
+        self.inbox = OrderedInbox(link, alive=alive)
         self.boot_timeout_us = boot_timeout_us
         self.state = FlightState()
         self.readback = ParamReadback(expected_params, target_system, firmware="ArduPilot")
@@ -121,7 +140,7 @@ class ArdupilotClient:
             if link.try_connect():
                 self._on_connect(t_us)
             return
-        for m in link.poll():
+        for m in self.inbox.frame():
             self._handle(m, t_us)
         if link.closed_by_peer:
             raise AutopilotError(f"ArduPilot closed the MAVLink link (TCP {link.host}:{link.port})")
