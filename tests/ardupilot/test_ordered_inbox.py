@@ -82,7 +82,7 @@ def _fly(fw: ScriptedFirmware, frames: int, **inbox_opts: Any) -> tuple[list[tup
     link = PolledTcpLink("127.0.0.1", fw.port)
     assert link.try_connect()
     fw.accept()
-    inbox = OrderedInbox(link, **inbox_opts)
+    inbox = OrderedInbox(link, **{"lag": 15, **inbox_opts})
     seen: list[tuple[int, str]] = []
     try:
         for k in range(frames):

@@ -19,7 +19,7 @@ read at a given simulated time, i.e. a function of the firmware's own execution,
 If that answer has not arrived when its batch is due, the inbox waits for it on the socket, up to
 ``flush_wait_s`` of wall time: the firmware is blocked until the physics answers, so either it wrote the
 answer already and the kernel delivers it within milliseconds, or it has not handled the request yet (while
-it boots, before its MAVLink is up, it answers 10-15 frames late), and then no waiting brings it: the batch
+it boots, before its MAVLink is up, it answers up to 19 frames late), and then no waiting brings it: the batch
 is postponed to the next frame, the same on every run (``postponed``). The wait ends at once when the link
 closes or the firmware dies (``alive``). A firmware that skipped a request (ArduPilot drops one when its
 send buffer is full, and what it read before its serial port was set up) shows it by answering a later
@@ -40,8 +40,9 @@ log = logging.getLogger(__name__)
 
 #: frames between two markers (20 ms at 250 Hz)
 MARKER_PERIOD = 5
-#: frames from a marker to the release of the messages before its answer (ArduPilot answers within 3-6 frames)
-MARKER_LAG = 15
+#: frames from a marker to the release of the messages before its answer (80 ms at 250 Hz): ArduPilot's answers
+#: arrive 2-9 frames after the marker, and 14-19 for those it read while booting (then it would have to wait)
+MARKER_LAG = 20
 #: wall seconds an answer the firmware wrote may take to arrive (the kernel's delay, milliseconds under load)
 FLUSH_WAIT_S = 0.5
 #: frames a due marker may be postponed (its answer not written yet) before it is given up
