@@ -22,7 +22,7 @@ answer already and the kernel delivers it within milliseconds, or it has not han
 it boots, before its MAVLink is up, it answers up to 19 frames late), and then no waiting brings it: the batch
 is postponed to the next frame, the same on every run (``postponed``). The wait ends at once when the link
 closes or the firmware dies (``alive``). A firmware that skipped a request (ArduPilot drops one when its
-send buffer is full, and what it read before its serial port was set up) shows it by answering a later
+send buffer is full; it never answers the first marker of its boot) shows it by answering a later
 marker first: the skipped marker's batch is empty and its messages go with the next one, on every run.
 A marker postponed ``max_postpone`` times is given up (``late``: what arrived is released; that run may
 not repeat to the bit).

@@ -12,10 +12,10 @@ its UDP servo frames is the kernel's doing: acting on what happened to be polled
 which ArduPilot answers from its main loop (``GCS_MAVLINK::handle_timesync``) in order with everything else
 it writes on SERIAL0; what ArduPilot wrote before the answer to the marker of frame ``f`` is handed to the
 client at frame ``f + 20`` (80 ms at 250 Hz; in flight ArduPilot's answer arrives 2-9 frames after the
-request, while it boots up to 19). If the answer is not there then, the inbox waits for it on the socket (up to 0.5 s): ArduPilot,
-blocked until the physics answers, has either written it already (the kernel delivers it) or not handled
-the request yet (while it boots, before its MAVLink runs), and then the batch goes out at the first frame
-after the answer; ``ardupilot_late_markers`` counts markers given up after 25 such frames. So the client
+request, while it boots up to 19). If the answer is not there then, the inbox waits for it on the socket
+(up to 0.5 s): ArduPilot, blocked until the physics answers, has either written it already (the kernel
+delivers it) or not handled the request yet (while it boots, before its MAVLink runs), and then the batch
+goes out at the first frame after the answer; ``ardupilot_late_markers`` counts markers given up after 25 such frames. So the client
 acts at frames fixed by ArduPilot's own output order: the boot, the parameter read-back, the uploads, the
 arming and the end of the run happen at the same frame on every run.
 
