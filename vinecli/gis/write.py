@@ -106,7 +106,7 @@ def _column(values: list[Any]) -> Any:
 
 @contextmanager
 def _gpkg_temp(path: Path) -> Iterator[Path]:
-    """A GeoPackage path of this process's own beside ``path`` (``.NAME.tmp-PID-XXXX.gpkg``: never a user's file,
+    """A GeoPackage path of this process's own beside ``path`` (``.NAME.tmp-<pid>-<8 random hex digits>.gpkg``: never a user's file,
     never another writer's), renamed to ``path`` when the block succeeds and removed when it fails."""
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}.gpkg")
     try:
