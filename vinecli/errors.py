@@ -13,6 +13,7 @@ Messages are one line and name the file (or endpoint) and the problem.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 
@@ -35,6 +36,14 @@ class InputError(VinecliError, ValueError):
 
 class SpecError(InputError):
     """A YAML/JSON spec that does not validate; the message names file and field."""
+
+
+def check_range(option: str, value: float, lo: float, hi: float, *, open_lo: bool = False, why: str = "") -> None:
+    """SpecError (exit 2, one line naming ``option``) for a ``value`` that is not finite or outside [lo, hi] ((lo, hi]
+    with ``open_lo``); ``why`` says where the bound comes from."""
+    if not math.isfinite(value) or value > hi or value < lo or (open_lo and value == lo):
+        raise SpecError(f"{option} {value:g}: use {'more than' if open_lo else 'at least'} {lo:g} and at most {hi:g}"
+                        + (f" ({why})" if why else ""))
 
 
 class TerrainError(InputError):

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vinecli.errors import InputError, OutputError
+from vinecli.errors import InputError, OutputError, check_range
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
@@ -86,18 +86,14 @@ def _check_targets(targets: list[Path], overwrite: bool) -> None:
 
 def _check_options(veh: VehicleSpec, *, speed: float, height: float, flow: float, takeoff: float,
                    tank_l: float | None) -> None:
-    """Each option finite and in its range for ``veh`` (InputError naming the option, exit 2): a speed above the
-    vehicle's top speed would be planned for turns and times never flown (and 1e308 m/s made the run-in
-    infinite)."""
-    top = veh.control.max_vel_xy
-    for name, value, ok, want in (
-            ("--speed", speed, 0.0 < speed <= top, f"in (0, {top:g}] m/s (the vehicle's control.max_vel_xy)"),
-            ("--height", height, 0.0 < height <= 1000.0, "in (0, 1000] m"),
-            ("--flow", flow, 0.0 <= flow <= 100.0, "in [0, 100] L/s"),
-            ("--takeoff", takeoff, 0.0 < takeoff <= 1000.0, "in (0, 1000] m"),
-            ("--tank", tank_l, tank_l is None or 0.0 <= tank_l <= 1e4, "in [0, 10000] L")):
-        if not ok:  # NaN compares false: refused here too
-            raise InputError(f"{name} {value!r} out of range: give a value {want}")
+    """Each option finite and in its range for ``veh`` (exit 2 naming the option): a speed above the vehicle's top
+    speed would be planned for turns and times never flown (and 1e308 m/s made the run-in infinite)."""
+    check_range("--speed", speed, 0.0, veh.control.max_vel_xy, open_lo=True, why="the vehicle's control.max_vel_xy")
+    check_range("--height", height, 0.0, 1000.0, open_lo=True)
+    check_range("--flow", flow, 0.0, 100.0)
+    check_range("--takeoff", takeoff, 0.0, 1000.0, open_lo=True)
+    if tank_l is not None:
+        check_range("--tank", tank_l, 0.0, 1e4)
 
 
 def _geojson_path(out: Path) -> Path:

@@ -10,14 +10,13 @@ the overlapped pattern at the effective swath, CV against spacing), atomically. 
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vinecli.errors import SpecError
+from vinecli.errors import check_range
 from vinecli.outputs import Manifest, atomic_output_dir, jsonable
 from vinecli.specs.limits import MAX_DISTANCE_M, MAX_HEIGHT_M, MAX_SPEED_MPS
 
@@ -108,8 +107,7 @@ def _check_options(**values: float) -> None:
     """SpecError (exit 2, one line naming the option) for a value outside its range or not finite."""
     for key, v in values.items():
         opt, lo, hi, open_lo = _RANGES[key]
-        if not math.isfinite(v) or v > hi or v < lo or (open_lo and v == lo):
-            raise SpecError(f"{opt} {v:g}: use {'more than' if open_lo else 'at least'} {lo:g} and at most {hi:g}")
+        check_range(opt, v, lo, hi, open_lo=open_lo)
 
 
 def swath_report(vehicle: str | Path, out: Path, *, height_agl_m: float, speed_mps: float, crosswind_mps: float = 0.0,
