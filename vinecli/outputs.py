@@ -20,6 +20,7 @@ import json
 import os
 import platform
 import re
+import secrets
 import shutil
 import signal
 import sys
@@ -47,8 +48,8 @@ from vinecli.output_guard import (
 )
 
 __all__ = [
-    "MANIFEST", "MARKER", "Manifest", "atomic_output_dir", "check_output_file", "check_output_target",
-    "write_bytes_atomic",
+    "MANIFEST", "MARKER", "Manifest", "atomic_file", "atomic_output_dir", "check_output_file",
+    "check_output_target", "write_bytes_atomic",
     "contained_path", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file",
     "timed_stage", "write_json", "write_text_atomic",
 ]
@@ -74,29 +75,33 @@ def write_text_atomic(path: Path | str, text: str) -> None:
 
 
 def write_bytes_atomic(path: Path | str, data: bytes) -> None:
-    """Write ``data`` to the file ``path`` atomically: a temporary sibling, then a rename (a symbolic link at
-    ``path`` is refused, never followed; an input of the running command is refused).
+    """Write ``data`` to the file ``path`` atomically (:func:`atomic_file`)."""
+    with atomic_file(path) as tmp:
+        tmp.write_bytes(data)
 
-    On an OSError the temporary file is removed and OutputError (exit 2, ``cannot write: ...``) is
-    raised; ``path`` is then left as it was.
-    """
+
+@contextmanager
+def atomic_file(path: Path | str, suffix: str = "") -> Iterator[Path]:
+    """A temporary sibling of the file ``path`` for the block to write (``.NAME.tmp-<pid>-<8 random hex
+    digits>`` + ``suffix``, e.g. ``.gpkg`` for a driver that goes by the extension: never a user's file, never
+    another writer's), renamed to ``path`` when the block succeeds and removed when it fails; ``path`` is then
+    left as it was. A symbolic link or a non-file at ``path`` is refused, never followed; an input of the running
+    command is refused. An OSError becomes OutputError (exit 2, ``cannot write: ...``)."""
     path = Path(path)
     inputs = current_inputs()
     if inputs is not None:
         inputs.refuse(path)
-    if path.is_symlink():
-        raise OutputError("is a symbolic link (kept)", path=path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}{suffix}")
     try:
-        tmp.write_bytes(data)
+        yield tmp
+        if path.is_symlink() or (path.exists() and not path.is_file()):
+            raise OutputError("is a symbolic link or not a regular file (kept)", path=path)
         with _signals_held():
             os.replace(tmp, path)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
         raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
-    except BaseException:
+    finally:
         tmp.unlink(missing_ok=True)
-        raise
 
 
 def jsonable(obj: Any) -> Any:

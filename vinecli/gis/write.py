@@ -5,17 +5,12 @@ degree (0.1 mm)."""
 from __future__ import annotations
 
 import json
-import os
-import secrets
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from vinecli.errors import OutputError
 from vinecli.gis.georef import Georef
-from vinecli.outputs import write_text_atomic
+from vinecli.outputs import atomic_file, write_text_atomic
 
 __all__ = ["LocalFeature", "feature_collection", "rows_features", "write_features", "write_layers"]
 
@@ -86,7 +81,7 @@ def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef
                  for name, fs in layers.items() for f in fs]
         write_text_atomic(path, json.dumps(feature_collection(feats, georef, path.stem)) + "\n")
         return path
-    with _gpkg_temp(path) as tmp:
+    with atomic_file(path, ".gpkg") as tmp:
         for name, fs in layers.items():
             if fs:
                 _write_gpkg_layer(tmp, feature_collection(fs, georef, name), name)
@@ -104,25 +99,8 @@ def _column(values: list[Any]) -> Any:
     return np.array([None if v is None else str(v) for v in values], dtype=object)
 
 
-@contextmanager
-def _gpkg_temp(path: Path) -> Iterator[Path]:
-    """A GeoPackage path of this process's own beside ``path`` (``.NAME.tmp-<pid>-<8 random hex digits>.gpkg``: never a user's file,
-    never another writer's), renamed to ``path`` when the block succeeds and removed when it fails."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}.gpkg")
-    try:
-        yield tmp
-        if path.is_symlink() or (path.exists() and not path.is_file()):
-            raise OutputError("is a symbolic link or not a regular file (kept)", path=path)
-        try:
-            os.replace(tmp, path)
-        except OSError as exc:
-            raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
-    with _gpkg_temp(path) as tmp:
+    with atomic_file(path, ".gpkg") as tmp:
         _write_gpkg_layer(tmp, fc, layer)
 
 
