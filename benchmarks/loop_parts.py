@@ -1,7 +1,8 @@
 """The CI missions' loop against the PyBullet floor, in one run, with the cost of each part.
 
 For each mission (built-in autopilot, estimator on, every physics model, the sample world's 27
-mesh tiles) it reports, all in process CPU time per 250 Hz step (robust to a shared machine):
+mesh tiles) it reports, all in process CPU time per 250 Hz step (robust to other processes, not to a virtual
+machine's neighbours: where the floor itself moves from run to run, ``loop_instructions.py`` counts instead):
 
 * **loop**: ``summary.json timing.cpu_per_step_us`` of a ``run_mission`` in this process, with the
   kernel this process runs (``vinecli.native.state``: ``compiled`` after ``make native``);
