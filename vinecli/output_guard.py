@@ -19,6 +19,7 @@ import os
 import secrets
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 from vinecli import __version__
 from vinecli.errors import OutputError
@@ -41,7 +42,7 @@ def write_marker(folder: Path, kind: str) -> None:
                                        encoding="utf-8")
 
 
-def _manifest(folder: Path) -> dict[str, object] | None:
+def _manifest(folder: Path) -> dict[str, Any] | None:
     """The vinecli ``manifest.json`` of ``folder``, or None (none, unreadable or not vinecli's)."""
     try:
         doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
@@ -50,11 +51,10 @@ def _manifest(folder: Path) -> dict[str, object] | None:
     return doc if isinstance(doc, dict) and doc.get("tool") == "vinecli" else None
 
 
-def _manifest_outputs(folder: Path) -> list[str] | None:
-    """The output paths a vinecli ``manifest.json`` in ``folder`` lists, or None (no vinecli manifest)."""
-    doc = _manifest(folder)
+def _listed_outputs(doc: dict[str, Any] | None) -> list[str] | None:
+    """The output paths a vinecli manifest ``doc`` lists, or None (no manifest, or not a list of outputs)."""
     try:
-        return None if doc is None else [str(e["path"]) for e in doc.get("outputs", [])]  # type: ignore[union-attr]
+        return None if doc is None else [str(e["path"]) for e in doc.get("outputs", [])]
     except (KeyError, TypeError, AttributeError):
         return None
 
@@ -69,7 +69,7 @@ def is_vinecli_dir(folder: str | Path) -> bool:
     p = Path(folder)
     if p.is_symlink() or not p.is_dir():
         return False
-    return (p / MARKER).is_file() or _manifest_outputs(p) is not None
+    return (p / MARKER).is_file() or _listed_outputs(_manifest(p)) is not None
 
 
 def replaceable_problem(folder: Path, kind: str | None = None) -> str | None:
@@ -85,10 +85,11 @@ def replaceable_problem(folder: Path, kind: str | None = None) -> str | None:
         return "is a symbolic link, not a folder vinecli made (kept)"
     if not is_vinecli_dir(folder):
         return "is not a folder vinecli made (no .vinecli marker; kept)"
-    listed = _manifest_outputs(folder)
-    if listed is None:
+    doc = _manifest(folder)
+    listed = _listed_outputs(doc)
+    if doc is None or listed is None:
         return "is a vinecli folder that holds other outputs (kept)"
-    made_by = command_kind(str((_manifest(folder) or {}).get("command", "")))
+    made_by = command_kind(str(doc.get("command", "")))
     if kind is not None and made_by != command_kind(kind):
         return f"was written by 'vinecli {made_by}', not 'vinecli {command_kind(kind)}' (kept; choose another output)"
     files = set(listed) | {MANIFEST, MARKER} | {f + ".aux.xml" for f in listed}  # + GDAL's sidecars of ours

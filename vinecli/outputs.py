@@ -50,7 +50,7 @@ from vinecli.output_guard import (
 __all__ = [
     "MANIFEST", "MARKER", "Manifest", "atomic_file", "atomic_output_dir", "check_output_file",
     "check_output_target", "write_bytes_atomic",
-    "contained_path", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file",
+    "contained_path", "json_text", "jsonable", "manifest_problem", "output_folder", "remove_stale_temps", "sha256_file",
     "timed_stage", "write_json", "write_text_atomic",
 ]
 
@@ -64,9 +64,14 @@ def sha256_file(path: Path, chunk: int = 1 << 20) -> str:
     return h.hexdigest()
 
 
+def json_text(data: Any) -> str:
+    """``data`` as indented JSON text with a final newline (NaN is written as null)."""
+    return json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n"
+
+
 def write_json(path: Path, data: Any) -> None:
-    """Write ``data`` as indented UTF-8 JSON (NaN is written as null)."""
-    path.write_text(json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    """Write ``data`` as indented UTF-8 JSON (:func:`json_text`)."""
+    path.write_text(json_text(data), encoding="utf-8")
 
 
 def write_text_atomic(path: Path | str, text: str) -> None:

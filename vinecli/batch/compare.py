@@ -8,7 +8,6 @@ shows them, with the comparison on its first page); ``OUT/comparison.json``
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,7 @@ from vinecli.batch.runner import BatchResult, ProgressFn, run_batch
 from vinecli.batch.spec import MissionEntry, PipelineSpec
 from vinecli.errors import InputError
 from vinecli.locks import output_lock
-from vinecli.outputs import jsonable, write_bytes_atomic, write_text_atomic
+from vinecli.outputs import json_text, write_bytes_atomic, write_text_atomic
 
 AUTOPILOTS = ("builtin", "px4", "ardupilot")
 COMPARISON_JSON = "comparison.json"
@@ -56,7 +55,7 @@ def compare_autopilots(mission: str | Path, world: str | Path, runs_dir: str | P
         return result, None
     cmp = compare_runs(dirs)
     with output_lock(out, inside=True):  # the batch's lock; a file or link planted in OUT is replaced, never followed
-        write_text_atomic(out / COMPARISON_JSON, json.dumps(jsonable(cmp), indent=2, allow_nan=False) + "\n")
+        write_text_atomic(out / COMPARISON_JSON, json_text(cmp))
         write_bytes_atomic(out / COMPARISON_PNG, comparison_png(cmp))
     return result, cmp
 

@@ -62,11 +62,13 @@ class CheckResult:
         return d
 
 
-#: lockstep stalls a firmware backend counts (steps that went on without the firmware's answer)
-FIRMWARE_STALLS = ("px4_stalls", "ardupilot_stalls")
-#: faults the firmware's own log shows in the firmware (vinecli.sitl.px4.log_audit), each an implicit check
-FIRMWARE_FAULTS = {"px4_scheduler_faults": "PX4 ran its periodic work (battery simulator, load monitor) to the end "
-                                           "of its log; a stop is PX4's own scheduler fault (implicit)"}
+#: counters a firmware run must end at 0, each an implicit check when the run has it: the lockstep stalls a
+#: firmware backend counts (steps that went on without the firmware's answer) and the faults the firmware's own
+#: log shows in the firmware (vinecli.sitl.px4.log_audit)
+_STALLS = "every lockstep step had the firmware's answer (implicit)"
+FIRMWARE_COUNTERS = {"px4_stalls": _STALLS, "ardupilot_stalls": _STALLS,
+                     "px4_scheduler_faults": "PX4 ran its periodic work (battery simulator, load monitor) to the end "
+                                             "of its log; a stop is PX4's own scheduler fault (implicit)"}
 
 
 def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | None = None,
@@ -75,18 +77,14 @@ def implicit_checks(checks: Sequence[CheckSpec], metrics: Mapping[str, Any] | No
     ``status == completed`` if none tests the status, and, for a firmware run (its stall counter in
     ``metrics``), ``<firmware>_stalls == 0`` unless the mission checks that counter itself: a step without
     the firmware's answer is not the firmware's flight; likewise ``px4_scheduler_faults == 0`` when PX4's log was
-    audited (:data:`FIRMWARE_FAULTS`)."""
+    audited (:data:`FIRMWARE_COUNTERS`)."""
     out = [*checks, *defaults]
     if not any(c.quantity == "status" for c in checks):
         out.append(
             CheckSpec(name="status", quantity="status", op="==", bound="completed",
                       description="the mission ran to completion (implicit)")
         )
-    for name in FIRMWARE_STALLS:
-        if metrics is not None and name in metrics and not any(c.quantity == f"metric:{name}" for c in checks):
-            out.append(CheckSpec(name=name, quantity=f"metric:{name}", op="<=", bound=0.0,
-                                 description="every lockstep step had the firmware's answer (implicit)"))
-    for name, description in FIRMWARE_FAULTS.items():
+    for name, description in FIRMWARE_COUNTERS.items():
         if metrics is not None and name in metrics and not any(c.quantity == f"metric:{name}" for c in checks):
             out.append(CheckSpec(name=name, quantity=f"metric:{name}", op="<=", bound=0.0, description=description))
     return out

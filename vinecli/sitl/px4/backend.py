@@ -44,6 +44,7 @@ from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, qu
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sitl.converter import pump_max_flow_lps
+from vinecli.sitl.px4.log_audit import apply_audit
 from vinecli.sitl.px4.process import px4_start_command
 from vinecli.sitl.takeoff import TakeoffWatch
 from vinecli.specs.mission import TakeoffPhase
@@ -462,8 +463,6 @@ class Px4SitlAutopilot:
             version = self.mission_version
             rec = FirmwareRecord(identity_from_message("PX4", version, self.px4_bin))
             rec.files = self.process.keep(KEEP, rec.dir)
-            from vinecli.sitl.px4.log_audit import apply_audit
-
             rec.auditor = apply_audit  # PX4's own log: did its periodic work (battery, load monitor) run to the end?
             self.firmware_record = rec
             self.process.discard()

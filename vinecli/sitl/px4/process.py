@@ -53,7 +53,7 @@ def px4_start_command(instance: int = 0, host: str = "127.0.0.1", px4_bin: str =
         etc = os.path.join(build, "etc")
     wd = workdir or f"/tmp/px4-sitl-{instance}"
     rc = shlex.quote(f"{wd}/rc")
-    lines = " ".join(shlex.quote(f"param set {k} {format_value(v)}") for k, v in HAND_START_PARAMS.items())
+    lines = " ".join(shlex.quote(line) for line in _param_set_lines(HAND_START_PARAMS))
     env = [f"PATH={rc}:$PATH", f"PX4_SIM_MODEL={airframe}"]
     if host not in ("127.0.0.1", "localhost"):
         env.append(f"PX4_SIM_HOST_ADDR={host}")
@@ -81,6 +81,11 @@ def reserve_instance() -> InstanceLock:
     return reserve_firmware_instance("PX4", _px4_ports_free)
 
 
+def _param_set_lines(params: dict[str, int | float]) -> list[str]:
+    """PX4 shell lines setting ``params`` (``param set NAME VALUE``); InputError for a bad name or value."""
+    return [f"param set {name} {format_value(value)}" for name, value in check_params(params, "PX4").items()]
+
+
 def boot_params_script(params: dict[str, int | float]) -> str:
     """``px4-rc.params`` setting ``params`` at boot ('' for none); InputError for a bad name or value.
 
@@ -88,7 +93,7 @@ def boot_params_script(params: dict[str, int | float]) -> str:
     (``EKF2_HGT_REF`` is reboot-required; an output function set over MAVLink just before arming
     was picked up too late), so a PX4 that vinecli starts gets them in its start-up script.
     """
-    lines = [f"param set {name} {format_value(value)}" for name, value in check_params(params, "PX4").items()]
+    lines = _param_set_lines(params)
     return "#!/bin/sh\n# written by vinecli: this run's parameters\n" + "\n".join(lines) + "\n" if lines else ""
 
 
