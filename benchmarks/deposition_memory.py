@@ -26,7 +26,6 @@ import tempfile
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
 LIMIT_MB = 1536.0
 
 MISSION = """\

@@ -37,14 +37,15 @@ from pathlib import Path
 from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "benchmarks"))
+from loop_parts import FLOOR_REPEATS  # noqa: E402 - the floor this script counts is loop_parts.floor_us
+
 #: the compiled loop, newest name first (mypyc: CPyDef_<module path with ___>___<function>)
 LOOP_SYMBOLS = ("CPyDef_vinecli___sim___loop___fly", "CPyDef_vinecli___sim___runner____loop")
 #: the floor's PyBullet calls (pybullet.c's C functions)
 FLOOR_CALLS = ("stepSimulation", "getBasePositionAndOrientation", "getBaseVelocity", "applyExternalForce",
                "applyExternalTorque")
 FLOOR_STEPS = 2000
-#: loop_parts.floor_us runs its floor loop this many times (it keeps the best time)
-FLOOR_REPEATS = 3
 
 #: run in the checkout (its path first on sys.path): the floor loop, or one mission run
 CHILD = r"""

@@ -64,6 +64,10 @@ PYBULLET_CALLS = ("stepSimulation", "getBasePositionAndOrientation", "getBaseVel
                   "resetBaseVelocity", "resetBasePositionAndOrientation")
 
 
+#: times floor_us runs its floor loop (it keeps the best)
+FLOOR_REPEATS = 3
+
+
 def floor_us(world: Any, steps: int, *, on_ground: bool = False) -> float:
     """CPU µs per step of the PyBullet floor (step + state reads + one force + one torque): floating with
     gravity off, or (``on_ground``) resting on the terrain at the spawn under gravity, where PyBullet also
@@ -81,7 +85,7 @@ def floor_us(world: Any, steps: int, *, on_ground: bool = False) -> float:
         for _ in range(500 if on_ground else 0):  # come to rest on the skids
             step()
         best = float("inf")
-        for _ in range(3):
+        for _ in range(FLOOR_REPEATS):
             t = time.process_time()
             for _ in range(steps):
                 pose(body)

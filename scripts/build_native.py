@@ -45,9 +45,10 @@ def _output_to(log: Path) -> Iterator[None]:
             os.close(saved[1])
 
 
-def build(out: Path | None, how: str) -> int:
-    """Compile the kernel in place (``out`` None) or into ``out/vinecli/``; ``how`` names the build in the
-    manifest (``make native``, ``wheel``). 0 when built, 1 when it failed (the log's end on stderr)."""
+def build(out: Path | None) -> int:
+    """Compile the kernel in place (``out`` None: ``make native``) or into ``out/vinecli/`` (the wheel's build
+    hook); the manifest names which. 0 when built, 1 when it failed (the log's end on stderr)."""
+    how = "make native" if out is None else "wheel"
     os.chdir(REPO)
     sys.path.insert(0, str(REPO))
     os.environ["VINECLI_PURE_PYTHON"] = "1"  # importing vinecli here must not load an old kernel
@@ -93,7 +94,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=None, help="build into OUT/vinecli/ instead of in place")
     args = ap.parse_args()
-    status = build(args.out.resolve() if args.out else None, "make native" if args.out is None else "wheel")
+    status = build(args.out.resolve() if args.out else None)
     if status and args.out is None:
         print("vinecli still runs, on the pure-Python sources", file=sys.stderr)
     return status

@@ -142,7 +142,7 @@ def test_every_command_aimed_at_its_inputs_is_refused(sandbox: Path) -> None:
         assert fingerprint(sandbox) == everything, args  # nothing written, replaced or left behind
 
 
-def test_a_link_planted_in_a_compare_folder_is_not_followed(sandbox: Path, tmp_path: Path) -> None:
+def test_a_link_planted_in_a_compare_folder_is_not_followed(tmp_path: Path) -> None:
     """``run compare`` writes comparison.json/png into a runs folder that may hold a user's link of that name:
     the file replaces the link, the link's target is never written."""
     from vinecli.batch.compare import COMPARISON_PNG

@@ -137,14 +137,22 @@ print(json.dumps({"peak_mb": peak, "bound_mb": bound, "balance": b.budget.balanc
 """
 
 
-@pytest.mark.parametrize("height", [2.0, 400.0])
-def test_the_spray_budget_stays_within_its_share_of_the_memory_estimate(tmp_path: Path, height: float) -> None:
-    """sim/memory.py counts the budget (its per-parcel arrays, the canopy points of every hedge a footprint reaches,
-    the canopy maps): what evaluating and writing it allocates (tracemalloc, imports included) stays below."""
+@pytest.fixture(scope="module")
+def canopy_world_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """CANOPY_WORLD, built once for the module."""
     from vinecli.world import build_world
 
-    (tmp_path / "w.yaml").write_text(CANOPY_WORLD)
-    world = build_world(tmp_path / "w.yaml", tmp_path / "w")
+    d = tmp_path_factory.mktemp("canopy")
+    (d / "w.yaml").write_text(CANOPY_WORLD)
+    return build_world(d / "w.yaml", d / "w")
+
+
+@pytest.mark.parametrize("height", [2.0, 400.0])
+def test_the_spray_budget_stays_within_its_share_of_the_memory_estimate(canopy_world_dir: Path, tmp_path: Path,
+                                                                          height: float) -> None:
+    """sim/memory.py counts the budget (its per-parcel arrays, the canopy points of every hedge a footprint reaches,
+    the canopy maps): what evaluating and writing it allocates (tracemalloc, imports included) stays below."""
+    world = canopy_world_dir
     code = (BUDGET_AT.replace("HEIGHT", repr(height)).replace("RECORDS", "2500").replace("OUT", repr(str(tmp_path)))
             .replace("WORLD", repr(str(world))))
     r = run_python(code)

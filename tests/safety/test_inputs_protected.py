@@ -10,20 +10,10 @@ import shutil
 from pathlib import Path
 
 import pytest
-from attack_kit import PLAN, ROWS_WORLD, SAMPLE_DSM, cli, error_line, fingerprint, mission
+from attack_kit import PLAN, SAMPLE_DSM, cli, error_line, fingerprint, mission
 from repo_paths import REPO
 
 VEHICLES = REPO / "vehicles"
-
-
-@pytest.fixture(scope="module")
-def rows_world(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A flat world with two rows, built once (the tests copy it before aiming outputs into it)."""
-    d = tmp_path_factory.mktemp("rw")
-    (d / "w.yaml").write_text(ROWS_WORLD)
-    r = cli("world", "build", d / "w.yaml", "--out", d / "world")
-    assert r.exit_code == 0, r.output
-    return d / "world"
 
 
 def test_plan_rows_does_not_write_over_its_dsm(tmp_path: Path) -> None:

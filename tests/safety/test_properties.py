@@ -183,16 +183,11 @@ def test_plan_swath_options(work: Path, height: str, speed: str, crosswind: str,
 @settings(PROPS, max_examples=15)
 @given(height=NUMBER, speed=NUMBER, flow=NUMBER, spacing=st.one_of(st.none(), NUMBER), tank=st.one_of(st.none(), NUMBER),
        takeoff=NUMBER)
-def test_plan_rows_options(work: Path, height: str, speed: str, flow: str, spacing: str | None, tank: str | None,
-                           takeoff: str) -> None:
+def test_plan_rows_options(work: Path, rows_world: Path, height: str, speed: str, flow: str, spacing: str | None,
+                           tank: str | None, takeoff: str) -> None:
     """``plan rows`` on a built world with two rows: any option value ends in exit 0 or 2, the world stays
     byte-identical."""
-    from attack_kit import ROWS_WORLD
-
-    world = work / "rowsworld"
-    if not world.exists():
-        (work / "rw.yaml").write_text(ROWS_WORLD)
-        assert cli("world", "build", work / "rw.yaml", "--out", world).exit_code == 0
+    world = rows_world
     before = fingerprint(world)
     args = ["plan", "rows", world, "--out", work / "p.plan", "--overwrite", "--height", height, "--speed", speed,
             "--flow", flow, "--takeoff", takeoff]
