@@ -13,7 +13,7 @@ from tests.repo_paths import REPO
 #: the layers, ground floor first; a unit is a top-level module or a package of vinecli
 LAYERS: list[set[str]] = [
     {"constants", "errors", "frames", "geo", "inputs", "lifeline", "locks", "names", "native", "output_guard", "outputs",
-     "spray_defaults", "types"},
+     "scratch", "spray_defaults", "stop_signals", "types"},
     {"specs"},
     {"physics", "control", "terrain", "vehicle", "mavlink", "flightlog"},
     {"rows", "phase_items", "identify", "gis"},

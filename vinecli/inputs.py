@@ -25,12 +25,13 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 from vinecli.errors import InputError, OutputError
 
 __all__ = [
-    "Input", "InputSet", "current_inputs", "file_kind", "note_input", "open_input", "read_input_text", "reading_inputs",
+    "Input", "InputSet", "current_inputs", "file_kind", "note_input", "open_input", "read_input_json", "read_input_text",
+    "reading_inputs",
     "require_regular_file",
 ]
 
@@ -183,6 +184,20 @@ def open_input(path: str | Path, what: str = "file") -> IO[bytes]:
     return os.fdopen(fd, "rb")
 
 
+def read_input_json(path: str | Path, what: str = "file", *, max_bytes: int = 256 << 20) -> Any:
+    """The JSON value of the regular file ``path`` (:func:`read_input_text`); InputError (exit 2) naming the file when
+    it is not JSON, or nested too deeply for the parser (200,000 brackets), never a RecursionError."""
+    import json
+
+    text = read_input_text(path, what, max_bytes=max_bytes)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}", path=path) from None
+    except RecursionError:
+        raise InputError(f"{what} is nested too deeply to be what vinecli reads (invalid JSON)", path=path) from None
+
+
 def read_input_text(path: str | Path, what: str = "file", *, max_bytes: int = 256 << 20) -> str:
     """The UTF-8 text of the regular file ``path`` (see :func:`open_input`); InputError (exit 2) when it is
     not UTF-8, larger than ``max_bytes`` or unreadable. The message never quotes the file's content."""
@@ -192,7 +207,8 @@ def read_input_text(path: str | Path, what: str = "file", *, max_bytes: int = 25
         except OSError as exc:
             raise InputError(f"cannot read {what}: {exc.strerror}", path=path) from None
     if len(data) > max_bytes:
-        raise InputError(f"{what} is larger than {max_bytes >> 20} MB", path=path)
+        size = os.stat(path).st_size
+        raise InputError(f"{what} of {size / 2**20:.0f} MB: at most {max_bytes >> 20} MB", path=path)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -36,9 +36,13 @@ def lock_path(target: Path, *, inside: bool = False) -> Path:
     return target / ".vinecli.lock" if inside else target.with_name(f".{target.name}.lock")
 
 
+#: what follows the holder's pid in a lock file: the mark that the file is vinecli's
+MARK = "vinecli"
+
+
 def _holder(path: Path) -> str:
     try:
-        pid = path.read_text(encoding="ascii").strip()
+        pid = (path.read_text(encoding="ascii").split() or [""])[0]
     except (OSError, UnicodeDecodeError):
         return "another process"
     return f"pid {pid}" if pid.isdigit() else "another process"
@@ -63,7 +67,7 @@ def _acquire(path: Path, what: Path) -> int:
             same = False
         if same:
             os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+            os.write(fd, f"{os.getpid()} {MARK}\n".encode("ascii"))
             return fd
         os.close(fd)  # the previous holder removed the file after we opened it: lock the new one
     raise OutputError("cannot take the lock (it keeps being replaced)", path=what)
@@ -99,9 +103,9 @@ def output_lock(target: str | Path, *, inside: bool = False) -> Iterator[Path]:
         os.close(fd)  # closing drops the flock
 
 
-def remove_if_free(path: Path) -> bool:
-    """Remove the vinecli lock file ``path`` (it holds a pid) if no process holds it (its holder died); True
-    if removed."""
+def remove_if_free(path: Path, *, marked: bool = False) -> bool:
+    """Remove the vinecli lock file ``path`` (it holds a pid; with ``marked``, also vinecli's mark: a lock file of
+    any name is then known to be vinecli's) if no process holds it (its holder died); True if removed."""
     try:
         fd = os.open(path, os.O_RDWR | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0))
     except OSError:
@@ -112,7 +116,8 @@ def remove_if_free(path: Path) -> bool:
         os.close(fd)
         return False
     try:
-        ours = os.read(fd, 32).strip().isdigit()  # a pid: vinecli's lock file, not a user's ".x.lock"
+        words = os.read(fd, 64).split()  # a pid (and the mark): vinecli's lock file, not a user's ".x.lock"
+        ours = bool(words) and words[0].isdigit() and (not marked or words[1:] == [MARK.encode()])
         if ours and os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino:
             path.unlink()
             return True

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import errno
 import json
-import os
 import secrets
 from collections.abc import Iterable
 from pathlib import Path
@@ -23,7 +22,8 @@ from typing import Any
 
 from vinecli import __version__
 from vinecli.errors import OutputError
-from vinecli.inputs import current_inputs
+from vinecli.inputs import current_inputs, read_input_json
+from vinecli.lifeline import owner_tag
 
 __all__ = [
     "MANIFEST", "MARKER", "check_output_file", "check_output_target", "contained_path", "is_vinecli_dir",
@@ -45,8 +45,8 @@ def write_marker(folder: Path, kind: str) -> None:
 def _manifest(folder: Path) -> dict[str, Any] | None:
     """The vinecli ``manifest.json`` of ``folder``, or None (none, unreadable or not vinecli's)."""
     try:
-        doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        doc = read_input_json(folder / MANIFEST, MANIFEST)
+    except ValueError:  # InputError too: missing, not JSON, nested too deeply
         return None
     return doc if isinstance(doc, dict) and doc.get("tool") == "vinecli" else None
 
@@ -194,7 +194,7 @@ def check_output_file(path: Path, *, overwrite: bool = False, inputs: Iterable[s
 def make_unique_dir(parent: Path, prefix: str) -> Path:
     """Create a new, uniquely named directory in ``parent`` with the umask's permissions (not mkdtemp's 0700)."""
     for _ in range(100):
-        d = parent / f"{prefix}{os.getpid()}-{secrets.token_hex(4)}"
+        d = parent / f"{prefix}{owner_tag()}-{secrets.token_hex(4)}"
         try:
             d.mkdir(mode=0o777)
         except FileExistsError:

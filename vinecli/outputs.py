@@ -35,7 +35,7 @@ from typing import Any
 from vinecli import __version__
 from vinecli.errors import OutputError
 from vinecli.inputs import current_inputs
-from vinecli.lifeline import pid_alive
+from vinecli.lifeline import OWNER, owner_alive, owner_tag
 from vinecli.locks import output_lock, remove_if_free
 from vinecli.output_guard import (
     MANIFEST,
@@ -74,39 +74,58 @@ def write_json(path: Path, data: Any) -> None:
     path.write_text(json_text(data), encoding="utf-8")
 
 
-def write_text_atomic(path: Path | str, text: str) -> None:
+def write_text_atomic(path: Path | str, text: str, *, overwrite: bool = True) -> None:
     """Write ``text`` (UTF-8) to the file ``path`` atomically (:func:`write_bytes_atomic`)."""
-    write_bytes_atomic(path, text.encode("utf-8"))
+    write_bytes_atomic(path, text.encode("utf-8"), overwrite=overwrite)
 
 
-def write_bytes_atomic(path: Path | str, data: bytes) -> None:
-    """Write ``data`` to the file ``path`` atomically (:func:`atomic_file`)."""
-    with atomic_file(path) as tmp:
+def write_bytes_atomic(path: Path | str, data: bytes, *, overwrite: bool = True) -> None:
+    """Write ``data`` to the file ``path`` atomically, one writer at a time; without ``overwrite`` never over a
+    file another writer put there meanwhile (:func:`atomic_file`)."""
+    with atomic_file(path, overwrite=overwrite) as tmp:
         tmp.write_bytes(data)
 
 
 @contextmanager
-def atomic_file(path: Path | str, suffix: str = "") -> Iterator[Path]:
-    """A temporary sibling of the file ``path`` for the block to write (``.NAME.tmp-<pid>-<8 random hex
+def atomic_file(path: Path | str, suffix: str = "", *, overwrite: bool = True) -> Iterator[Path]:
+    """A temporary sibling of the file ``path`` for the block to write (``.NAME.tmp-<owner>-<8 random hex
     digits>`` + ``suffix``, e.g. ``.gpkg`` for a driver that goes by the extension: never a user's file, never
     another writer's), renamed to ``path`` when the block succeeds and removed when it fails; ``path`` is then
-    left as it was. A symbolic link or a non-file at ``path`` is refused, never followed; an input of the running
-    command is refused. An OSError becomes OutputError (exit 2, ``cannot write: ...``)."""
+    left as it was, and so are the folders the call had to create. One writer at a time: the block holds the
+    path's lock (a second writer: OutputError ``in use by pid N``, exit 2); without ``overwrite`` the rename never
+    replaces a file that appeared meanwhile (another writer's: OutputError, exit 2, the first one's file kept). A
+    symbolic link or a non-file at ``path`` is refused, never followed; an input of the running command is refused.
+    An OSError becomes OutputError (exit 2, ``cannot write: ...``)."""
     path = Path(path)
     inputs = current_inputs()
     if inputs is not None:
         inputs.refuse(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}{suffix}")
-    try:
-        yield tmp
-        if path.is_symlink() or (path.exists() and not path.is_file()):
-            raise OutputError("is a symbolic link or not a regular file (kept)", path=path)
-        with _signals_held():
-            os.replace(tmp, path)
-    except OSError as exc:
-        raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
-    finally:
-        tmp.unlink(missing_ok=True)
+    with made_folders(path.parent), output_lock(path):
+        remove_stale_temps(path.parent)
+        tmp = path.with_name(f".{path.name}.tmp-{owner_tag()}-{secrets.token_hex(4)}{suffix}")
+        try:
+            yield tmp
+            if path.is_symlink() or (path.exists() and not path.is_file()):
+                raise OutputError("is a symbolic link or not a regular file (kept)", path=path)
+            with _signals_held():
+                _place(tmp, path, overwrite)
+        except FileExistsError:
+            raise OutputError("was written by another process meanwhile (kept; use --overwrite to replace it)",
+                              path=path) from None
+        except OSError as exc:
+            raise OutputError(f"cannot write: {exc.strerror}", path=path) from None
+        finally:
+            tmp.unlink(missing_ok=True)
+
+
+def _place(tmp: Path, path: Path, overwrite: bool) -> None:
+    """Rename ``tmp`` to ``path``; without ``overwrite`` never over an existing file (FileExistsError): a hard link
+    is made first, which fails when the name exists, so no other writer's file is ever replaced."""
+    if overwrite:
+        os.replace(tmp, path)
+        return
+    os.link(tmp, path)
+    tmp.unlink()
 
 
 def jsonable(obj: Any) -> Any:
@@ -203,13 +222,17 @@ def manifest_problem(root: Path) -> str | None:
     return None
 
 
-_LEFTOVER_RE = re.compile(r"\.(?P<name>.+)\.(?:(?:tmp|old)-(?P<pid>\d+)(?:-[0-9a-f]+)?|lock)")
+#: ``.NAME.tmp-OWNER-HEX[suffix]`` (a suffix such as ``.gpkg`` and what a driver adds: ``.gpkg-journal``),
+#: ``.NAME.old-OWNER``, ``.NAME.lock``
+_LEFTOVER_RE = re.compile(rf"\.(?P<name>.+?)\.(?:(?:tmp|old)-{OWNER}(?:-[0-9a-f]+)?(?:[.-].*)?|lock)")
 
 
 def remove_stale_temps(folder: Path, name: str | None = None) -> list[Path]:
-    """Remove what killed writers left in ``folder``: temporary siblings (``.NAME.tmp-PID-...``,
-    ``.NAME.old-PID``) whose process is dead and lock files (``.NAME.lock``) no process holds; only those of
-    ``NAME`` = ``name`` when given. Returns what was removed."""
+    """Remove what killed writers left in ``folder``: temporary siblings (``.NAME.tmp-OWNER-...``,
+    ``.NAME.old-OWNER``) whose process is gone (OWNER: its pid and start time, :func:`vinecli.lifeline.owner_tag`;
+    a live process's are kept) and lock files (``.NAME.lock``) no process holds; only those of ``NAME`` = ``name``
+    when given. Without ``name``, only what carries vinecli's full mark (an owner with its start time, a lock file
+    with vinecli's mark), so nothing of another program's is touched. Returns what was removed."""
     folder = Path(folder)
     removed: list[Path] = []
     if not folder.is_dir():
@@ -218,11 +241,13 @@ def remove_stale_temps(folder: Path, name: str | None = None) -> list[Path]:
         m = _LEFTOVER_RE.fullmatch(p.name)
         if m is None or (name is not None and m["name"] != name):
             continue
-        if m["pid"] is None:
-            if remove_if_free(p):
+        if m["pid"] is None:  # a lock file: when any name is swept, only one with vinecli's mark
+            if remove_if_free(p, marked=name is None):
                 removed.append(p)
             continue
-        if int(m["pid"]) == os.getpid() or pid_alive(int(m["pid"])):
+        if name is None and m["start"] is None:
+            continue  # an owner without its start time may be another program's: only a name vinecli was given
+        if int(m["pid"]) == os.getpid() or owner_alive(int(m["pid"]), int(m["start"]) if m["start"] else None):
             continue
         if p.is_dir() and not p.is_symlink():
             shutil.rmtree(p, ignore_errors=True)
@@ -268,7 +293,7 @@ def _commit(tmp: Path, out: Path) -> None:
         if _exchange(tmp, out):
             old = tmp
         else:
-            old = out.with_name(f".{out.name}.old-{os.getpid()}")
+            old = out.with_name(f".{out.name}.old-{owner_tag()}")
             out.rename(old)
             tmp.rename(out)
     shutil.rmtree(old, ignore_errors=True)
@@ -287,12 +312,8 @@ def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False)
     """
     out = Path(out)
     check_output_target(out, overwrite=overwrite, inputs=manifest.inputs, kind=manifest.command)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create output directory ({exc.strerror})", path=out) from exc
-    with output_lock(out):
-        remove_stale_temps(out.parent, out.name)
+    with made_folders(out.parent), output_lock(out):
+        remove_stale_temps(out.parent)  # what killed writers left beside it, whatever its name
         try:
             tmp = make_unique_dir(out.parent, f".{out.name}.tmp-")
         except OSError as exc:
@@ -313,6 +334,19 @@ def output_folder(folder: Path, kind: str) -> Iterator[Path]:
     vinecli creates it); on an exception the folders this call created are removed again if they hold
     nothing but the marker, so a refused command leaves nothing behind."""
     folder = Path(folder)
+    with made_folders(folder, "the output folder") as made:
+        if made:
+            write_marker(folder, kind)
+        yield folder
+
+
+@contextmanager
+def made_folders(folder: Path, what: str = "the output directory") -> Iterator[list[Path]]:
+    """Create ``folder`` with its missing parents (OutputError, exit 2, when that fails); yields the folders created,
+    deepest first. On an exception they are removed again, deepest first, if they hold nothing (or only the
+    :data:`MARKER`): a failed command leaves no folder it made (``world build --out new/a/b/w`` on a bad GIS file
+    leaves no ``new/``)."""
+    folder = Path(folder)
     missing: list[Path] = []
     p = folder
     while not p.exists() and not p.is_symlink():
@@ -321,15 +355,18 @@ def output_folder(folder: Path, kind: str) -> Iterator[Path]:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputError(f"cannot create the output folder ({exc.strerror})", path=folder) from None
-    if missing:
-        write_marker(folder, kind)
+        _remove_empty(missing)
+        raise OutputError(f"cannot create {what} ({exc.strerror})", path=folder) from None
     try:
-        yield folder
+        yield missing
     except BaseException:
-        for d in missing:  # deepest first
-            with contextlib.suppress(OSError):
-                if {c.name for c in d.iterdir()} <= {MARKER}:
-                    (d / MARKER).unlink(missing_ok=True)
-                    d.rmdir()
+        _remove_empty(missing)
         raise
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    for d in folders:  # deepest first
+        with contextlib.suppress(OSError):
+            if {c.name for c in d.iterdir()} <= {MARKER}:
+                (d / MARKER).unlink(missing_ok=True)
+                d.rmdir()

@@ -40,14 +40,15 @@ from vinecli.batch.executors import (
     start_fork_server,
 )
 from vinecli.batch.preflight import check_case_targets, check_cases_memory, note_case_inputs
-from vinecli.batch.signals import BatchInterrupted, StopRequest
 from vinecli.batch.spec import Case, PipelineSpec, expand_cases, load_pipeline, with_world
 from vinecli.errors import InputError, SpecError
-from vinecli.inputs import note_input, reading_inputs
+from vinecli.inputs import reading_inputs
 from vinecli.locks import output_lock
 from vinecli.outputs import contained_path, jsonable, output_folder, remove_stale_temps, write_text_atomic
 from vinecli.runs import rundir
+from vinecli.sitl.options import firmware_binary
 from vinecli.specs.limits import MAX_DURATION_S
+from vinecli.stop_signals import StopRequested, StopSignals
 
 log = logging.getLogger(__name__)
 
@@ -146,10 +147,8 @@ def run_batch(
             if given is not None or piped is not None:
                 pb = Path(given) if given is not None else (ppath.parent / str(piped))
                 label = "PX4" if name == "px4" else "ArduPilot"
-                if not pb.is_file():
-                    raise InputError(f"{label} binary not found ({name}_bin)", path=pb)
-                note_input(pb, f"{label} binary")
-                ap_opts[name][f"{name}_bin"] = str(pb.resolve())
+                option = f"--{name}-bin" if given is not None else f"{name}_bin"
+                ap_opts[name][f"{name}_bin"] = firmware_binary(pb, option, label)
         note_case_inputs(cases, ppath)
         check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR, resume=resume)
         with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
@@ -170,12 +169,12 @@ def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, wor
     t0 = time.perf_counter()
     if executor == "local":
         start_fork_server()  # its imports overlap with preparing the worlds
-    with StopRequest() as stop:
+    with StopSignals() as stop:
         worlds: dict[str, str] = {}
         try:
             with stop.interruptible():
                 worlds = prepare_worlds(cases, runs_dir)
-        except BatchInterrupted:
+        except StopRequested:
             log.warning("%s: batch stopped while preparing the worlds", stop.name)
         if stop.signum is None:
             check_cases_memory(cases, worlds, ppath)
@@ -194,7 +193,7 @@ def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, wor
                        round(time.perf_counter() - t0, 3), stop.signum)
 
 
-def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: StopRequest,
+def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: StopSignals,
                progress: ProgressFn | None,
                execute: Callable[[Sequence[RunSpec], Callable[[CaseResult], None]], None],
                write: Callable[[dict[str, CaseResult]], None]) -> dict[str, CaseResult]:
@@ -239,7 +238,7 @@ def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: Sto
 
 def _execute(todo: Sequence[RunSpec], run_case: Callable[[RunSpec], CaseResult], workers: int, executor: str,
              scheduler: str | None, dask_processes: bool, max_tasks_per_child: int, hard_limit: float | None,
-             record: Callable[[CaseResult], None], stop: StopRequest) -> None:
+             record: Callable[[CaseResult], None], stop: StopSignals) -> None:
     # longest expected case first (max_duration_s as the estimate): a long case started last would leave
     # the other workers idle at the end of the batch; the order does not change any run (seeds are per case)
     pending: deque[RunSpec] = deque(sorted(todo, key=_expected_cost, reverse=True))

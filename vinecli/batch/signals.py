@@ -1,10 +1,11 @@
 """SIGTERM / SIGINT for batches: the main process asks, the workers stop at the next step.
 
-* Main process (:class:`StopRequest`): the first SIGTERM or SIGINT records the signal, which the
-  batch loop polls (:attr:`StopRequest.signum`): it stops submitting, raises the pool's shared stop
-  flag (:func:`make_stop_flag`) and waits for the workers' partial runs. Inside a :meth:`StopRequest.interruptible` section
-  (e.g. while a world is being built) the signal also raises :class:`BatchInterrupted`. A second
-  signal aborts at once (KeyboardInterrupt).
+* Main process (:class:`vinecli.stop_signals.StopSignals`, the one handler ``run mission`` uses too): the
+  first SIGTERM or SIGINT records the signal, which the batch loop polls: it stops submitting, raises the
+  pool's shared stop flag (:func:`make_stop_flag`) and waits for the workers' partial runs. Inside an
+  ``interruptible()`` section (e.g. while a world is being built) the signal also raises
+  :class:`~vinecli.stop_signals.StopRequested`. A second signal aborts at once
+  (:class:`~vinecli.stop_signals.Aborted`).
 * Worker processes (:func:`worker_init`, the local pool's initializer): SIGINT is ignored outside a
   run (a terminal's Ctrl-C reaches the whole process group; the run itself turns it into a stop)
   and a SIGTERM of their own sets a local flag. :func:`worker_should_stop` reports either flag to the
@@ -21,66 +22,14 @@ from __future__ import annotations
 
 import os
 import signal
-import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
 from typing import Any
 
-STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT)
 #: seconds a worker whose batch process died gives its running case to write itself ``interrupted``
 PARENT_GRACE_S = 2.0
-
-
-class BatchInterrupted(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
-    """A stop signal arrived outside the batch loop (not an Exception: broad handlers must not eat it)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
-
-
-class StopRequest:
-    """Context manager installing the main process's SIGTERM/SIGINT handlers (main thread only)."""
-
-    def __init__(self) -> None:
-        self.signum: int | None = None
-        self._raise = False
-        self._old: dict[int, Any] = {}
-
-    @property
-    def name(self) -> str:
-        return signal.Signals(self.signum).name if self.signum is not None else ""
-
-    def _handler(self, signum: int, frame: FrameType | None) -> None:
-        if self.signum is not None:
-            raise KeyboardInterrupt  # second signal: abort now
-        self.signum = signum
-        if self._raise:
-            raise BatchInterrupted(signum)
-
-    @contextmanager
-    def interruptible(self) -> Iterator[None]:
-        """Inside: a signal also raises :class:`BatchInterrupted` (for work that does not poll)."""
-        if self.signum is not None:
-            raise BatchInterrupted(self.signum)
-        self._raise = True
-        try:
-            yield
-        finally:
-            self._raise = False
-
-    def __enter__(self) -> StopRequest:
-        if threading.current_thread() is threading.main_thread():
-            for s in STOP_SIGNALS:
-                self._old[s] = signal.signal(s, self._handler)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        for s, old in self._old.items():
-            signal.signal(s, old)
-        self._old.clear()
 
 
 _WORKER_STOP = False

@@ -2,7 +2,6 @@
 
 Groups: ``terrain``, ``world``, ``run``, ``plan``, ``px4``, ``vehicle``, ``gis``; ``report`` is a top-level
 command. Library imports live inside command bodies so ``vinecli --help`` stays fast.
-Library imports live inside command bodies so ``vinecli --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -51,5 +50,12 @@ def root(
 
 
 def main() -> None:
-    """Console-script entry point."""
+    """Console-script entry point: SIGTERM stops a command like Ctrl-C (its temporary files removed, its locks
+    released); the scratch folders a killed vinecli left in the temporary directory are removed
+    (:func:`vinecli.scratch.sweep_scratch`); then the command runs."""
+    from vinecli.scratch import sweep_scratch
+    from vinecli.stop_signals import abort_on_sigterm
+
+    abort_on_sigterm()
+    sweep_scratch()
     app()

@@ -8,9 +8,12 @@ traceback is shown.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
+import signal
 import sys
+import warnings
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
@@ -23,6 +26,7 @@ from rich.table import Table
 from rich.text import Text
 
 from vinecli.errors import VinecliError
+from vinecli.stop_signals import signal_name
 
 
 class _ShowControls(RenderHook):
@@ -67,16 +71,64 @@ class _State:
 STATE = _State()
 
 
+class HeldWarnings(logging.Handler):
+    """Warnings wait for the command's ending (:meth:`hold`): shown when it succeeds or fails at run time
+    (:meth:`show_held`), dropped when it refuses bad input (:meth:`drop_held`), whose one error line says it all.
+    Records below WARNING, and those logged with ``extra={"at_once": True}`` (the answer to a stop signal), pass at
+    once."""
+
+    def __init__(self, target: logging.Handler) -> None:
+        super().__init__()
+        self.target = target
+        self.held: list[logging.LogRecord] | None = None
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if self.held is not None and record.levelno >= logging.WARNING and not getattr(record, "at_once", False):
+            self.held.append(record)
+        else:
+            self.target.handle(record)
+
+    def hold(self) -> None:
+        self.held = []
+
+    def show_held(self) -> None:
+        held, self.held = self.held or [], None
+        for record in held:
+            self.target.handle(record)
+
+    def drop_held(self) -> None:
+        self.held = None
+
+
+HELD = HeldWarnings(RichHandler(console=err_console, show_time=False, show_path=False, markup=False))
+
+
 def setup_logging(verbosity: int, debug: bool) -> None:
-    """Route stdlib logging to Rich on stderr; WARNING by default, -v INFO, -vv DEBUG."""
+    """Route stdlib logging to Rich on stderr; WARNING by default, -v INFO, -vv DEBUG. Warnings wait for the
+    command's ending (:class:`HeldWarnings`); other libraries' log records and Python warnings (shapely's
+    RuntimeWarning, GDAL's notes) show from -vv only, as DEBUG lines."""
     STATE.debug = debug
     level = logging.DEBUG if (debug or verbosity >= 2) else logging.INFO if verbosity == 1 else logging.WARNING
     root = logging.getLogger("vinecli")
     root.handlers.clear()
-    handler = RichHandler(console=err_console, show_time=False, show_path=False, markup=False)
-    root.addHandler(handler)
+    root.addHandler(HELD)
     root.setLevel(level)
     root.propagate = False
+    others = logging.getLogger()
+    others.handlers.clear()
+    others.addHandler(_Demoted(HELD) if level <= logging.DEBUG else logging.NullHandler())
+
+
+class _Demoted(logging.Handler):
+    """Another library's record (or a Python warning, through ``py.warnings``) as a DEBUG line."""
+
+    def __init__(self, target: logging.Handler) -> None:
+        super().__init__()
+        self.target = target
+
+    def emit(self, record: logging.LogRecord) -> None:
+        record.levelno, record.levelname = logging.DEBUG, "DEBUG"
+        self.target.handle(record)
 
 
 def error_line(message: str) -> None:
@@ -85,32 +137,60 @@ def error_line(message: str) -> None:
 
 
 def handles_errors(fn: F) -> F:
-    """Decorator for Typer commands: map errors to one stderr line and an exit code."""
+    """Decorator for Typer commands: map errors to one stderr line and an exit code; warnings are shown when
+    the command ends, except after bad input (:class:`HeldWarnings`)."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         from vinecli.inputs import reading_inputs
 
+        HELD.hold()
+        bad_input = False
         try:
-            with reading_inputs():  # every file the command reads is an input its outputs may not touch
+            with reading_inputs(), _warnings_logged():  # every file read is an input its outputs may not touch
                 return fn(*args, **kwargs)
         except typer.Exit:
             raise
         except VinecliError as exc:
+            bad_input = exc.exit_code == 2  # its one line says it all
             if STATE.debug:
                 raise
+            _flush(bad_input)
             error_line(_escape(str(exc)))
             raise typer.Exit(exc.exit_code) from None
-        except KeyboardInterrupt:
-            error_line("interrupted")
-            raise typer.Exit(130) from None
+        except KeyboardInterrupt as exc:  # Ctrl-C, or a stop signal that aborts (vinecli.stop_signals.Aborted)
+            _flush(False)
+            signum = int(getattr(exc, "signum", signal.SIGINT))
+            how = "a second " if getattr(exc, "second", False) else ""
+            error_line(f"stopped at once by {how}{signal_name(signum)} (nothing half-written is left)")
+            raise typer.Exit(128 + signum) from None
         except Exception as exc:  # noqa: BLE001 - the one catch-all, by design
             if STATE.debug:
                 raise
+            _flush(False)
             error_line(_escape(f"internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback)"))
             raise typer.Exit(3) from None
+        finally:
+            _flush(bad_input)
 
     return wrapper  # type: ignore[return-value]
+
+
+def _flush(drop: bool) -> None:
+    HELD.drop_held() if drop else HELD.show_held()
+
+
+@contextlib.contextmanager
+def _warnings_logged() -> Iterator[None]:
+    """Python warnings (shapely's RuntimeWarning on NaN coordinates...) go to logging (``py.warnings``: shown
+    from -vv), never straight to stderr."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        logging.captureWarnings(True)
+        try:
+            yield
+        finally:
+            logging.captureWarnings(False)
 
 
 def _escape(text: str) -> str:

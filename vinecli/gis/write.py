@@ -58,30 +58,29 @@ def feature_collection(features: list[LocalFeature], georef: Georef, name: str |
     return out
 
 
-def write_features(path: Path | str, features: list[LocalFeature], georef: Georef, *, layer: str = "features") -> Path:
+def write_features(path: Path | str, features: list[LocalFeature], georef: Georef, *, layer: str = "features",
+                   overwrite: bool = True) -> Path:
     """Write ``features`` to ``path``: ``.geojson``/``.json`` RFC 7946, ``.gpkg`` a GeoPackage layer ``layer``
-    (EPSG:4326); atomically (temporary file, then rename)."""
+    (EPSG:4326); atomically (temporary file, then rename; without ``overwrite`` never over another writer's file)."""
     path = Path(path)
-    fc = feature_collection(features, georef, layer)
-    if path.suffix.lower() == ".gpkg":
-        _write_gpkg(path, fc, layer)
-    else:
-        write_text_atomic(path, json.dumps(fc) + "\n")
-    return path
+    return write_layers(path, {layer: features}, georef, overwrite=overwrite, tagged=False)
 
 
-def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef: Georef) -> Path:
+def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef: Georef, *,
+                 overwrite: bool = True, tagged: bool = True) -> Path:
     """Write several layers to ``path``: ``.gpkg`` one GeoPackage layer each (EPSG:4326; empty layers left out),
     ``.geojson``/``.json`` one RFC 7946 FeatureCollection whose features carry their layer name in the
-    ``layer`` property (GeoJSON has no layers; QGIS splits it by geometry type and filters by property).
-    Atomically: a temporary file, then rename."""
+    ``layer`` property when ``tagged`` (GeoJSON has no layers; QGIS splits it by geometry type and filters by
+    property). Atomically: a temporary file, then rename, one writer at a time; without ``overwrite`` never over a
+    file another writer put there meanwhile (:func:`vinecli.outputs.atomic_file`)."""
     path = Path(path)
     if path.suffix.lower() != ".gpkg":
-        feats = [LocalFeature(f.kind, f.coords, {"layer": name, **f.properties}, f.holes)
-                 for name, fs in layers.items() for f in fs]
-        write_text_atomic(path, json.dumps(feature_collection(feats, georef, path.stem)) + "\n")
+        name = next(iter(layers)) if not tagged and len(layers) == 1 else path.stem
+        feats = [LocalFeature(f.kind, f.coords, {"layer": n, **f.properties}, f.holes) if tagged else f
+                 for n, fs in layers.items() for f in fs]
+        write_text_atomic(path, json.dumps(feature_collection(feats, georef, name)) + "\n", overwrite=overwrite)
         return path
-    with atomic_file(path, ".gpkg") as tmp:
+    with atomic_file(path, ".gpkg", overwrite=overwrite) as tmp:
         for name, fs in layers.items():
             if fs:
                 _write_gpkg_layer(tmp, feature_collection(fs, georef, name), name)
@@ -97,11 +96,6 @@ def _column(values: list[Any]) -> Any:
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
         return np.array(values, dtype=np.float64)
     return np.array([None if v is None else str(v) for v in values], dtype=object)
-
-
-def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
-    with atomic_file(path, ".gpkg") as tmp:
-        _write_gpkg_layer(tmp, fc, layer)
 
 
 def _write_gpkg_layer(path: Path, fc: dict[str, Any], layer: str) -> None:

@@ -13,9 +13,10 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from vinecli.errors import InputError, SpecError
-from vinecli.inputs import read_input_text
+from vinecli.inputs import read_input_json
 from vinecli.outputs import write_text_atomic
 from vinecli.specs import format_validation_error
+from vinecli.specs.limits import MAX_FENCE_VERTICES, MAX_PLAN_BYTES, MAX_PLAN_ITEMS, over_limit
 from vinecli.specs.vehicle import VehicleSpec
 
 #: the flow (L/s) an actuator value of 1.0 stands for when the vehicle has no tank
@@ -93,18 +94,40 @@ class Plan(_Loose):
 
 
 def read_plan(path: Path | str) -> Plan:
-    """Parse and validate a .plan file; SpecError naming the file and field."""
+    """Parse and validate a .plan file; SpecError naming the file and field. Sizes no real plan reaches are refused
+    before the file is validated (:data:`~vinecli.specs.limits.MAX_PLAN_BYTES`, ``MAX_PLAN_ITEMS``, a fence
+    polygon's ``MAX_FENCE_VERTICES``)."""
     path = Path(path)
     try:
-        data = json.loads(read_input_text(path, "file"))
+        data = read_input_json(path, ".plan", max_bytes=MAX_PLAN_BYTES)
     except InputError as exc:
         raise SpecError(exc.problem, path=path) from None
-    except json.JSONDecodeError as exc:
-        raise SpecError(f"invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}", path=path) from None
+    problem = _size_problem(data)
+    if problem:
+        raise SpecError(problem, path=path)
     try:
         return Plan.model_validate(data)
     except ValidationError as exc:
         raise SpecError(format_validation_error(exc), path=path) from None
+
+
+def _size_problem(data: Any) -> str | None:
+    """What makes a parsed .plan larger than any real one (items, transect items, fence vertices), or None."""
+    mission = data.get("mission") if isinstance(data, dict) else None
+    items = mission.get("items") if isinstance(mission, dict) else None
+    if isinstance(items, list):
+        n = len(items) + sum(len(it.get("TransectStyleComplexItem", {}).get("Items") or [])
+                             for it in items if isinstance(it, dict) and isinstance(it.get("TransectStyleComplexItem"), dict))
+        problem = over_limit("mission items", n, MAX_PLAN_ITEMS, "split the job into several plans")
+        if problem:
+            return f"mission.items: {problem}"
+    fence = data.get("geoFence") if isinstance(data, dict) else None
+    for k, poly in enumerate(fence.get("polygons") or [] if isinstance(fence, dict) else []):
+        if isinstance(poly, dict) and isinstance(poly.get("polygon"), list):
+            problem = over_limit("fence vertices", len(poly["polygon"]), MAX_FENCE_VERTICES, "simplify the fence")
+            if problem:
+                return f"geoFence.polygons[{k}]: {problem}"
+    return None
 
 
 def vehicle_nozzle_flow_lps(vehicle: VehicleSpec) -> float:
@@ -113,6 +136,6 @@ def vehicle_nozzle_flow_lps(vehicle: VehicleSpec) -> float:
     return vehicle.tank.nozzle_max_flow_lps if vehicle.tank is not None else DEFAULT_NOZZLE_MAX_FLOW_LPS
 
 
-def write_plan(path: Path | str, plan: dict[str, Any]) -> None:
-    """Write a .plan atomically (temporary file, then rename)."""
-    write_text_atomic(path, json.dumps(plan, indent=4) + "\n")
+def write_plan(path: Path | str, plan: dict[str, Any], *, overwrite: bool = True) -> None:
+    """Write a .plan atomically (temporary file, then rename; without ``overwrite`` never over another writer's)."""
+    write_text_atomic(path, json.dumps(plan, indent=4) + "\n", overwrite=overwrite)

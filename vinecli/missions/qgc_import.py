@@ -94,7 +94,7 @@ def import_plan_for_world(plan: Path | str, world: Path | str, out: Path | str, 
         mission = import_plan(plan, w.origin, nozzle_max_flow_lps=vehicle_nozzle_flow_lps(w.vehicle),
                               spray_flow_lps=spray_flow_lps, name=name)
         check_output_file(Path(out), overwrite=overwrite)
-        write_mission(out, mission)
+        write_mission(out, mission, overwrite=overwrite)
     return mission
 
 

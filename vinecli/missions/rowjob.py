@@ -197,14 +197,16 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
     # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
-    write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
-    write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows")
+    write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface),
+               overwrite=overwrite)
+    write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows", overwrite=overwrite)
     for p, legs in zip(sortie_files, sorties if sortie_files else [], strict=True):  # one sortie: OUT alone
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
-                                  nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))
+                                  nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence),
+                   overwrite=overwrite)
     if mission_out is not None:
         from vinecli.missions.spec_io import write_mission
 
-        write_mission(mission_out, mission)
+        write_mission(mission_out, mission, overwrite=overwrite)
     job.files = targets
     return job

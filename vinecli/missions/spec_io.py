@@ -123,6 +123,7 @@ def dump_mission(mission: MissionSpec) -> str:
     return yaml.dump(mission.model_dump(mode="json"), Dumper=YAML_DUMPER, sort_keys=False)
 
 
-def write_mission(path: Path | str, mission: MissionSpec) -> None:
-    """Write a mission YAML atomically (temporary file, then rename)."""
-    write_text_atomic(path, dump_mission(mission))
+def write_mission(path: Path | str, mission: MissionSpec, *, overwrite: bool = True) -> None:
+    """Write a mission YAML atomically (temporary file, then rename; without ``overwrite`` never over another
+    writer's file)."""
+    write_text_atomic(path, dump_mission(mission), overwrite=overwrite)

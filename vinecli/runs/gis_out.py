@@ -18,7 +18,6 @@ Layers (local figures in the properties: metres, seconds, L/ha):
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +25,7 @@ import numpy as np
 
 from vinecli.errors import InputError
 from vinecli.gis.write import LocalFeature, write_layers
+from vinecli.inputs import read_input_json
 from vinecli.runs.deposition_out import DEPOSITION_JSON, DEPOSITION_TIF
 from vinecli.runs.rundir import SUMMARY, TIMESERIES
 
@@ -54,15 +54,16 @@ def export_run_gis(run_dir: Path | str, out: Path | str, *, overwrite: bool = Fa
     # the run, its world and the grower's GIS files the world was built from are inputs: never written over
     check_output_file(out, overwrite=overwrite, inputs=[run_dir, world_dir, *sources])
     layers = run_layers(run_dir, summary, world)
-    return write_layers(out, layers, world_dir_georef(world_dir))
+    return write_layers(out, layers, world_dir_georef(world_dir), overwrite=overwrite)
 
 
 def _read_json(path: Path) -> dict[str, Any]:
     try:
-        return dict(json.loads(path.read_text(encoding="utf-8")))
-    except FileNotFoundError:
-        raise InputError("not found (not a run directory?)", path=path) from None
-    except (OSError, ValueError) as exc:
+        return dict(read_input_json(path, path.name))
+    except InputError as exc:
+        raise InputError(f"{exc.problem} (not a run directory?)" if "not found" in exc.problem else exc.problem,
+                         path=path) from None
+    except (TypeError, ValueError) as exc:
         raise InputError(f"cannot read: {exc}", path=path) from None
 
 

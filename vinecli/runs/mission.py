@@ -5,16 +5,16 @@ loads the world, resolves the run once (:func:`vinecli.sim.setup.prepare_run`: o
 rows, spray rates, spawn, URDF), makes the autopilot through the registry, runs THE loop
 (:func:`vinecli.sim.runner.simulate`), evaluates the checks and writes
 ``RUNS/<run_id>/`` atomically. Ctrl-C (SIGINT) while running stops the loop at the next step
-and the partial run is written with status ``interrupted``; a second Ctrl-C aborts at once. SIGTERM (a CI
-runner's timeout, ``kill``) does the same, so the partial run is kept; the CLI then exits 143 (130 for Ctrl-C).
+and the partial run is written with status ``interrupted``; a second Ctrl-C aborts at once, also while the run is
+being written (nothing half-written is left). SIGTERM (a CI runner's timeout, ``kill``) does the same, so the
+partial run is kept; the CLI then exits 143 (130 for Ctrl-C). One handler does it
+(:class:`vinecli.stop_signals.StopSignals`, as for ``run batch``).
 """
 
 from __future__ import annotations
 
 import logging
 import math
-import signal
-import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -39,6 +39,7 @@ from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, co
 from vinecli.runs import rundir
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
+from vinecli.stop_signals import StopSignals, signal_name
 
 if TYPE_CHECKING:
     from vinecli.sim.setup import PreparedRun
@@ -87,19 +88,24 @@ class RunSummary:
 
 
 class _StopFlag:
-    """SIGINT/SIGTERM -> stop at the next step; wall-clock deadline; optional caller predicate."""
+    """The loop's stop predicate: a stop signal (:class:`~vinecli.stop_signals.StopSignals`), the wall-clock
+    deadline or the caller's predicate."""
 
-    def __init__(self, deadline: float | None, extra: Callable[[], bool] | None) -> None:
-        self.interrupted = False
-        self.signum = 0  # the signal that stopped the run (0: none)
+    def __init__(self, signals: StopSignals, deadline: float | None, extra: Callable[[], bool] | None) -> None:
+        self.signals = signals
         self.timed_out = False
         self.deadline = deadline
         self.extra = extra
 
+    @property
+    def signum(self) -> int:
+        """The signal that stopped the run (0: none)."""
+        return self.signals.signum or 0
+
     def __call__(self) -> bool:
         if self.deadline is not None and time.monotonic() > self.deadline:
             self.timed_out = True
-        return self.interrupted or self.timed_out or bool(self.extra and self.extra())
+        return self.signals.signum is not None or self.timed_out or bool(self.extra and self.extra())
 
 
 def default_run_id(mission: MissionSpec, seed: int) -> str:
@@ -198,7 +204,8 @@ def _run_prepared(
 
     # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
     ap = make_run_autopilot(spec.autopilot, **(autopilot_options or {}))
-    stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
+    signals = StopSignals(on_first=_say_stopping)
+    stop = _StopFlag(signals, time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
 
     from vinecli.sim.runner import simulate
 
@@ -208,7 +215,9 @@ def _run_prepared(
     if progress is not None:
         def on_progress(sim_t: float, _max_t: float) -> None:
             progress(sim_t, time.perf_counter() - t0)
-    with _stop_signals_to_flag(stop):
+    # the handler stays until the run is written: a second signal then aborts the write too (Aborted), and the
+    # atomic writer removes what it had written, so no half-written run or lock is left
+    with signals:
         try:
             result = simulate(run, ap, seed=seed, on_progress=on_progress, should_stop=stop)
         except VinecliError:
@@ -219,17 +228,22 @@ def _run_prepared(
             close = getattr(ap, "close", None)
             if close is not None:
                 close()
-    wall = time.perf_counter() - t0
-    record = getattr(ap, "firmware_record", None)  # a firmware backend's identity and kept logs
-    if record is not None:
-        record.amend(result.metrics, result.events)  # what the firmware's own logs say about the firmware
-    try:
-        return _write_run(run, result, record, world_dir, run_id, out, seed=seed, mission_path=mission_path,
-                          mcap=mcap, wall=wall, stop=stop, wall_timeout_s=wall_timeout_s, case=case,
-                          autopilot_options=autopilot_options, overwrite=overwrite, started=started)
-    finally:
+        wall = time.perf_counter() - t0
+        record = getattr(ap, "firmware_record", None)  # a firmware backend's identity and kept logs
         if record is not None:
-            record.discard()
+            record.amend(result.metrics, result.events)  # what the firmware's own logs say about the firmware
+        try:
+            return _write_run(run, result, record, world_dir, run_id, out, seed=seed, mission_path=mission_path,
+                              mcap=mcap, wall=wall, stop=stop, wall_timeout_s=wall_timeout_s, case=case,
+                              autopilot_options=autopilot_options, overwrite=overwrite, started=started)
+        finally:
+            if record is not None:
+                record.discard()
+
+
+def _say_stopping(signum: int) -> None:
+    log.warning("%s: stopping the run at the next step (again to abort)", signal_name(signum),
+                extra={"at_once": True})
 
 
 def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_id: str, out: Path, *, seed: int,
@@ -243,7 +257,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
     if stop.timed_out and status == "interrupted":
         status_message = f"stopped: wall-clock limit of {wall_timeout_s:g} s reached"
     elif stop.signum and status == "interrupted":
-        status_message = f"stopped by {signal.Signals(stop.signum).name}"
+        status_message = f"stopped by {signal_name(stop.signum)}"
     failsafes = failsafes_from_events(result.events)
     if failsafes:
         status_message = f"{status_message} (failsafe: {describe_failsafes(failsafes)})"
@@ -428,36 +442,6 @@ def _num(v: Any) -> float | None:
     except (TypeError, ValueError):
         return None
     return f if math.isfinite(f) else None
-
-
-class _stop_signals_to_flag:
-    """Context manager: in the main thread, the first SIGINT or SIGTERM sets ``flag.interrupted`` (and
-    ``flag.signum``); a second one raises KeyboardInterrupt (abort at once)."""
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-    def __init__(self, flag: _StopFlag) -> None:
-        self.flag = flag
-        self.old: dict[int, Any] = {}
-
-    def __enter__(self) -> None:
-        if threading.current_thread() is not threading.main_thread():
-            return
-
-        def handler(signum: int, frame: Any) -> None:
-            if self.flag.interrupted:
-                raise KeyboardInterrupt
-            log.warning("%s: stopping the run at the next step (again to abort)", signal.Signals(signum).name)
-            self.flag.interrupted = True
-            self.flag.signum = signum
-
-        for sig in self.SIGNALS:
-            self.old[sig] = signal.getsignal(sig)
-            signal.signal(sig, handler)
-
-    def __exit__(self, *exc: object) -> None:
-        for sig, old in self.old.items():
-            signal.signal(sig, old)
 
 
 def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = None) -> tuple[dict[str, Any], list[Any]]:

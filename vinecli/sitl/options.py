@@ -7,12 +7,13 @@ command line reads the defaults from here."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vinecli.errors import InputError
-from vinecli.inputs import note_input
+from vinecli.inputs import note_input, require_regular_file
 
 if TYPE_CHECKING:
     from vinecli.autopilot.base import Autopilot
@@ -48,11 +49,14 @@ PX4_PROBE_TIMEOUT_S = 2.0
 
 
 def firmware_binary(path: Path | None, option: str = "--px4-bin", firmware: str = "PX4") -> str | None:
-    """A firmware binary option as an absolute path (None stays None); InputError when it is not a file."""
+    """A firmware binary option as an absolute path (None stays None); InputError naming what it is when it is not
+    an executable file (missing, a directory, a FIFO, not executable)."""
     if path is None:
         return None
-    if not path.is_file():
-        raise InputError(f"{firmware} binary not found ({option})", path=path)
+    path = Path(path)
+    require_regular_file(path, f"{firmware} binary ({option})")
+    if not os.access(path, os.X_OK):
+        raise InputError(f"{firmware} binary ({option}) is not executable (chmod +x?)", path=path)
     note_input(path, f"{firmware} binary")  # no output may be, contain or lie inside it
     return str(path.resolve())
 

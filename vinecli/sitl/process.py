@@ -1,7 +1,10 @@
 """Process supervision every firmware bridge shares: free ports, an instance number reserved under a
 lock file, and the firmware process itself (:class:`FirmwareProcess`: its own process group and
-working directory, its output in a log file, killed with the process that started it, stopped
-SIGTERM-then-SIGKILL, its files kept before the working directory goes).
+working directory, its output in a log file, its whole group killed with the process that started it
+(:class:`vinecli.lifeline.GroupLifeline`: also what a wrapper script started without ``exec``), the group
+stopped SIGTERM-then-SIGKILL, its files kept before the working directory goes). A working directory vinecli
+makes is a scratch folder named after its owner (:mod:`vinecli.scratch`), swept by the next vinecli if a
+``kill -9`` left it.
 
 An instance number is reserved with an exclusive lock file (``$TMPDIR/vinecli-<firmware>/instance-N.lock``)
 held for the life of the run, and only taken when the firmware's ports for it are free, so parallel
@@ -25,7 +28,8 @@ from pathlib import Path
 from typing import IO
 
 from vinecli.errors import AutopilotError, InputError
-from vinecli.lifeline import die_with_parent  # the firmware's preexec_fn: SIGKILL when its parent dies
+from vinecli.lifeline import GroupLifeline, die_with_parent, group_alive
+from vinecli.scratch import scratch_dir
 
 AUTO_INSTANCES = range(10, 100)  # 0..9 are left to people running a firmware by hand
 
@@ -97,14 +101,18 @@ class FirmwareProcess(ABC):
         self.bin = Path(binary).expanduser()
         if not self.bin.is_file() or not os.access(self.bin, os.X_OK):
             raise InputError(f"{self.option} {binary}: not an executable file")
+        self.check()  # before anything is created: a refused binary leaves no folder
         self.instance = instance
         self._own_dir = workdir is None
-        self.workdir = Path(workdir) if workdir is not None else Path(
-            tempfile.mkdtemp(prefix=f"vinecli-{self.firmware.lower()}-{instance}-"))
+        self.workdir = Path(workdir) if workdir is not None else scratch_dir(self.firmware.lower())
         self.log_path = self.workdir / self.log_name
         self.proc: subprocess.Popen[bytes] | None = None
         self.returncode: int | None = None
         self._log_text = ""
+        self._lifeline: GroupLifeline | None = None
+
+    def check(self) -> None:  # noqa: B027 - a hook: most firmwares need nothing beside the binary
+        """Refuse (InputError) a binary that cannot run here, before anything is created."""
 
     @abstractmethod
     def command(self) -> list[str]:
@@ -132,7 +140,7 @@ class FirmwareProcess(ABC):
                                              preexec_fn=die_with_parent if os.name == "posix" else None)
             except OSError as exc:
                 raise AutopilotError(f"cannot start {self.firmware} {self.bin}: {exc.strerror or exc}") from None
-
+        self._lifeline = GroupLifeline(self.proc.pid)  # its own group: the wrapper's children too
     @property
     def pid(self) -> int | None:
         return self.proc.pid if self.proc is not None else None
@@ -157,21 +165,29 @@ class FirmwareProcess(ABC):
 
     def stop(self, timeout_s: float = 5.0, while_waiting: Callable[[], None] | None = None) -> int | None:
         """SIGTERM the process group, SIGKILL after ``timeout_s``; ``while_waiting()`` is called in the
-        wait (a lockstep firmware exits only once its clock moves again). Idempotent."""
+        wait (a lockstep firmware exits only once its clock moves again). The whole group, not only the process
+        vinecli started: a wrapper script that exits leaves its firmware behind in it. Idempotent."""
         p = self.proc
         if p is not None and self.returncode is None:
             for sig, wait in ((signal.SIGTERM, timeout_s), (signal.SIGKILL, 5.0)):
-                if p.poll() is not None:
+                p.poll()  # reap the group leader, or it counts as alive
+                if not group_alive(p.pid):
                     break
                 with contextlib.suppress(ProcessLookupError):
                     os.killpg(p.pid, sig)
                 deadline = time.monotonic() + wait
-                while p.poll() is None and time.monotonic() < deadline:
+                while time.monotonic() < deadline:
+                    p.poll()
+                    if not group_alive(p.pid):
+                        break
                     if while_waiting is not None and sig == signal.SIGTERM:
                         while_waiting()
                     else:
                         time.sleep(0.02)
             self.returncode = p.poll()
+        if self._lifeline is not None:
+            self._lifeline.dismiss()
+            self._lifeline = None
         if self.log_path.is_file():
             self._log_text = self.log_path.read_text(errors="replace")
         return self.returncode

@@ -6,12 +6,12 @@ into ``<run>/firmware/`` (listed in manifest.json) and writes the identity to su
 from __future__ import annotations
 
 import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from vinecli.scratch import scratch_dir
 from vinecli.sitl.identity import FirmwareIdentity
 from vinecli.types import Event
 
@@ -28,7 +28,7 @@ class FirmwareRecord:
     """Identity and kept files of one firmware run (the files live in :attr:`dir` until :meth:`discard`)."""
 
     identity: FirmwareIdentity
-    dir: Path = field(default_factory=lambda: Path(tempfile.mkdtemp(prefix="vinecli-firmware-")))
+    dir: Path = field(default_factory=lambda: scratch_dir("firmware"))
     files: list[Path] = field(default_factory=list)
     auditor: LogAuditor | None = None
 

@@ -29,6 +29,38 @@ MIN_ORIGIN_ALT_M, MAX_ORIGIN_ALT_M = -500.0, 9_000.0
 #: largest image side, px
 MAX_IMAGE_PX = 4096
 
+# sizes of inputs (issue 32: a 10^6-vertex fence built a 72 MB world.json and flew at 0.2x real time, a 10^6-item
+# .plan needed 2.1 GB): far above any real field, refused at read with the limit and the real figure (exit 2)
+#: most vertices of one fence or zone polygon (a boundary walked with a GNSS at 1 point/s for 2 h: 7,200)
+MAX_FENCE_VERTICES = 10_000
+#: most vertices of all rows together (2,000 rows of 50 vertices)
+MAX_ROW_VERTICES = 100_000
+#: most mission items in a .plan (a survey of 400 rows of 10 items each: 4,000)
+MAX_PLAN_ITEMS = 10_000
+#: largest .plan file, bytes (a 10,000-item plan as QGroundControl writes it is about 8 MB)
+MAX_PLAN_BYTES = 16 << 20
+#: largest GIS file (rows, fence, zones), bytes
+MAX_GIS_BYTES = 64 << 20
+#: most features in one GIS layer
+MAX_GIS_FEATURES = 10_000
+#: longest continuous stretch of a flight log's clock, s (a multicopter's flight lasts minutes; PX4 and ArduPilot log
+#: while armed)
+MAX_LOG_SPAN_S = 6 * 3600.0
+#: largest flight logs read, bytes: what keeps ``vehicle fit`` within 1.5 GB (measured: a ULog's topics take about 3x
+#: their file size in memory, a DataFlash log's messages about 8x; an hour of a multicopter's log is tens of MB)
+MAX_ULOG_BYTES = 256 << 20
+MAX_DATAFLASH_BYTES = 128 << 20
+
+
+
+def over_limit(what: str, count: int, limit: int, hint: str = "") -> str | None:
+    """The refusal of ``count`` ``what`` above ``limit`` ("1,000,000 fence vertices: at most 10,000 (hint)"), or
+    None when within it."""
+    if count <= limit:
+        return None
+    return f"{count:,} {what}: at most {limit:,}" + (f" ({hint})" if hint else "")
+
+
 #: a seed (run, root or replicate seed, wind seed offset)
 SeedInt = Annotated[int, Field(ge=0, le=MAX_SEED)]
 #: a coordinate or signed distance, m

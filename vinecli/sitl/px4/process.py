@@ -109,9 +109,12 @@ class Px4Process(FirmwareProcess):
                  params: dict[str, int | float] | None = None) -> None:
         params_script = boot_params_script({**SAFE_BOOT_PARAMS, **(params or {})})  # validated before anything exists
         super().__init__(px4_bin, instance, workdir=workdir)
-        self.etc = etc_dir_for(self.bin)
         self.airframe, self.sim_host = airframe, sim_host
         self.params = params_script
+
+    def check(self) -> None:
+        """A PX4 binary needs its SITL ``etc/`` beside its ``bin/`` (InputError before any folder is made)."""
+        self.etc = etc_dir_for(self.bin)
 
     @property
     def cwd(self) -> Path:
