@@ -18,7 +18,10 @@ from HIL_STATE_QUATERNION, flying the uploaded mission; rotor speeds are turned 
 outputs u = (w - w_min) / (w_max - w_min).
 
 Failure modes for tests: ``reject_arm`` (arming denied with that STATUSTEXT), ``silent_after_s``
-(stop sending anything on both links after that much simulated time).
+(stop sending anything on both links after that much simulated time), ``garbage_at_s`` (at that simulated time,
+1.5 kB of random bytes on the simulator link just before an answer, ending in the start of a MAVLink 2 frame
+that claims 255 bytes: the answer is swallowed, as line noise would), ``silent_from_item`` (items from that one on are
+never reported reached nor the mission complete: a PX4 that lands and disarms before the last report).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.autopilot.mavlink_vehicle import MavlinkControlledAutopilot
@@ -69,11 +73,19 @@ class _FakeVehicle(MavlinkControlledAutopilot):
     """The fake PX4's flight stack: the builtin autopilot behind the vehicle endpoint."""
 
     reject_arm: str | None = None
+    silent_from_item: int | None = None
 
     def on_arm(self, arm: bool, force: bool) -> tuple[int, str]:
         if arm and self.reject_arm:
             return M.MAV_RESULT_DENIED, self.reject_arm
         return super().on_arm(arm, force)
+
+    def _telemetry(self, obs: Observation) -> Any:
+        t = super()._telemetry(obs)
+        if self.silent_from_item is not None:  # lands and disarms without reporting the items from there on
+            t.mission_seq = min(t.mission_seq, self.silent_from_item - 1)
+            t.mission_state = M.MISSION_STATE_ACTIVE if t.mission_state == M.MISSION_STATE_COMPLETE else t.mission_state
+        return t
 
 
 class FakePx4:
@@ -82,7 +94,8 @@ class FakePx4:
     def __init__(self, vehicle: VehicleSpec, origin: GeoOrigin, *, sim_port: int, api_local_port: int, api_remote_port: int,
                  instance: int = 0, host: str = "127.0.0.1", step_us: int = 4000, boot_steps: int = 25,
                  reject_arm: str | None = None, silent_after_s: float | None = None, connect_timeout_s: float = 20.0,
-                 fill_l: float | None = None) -> None:
+                 fill_l: float | None = None, garbage_at_s: float | None = None,
+                 silent_from_item: int | None = None) -> None:
         self.vehicle, self.origin = vehicle, origin
         self.host, self.sim_port = host, sim_port
         self.api_local_port, self.api_remote_port = api_local_port, api_remote_port
@@ -91,6 +104,9 @@ class FakePx4:
         self.boot_steps = boot_steps
         self.reject_arm = reject_arm
         self.silent_after_s = silent_after_s
+        self.garbage_at_s = garbage_at_s
+        self.silent_from_item = silent_from_item
+        self.garbage_sent = 0
         self.connect_timeout_s = connect_timeout_s
         self.fill_l = (vehicle.tank.capacity_l if vehicle.tank else 0.0) if fill_l is None else fill_l
         self.violations: list[str] = []
@@ -295,6 +311,13 @@ class FakePx4:
         if mode & M.MODE_FLAG_SAFETY_ARMED:
             st.armed_answers += 1
         st.mode_words.add(mode)
+        if self.garbage_at_s is not None and not self.garbage_sent and sim_s >= self.garbage_at_s:
+            import random
+
+            rng = random.Random(7)
+            noise = bytes(rng.choice([b for b in range(256) if b not in (0xFD, 0xFE)]) for _ in range(1500))
+            self.garbage_sent = len(noise) + 3
+            self.tcp._send_bytes(noise + bytes([0xFD, 0xFF, 0x00]))  # a frame of 255 bytes begins: swallows the answer
         self.tcp.send(self.tcp.mav.hil_actuator_controls_encode(t, controls, mode, M.HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP))
 
     def _start_vehicle(self, t: int) -> None:
@@ -308,6 +331,10 @@ class FakePx4:
             origin=self.origin, home_enu=self.home_enu or (0.0, 0.0, 0.0), physics_dt_us=self.expected_step_us,
             estimator=PerfectEstimator())
         ap.reset(ctx)
+        if self.silent_from_item is not None:
+            ap.silent_from_item = n = self.silent_from_item
+            reached = ap.endpoint.mission_item_reached
+            ap.endpoint.mission_item_reached = lambda seq: None if seq >= n else reached(seq)  # type: ignore[method-assign]
         ap.endpoint.missions = {0: [], 1: [], 2: []}
         ap.mission_state = 0
         self.ap = ap

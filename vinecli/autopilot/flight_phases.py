@@ -20,15 +20,16 @@ from vinecli.specs.vehicle import VehicleSpec
 
 class Takeoff(Phase):
     """Arm (after the preflight checks), spool up for ``spool_s``, then climb straight up to
-    ``altitude_agl_m`` above home at the climb speed (m/s; default the vehicle's max_vel_up)."""
+    ``altitude_agl_m`` above home at the climb speed (m/s; default the vehicle's max_vel_up). Its ``timeout_s`` is
+    what the take-off may take beyond the climb itself (``altitude_agl_m`` / the climb speed)."""
 
     MODE = "AUTO.TAKEOFF"
     type = "takeoff"
 
     def __init__(self, spec: TakeoffPhase, vehicle: VehicleSpec) -> None:
         self.spec = spec
-        self.timeout_s = spec.timeout_s
         self.climb = spec.climb_speed_mps or vehicle.control.max_vel_up
+        self.timeout_s = spec.timeout_s + spec.altitude_agl_m / self.climb
 
     def start(self, ap: PhaseHost) -> None:
         self.target_z = ap.home[2] + self.spec.altitude_agl_m
@@ -155,19 +156,23 @@ class SetSprayerFlow(Phase):
 
 class Land(Phase):
     """Descend at ``descent`` m/s holding x, y; disarm once the land detector says landed
-    (:mod:`vinecli.autopilot.land_detector`: ground contact, then maybe landed, then landed)."""
+    (:mod:`vinecli.autopilot.land_detector`: ground contact, then maybe landed, then landed). ``margin_s``: how
+    much longer than the descent itself (height above the ground where the land starts / ``descent``) the phase
+    may take before it times out, so a land from 400 m has its time as one from 2 m does."""
 
     MODE = "AUTO.LAND"
     type = "land"
 
-    def __init__(self, descent: float, timeout_s: float) -> None:
+    def __init__(self, descent: float, margin_s: float) -> None:
         self.descent = descent
-        self.timeout_s = timeout_s
+        self.margin_s = margin_s
+        self.timeout_s = margin_s
 
     def start(self, ap: PhaseHost) -> None:
         sp = ap.hold_sp()
         self.xy = (sp[0], sp[1])
         self.z = sp[2]
+        self.timeout_s = self.margin_s + max(0.0, self.z - ap.terrain(sp[0], sp[1])) / self.descent
 
     def update(self, ap: PhaseHost, dt: float) -> bool:
         if not ap.armed:
@@ -183,14 +188,17 @@ class Land(Phase):
 
 
 class Rtl(Phase):
-    """Return to launch: climb to ``return_alt`` m above home (if lower), fly home at up to 5 m/s, then land."""
+    """Return to launch: climb to ``return_alt`` m above home (if lower), fly home at up to 5 m/s, then land.
+    ``margin_s``: how much longer than the nominal return (climb, flight home and descent at their speeds) the
+    phase may take before it times out."""
 
     MODE = "AUTO.RTL"
     type = "rtl"
 
-    def __init__(self, return_alt: float, timeout_s: float, descent: float = 0.7) -> None:
+    def __init__(self, return_alt: float, margin_s: float, descent: float = 0.7) -> None:
         self.return_alt = return_alt
-        self.timeout_s = timeout_s
+        self.margin_s = margin_s
+        self.timeout_s = margin_s
         self.descent = descent
 
     def start(self, ap: PhaseHost) -> None:
@@ -200,6 +208,8 @@ class Rtl(Phase):
         speed = min(5.0, ap.vehicle.control.max_vel_xy)
         pts = [(x, y, z), (x, y, zr), (h[0], h[1], zr)]
         c = ap.vehicle.control
+        nominal = (zr - z) / c.max_vel_up + math.hypot(h[0] - x, h[1] - y) / speed + (zr - h[2]) / self.descent
+        self.timeout_s = self.margin_s + max(0.0, nominal)
         self.path = PathFollower(pts, speed, accel=2.0, acceptance_m=0.5, max_up=c.max_vel_up, max_down=c.max_vel_down)
         self.land: Land | None = None
 

@@ -65,6 +65,10 @@ class Link:
         self.on_message: Any = None
         self.rx_count = 0
         self.tx_count = 0
+        #: bytes received, and those that made up the messages decoded: the difference is garbage, or a frame the
+        #: parser still waits to complete (which garbage claiming a long frame makes it wait for in vain)
+        self.rx_bytes = 0
+        self.decoded_bytes = 0
 
     @property
     def mav(self) -> mavlink2.MAVLink:
@@ -74,9 +78,14 @@ class Link:
     # ---------------------------------------------------------------- receiving
     def _feed(self, data: bytes, parser: mavlink2.MAVLink | None = None) -> None:
         """Parse ``data`` with ``parser`` (default: the link's own) and deliver every valid message."""
+        self.rx_bytes += len(data)
         msgs = (parser or self._rx).parse_buffer(data)
         if msgs:
-            self._deliver([m for m in msgs if m.get_type() != "BAD_DATA"])
+            good = [m for m in msgs if m.get_type() != "BAD_DATA"]
+            # a frame of an unknown id cannot be checked (its CRC seed is unknown): garbage that claims a frame
+            # comes out as one, so it counts as undecoded
+            self.decoded_bytes += sum(len(m.get_msgbuf()) for m in good if not m.get_type().startswith("UNKNOWN"))
+            self._deliver(good)
 
     def _deliver(self, msgs: list[Message]) -> None:
         """Count, hand to ``on_message`` (in the reader thread) and queue decoded messages."""
@@ -88,6 +97,11 @@ class Link:
                 except Exception:  # noqa: BLE001 - a handler bug must not kill the reader thread
                     log.exception("%s: message handler failed on %s", self.name, m.get_type())
             self.inbox.put(m)
+
+    @property
+    def undecoded_bytes(self) -> int:
+        """Bytes received that are not (yet) part of a decoded message."""
+        return self.rx_bytes - self.decoded_bytes
 
     def _start_reader(self) -> None:
         self._thread = threading.Thread(target=self._reader, name=f"mavlink-{self.name}", daemon=True)

@@ -18,6 +18,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from vinecli.errors import AutopilotError
 
+#: most socket reads (of up to 64 kB) one :meth:`PolledTcpLink.poll` makes
+POLL_READS = 64
+
 
 class PolledTcpLink:
     """MAVLink 2 over TCP to ``host:port`` (the firmware listens), ArduPilot dialect (a superset of common)."""
@@ -50,12 +53,13 @@ class PolledTcpLink:
         return True
 
     def poll(self) -> list[Any]:
-        """Every complete message received since the last poll (none before connecting)."""
+        """Every complete message received since the last poll (none before connecting); at most
+        :data:`POLL_READS` reads, so a firmware that floods its port returns control to the caller's checks."""
         s = self.sock
         if s is None:
             return []
         out: list[Any] = []
-        while True:
+        for _ in range(POLL_READS):
             try:
                 data = s.recv(1 << 16)
             except BlockingIOError:

@@ -119,11 +119,12 @@ class ArdupilotSitlAutopilot:
         self._line = b""
         self._batt_us = -10**12
         self._booted = False
+        self._stopping = False
+        self._closed = False
         try:
             self._start()
         except BaseException:
-            self.close()
-            self._closed = False
+            self.close()  # its record kept: close() acts once
             raise
 
     def _start(self) -> None:
@@ -150,6 +151,8 @@ class ArdupilotSitlAutopilot:
             raise AutopilotError("ardupilot autopilot: step() before reset()")
         if not self._booted:
             frame = self._boot(obs)
+        elif self._stopping:
+            frame = self._next_frame()
         else:
             self._answer(obs.truth)
             frame = self._next_frame()
@@ -174,6 +177,8 @@ class ArdupilotSitlAutopilot:
             if self._frame is not None and stop is not None and self.answers % 250 == 0 and stop():
                 return self._frame  # not booted: the loop ends the run as interrupted, close() stops ArduPilot
             frame = self._next_frame()
+            if self._stopping:
+                return frame
             self._converse(obs)
             if client.booted:
                 break
@@ -206,17 +211,25 @@ class ArdupilotSitlAutopilot:
         self.json.answer(self._line)
 
     def _next_frame(self) -> ServoFrame:
-        """ArduPilot's next servo frame (its resends skipped); AutopilotError if it died or hung."""
+        """ArduPilot's next servo frame (its resends skipped); AutopilotError if it died, hung or sends no servo
+        frames (garbage on its port); the last frame again when the run is asked to stop meanwhile (the loop then
+        ends the run as interrupted: a SIGTERM never waits for :attr:`frame_timeout_s`)."""
         assert self.json is not None and self.process is not None
         waited = 0.0
+        stop = self.ctx.should_stop
         while True:
-            frame = self.json.recv_frame(0.5)
+            frame = None if self._stopping else self.json.recv_frame(0.5)
             if frame is None:
                 waited += 0.5
-                if not self.process.alive():
+                if not self._stopping and not self.process.alive():
                     raise AutopilotError(self._exited())
+                if self._stopping or (stop is not None and stop()):
+                    self._stopping = True  # the outputs held until the loop ends the run (within 0.1 s simulated)
+                    return self._frame or ServoFrame(0, -1, (0,) * 16)
                 if waited >= self.frame_timeout_s:
-                    raise AutopilotError(f"ArduPilot sent no servo frame for {waited:.0f} s (hung)" + self._log())
+                    junk = (f", {self.json.garbage} datagrams that are not servo frames (is it ArduCopter SITL on the "
+                            "JSON backend?)" if self.json.garbage else "")
+                    raise AutopilotError(f"ArduPilot sent no servo frame for {waited:.0f} s (hung{junk})" + self._log())
                 continue
             last = self._last_count
             if last is not None and frame.count == last:
@@ -330,6 +343,7 @@ class ArdupilotSitlAutopilot:
             rec.files = proc.keep(KEEP, rec.dir)
             self.firmware_record = rec
             proc.discard()
+            self.process = None
         if self.client is not None:
             self.client.link.close()
         if self.json is not None:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import socket
 import struct
+import time
 from dataclasses import dataclass
 
 from vinecli.errors import AutopilotError
@@ -89,11 +90,14 @@ class JsonPhysicsLink:
         self.port = port
         self.peer: tuple[str, int] | None = None
         self.frames = 0  # valid frames received (resent ones included)
+        self.garbage = 0  # datagrams that were not servo frames
 
     def recv_frame(self, timeout_s: float) -> ServoFrame | None:
-        """The next servo frame (None after ``timeout_s`` of wall time without one)."""
-        self.sock.settimeout(max(1e-3, timeout_s))
+        """The next servo frame (None after ``timeout_s`` of wall time without one, however many datagrams that
+        are not servo frames arrive meanwhile: they are counted in :attr:`garbage` and skipped)."""
+        deadline = time.monotonic() + timeout_s
         while True:
+            self.sock.settimeout(max(1e-3, deadline - time.monotonic()))
             try:
                 data, addr = self.sock.recvfrom(512)
             except TimeoutError:
@@ -103,6 +107,9 @@ class JsonPhysicsLink:
                 self.peer = addr
                 self.frames += 1
                 return frame
+            self.garbage += 1
+            if time.monotonic() >= deadline:
+                return None
 
     def answer(self, line: bytes) -> None:
         """Send one JSON line to the firmware that sent the last frame."""

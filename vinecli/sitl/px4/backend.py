@@ -58,6 +58,7 @@ PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
 G0 = STANDARD_GRAVITY
 #: simulated UTC at t = 0 (HIL_GPS time_usec): 2025-07-01T00:00:00Z
 EPOCH_US = 1_751_328_000_000_000
+RESYNC_S = 0.5  # wall s without PX4's answer, after garbage on the link, before the lockstep resynchronises
 #: files of PX4's working directory kept in the run folder: its logs, console output, boot parameters
 KEEP = ("rootfs/log/*/*.ulg", "px4.log", "rc/px4-rc.params")
 
@@ -159,8 +160,7 @@ class Px4SitlAutopilot:
         self.lockstep = False
         self.armed = False
         self.controls: tuple[float, ...] = (0.0,) * 16
-        self.stalls = 0
-        self.consecutive_stalls = 0
+        self.stalls = self.resyncs = self.consecutive_stalls = 0
         self.steps = 0
         self.lockstep_steps = 0
         self.hil_gps_sent = 0
@@ -171,11 +171,11 @@ class Px4SitlAutopilot:
         self.requested_state_interval_us: float | None = None
         self._events = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0, extra={})
+        self._closed = False
         try:
             self._connect(ctx)
         except BaseException:
-            self.close()  # nothing left listening after a failed start
-            self._closed = False
+            self.close()  # nothing left listening after a failed start; its record kept (close() acts once)
             raise
 
     def _connect(self, ctx: AutopilotContext) -> None:
@@ -326,6 +326,7 @@ class Px4SitlAutopilot:
         bounded = self.step_timeout_s is not None
         limit = self.step_timeout_s if self.step_timeout_s is not None else self.hang_timeout_s
         start = time.monotonic()
+        junk0 = link.undecoded_bytes
         while True:
             left = start + limit - time.monotonic()
             m = link.recv(min(0.5, max(0.0, left))) if left > 0 else (link.recv(0.0) if not link.inbox.empty() else None)
@@ -336,6 +337,9 @@ class Px4SitlAutopilot:
                     self.lockstep_steps += 1
                     return
                 continue
+            if link.undecoded_bytes > junk0 and time.monotonic() - start >= RESYNC_S:
+                self._resync(t, link.undecoded_bytes - junk0)
+                return
             if link.closed_by_peer.is_set():
                 raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})" + self._px4_log())
             if self.process is not None and not self.process.alive():
@@ -355,6 +359,15 @@ class Px4SitlAutopilot:
                 f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
                 f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * limit:.1f} s)"
                 + self._px4_log())
+
+    def _resync(self, t: int, bad: int) -> None:
+        """Garbage on the link swallowed PX4's answer to HIL_SENSOR(``t``), which PX4 sends once: go on with the last
+        controls (a stall the checks see); PX4 answers the next step. Too many in a row raise, as stalls do."""
+        self.stalls, self.consecutive_stalls, self.resyncs = self.stalls + 1, self.consecutive_stalls + 1, self.resyncs + 1
+        what = f"garbage on the simulator link (TCP {self.host}:{self.port}): {bad} bytes that decode to no message"
+        self._emit(t - self.dt_us, "px4", f"{what}; PX4's answer was lost, resynchronised", {"undecoded_bytes": bad})
+        if self.consecutive_stalls >= self.max_stalls:
+            raise AutopilotError(f"{what}: {self.consecutive_stalls} steps in a row without PX4's answer" + self._px4_log())
 
     def _command(self, u: list[float]) -> ActuatorCommand:
         """Rotor speeds from the motor outputs ``u`` (0..1, one per rotor), the sprayer from its channel."""
@@ -432,6 +445,7 @@ class Px4SitlAutopilot:
         st = self._status
         ex = st.extra
         ex["px4_stalls"] = float(getattr(self, "stalls", 0))
+        ex["px4_resyncs"] = float(getattr(self, "resyncs", 0))
         ex["px4_lockstep_steps"] = float(getattr(self, "lockstep_steps", 0))
         ex["px4_armed"] = 1.0 if getattr(self, "armed", False) else 0.0
         if self.mission_client is not None:
@@ -466,6 +480,7 @@ class Px4SitlAutopilot:
             rec.auditor = apply_audit  # PX4's own log: did its periodic work (battery, load monitor) run to the end?
             self.firmware_record = rec
             self.process.discard()
+            self.process = None
         if self._instance_lock is not None:
             self._instance_lock.release()
             self._instance_lock = None

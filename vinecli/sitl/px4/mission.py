@@ -24,7 +24,9 @@ state (mode, current item, events, error, finished). Sequence, each with a wall-
    warning STATUSTEXT, and ends the run with status ``failsafe``, except the switch to RTL that the
    mission's own last item (NAV_RETURN_TO_LAUNCH) makes: PX4 executes it as its RTL mode, so the
    mission is then complete once PX4 is on the ground and disarmed. PX4 v1.15 sends HEARTBEAT at 1 Hz
-   and refuses a faster interval, so the switch is heard up to 1 s of flight after PX4 acted.
+   and refuses a faster interval, so the switch is heard up to 1 s of flight after PX4 acted. A PX4 on the
+   ground and disarmed after flying, before the mission's last item (a land item before the end), flies no
+   further: after :data:`EARLY_LANDING_GRACE_US` the run ends as ``aborted``, naming the item reached.
 
 The client sends a GCS HEARTBEAT every second of wall time *or* of sim time, whichever comes
 first, so PX4's data-link-loss check (sim time) is satisfied at any speed-up.
@@ -57,6 +59,9 @@ SEVERITY_WARNING = 4  # MAV_SEVERITY: 0 EMERGENCY ... 4 WARNING
 #: ~0.05 s (simulated) after the PARAM_SETs left the sprayer unmapped for the whole flight in 2 of 3
 #: runs (PX4 v1.15.4, seed 606006878), never with this delay. Arm no earlier than this after them.
 PARAM_SETTLE_US = 2_000_000
+#: PX4 on the ground and disarmed before the mission's end for this long (simulated; its MISSION_CURRENT and
+#: HEARTBEAT come at 1 Hz) ends the run as aborted: it will not fly on
+EARLY_LANDING_GRACE_US = 3_000_000
 
 
 def battery_params(v: VehicleSpec, mass_kg: float) -> dict[str, float | int]:
@@ -405,15 +410,31 @@ class Px4MissionClient:
         if not self._stop.is_set():
             raise AutopilotTimeout(f"PX4 did not become ready to arm within {self.health_timeout_s:g} s" + self._px4_says())
 
+    def _landed_early(self, n: int) -> None:
+        """PX4 is on the ground and disarmed, the mission not done: it will not fly on (a land item before the end,
+        a landing PX4 decided itself): the run ends now as ``aborted``, naming the item it reached."""
+        text = _landed_early_text(self.current_seq, n, self.reached)
+        self._event("mission_aborted", text, {"seq": self.current_seq, "items": n})
+        self.finished = (RunStatus.ABORTED, text)
+
     def _monitor(self) -> None:
         plan = self.plan
         assert plan is not None
         lands = bool(plan.items) and plan.items[-1].command in (M.CMD_NAV_LAND, M.CMD_NAV_RETURN_TO_LAUNCH)
+        down_since: int | None = None  # sim µs since PX4 is on the ground and disarmed before the mission's end
         while not self._stop.is_set() and self.finished is None:
             self._wait(set(), 0.2)
             done_items = self.mission_done()
             if self.finished is not None:
                 return
+            if self.was_airborne and self.landed_state == M.LANDED_ON_GROUND and not self.armed \
+                    and not (done_items or self.rtl_item):
+                down_since = self.sim_time_us if down_since is None else down_since
+                if self.sim_time_us - down_since >= EARLY_LANDING_GRACE_US:  # its last reports had time to arrive
+                    self._landed_early(len(plan.items))
+                    return
+            else:
+                down_since = None
             if lands:  # complete only when PX4 reported the last item done and is on the ground, disarmed
                 if (done_items or self.rtl_item) and self.was_airborne and self.landed_state == M.LANDED_ON_GROUND \
                         and not self.armed:
@@ -423,6 +444,11 @@ class Px4MissionClient:
             elif done_items:
                 self.finished = (RunStatus.COMPLETED, "PX4 mission completed")
                 return
+
+
+def _landed_early_text(seq: int, n: int, reached: set[int]) -> str:
+    last = f"last reported reached: item {max(reached)}" if reached else "no item reported reached"
+    return f"PX4 landed and disarmed before the mission's end: at mission item {seq} of {n} ({last})"
 
 
 def _pname(m: Any) -> str:
