@@ -58,7 +58,7 @@ def _bad_logs(d: Path) -> list[tuple[str, Path, str]]:
                   "unsupported vehicle: MAV_TYPE 1"))
     cases.append(("hexacopter on a quad base", write_ulog(synthetic_log(6), d / "hexa.ulg"), "6 motors"))
     cases.append(("never airborne", write_ulog(synthetic_log(airborne=False), d / "ground.ulg"), "airborne"))
-    cases.append(("a directory", d, "not a file"))
+    cases.append(("a directory", d, "is a directory"))
     return cases
 
 

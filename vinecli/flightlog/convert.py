@@ -4,7 +4,12 @@ normalised motor outputs and the battery's cell count."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import os
+import sys
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -12,7 +17,7 @@ from vinecli.errors import InputError
 from vinecli.frames import attitude_ned_frd_to_enu_flu, frd_to_flu, ned_to_enu, quat_from_euler
 
 __all__ = ["attitude_from_euler_ned", "attitude_from_quat_ned", "cells_from_voltage", "frd_to_flu_array",
-           "ned_to_enu_array", "normalise_outputs", "require", "sorted_stream"]
+           "ned_to_enu_array", "normalise_outputs", "quiet_output", "require", "sorted_stream"]
 
 #: LiPo cell voltage range used to infer a pack's cell count from its rest voltage, V
 CELL_V_RANGE = (3.3, 4.35)
@@ -67,6 +72,26 @@ def cells_from_voltage(v_rest: float) -> int | None:
     fits = [n for n in range(1, 25) if lo <= v_rest / n <= hi]
     # the pack voltage alone can fit two counts (12.6 V = 3S full or 4S at 3.15 V): the nearest to 3.85 V
     return min(fits, key=lambda n: abs(v_rest / n - 3.85)) if fits else None
+
+
+@contextlib.contextmanager
+def quiet_output() -> Iterator[None]:
+    """What a log library prints while the block runs (pyulog's and pymavlink's warnings, also those its compiled
+    parts write straight to file descriptors 1 and 2) goes nowhere: a bad log is one error line, not a page."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "wb") as null, contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in saved:
+            os.close(fd)
 
 
 def require(ok: bool, path: str, what: str) -> None:

@@ -10,20 +10,21 @@ BATT_CAPACITY, MOT_BAT_VOLT_MAX (cells), MOT_THST_HOVER or THR_MID, MOT_THST_EXP
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
+from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 from typing import Any
 
 import numpy as np
 
 from vinecli.errors import InputError
+from vinecli.flightlog.clock import continuous_stretch
 from vinecli.flightlog.convert import (
     attitude_from_euler_ned,
     frd_to_flu_array,
     ned_to_enu_array,
     normalise_outputs,
+    quiet_output,
     require,
     sorted_stream,
 )
@@ -44,6 +45,11 @@ from vinecli.flightlog.model import (
 __all__ = ["read_dataflash"]
 
 TYPES = ["RCOU", "IMU", "ATT", "XKF1", "NKF1", "EKF1", "BAT", "CURR", "EV", "ARM", "GPS", "MSG", "VER"]
+#: the fields of those messages the reader uses (the others are dropped as they are read)
+FIELDS = frozenset({"TimeUS", "TimeMS", "T", "I", "C", "Inst", "Instance", "Id", "Message", "GWk", "Week", "GMS",
+                    "Status", "AccX", "AccY", "AccZ", "GyrX", "GyrY", "GyrZ", "Roll", "Pitch", "Yaw", "PN", "PE",
+                    "PD", "VN", "VE", "VD", "Volt", "Curr", *(f"C{i}" for i in range(1, 17)),
+                    *(f"Chan{i}" for i in range(1, 17))})
 EKF_TYPES = ("XKF1", "NKF1", "EKF1")
 #: FRAME_CLASS -> motors (1 quad, 2 hexa, 3 octa, 4 octaquad, 5 Y6, 12 dodecahexa, 14 deca)
 FRAME_CLASS_MOTORS = {1: 4, 2: 6, 3: 8, 4: 8, 5: 6, 12: 12, 14: 10}
@@ -61,6 +67,13 @@ Formats = dict[str, tuple[str, list[str]]]
 def read_dataflash(path: str, sha256: str) -> FlightLog:
     """Read a DataFlash log; InputError naming the file and what is missing when it cannot be used."""
     rows, params, formats = _collect(path)
+    clock_note = ""
+    if rows.get("IMU"):
+        stretch = continuous_stretch(_times(rows["IMU"]), path)
+        if stretch.note:  # a jump or a restart of the clock: one continuous stretch
+            rows = {k: [r for r, keep in zip(v, (stretch.take_state if k == "EV" else stretch.take)(_times(v)),
+                                             strict=True) if keep] for k, v in rows.items()}
+            clock_note = stretch.note
     t_all = [_times(rows[k]) for k in ("RCOU", "IMU") if rows.get(k)]
     require(bool(t_all) and all(len(t) for t in t_all), path, "no motor outputs (RCOU) or IMU in the log")
     t0 = min(float(t[0]) for t in t_all)
@@ -69,6 +82,8 @@ def read_dataflash(path: str, sha256: str) -> FlightLog:
         return _times(rows[name]) - t0
 
     config, chans = _config(params, rows, path)
+    if clock_note:
+        config = replace(config, notes=(*config.notes, clock_note))
     require(bool(rows.get("RCOU")), path, "no motor outputs (RCOU) in the log")
     t, pwm = sorted_stream(secs("RCOU"), np.array([[r.get(c, np.nan) for c in chans] for r in rows["RCOU"]], float))
     require(bool(np.all(np.isfinite(pwm))), path, "motor outputs (RCOU) are not finite numbers")
@@ -109,11 +124,11 @@ def _collect(path: str) -> tuple[Rows, dict[str, float], Formats]:
     last_t = math.nan
     early: list[dict[str, Any]] = []  # untimed messages before the first clock: at its time
     try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        with quiet_output():  # DFReader prints its complaints, from Python and from its compiled indexer
             reader = DFReader.DFReader_binary(path, zero_time_base=False)
             while (m := reader.recv_match(type=TYPES)) is not None:
                 kind = m.get_type()
-                r = m.to_dict()
+                r = {k: v for k, v in m.to_dict().items() if k in FIELDS}  # what the reader uses: a third of the memory
                 t = _boot_time(kind, r)
                 if kind in CLOCK_TYPES and math.isfinite(t):
                     last_t = t

@@ -8,7 +8,9 @@ import numpy as np
 
 from vinecli.errors import InputError
 from vinecli.flightlog.model import FlightLog
+from vinecli.inputs import open_input
 from vinecli.outputs import sha256_file
+from vinecli.specs.limits import MAX_DATAFLASH_BYTES, MAX_ULOG_BYTES
 
 __all__ = ["ULOG_MAGIC", "DATAFLASH_MAGIC", "read_flight_log"]
 
@@ -25,15 +27,15 @@ def read_flight_log(path: str | Path) -> FlightLog:
     truncated before its data, or lacks a stream a fit needs (motor outputs, IMU, attitude, local position).
     """
     p = Path(path)
-    if not p.is_file():
-        raise InputError("flight log not found" if not p.exists() else "not a file", path=p)
-    try:
-        with open(p, "rb") as f:
-            head = f.read(16)
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror}", path=p) from None
+    with open_input(p, "flight log") as f:  # a directory or a FIFO is named for what it is
+        head = f.read(16)
     if not head:
         raise InputError("empty file, not a flight log", path=p)
+    limit = MAX_ULOG_BYTES if head.startswith(ULOG_MAGIC) else MAX_DATAFLASH_BYTES
+    size = p.stat().st_size
+    if size > limit:
+        raise InputError(f"flight log of {size / 2**20:.0f} MB: at most {limit >> 20} MB (cut the flight out of it, "
+                         "e.g. with pyulog's ulog_extract or mavlogdump)", path=p)
     digest = sha256_file(p)
     if head.startswith(ULOG_MAGIC):
         from vinecli.flightlog.ulog import read_ulog

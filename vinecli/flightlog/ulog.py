@@ -10,19 +10,20 @@ MPC_THR_HOVER (and the ``hover_thrust_estimate`` topic), THR_MDL_FAC.
 
 from __future__ import annotations
 
-import contextlib
-import io
 from collections.abc import Callable
+from dataclasses import replace
 from datetime import UTC, datetime
 
 import numpy as np
 
 from vinecli.errors import InputError
+from vinecli.flightlog.clock import Stretch, continuous_stretch
 from vinecli.flightlog.convert import (
     attitude_from_quat_ned,
     frd_to_flu_array,
     ned_to_enu_array,
     normalise_outputs,
+    quiet_output,
     require,
     sorted_stream,
 )
@@ -53,9 +54,8 @@ RELEASE_TYPE = {255: "", 192: "rc", 128: "beta", 64: "alpha"}
 
 def read_ulog(path: str, sha256: str) -> FlightLog:
     """Read a ULog; InputError naming the file and what is missing when it cannot be used."""
-    notes = io.StringIO()
     try:
-        with contextlib.redirect_stdout(notes):  # pyulog prints its warnings
+        with quiet_output():  # pyulog prints its warnings
             from pyulog import ULog
 
             ulog = ULog(path, TOPICS)
@@ -64,8 +64,16 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
     require(bool(ulog.data_list), path, "the ULog holds no logged data (truncated before its data section?)")
     t0 = int(ulog.start_timestamp)
     topics: dict[tuple[str, int], dict[str, np.ndarray]] = {(d.name, d.multi_id): d.data for d in ulog.data_list}
+    ref = topics.get(("sensor_combined", 0))
+    stretch = continuous_stretch(ref["timestamp"] * 1e-6, path) if ref is not None else None
+    if stretch is not None and stretch.note:  # a jump or a restart: one continuous stretch, on its own time base
+        taken = {k: _take(d, stretch, k[0] in STATE_TOPICS) for k, d in topics.items()}
+        topics = {k: d for k, d in taken.items() if len(d["timestamp"])}  # none left: as if not logged
+        t0 = int(stretch.t0 * 1e6)
     params = {str(k): float(v) for k, v in ulog.initial_parameters.items()}
     config, chans = _config(params, topics, path, ulog.file_corruption)
+    if stretch is not None and stretch.note:
+        config = replace(config, notes=(*config.notes, stretch.note))
 
     def secs(d: dict[str, np.ndarray]) -> np.ndarray:
         ts = d["timestamp"].astype(np.int64)  # a state published before logging started has timestamp 0
@@ -106,6 +114,34 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
                    date_utc=_date(topics, info_d), duration_s=end, sha256=sha256)
     gaps = merged_gaps(gaps_of(motors.t_s), gaps_of(imu.t_s, min_s=0.2))
     return FlightLog(info, config, motors, imu, attitude, position, battery, state, params, gaps)
+
+
+#: topics that are step functions (a state holds until the next sample): the stretch keeps the sample before it
+STATE_TOPICS = frozenset({"actuator_armed", "vehicle_status", "vehicle_land_detected"})
+
+
+def _take(d: dict[str, np.ndarray], stretch: Stretch, state: bool) -> dict[str, np.ndarray]:
+    """The samples of topic ``d`` in ``stretch`` (:mod:`vinecli.flightlog.clock`)."""
+    t = d["timestamp"] * 1e-6
+    keep = stretch.take_state(t) if state else stretch.take(t)
+    return {k: v[keep] for k, v in d.items()}
+
+
+def _partial_tail(path: str) -> int:
+    """Bytes of a message cut off at the end of the ULog ``path`` (0: it ends after a whole message). A walk over
+    the message headers: ~15 ms per MB."""
+    import mmap
+    import struct
+
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        n, i = len(data), 16
+        unpack = struct.unpack_from
+        while i + 3 <= n:
+            nxt = i + 3 + unpack("<H", data, i)[0]
+            if nxt > n:
+                return n - i
+            i = nxt
+        return n - i
 
 
 def _topic(topics: dict[tuple[str, int], dict[str, np.ndarray]], name: str, path: str, what: str) -> dict[str, np.ndarray]:
@@ -149,6 +185,10 @@ def _config(params: dict[str, float], topics: dict[tuple[str, int], dict[str, np
     if hte is not None and np.any(hte["valid"] > 0):
         hover, hover_src = float(np.median(hte["hover_thrust"][hte["valid"] > 0])), "hover_thrust_estimate (median)"
     notes = ("pyulog found corrupt data and skipped it (read up to the last intact message)",) if corrupt else ()
+    partial = _partial_tail(path)
+    if partial:
+        notes = (*notes, f"the file ends inside a message (its last {partial} bytes): it was cut short (a full card, "
+                         "a pulled battery, an interrupted copy)")
     autostart = int(params.get("SYS_AUTOSTART", 0))
     config = LogConfig(
         n_motors=len(chans), pwm_min_us=lo, pwm_max_us=hi, pwm_disarmed_us=dis,

@@ -131,6 +131,9 @@ def make_samples(log: FlightLog) -> FlightSamples:
         air &= t < upset_t - UPSET_MARGIN_S
         notes.append(f"upset at {upset_t:.1f} s (tilt {tilt[upset[0]]:.0f} deg, {t[-1] - upset_t:.1f} s before the log "
                      f"ends): samples from {upset_t - UPSET_MARGIN_S:.1f} s on are not used")
+    if len(t) and armed[-1] and not landed[-1]:
+        notes.append(f"the log ends at {t[-1]:.1f} s with the vehicle armed and in the air: cut short (a truncated "
+                     "file, a logger that stopped)? The fit uses what it holds")
     gaps = [g for g in log.gaps if g[1] - g[0] > 0.0]
     for g0, g1 in gaps:
         air &= (t < g0 - h) | (t > g1 + h)

@@ -113,6 +113,20 @@ class _Blocks:
         return np.array([self.theta(r_fixed, i)[0], r_fixed])
 
 
+def _why_no_flight(s: FlightSamples) -> str:
+    """Why a log has too little flight to fit: it never took off, it ends (cut short) soon after take-off, or the
+    flight was too short, low or tilted."""
+    flying = np.flatnonzero(s.armed & ~s.landed)
+    if flying.size == 0:
+        return "no flight: the vehicle never left the ground"
+    t0, t_end = float(s.t_s[flying[0]]), float(s.t_s[-1])
+    if flying[-1] == len(s.t_s) - 1:
+        return (f"it took off at {t0:.1f} s and the log ends {t_end - t0:.1f} s later, still in the air: the log is "
+                "cut short")
+    return (f"it flew {float(s.t_s[flying[-1]]) - t0:.1f} s from {t0:.1f} s: too short, too low (under "
+            f"0.5 m) or too tilted to fit on")
+
+
 def fit_thrust(s: FlightSamples, r_base: float, *, path: str = "", drag_z: np.ndarray | None = None) -> ThrustFit:
     """Fit the curve on ``s``; ``r_base`` is the base vehicle's ``w_min / (w_max - w_min)``. ``drag_z``: the
     body drag's specific force along body z at each sample (m/s², from a drag fit), taken off the measured
@@ -121,7 +135,7 @@ def fit_thrust(s: FlightSamples, r_base: float, *, path: str = "", drag_z: np.nd
     air = s.airborne
     if air.sum() < MIN_SAMPLES:
         raise InputError(f"only {int(air.sum())} usable airborne samples (need {MIN_SAMPLES}): nothing to fit the "
-                         "thrust on (no flight, or the vehicle never left the ground)", path=path or None)
+                         f"thrust on ({_why_no_flight(s)})", path=path or None)
     notes = []
     used = air & (s.speed < SLOW_MPS)
     if used.sum() < MIN_SAMPLES:
