@@ -13,14 +13,13 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from vinecli.batch.spec import Case
 from vinecli.errors import InputError, OutputError
-from vinecli.inputs import current_inputs, note_input
+from vinecli.inputs import current_inputs, note_input, read_input_json
 from vinecli.output_guard import contained_path, replaceable_problem
 
 __all__ = ["check_case_targets", "check_cases_memory", "note_case_inputs"]
@@ -78,8 +77,8 @@ def check_case_targets(cases: Sequence[Case], runs_dir: Path, pipeline: Path, *,
 
 def _is_batch_json(path: Path) -> bool:
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        doc = read_input_json(path, "batch.json")
+    except ValueError:  # InputError too: not JSON, nested too deeply
         return False
     return isinstance(doc, dict) and isinstance(doc.get("cases"), list) and "pipeline" in doc
 

@@ -15,8 +15,10 @@ from typing import Any
 
 from vinecli.errors import InputError
 from vinecli.gis.georef import Georef
+from vinecli.inputs import require_regular_file
+from vinecli.specs.limits import MAX_FENCE_VERTICES, MAX_GIS_BYTES, MAX_GIS_FEATURES, MAX_ROW_VERTICES, over_limit
 
-__all__ = ["GisFeature", "read_features"]
+__all__ = ["GisFeature", "gis_files", "read_features"]
 
 LINES = ("LineString", "MultiLineString")
 POLYGONS = ("Polygon", "MultiPolygon")
@@ -43,8 +45,7 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
     from shapely import wkb
 
     path = Path(path)
-    if not path.is_file():
-        raise InputError("GIS file not found", path=path)
+    gis_files(path)
     src = str(path)  # GDAL opens .kmz (zipped KML) itself
     try:
         layers = [str(name) for name, _ in pyogrio.list_layers(src)]
@@ -59,7 +60,11 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
                              path=path)
         crs = "EPSG:4326"
     want = LINES if expect == "lines" else POLYGONS
+    problem = over_limit(f"features in layer {name!r}", len(geoms), MAX_GIS_FEATURES)
+    if problem:
+        raise InputError(problem, path=path)
     out = []
+    vertices = 0
     names = list(meta["fields"])
     for i, g in enumerate(geoms):
         fid = int(fids[i]) if fids is not None else i
@@ -70,11 +75,15 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
             raise InputError(f"{where}: empty geometry", path=path)
         if geom.geom_type not in want:
             raise InputError(f"{where}: {geom.geom_type}, expected {' or '.join(want)}", path=path)
+        bad = _first_non_finite(geom)
+        if bad is not None:
+            raise InputError(f"{where}: point ({bad[0]:.10g}, {bad[1]:.10g}) is not a number", path=path)
         if expect == "polygons" and not geom.is_valid:
             from shapely.validation import explain_validity
 
             raise InputError(f"{where}: invalid polygon ({explain_validity(geom)})", path=path)
         parts = list(geom.geoms) if geom.geom_type.startswith("Multi") else [geom]
+        vertices = _count_vertices(parts, expect, vertices, where, path)
         local = []
         for part in parts:
             coords = [tuple(c[:2]) for c in (part.exterior.coords[:-1] if expect == "polygons" else part.coords)]
@@ -87,6 +96,61 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
     if not out:
         raise InputError(f"layer {name!r}: no features", path=path)
     return out
+
+
+#: a Shapefile's parts without which it cannot be read as it was written (.prj: the CRS check below)
+SHAPEFILE_NEEDS = (".shx", ".dbf")
+#: a Shapefile's other parts, read with it when present (inputs too: hashed in the manifest)
+SHAPEFILE_SIDECARS = (".prj", ".cpg", ".qix", ".sbn", ".sbx", ".shp.xml")
+
+
+def gis_files(path: Path) -> list[Path]:
+    """The files the GIS file ``path`` is made of: itself and, for a Shapefile, its sidecars (.shx, .dbf, .prj,
+    .cpg...). InputError (exit 2) naming the problem: not a regular file (a directory, a FIFO), larger than
+    :data:`MAX_GIS_BYTES`, a Shapefile without its .shx or .dbf (its attributes: GDAL would read the
+    geometries alone)."""
+    require_regular_file(path, "GIS file")
+    size = path.stat().st_size
+    if size > MAX_GIS_BYTES:
+        raise InputError(f"GIS file of {size / 2**20:.0f} MB: at most {MAX_GIS_BYTES >> 20} MB", path=path)
+    if path.suffix.lower() != ".shp":
+        return [path]
+    def part(ext: str) -> Path | None:
+        return next((c for c in (path.with_suffix(ext), path.with_suffix(ext.upper())) if c.is_file()), None)
+
+    missing = [ext for ext in SHAPEFILE_NEEDS if part(ext) is None]
+    if missing:
+        raise InputError(f"Shapefile without its {' and '.join(missing)} (copy every part of it: .shp, .shx, .dbf, "
+                         ".prj)", path=path)
+    return [path, *(p for ext in SHAPEFILE_NEEDS + SHAPEFILE_SIDECARS if (p := part(ext)) is not None)]
+
+
+def _first_non_finite(geom: Any) -> tuple[float, float] | None:
+    """The first point of ``geom`` with a NaN or infinite coordinate, or None."""
+    import numpy as np
+    import shapely
+
+    xy = shapely.get_coordinates(geom)
+    bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
+    return (float(xy[bad[0], 0]), float(xy[bad[0], 1])) if bad.size else None
+
+
+def _count_vertices(parts: list[Any], expect: str, total: int, where: str, path: Path) -> int:
+    """``total`` plus the vertices of ``parts``; InputError when a polygon has more than :data:`MAX_FENCE_VERTICES`
+    or the lines more than :data:`MAX_ROW_VERTICES` in all."""
+    if expect == "polygons":
+        for part in parts:
+            n = len(part.exterior.coords) - 1
+            problem = over_limit("vertices in one polygon", n, MAX_FENCE_VERTICES, "simplify it in your GIS")
+            if problem:
+                raise InputError(f"{where}: {problem}", path=path)
+            total += n
+        return total
+    total += sum(len(part.coords) for part in parts)
+    problem = over_limit("row vertices", total, MAX_ROW_VERTICES, "simplify the rows in your GIS")
+    if problem:
+        raise InputError(f"{where}: {problem}", path=path)
+    return total
 
 
 #: local coordinates farther than this from the world's origin are not a field (a wrong CRS), m

@@ -21,7 +21,7 @@ import numpy as np
 
 from vinecli.batch.runner import BATCH_JSON
 from vinecli.errors import InputError
-from vinecli.inputs import read_input_text, require_regular_file
+from vinecli.inputs import read_input_json, read_input_text, require_regular_file
 from vinecli.missions.metrics import airborne_mask
 from vinecli.names import check_name
 from vinecli.outputs import MANIFEST
@@ -169,7 +169,7 @@ def load_runs(runs_dir: str | Path) -> list[Run]:
 def _from_batch(root: Path) -> list[Run]:
     p = root / BATCH_JSON
     try:
-        batch = json.loads(read_input_text(p, BATCH_JSON))
+        batch = read_input_json(p, BATCH_JSON)
         cases = batch["cases"]
         if not isinstance(cases, list):
             raise TypeError("'cases' is not a list")
@@ -198,15 +198,15 @@ def _from_batch(root: Path) -> list[Run]:
 def _is_report_dir(d: Path) -> bool:
     """A ``vinecli report`` output (its own summary.json) placed inside the runs directory."""
     try:
-        return json.loads(read_input_text(d / MANIFEST, MANIFEST)).get("command") == "report"
+        return read_input_json(d / MANIFEST, MANIFEST).get("command") == "report"
     except (InputError, ValueError, AttributeError):
         return False
 
 
 def _mission_of(d: Path, fallback: str) -> str:
     try:
-        return str(json.loads(read_input_text(d / SUMMARY, SUMMARY)).get("mission") or fallback)
-    except (InputError, json.JSONDecodeError, AttributeError):
+        return str(read_input_json(d / SUMMARY, SUMMARY).get("mission") or fallback)
+    except (InputError, AttributeError):
         return fallback
 
 
@@ -218,9 +218,9 @@ def load_run(d: Path, case: str | None = None) -> Run:
     if not (d / SUMMARY).exists():
         raise InputError(f"missing {SUMMARY}", path=d)
     try:
-        summary = json.loads(read_input_text(d / SUMMARY, SUMMARY))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"corrupt run: unreadable {SUMMARY} ({exc})", path=d) from None
+        summary = read_input_json(d / SUMMARY, SUMMARY)
+    except InputError as exc:
+        raise InputError(f"corrupt run: unreadable {SUMMARY} ({exc.problem})", path=d) from None
     if not isinstance(summary, dict):
         raise InputError(f"corrupt run: {SUMMARY} is not an object", path=d)
     missing = [k for k in REQUIRED_KEYS if k not in summary]
@@ -258,6 +258,8 @@ def _read_events(path: Path) -> list[dict[str, Any]]:
             continue
         try:
             ev = json.loads(line)
+        except RecursionError:
+            raise InputError(f"corrupt run: {EVENTS} line {n} is nested too deeply", path=path) from None
         except json.JSONDecodeError as exc:
             raise InputError(f"corrupt run: {EVENTS} line {n} is not JSON ({exc.msg})", path=path) from None
         if not isinstance(ev, dict) or "t_s" not in ev or "kind" not in ev:

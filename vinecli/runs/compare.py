@@ -13,7 +13,6 @@ a deposition without those bands (older runs) falls back to 0.5 m segments above
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import VinecliError
+from vinecli.inputs import read_input_json
 from vinecli.runs import rundir
 from vinecli.runs.behaviour import behaviour_figures
 from vinecli.runs.mission import _num
@@ -45,7 +45,7 @@ def dose_figures(run_dir: Path) -> dict[str, Any]:
     path = run_dir / "deposition.json"
     if not path.is_file():
         return {"rows": [], "hot_spot_fraction": None, "gap_fraction": None}
-    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc = read_input_json(path, "deposition.json")
     nominal = _num((doc.get("metrics") or {}).get("nominal_rate_lpha"))
     bands = doc.get("dose_bands") or {}
     judged = bool(bands) and all("faults" in r for r in doc.get("rows") or [])

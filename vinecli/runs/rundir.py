@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError, VinecliError
-from vinecli.inputs import read_input_text
+from vinecli.inputs import read_input_json, read_input_text
 from vinecli.outputs import jsonable, manifest_problem, write_json
 
 SUMMARY = "summary.json"
@@ -74,6 +74,8 @@ def read_events(path: Path) -> list[dict[str, Any]]:
         events = [json.loads(line) for line in read_input_text(path, "events.jsonl").splitlines() if line.strip()]
     except json.JSONDecodeError as exc:
         raise InputError(f"corrupt events.jsonl (line {exc.lineno})", path=path) from None
+    except RecursionError:
+        raise InputError("corrupt events.jsonl (nested too deeply)", path=path) from None
     if not all(isinstance(e, dict) for e in events):
         raise InputError("corrupt events.jsonl (an event is not a mapping)", path=path)
     return events
@@ -100,9 +102,9 @@ def read_summary(run_dir: Path) -> dict[str, Any]:
     if not p.exists():
         raise InputError("not a run directory (no summary.json)", path=run_dir)
     try:
-        doc = json.loads(read_input_text(p, SUMMARY))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"unreadable summary.json: {exc}", path=run_dir) from None
+        doc = read_input_json(p, SUMMARY)
+    except InputError as exc:
+        raise InputError(f"unreadable summary.json: {exc.problem}", path=run_dir) from None
     if not isinstance(doc, dict):
         raise InputError(f"corrupt summary.json: expected a mapping, got {type(doc).__name__}", path=run_dir)
     return doc
@@ -112,8 +114,8 @@ def is_complete_run(run_dir: Path) -> bool:
     """True if ``run_dir`` holds a finished run: summary.json with every key, not interrupted, and every file
     the manifest lists (summary.json among them) present with its recorded size and sha256."""
     try:
-        s = json.loads(read_input_text(Path(run_dir) / SUMMARY, SUMMARY))
-    except (InputError, json.JSONDecodeError):
+        s = read_input_json(Path(run_dir) / SUMMARY, SUMMARY)
+    except InputError:
         return False
     if not isinstance(s, dict) or not all(k in s for k in SUMMARY_KEYS) or s.get("status") in ("interrupted", "running"):
         return False

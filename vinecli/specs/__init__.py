@@ -78,12 +78,14 @@ def expanded_size(data: Any, limit: int) -> int:
     """
     sizes: dict[int, int] = {}
     active: set[int] = set()
+    shared = [False]  # a container counted more than once: the file uses aliases
 
     def size(obj: Any) -> int:
         if not isinstance(obj, (dict, list)):
             return 1
         key = id(obj)
         if key in sizes:
+            shared[0] = True
             return sizes[key]
         if key in active:
             raise ValueError("a YAML alias refers to itself (recursive structure)")
@@ -93,7 +95,8 @@ def expanded_size(data: Any, limit: int) -> int:
         for item in items:
             n += size(item)
             if n > limit:
-                raise ValueError(f"the file expands to more than {limit:,} values (YAML aliases: an alias bomb?)")
+                why = " (YAML aliases: an alias bomb?)" if shared[0] else " (split it, or simplify what it lists)"
+                raise ValueError(f"the file expands to more than {limit:,} values{why}")
         active.discard(key)
         sizes[key] = n
         return n

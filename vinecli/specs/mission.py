@@ -17,6 +17,7 @@ from vinecli.specs import StrictModel
 from vinecli.specs.limits import (
     MAX_DISTANCE_M,
     MAX_DURATION_S,
+    MAX_FENCE_VERTICES,
     MAX_HEIGHT_M,
     MAX_RATE_HZ,
     MAX_SPEED_MPS,
@@ -24,6 +25,7 @@ from vinecli.specs.limits import (
     Vec3Coord,
     Vec3Speed,
     WaypointEnu,
+    over_limit,
 )
 from vinecli.specs.wind import WindSpec
 from vinecli.spray_defaults import SPRAY_DEFAULTS
@@ -37,7 +39,8 @@ class TakeoffPhase(StrictModel):
     altitude_agl_m: float = Field(gt=0, le=MAX_HEIGHT_M, description="target height above home, m")
     climb_speed_mps: float | None = Field(None, gt=0, le=MAX_SPEED_MPS, description="default: vehicle max_vel_up")
     tolerance_m: float = Field(0.3, gt=0, le=MAX_DISTANCE_M, description="phase ends when within this of the target")
-    timeout_s: float = Field(30.0, gt=0, le=MAX_DURATION_S)
+    timeout_s: float = Field(30.0, gt=0, le=MAX_DURATION_S,
+                             description="s the take-off may take beyond the climb itself (altitude / climb speed)")
 
 
 class HoldPhase(StrictModel):
@@ -135,13 +138,15 @@ class SprayerPhase(StrictModel):
 class LandPhase(StrictModel):
     type: Literal["land"] = "land"
     descent_speed_mps: float = Field(0.7, gt=0, le=MAX_SPEED_MPS)
-    timeout_s: float = Field(60.0, gt=0, le=MAX_DURATION_S)
+    timeout_s: float = Field(60.0, gt=0, le=MAX_DURATION_S,
+                             description="s the land may take beyond the descent itself (its height / descent_speed_mps)")
 
 
 class RtlPhase(StrictModel):
     type: Literal["rtl"] = "rtl"
     return_altitude_agl_m: float = Field(5.0, gt=0, le=MAX_HEIGHT_M)
-    timeout_s: float = Field(180.0, gt=0, le=MAX_DURATION_S)
+    timeout_s: float = Field(180.0, gt=0, le=MAX_DURATION_S,
+                             description="s the return may take beyond its nominal climb, flight home and descent")
 
 
 class InitialState(StrictModel):
@@ -192,6 +197,9 @@ class GeofenceSpec(StrictModel):
     def _polygon(self) -> GeofenceSpec:
         if self.polygon_enu is not None and len(self.polygon_enu) < 3:
             raise ValueError("polygon_enu needs at least 3 vertices")
+        problem = over_limit("fence vertices", len(self.polygon_enu or ()), MAX_FENCE_VERTICES, "simplify the fence")
+        if problem:
+            raise ValueError(problem)
         return self
 
 

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError, TerrainError
-from vinecli.inputs import note_input, require_regular_file
+from vinecli.inputs import note_input, read_input_json, require_regular_file
 
 log = logging.getLogger(__name__)
 
@@ -301,15 +301,14 @@ def read_format_json(directory: Path, kind: str, fmt: str) -> dict[str, Any]:
 
     InputError naming the file (or the directory when it is not a ``kind`` directory) otherwise.
     """
-    import json
 
     js = directory / f"{kind}.json"
     if not js.is_file():
         raise InputError(f"not a {kind} directory (no {kind}.json)", path=directory)
     try:
-        meta = json.loads(js.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"unreadable {kind}.json ({exc})", path=js) from exc
+        meta = read_input_json(js, f"{kind}.json")
+    except InputError as exc:
+        raise InputError(f"unreadable {kind}.json ({exc.problem})", path=js) from None
     if meta.get("format") != fmt:
         raise InputError(f"unknown {kind} format {meta.get('format')!r} (expected {fmt})", path=js)
     return meta

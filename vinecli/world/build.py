@@ -17,6 +17,7 @@ from typing import Any
 from vinecli.autopilot.preflight import PreflightFailure, check_spawn_fence, check_tilt, fence_margins_m
 from vinecli.errors import InputError, SpecError
 from vinecli.geo import GeoOrigin
+from vinecli.gis.read import gis_files
 from vinecli.inputs import note_input, reading_inputs
 from vinecli.outputs import Manifest, atomic_output_dir, contained_path, write_json
 from vinecli.specs import load_spec
@@ -63,7 +64,8 @@ def world_spec_inputs(spec_path: Path) -> tuple[WorldSpec, VehicleSpec]:
     for src in _terrain_sources(spec.terrain):
         note_input(_resolve(base, Path(src)), "terrain source")
     for src in gis_sources(spec.gis, base):
-        note_input(src, "GIS file")
+        for part in gis_files(src):  # a Shapefile's .shx, .dbf, .prj... too; refused early when one is missing
+            note_input(part, "GIS file")
     veh_arg: str | Path = spec.vehicle
     if spec.vehicle.endswith(SPEC_SUFFIXES) or "/" in spec.vehicle:
         veh_arg = spec_reference(spec.vehicle, spec_path, "vehicle")

@@ -36,7 +36,6 @@
 
 from __future__ import annotations
 
-import json
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,7 +48,7 @@ from vinecli.errors import InputError, SpecError
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
 from vinecli.gis.georef import world_geo_origin
-from vinecli.inputs import note_input, read_input_text
+from vinecli.inputs import note_input, read_input_json
 from vinecli.specs import format_validation_error
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import VehicleSpec
@@ -145,11 +144,9 @@ def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
         raise SpecError("not a built world (no world.json; run `vinecli world build`)", path=root)
     note_input(root, "world")
     try:
-        d = json.loads(read_input_text(wj, "world.json"))
+        d = read_input_json(wj, "world.json")
     except InputError as exc:
         raise SpecError(exc.problem, path=wj) from None
-    except json.JSONDecodeError as exc:
-        raise SpecError(f"cannot read world.json: {exc}", path=wj) from None
     if not isinstance(d, dict):
         raise SpecError(f"corrupt world.json: expected a mapping, got {type(d).__name__}", path=wj)
     if d.get("schema") != SCHEMA:

@@ -15,7 +15,15 @@ from vinecli.constants import STANDARD_GRAVITY
 from vinecli.names import SafeName
 from vinecli.specs import StrictModel
 from vinecli.specs.canopy import AirSpec, CanopySpec
-from vinecli.specs.limits import MAX_DISTANCE_M, MAX_ORIGIN_ALT_M, MIN_ORIGIN_ALT_M, Coord, Vec2Coord
+from vinecli.specs.limits import (
+    MAX_DISTANCE_M,
+    MAX_ORIGIN_ALT_M,
+    MAX_ROW_VERTICES,
+    MIN_ORIGIN_ALT_M,
+    Coord,
+    Vec2Coord,
+    over_limit,
+)
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import DEFAULT_VEHICLE
 from vinecli.specs.wind import WindSpec
@@ -146,4 +154,8 @@ class WorldSpec(StrictModel):
         if self.gis is not None and self.gis.fence is not None and self.geofence is not None \
                 and self.geofence.polygon_enu is not None:
             raise ValueError("fence given twice: 'geofence.polygon_enu' and 'gis.fence'")
+        if isinstance(self.rows, list):
+            problem = over_limit("row vertices", sum(len(r) for r in self.rows), MAX_ROW_VERTICES, "simplify the rows")
+            if problem:
+                raise ValueError(problem)
         return self
