@@ -139,3 +139,69 @@ def match_rows(rows: list[list[tuple[float, float]]], truth: list[np.ndarray]) -
         err = lateral_errors(rows[k], tr)
         out.append((k, float(err.max()) if err.size else math.inf, LineString(rows[k]).length / tl.length))
     return out
+
+
+@dataclass
+class YoungCrop:
+    """A young row crop as a 1 cm drone DSM sees it (issue 32 class 12): single plants (``radius_m`` across, up to
+    ``tall_m`` high, every ``step_m`` along the rows, ``missing`` of them absent) on rough bare soil (correlated
+    roughness at 3 and 15 cm, clods 2-6 cm across, a tilt, wheel tracks between every 4th pair of rows). Most of the
+    relief is soil and plant-vs-gap along the rows: the comb explains 11-13 % of it."""
+
+    width_m: float = 9.0
+    height_m: float = 6.0
+    res_m: float = 0.01
+    spacing_m: float = 0.77
+    direction_deg: float = 0.0
+    step_m: float = 0.17
+    radius_m: float = 0.07
+    tall_m: float = 0.15
+    missing: float = 0.15
+    rough_m: float = 0.012
+    offset_m: float = 0.1
+    seed: int = 0
+
+    def _frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        x = (np.arange(int(round(self.width_m / self.res_m))) + 0.5) * self.res_m - self.width_m / 2
+        y = (np.arange(int(round(self.height_m / self.res_m))) + 0.5) * self.res_m - self.height_m / 2
+        X, Y = np.meshgrid(x, y)
+        th = math.radians(self.direction_deg)
+        return x, y, X * math.cos(th) + Y * math.sin(th), -X * math.sin(th) + Y * math.cos(th)
+
+    def row_offsets(self) -> list[float]:
+        """Lateral offsets (m, along the left normal) of the rows inside the grid."""
+        _, _, _, s = self._frame()
+        k0, k1 = int(math.floor((s.min() - self.offset_m) / self.spacing_m)), int(math.ceil((s.max() - self.offset_m) / self.spacing_m))
+        return [self.offset_m + k * self.spacing_m for k in range(k0, k1 + 1)
+                if s.min() + 0.1 <= self.offset_m + k * self.spacing_m <= s.max() - 0.1]
+
+    def heights(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z[j, i], x[i], y[j]): the field's heights, m."""
+        from scipy.ndimage import gaussian_filter
+
+        rng = np.random.default_rng(self.seed)
+        x, y, t, s = self._frame()
+        X, Y = np.meshgrid(x, y)
+        z = 200.0 + 0.02 * X + 0.01 * Y
+        fine = gaussian_filter(rng.normal(size=X.shape), 3)
+        z += self.rough_m * fine / fine.std() + 1.5 * self.rough_m * gaussian_filter(rng.normal(size=X.shape), 15) / 0.02
+        for _ in range(int(self.width_m * self.height_m * 3)):  # clods
+            cx, cy, r = rng.uniform(x[0], x[-1]), rng.uniform(y[0], y[-1]), rng.uniform(0.02, 0.06)
+            d2 = (X - cx) ** 2 + (Y - cy) ** 2
+            z += np.where(d2 < r * r, rng.uniform(0.01, 0.04) * np.sqrt(np.clip(1 - d2 / (r * r), 0, 1)), 0.0)
+        canopy = np.zeros_like(z)
+        for sc in self.row_offsets():
+            tt = float(t.min()) + rng.uniform(0, self.step_m)
+            while tt < t.max():
+                if rng.random() > self.missing:
+                    r, h = self.radius_m * rng.uniform(0.6, 1.3), self.tall_m * rng.uniform(0.5, 1.4)
+                    ps, pt = sc + rng.normal(0, 0.02), tt + rng.normal(0, 0.02)
+                    sel = (np.abs(s - ps) < r) & (np.abs(t - pt) < r)
+                    d2 = (s[sel] - ps) ** 2 + (t[sel] - pt) ** 2
+                    leaf = h * np.clip(1 - d2 / (r * r), 0, 1) ** 0.5 * (0.6 + 0.4 * rng.random(d2.shape))
+                    canopy[sel] = np.maximum(canopy[sel], leaf)
+                tt += self.step_m * rng.uniform(0.7, 1.3)
+        z = z + canopy
+        for sc in self.row_offsets()[::4]:  # wheel tracks
+            z -= 0.03 * np.exp(-((s - sc - self.spacing_m / 2) / 0.15) ** 2)
+        return z, x, y

@@ -20,15 +20,16 @@ FOUND = {
     "grass-between-rows": Field(width_m=40, height_m=30, res_m=0.05, direction_deg=-25.0, spacing_m=2.2, n_rows=11,
                                 t_range=(-17, 17), canopy_m=1.4, canopy_half_m=0.35, noise_m=0.02, grass_m=0.15,
                                 seed=3),
+    # young vines as single plants 0.5 m tall, 0.4 m across, 1.1 m apart, 15 % missing: rows a person sees. The comb
+    # explains only 8 % of the relief (most of it is plant-vs-gap along the rows), but 40-45 % of the relief averaged
+    # along the rows (issue 32: refused before, as the DSM could not resolve them)
+    "young-sparse": Field(width_m=40, height_m=30, res_m=0.05, direction_deg=17.0, spacing_m=2.4, n_rows=10,
+                          t_range=(-17, 17), canopy_m=0.5, canopy_half_m=0.2, plants_m=1.1, plant_frac=0.2,
+                          missing=0.15, noise_m=0.02, slope=(0.06, 0.02), seed=1),
 }
 
 #: cases the detector refuses, with the phrase of the evidence it must give
 REFUSED = {
-    # young vines as single plants 0.5 m tall, 0.4 m across, 1.1 m apart, 15 % missing: the comb explains < 30 %
-    # of the relief (most of it is plant-vs-gap along the rows)
-    "young-sparse": (Field(width_m=40, height_m=30, res_m=0.05, direction_deg=17.0, spacing_m=2.4, n_rows=10,
-                           t_range=(-17, 17), canopy_m=0.5, canopy_half_m=0.2, plants_m=1.1, plant_frac=0.2,
-                           missing=0.15, noise_m=0.02, slope=(0.06, 0.02), seed=1), "cannot tell|no row"),
     # the same young vines with grass strips 0-0.4 m between them: the grass has the larger mean relief, so the
     # comb runs along the grass; the tallest plants are between its lines
     "young-sparse-in-grass": (Field(width_m=40, height_m=30, res_m=0.05, direction_deg=62.0, spacing_m=2.4, n_rows=9,
@@ -52,7 +53,7 @@ def test_young_vines_and_grass_found_within_bounds(name: str) -> None:
     assert max(err for _, err, _ in matches) <= 0.10
     assert min(ratio for _, _, ratio in matches) >= 0.75  # rows over their length inside the grid
     assert d.spacing_m == pytest.approx(f.spacing_m, rel=0.01)
-    assert d.confidence >= 0.8
+    assert d.confidence >= (0.7 if name == "young-sparse" else 0.8)  # single plants: less support per strip
 
 
 @pytest.mark.parametrize("name", list(REFUSED))

@@ -21,7 +21,10 @@ app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> miss
 def rows_cmd(
     source: Annotated[Path, typer.Argument(help="A DSM GeoTIFF or a built world directory.")],
     out: Annotated[Path, out_option("The .plan file to write (OUT-stem.rows.geojson, WGS84, goes beside it).")],
-    spacing: Annotated[float | None, typer.Option("--spacing", help="Expected row spacing, m (default: search 0.5-6 m).")] = None,
+    spacing: Annotated[float | None, typer.Option("--spacing", help="Row spacing, m (default: search 0.5-6 m); with it, "
+                                                  "detection confirms this spacing instead of judging whether there are rows.")] = None,
+    bearing: Annotated[float | None, typer.Option("--bearing", help="Rows' compass bearing, deg from north (0-180); "
+                                                  "confirmed like --spacing.")] = None,
     height: Annotated[float, typer.Option("--height", help="Spray height above the canopy surface, m.")
                       ] = SPRAY_DEFAULTS.height_m,
     speed: Annotated[float, typer.Option("--speed", help="Ground speed along the rows, m/s.")] = SPRAY_DEFAULTS.speed_mps,
@@ -46,7 +49,7 @@ def rows_cmd(
     """
     from vinecli.missions.rowjob import plan_rows_job
 
-    job = plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
+    job = plan_rows_job(source, out, spacing=spacing, bearing=bearing, height=height, speed=speed, flow=flow, takeoff=takeoff,
                         detect=detect, world_rows=use_world_rows, vehicle=vehicle, tank_l=tank,
                         fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
     if job.detection is not None:

@@ -53,7 +53,8 @@ def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
 
 
-def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = SPRAY_DEFAULTS.height_m,
+def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, bearing: float | None = None,
+                  height: float = SPRAY_DEFAULTS.height_m,
                   speed: float = SPRAY_DEFAULTS.speed_mps, flow: float = SPRAY_DEFAULTS.flow_lps,
                   takeoff: float = SPRAY_DEFAULTS.takeoff_m, detect: bool = False, world_rows: bool = False,
                   vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
@@ -63,12 +64,17 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
     (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
     rows are flown, only the headland turns are kept over the surveyed ground). Every file is checked before
     the first is written: none may be an input, or replace an existing file without ``overwrite``
-    (OutputError, exit 2, nothing written)."""
+    (OutputError, exit 2, nothing written). ``spacing`` (m) and ``bearing`` (deg from north): the rows' pattern as
+    the user knows it, which detection confirms (:func:`vinecli.rows.detect.detect_rows_grid`)."""
+    if spacing is not None:
+        check_range("--spacing", spacing, 0.2, 20.0)
+    if bearing is not None:
+        check_range("--bearing", bearing, 0.0, 360.0)
     with reading_inputs():
         note_input(source, "world" if source.is_dir() else "DSM")
         _check_targets([out, _geojson_path(out), *([mission_out] if mission_out is not None else [])], overwrite)
-        return _plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
-                              detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
+        return _plan_rows_job(source, out, spacing=spacing, bearing=bearing, height=height, speed=speed, flow=flow,
+                              takeoff=takeoff, detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
                               fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
 
 
@@ -102,7 +108,8 @@ def _geojson_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.rows.geojson")
 
 
-def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: float, speed: float, flow: float,
+def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, bearing: float | None, height: float, speed: float,
+                   flow: float,
                    takeoff: float, detect: bool, world_rows: bool, vehicle: str | None, tank_l: float | None,
                    fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
                    overwrite: bool) -> RowsJob:
@@ -130,7 +137,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         elif w.terrain.grid is None:
             raise InputError("the world has flat terrain: no rows to detect", path=source)
         else:
-            det = detect_rows_on_grid(w.terrain.grid, spacing_m=spacing)
+            det = detect_rows_on_grid(w.terrain.grid, spacing_m=spacing, bearing_deg=bearing)
             rows = det.rows
         fence = list(w.geofence.polygon_enu) if w.geofence is not None and w.geofence.polygon_enu else None
         xmin, ymin, xmax, ymax = w.terrain.bounds
@@ -145,7 +152,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
             raise InputError("--world-rows needs a world directory", path=source)
         from vinecli.rows.source import detect_rows_in_dsm
 
-        dsm = detect_rows_in_dsm(source, spacing_m=spacing)
+        dsm = detect_rows_in_dsm(source, spacing_m=spacing, bearing_deg=bearing)
         det, frame, rows = dsm.detection, dsm.frame, dsm.detection.rows
         if dsm.origin is None:
             raise InputError("the DSM has no CRS: a .plan needs latitude/longitude (build a world with origin: "

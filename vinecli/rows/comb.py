@@ -28,6 +28,9 @@ __all__ = ["Comb", "RowKnots", "Strips", "comb_of", "eval_row", "fit_row", "make
 
 #: a window whose comb explains less of the relief variance than this is not part of a row field
 MIN_WINDOW_R2 = 0.25
+#: ... or whose comb explains less than this share of its lateral profile (the relief averaged along the rows: young
+#: plants with bare soil between them along a row; the no-row rasters' windows stay below 0.25 at their 90th percentile)
+MIN_WINDOW_R2_PROFILE = 0.3
 #: a strip whose windows explain less than this share of the relief has no comb phase of its own
 MIN_PHASE_R2 = 0.1
 
@@ -72,6 +75,7 @@ class Comb:
     w_edges: np.ndarray
     r2_field: float
     t_centre: np.ndarray
+    r2_profile: np.ndarray | None = None
 
     def shift(self, t: np.ndarray) -> np.ndarray:
         """The shift all rows share (m across) at positions ``t`` along the rows: ``delta`` between the strip
@@ -120,7 +124,8 @@ def _comb_pass(st: Strips, p: float, skew: np.ndarray) -> Comb:
     with np.errstate(invalid="ignore", divide="ignore"):
         r2 = np.where((cnt >= 16) & (var > 0), 2.0 * np.abs(a) ** 2 / (np.maximum(cnt, 1) * var), 0.0)
     r2 = np.clip(r2, 0.0, 1.0)
-    region = r2 >= MIN_WINDOW_R2
+    r2p = _profile_r2(st, p, skew, edges, w, h, cnt)
+    region = (r2 >= MIN_WINDOW_R2) | (r2p >= MIN_WINDOW_R2_PROFILE)
     if region.shape[0] >= 3 and region.shape[1] >= 3:  # single windows in noise out, single holes in rows closed
         region = binary_opening(binary_closing(region, np.ones((3, 1)), border_value=1), np.ones((2, 1))) & (cnt > 0)
     have = cnt >= 16
@@ -129,7 +134,7 @@ def _comb_pass(st: Strips, p: float, skew: np.ndarray) -> Comb:
     # a strip has a phase of its own where a good part of it shows the comb, even faintly (rows ending inside it);
     # elsewhere (past the rows' ends, a corner of the grid) its shift is interpolated from its neighbours
     per_strip = cnt.sum(axis=1)
-    combed = np.where(r2 >= MIN_PHASE_R2, cnt, 0).sum(axis=1)
+    combed = np.where((r2 >= MIN_PHASE_R2) | (r2p >= MIN_WINDOW_R2_PROFILE), cnt, 0).sum(axis=1)
     good = (np.abs(amp) > 0) & (combed >= 0.25 * float(np.median(per_strip[per_strip > 0])))
     phase = -np.angle(amp)
     delta = np.zeros(n_k)
@@ -138,7 +143,33 @@ def _comb_pass(st: Strips, p: float, skew: np.ndarray) -> Comb:
         unwrapped = np.unwrap(phase[ks])
         delta = np.interp(np.arange(n_k), ks, unwrapped) * p / (2 * np.pi)
     skew = np.gradient(delta, st.t_centre) if n_k >= 2 else np.zeros(n_k)
-    return Comb(p, delta, skew, r2, region, edges, r2_field, st.t_centre)
+    return Comb(p, delta, skew, r2, region, edges, r2_field, st.t_centre, r2p)
+
+
+def _profile_r2(st: Strips, p: float, skew: np.ndarray, edges: np.ndarray, w: np.ndarray, h: np.ndarray,
+                cnt: np.ndarray) -> np.ndarray:
+    """Per strip and window, the share of the variance of the *lateral profile* (the relief averaged along the strip
+    in bins of an eighth of a spacing) the comb explains. Averaging along the rows first takes out what the comb
+    cannot model and rows do not need: young plants and the bare soil between them along a row."""
+    n_k, n_w = cnt.shape
+    nb = max(8, int(math.ceil((edges[1] - edges[0]) / (p / 8))))
+    bin_m = (edges[1] - edges[0]) / nb
+    s_eff = st.s - skew[st.k] * (st.t - st.t_centre[st.k])
+    b = np.clip(((st.s - edges[w]) / bin_m).astype(int), 0, nb - 1)
+    idx = (st.k * n_w + w) * nb + b
+    size = n_k * n_w * nb
+    c = np.bincount(idx, minlength=size).reshape(n_k, n_w, nb)
+    m = np.bincount(idx, weights=h, minlength=size).reshape(n_k, n_w, nb) / np.maximum(c, 1)
+    pos = np.bincount(idx, weights=s_eff, minlength=size).reshape(n_k, n_w, nb) / np.maximum(c, 1)
+    have = c > 0
+    nh = have.sum(axis=2)
+    mean = np.where(have, m, 0.0).sum(axis=2) / np.maximum(nh, 1)
+    d = np.where(have, m - mean[..., None], 0.0)
+    var = (d ** 2).sum(axis=2)
+    a = (d * np.exp(-2j * np.pi * pos / p)).sum(axis=2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r2p = np.where((nh >= nb // 2) & (cnt >= 16) & (var > 0), 2.0 * np.abs(a) ** 2 / (np.maximum(nh, 1) * var), 0.0)
+    return np.clip(r2p, 0.0, 1.0)
 
 
 def _strip_means(st: Strips) -> np.ndarray:

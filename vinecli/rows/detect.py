@@ -138,12 +138,14 @@ class RowEvidence:
     r2_field: float
     r2_rows: float
     row_area_fraction: float
+    r2_profile: float = 0.0  # the share of the lateral profiles' variance (relief averaged along the rows)
 
     def describe(self) -> str:
         """The evidence in one phrase."""
         return (f"best periodic pattern {self.spacing_m:.2f} m at {self.direction_deg:.0f} deg from east: spectral "
                 f"peak {self.strength:.0f}x the median power at its wavelength (rows: >= {MIN_STRENGTH:.0f}x), the comb explains "
-                f"{100 * self.r2_field:.0f} % of the relief variance (rows: >= {100 * MIN_R2:.0f} %), "
+                f"{100 * self.r2_field:.0f} % of the relief variance and {100 * self.r2_profile:.0f} % of its profile "
+                f"across the rows ({100 * self.r2_rows:.0f} % over the row field; rows: >= {100 * MIN_R2:.0f} %), "
                 f"{100 * self.row_area_fraction:.0f} % of the area row-like")
 
 
@@ -151,6 +153,15 @@ class RowEvidence:
 MIN_STRENGTH = 100.0
 MIN_R2 = 0.3
 MIN_ROW_AREA = 0.05
+#: young sparse crops (plants with bare soil between them along the rows, clods and wheel tracks across): their
+#: spectral peak is weaker (the plants spread the rows' power over many wavenumbers), so a peak of this much also
+#: counts when the comb explains the lateral profiles over a good part of the field (the no-row rasters: peaks of
+#: 18-44x, profiles 2-7 %)
+MIN_STRENGTH_SPARSE = 50.0
+MIN_PROFILE_R2_SPARSE = 0.25
+MIN_ROW_AREA_SPARSE = 0.25
+#: with the user's spacing or bearing: the comb's share over the row field that confirms it
+MIN_R2_GIVEN = 0.25
 
 
 class NoRowsError(TerrainError):
@@ -169,6 +180,7 @@ def detect_rows_grid(
     min_spacing_m: float = 0.5,
     max_spacing_m: float = 6.0,
     spacing_m: float | None = None,
+    bearing_deg: float | None = None,
     min_length_m: float | None = None,
     max_gap_m: float = 4.0,
     min_prominence: float = 0.3,
@@ -176,7 +188,9 @@ def detect_rows_grid(
 ) -> RowDetection:
     """Detect rows in a regular height grid ``z[j, i]`` at ``x[i]``, ``y[j]`` (m, uniform; NaN = no data).
 
-    ``spacing_m`` fixes the expected spacing (searched within ±25 %). Rows shorter than ``min_length_m``
+    ``spacing_m`` fixes the expected spacing (searched within ±25 %), ``bearing_deg`` the rows' compass bearing (deg
+    from north, clockwise; searched within 1.5 deg): the user's pattern, which detection then confirms rather than
+    vetoes (:func:`_refuse_without_rows`: refused only when the DSM shows no rows at it). Rows shorter than ``min_length_m``
     (default: 3 spacings or two strips) are dropped; a row with no canopy over more than ``max_gap_m`` is two
     rows. A row is seen in a strip where its contrast (peak over the inter-row ground) is at least
     ``min_prominence`` x the field's 90th percentile. Grids larger than ``max_cells`` are block-averaged first.
@@ -190,7 +204,11 @@ def detect_rows_grid(
     z, x, y = decimate(z, x, y, max_cells)
     zz, valid = fill_and_detrend(z)
     lo, hi = (spacing_m * 0.75, spacing_m * 1.25) if spacing_m else (min_spacing_m, max_spacing_m)
-    nvec, p, strength = direction_and_spacing(zz, valid, x, y, lo, hi)
+    normal = None
+    if bearing_deg is not None:  # bearing: from north, clockwise; the rows' direction from east, counter-clockwise
+        d = math.radians(90.0 - bearing_deg)
+        normal = np.array([-math.sin(d), math.cos(d)])
+    nvec, p, strength = direction_and_spacing(zz, valid, x, y, lo, hi, normal)
     cell = min(abs(float(x[1] - x[0])), abs(float(y[1] - y[0])))
     relief = relief_of(np.where(valid, z, np.nan), valid, p / cell)
     u = np.array([-nvec[1], nvec[0]])
@@ -203,10 +221,8 @@ def detect_rows_grid(
     s, t, h = X[ok] * n[0] + Y[ok] * n[1], X[ok] * u[0] + Y[ok] * u[1], relief[ok]
     st = make_strips(s, t, h, max(1.5 * p, 4 * cell), min(cell, p / 8))
     comb = comb_of(st, p)
-    ev = RowEvidence(round(p, 3), round(direction, 1), round(strength, 1), round(comb.r2_field, 3),
-                     round(float(np.median(comb.r2[comb.region])) if comb.region.any() else 0.0, 3),
-                     round(float(comb.region.mean()), 3))
-    _refuse_without_rows(ev)
+    ev = _evidence(comb, p, direction, strength)
+    _refuse_without_rows(ev, given=spacing_m is not None or bearing_deg is not None)
     _refuse_rows_between_rows(st, comb, ev)
     kn = row_knots(st, comb)
 
@@ -231,10 +247,32 @@ def detect_rows_grid(
     return det
 
 
-def _refuse_without_rows(ev: RowEvidence) -> None:
-    """NoRowsError unless the grid shows a row pattern: a clear spectral peak, a comb explaining a good share
-    of the relief variance over the row field, and a row field of some size."""
-    if ev.strength < MIN_STRENGTH or ev.r2_rows < MIN_R2 or ev.row_area_fraction < MIN_ROW_AREA:
+def _evidence(comb: Comb, p: float, direction: float, strength: float) -> RowEvidence:
+    """What the comb measured: the share of the relief variance it explains over all windows (cells, and lateral
+    profiles) and over the row field (the better of the two per window: sparse young plants explain little of
+    the cells' variance, which is plant-or-soil along the rows, and much of the profile's)."""
+    r2p = comb.r2_profile if comb.r2_profile is not None else comb.r2
+    have = comb.r2 > 0
+    best = np.maximum(comb.r2, r2p)
+    return RowEvidence(round(p, 3), round(direction, 1), round(strength, 1), round(comb.r2_field, 3),
+                       round(float(np.median(best[comb.region])) if comb.region.any() else 0.0, 3),
+                       round(float(comb.region.mean()), 3),
+                       round(float(np.median(r2p[have])) if have.any() else 0.0, 3))
+
+
+def _refuse_without_rows(ev: RowEvidence, *, given: bool = False) -> None:
+    """NoRowsError unless the grid shows a row pattern: a clear spectral peak (or, on a sparse young crop, a fair one
+    with the comb explaining the lateral profiles over a good part of the field), a comb explaining a good share of
+    the relief variance over the row field, and a row field of some size. ``given``: the user gave the spacing or
+    the bearing: detection only confirms that pattern, so no spectral peak is asked for, only a row field where the
+    comb explains the relief at it (land without rows still has none)."""
+    if given:
+        if ev.r2_rows < MIN_R2_GIVEN or ev.row_area_fraction < MIN_ROW_AREA:
+            raise NoRowsError(f"no rows at the given pattern: {ev.describe()}", ev)
+        return
+    sparse = (ev.strength >= MIN_STRENGTH_SPARSE and ev.r2_profile >= MIN_PROFILE_R2_SPARSE
+              and ev.row_area_fraction >= MIN_ROW_AREA_SPARSE)
+    if (ev.strength < MIN_STRENGTH and not sparse) or ev.r2_rows < MIN_R2 or ev.row_area_fraction < MIN_ROW_AREA:
         raise NoRowsError(f"no row pattern: {ev.describe()}", ev)
 
 

@@ -68,14 +68,17 @@ def _profile(s: np.ndarray, h: np.ndarray, step: float) -> tuple[np.ndarray, np.
     return axis, np.interp(axis, pos, prof)
 
 
-def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float) -> tuple[float, float]:
-    """(frequency of the fundamental near ``k_guess``, its amplitude) of the profile along ``s``."""
+def _profile_peak(s: np.ndarray, h: np.ndarray, step: float, k_guess: float, k_lo: float | None = None,
+                  k_hi: float | None = None) -> tuple[float, float]:
+    """(frequency of the fundamental near ``k_guess``, or of the sharpest peak in [``k_lo``, ``k_hi``], its
+    amplitude) of the profile along ``s``."""
     axis, prof = _profile(s, h, step)
     pw = prof * np.hanning(prof.size)
     nfft = 1 << int(math.ceil(math.log2(prof.size * 16)))
     ps = np.abs(np.fft.rfft(pw - pw.mean(), nfft))
     fr = np.fft.rfftfreq(nfft, step)
-    idx = np.flatnonzero((fr >= 0.8 * k_guess) & (fr <= 1.25 * k_guess))
+    lo_f, hi_f = (0.8 * k_guess, 1.25 * k_guess) if k_lo is None or k_hi is None else (k_lo, k_hi)
+    idx = np.flatnonzero((fr >= lo_f) & (fr <= hi_f))
     if idx.size == 0:  # the guess is beyond the profile's Nyquist frequency (a spacing of about one cell)
         return k_guess, 0.0
     k = int(idx[int(np.argmax(ps[idx]))])
@@ -108,14 +111,40 @@ def tensor_normal(zz: np.ndarray, valid: np.ndarray, spacing_cells: float) -> np
     return np.array([math.cos(th), math.sin(th)])
 
 
+def _along_normal(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, normal: np.ndarray, lo: float,
+                  hi: float, ratio: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """:func:`direction_and_spacing` along a given normal: the lateral profile's sharpest peak in the spacing band
+    (within 1.5 deg of it), and the spectrum's strength at that wavenumber."""
+    X, Y = np.meshgrid(x, y)
+    Xv, Yv, h = X[valid], Y[valid], zz[valid]
+    step = min(abs(float(x[1] - x[0])), abs(float(y[1] - y[0])))
+    theta0 = math.atan2(normal[1], normal[0])
+    best: tuple[float, float, float] | None = None
+    for dth in np.radians(np.arange(-1.5, 1.55, 0.25)):
+        nv = np.array([math.cos(theta0 + dth), math.sin(theta0 + dth)])
+        f_, amp = _profile_peak(Xv * nv[0] + Yv * nv[1], h, step, 1.0 / lo, 1.0 / hi, 1.0 / lo)
+        if amp > 0 and (best is None or amp > best[2]):
+            best = (float(dth), f_, amp)
+    if best is None:
+        raise TerrainError("the spacing band is outside what the grid resolves")
+    nvec = np.array([math.cos(theta0 + best[0]), math.sin(theta0 + best[0])])
+    k = nvec * best[1] * (1.0 if nvec[0] >= 0 else -1.0)  # rfft2 holds kx >= 0
+    j, i = _bin_of(float(k[0]), float(k[1]), float(kx[0, 1]), float(ky[1, 0]), ratio.shape[0])
+    j0, i0 = max(j - 1, 0), max(i - 1, 0)
+    strength = float(ratio[j0:j + 2, i0:i + 2].max()) if ratio[j0:j + 2, i0:i + 2].size else 0.0
+    return nvec, 1.0 / best[1], strength
+
+
 def _bin_of(kx: float, ky: float, dkx: float, dky: float, ny: int) -> tuple[int, int]:
     """(row, column) of the rfft2 bin nearest to the wavenumber (kx >= 0, ky), cycles/m."""
     return int(round(ky / dky)) % ny, int(round(kx / dkx))
 
 
-def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, lo: float, hi: float
-                           ) -> tuple[np.ndarray, float, float]:
-    """(unit normal to the rows, spacing m, spectral strength) of the detrended grid ``zz``."""
+def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, lo: float, hi: float,
+                          normal: np.ndarray | None = None) -> tuple[np.ndarray, float, float]:
+    """(unit normal to the rows, spacing m, spectral strength) of the detrended grid ``zz``. ``normal``: the rows'
+    normal the user gave (the spacing is then searched along it, within 1.5 deg, and the strength is the spectrum's
+    at that wavenumber)."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     ny, nx = zz.shape
     win = np.outer(np.hanning(ny), np.hanning(nx))
@@ -138,6 +167,8 @@ def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: n
     for v, chunk in zip(vals, np.split(spec[band][order], starts[1:]), strict=True):
         ring_med[v] = float(np.median(chunk))
     ratio = np.where(band, spec / np.maximum(ring_med[ring], 1e-30), 0.0)
+    if normal is not None:
+        return _along_normal(zz, valid, x, y, np.asarray(normal, float), lo, hi, ratio, kx, ky)
     j, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     for m in (6, 5, 4, 3, 2):  # the peak may be a harmonic of the row profile (narrow canopies: up to the 6th): the
         # fundamental, the lowest frequency that is there
