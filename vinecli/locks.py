@@ -15,6 +15,7 @@ Locks are re-entrant within a process (a batch worker's run id, a run that write
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import os
 import threading
@@ -24,7 +25,7 @@ from pathlib import Path
 
 from vinecli.errors import OutputError
 
-__all__ = ["lock_path", "output_lock", "remove_if_free"]
+__all__ = ["MARK", "lock_path", "output_lock", "remove_if_free", "try_lock", "unlock"]
 
 _HELD: dict[Path, int] = {}  # lock file (absolute) -> nesting depth, in this process
 _GUARD = threading.Lock()
@@ -48,19 +49,17 @@ def _holder(path: Path) -> str:
     return f"pid {pid}" if pid.isdigit() else "another process"
 
 
-def _acquire(path: Path, what: Path) -> int:
-    """Lock ``path`` (created if needed) for this process; returns the open descriptor."""
+def try_lock(path: Path) -> int | None:
+    """Lock the file ``path`` (created if needed) for this process, writing its pid and :data:`MARK` into it: the
+    open descriptor, or None when another process holds it. A file its previous holder removed after it was opened
+    is noticed (the path no longer names the locked inode) and the new one locked. OSError when it cannot be made."""
     for _ in range(100):
-        try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0), 0o666)
-        except OSError as exc:
-            raise OutputError(f"cannot create the lock file {path.name} ({exc.strerror})", path=what) from None
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0), 0o666)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             os.close(fd)
-            raise OutputError(f"in use by {_holder(path)} (another vinecli is writing it; lock {path.name})",
-                              path=what) from None
+            return None
         try:
             same = os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino
         except FileNotFoundError:
@@ -70,7 +69,26 @@ def _acquire(path: Path, what: Path) -> int:
             os.write(fd, f"{os.getpid()} {MARK}\n".encode("ascii"))
             return fd
         os.close(fd)  # the previous holder removed the file after we opened it: lock the new one
-    raise OutputError("cannot take the lock (it keeps being replaced)", path=what)
+    raise OSError(errno.EAGAIN, "the lock file keeps being replaced", str(path))
+
+
+def unlock(path: Path, fd: int) -> None:
+    """Remove the lock file ``path`` and drop the lock held on ``fd`` (removed first, so the next holder locks a new
+    file: :func:`try_lock`)."""
+    with contextlib.suppress(OSError):
+        path.unlink()
+    os.close(fd)
+
+
+def _acquire(path: Path, what: Path) -> int:
+    """Lock ``path`` (created if needed) for this process; returns the open descriptor."""
+    try:
+        fd = try_lock(path)
+    except OSError as exc:
+        raise OutputError(f"cannot take the lock file {path.name} ({exc.strerror})", path=what) from None
+    if fd is None:
+        raise OutputError(f"in use by {_holder(path)} (another vinecli is writing it; lock {path.name})", path=what)
+    return fd
 
 
 @contextmanager
@@ -98,9 +116,7 @@ def output_lock(target: str | Path, *, inside: bool = False) -> Iterator[Path]:
     finally:
         with _GUARD:
             del _HELD[path]
-        with contextlib.suppress(OSError):
-            path.unlink()
-        os.close(fd)  # closing drops the flock
+        unlock(path, fd)
 
 
 def remove_if_free(path: Path, *, marked: bool = False) -> bool:

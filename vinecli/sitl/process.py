@@ -14,7 +14,6 @@ batch workers (``run batch --workers 2``) never share an instance.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import os
 import shutil
 import signal
@@ -25,10 +24,10 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO
 
 from vinecli.errors import AutopilotError, InputError
 from vinecli.lifeline import GroupLifeline, die_with_parent, group_alive
+from vinecli.locks import try_lock, unlock
 from vinecli.scratch import scratch_dir
 
 AUTO_INSTANCES = range(10, 100)  # 0..9 are left to people running a firmware by hand
@@ -51,37 +50,43 @@ def port_free(port: int, kind: int, host: str = "127.0.0.1") -> tuple[bool, str]
 
 
 class InstanceLock:
-    """An exclusive claim on one firmware instance number (released by :meth:`release`)."""
+    """An exclusive claim on one firmware instance number (released by :meth:`release`, which removes its lock file
+    and, when it was the last, the folder of them: nothing is left in the temporary directory)."""
 
-    def __init__(self, instance: int, fh: IO[str]) -> None:
+    def __init__(self, instance: int, path: Path, fd: int) -> None:
         self.instance = instance
-        self._fh: IO[str] | None = fh
+        self.path = path
+        self._fd: int | None = fd
 
     def release(self) -> None:
         """Drop the lock. Idempotent."""
-        if self._fh is not None:
+        if self._fd is not None:
+            unlock(self.path, self._fd)
+            self._fd = None
             with contextlib.suppress(OSError):
-                fcntl.flock(self._fh, fcntl.LOCK_UN)
-            self._fh.close()
-            self._fh = None
+                self.path.parent.rmdir()  # only when empty: another run's lock keeps it
 
 
 def reserve_instance(firmware: str, ports_free: Callable[[int], bool],
                      candidates: range | list[int] = AUTO_INSTANCES) -> InstanceLock:
     """Lock the first instance of ``firmware`` whose lock file is free and for which ``ports_free(i)``."""
     lock_dir = Path(tempfile.gettempdir()) / f"vinecli-{firmware.lower()}"
-    lock_dir.mkdir(exist_ok=True)
     for i in candidates:
-        fh = (lock_dir / f"instance-{i}.lock").open("w")
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.close()
+        path = lock_dir / f"instance-{i}.lock"
+        for _ in range(10):  # another run may remove the folder, emptied, between our mkdir and open
+            lock_dir.mkdir(exist_ok=True)
+            try:
+                fd = try_lock(path)
+                break
+            except FileNotFoundError:
+                continue
+        else:
+            raise AutopilotError(f"cannot make the instance lock {path}")
+        if fd is None:
             continue
         if ports_free(i):
-            return InstanceLock(i, fh)
-        fcntl.flock(fh, fcntl.LOCK_UN)
-        fh.close()
+            return InstanceLock(i, path, fd)
+        unlock(path, fd)
     raise AutopilotError(f"no free {firmware} instance in {candidates[0]}..{candidates[-1]} "
                          "(all locked or ports in use)")
 
