@@ -47,6 +47,7 @@ from vinecli.output_guard import (
     make_unique_dir,
     write_marker,
 )
+from vinecli.scratch import gone_writers, note_output_folder
 
 __all__ = [
     "MANIFEST", "MARKER", "Manifest", "atomic_file", "atomic_output_dir", "check_output_file",
@@ -102,6 +103,7 @@ def atomic_file(path: Path | str, suffix: str = "", *, overwrite: bool = True) -
     if inputs is not None:
         inputs.refuse(path)
     with made_folders(path.parent), output_lock(path):
+        note_output_folder(path.parent)
         remove_stale_temps(path.parent)
         tmp = path.with_name(f".{path.name}.tmp-{owner_tag()}-{secrets.token_hex(4)}{suffix}")
         try:
@@ -266,6 +268,17 @@ def remove_stale_temps(folder: Path, name: str | None = None) -> list[Path]:
     return removed
 
 
+def sweep_gone_writers() -> list[Path]:
+    """What vinecli processes killed with ``kill -9`` left in the output folders they listed (:mod:`vinecli.scratch`):
+    their temporary siblings and free locks, then the lists; returns what was removed. Called at every start."""
+    removed: list[Path] = []
+    for listing, folders in gone_writers():
+        for folder in folders:
+            removed += remove_stale_temps(folder)
+        listing.unlink(missing_ok=True)
+    return removed
+
+
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
@@ -322,6 +335,7 @@ def atomic_output_dir(out: Path, manifest: Manifest, *, overwrite: bool = False)
     out = Path(out)
     check_output_target(out, overwrite=overwrite, inputs=manifest.inputs, kind=manifest.command)
     with made_folders(out.parent), output_lock(out):
+        note_output_folder(out.parent)
         remove_stale_temps(out.parent)  # what killed writers left beside it, whatever its name
         try:
             tmp = make_unique_dir(out.parent, f".{out.name}.tmp-")
@@ -346,6 +360,7 @@ def output_folder(folder: Path, kind: str) -> Iterator[Path]:
     with made_folders(folder, "the output folder") as made:
         if made:
             write_marker(folder, kind)
+        note_output_folder(folder)  # its locks and temporaries, should this process be killed
         yield folder
 
 

@@ -5,8 +5,9 @@
 * class 5: a ``#!/bin/sh`` wrapper that starts the firmware without ``exec`` leaves nothing behind, after a normal
   end, a SIGTERM or ``kill -9`` of vinecli (the firmware runs in its own process group; the group's lifeline
   kills it when vinecli dies); with the real ArduCopter when ``../shared`` has it;
-* class 11: a ``land`` from 400 m does not time out (its timeout scales with the height; PX4's link and early
-  landings: tests/px4/test_px4_link_garbage.py).
+* class 11: a ``land`` from 400 m does not time out (its timeout scales with the height); a real PX4's 2 m hop, which
+  reports take-off and landing but never "in air", ends when PX4 has landed and disarmed, not at ``max_duration_s``
+  (PX4's link and early landings: tests/px4/test_px4_link_garbage.py).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from attack_kit import kill_session, vinecli_proc, wait_for
 from proc_tree import alive, descendants
 
 from tests.ardupilot.real_ardupilot import ardupilot_bin  # noqa: F401 - fixture
+from tests.px4.real_px4 import px4_bin  # noqa: F401 - fixture
 
 HOLD = {"name": "hold", "vehicle": "x500-sprayer", "max_duration_s": 3600.0, "record_rate_hz": 2.0,
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 3500.0},
@@ -175,3 +177,16 @@ def test_a_land_from_400_m_does_not_time_out(flat_world_dir: Path, tmp_path: Pat
            "phases": [{"type": "takeoff", "altitude_agl_m": 400.0}, {"type": "land"}]}
     s = run_mission(_mission(tmp_path, doc), flat_world_dir, tmp_path / "runs")
     assert s.status == "completed", s.status_message  # 571 s of descent at 0.7 m/s: more than the 60 s margin
+
+
+def test_a_px4_hop_that_is_never_in_air_ends_when_it_has_landed(px4_bin: Path, flat_world_dir: Path,  # noqa: F811
+                                                                tmp_path: Path) -> None:
+    doc = {"name": "hop", "vehicle": "x500-sprayer", "max_duration_s": 120.0, "record_rate_hz": 2.0,
+           "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "land"}]}
+    r = subprocess.run([sys.executable, "-m", "vinecli", "run", "mission", str(_mission(tmp_path, doc)), "--world",
+                        str(flat_world_dir), "--out", str(tmp_path / "runs"), "--autopilot", "px4", "--px4-bin",
+                        str(px4_bin)], capture_output=True, text=True, timeout=900,
+                       env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])})
+    summary = json.loads((tmp_path / "runs" / "hop-s0" / "summary.json").read_text())
+    assert summary["status"] == "completed", (summary["status_message"], r.stderr[-1000:])
+    assert summary["sim_time_s"] < 60.0  # it timed out at 120 s, waiting for an "in air" PX4 never reported

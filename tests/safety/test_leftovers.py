@@ -7,7 +7,8 @@ folder it made.
   scratch folder, its error message names files that exist in the run folder, and ``summary.json`` lists them
   (``close()`` acts once: its record is not replaced by an empty one).
 * A PX4 binary without its ``etc/`` is refused (exit 2) before any folder is made.
-* ``kill -9`` of a firmware run leaves its scratch folder and its lock; the next vinecli removes both.
+* ``kill -9`` of a firmware run leaves its scratch folder, its instance lock and its run's lock; the next vinecli
+  start removes them all (the killed process had listed its output folders in the temporary directory).
 """
 
 from __future__ import annotations
@@ -179,9 +180,11 @@ def test_kill_9_leaves_a_scratch_folder_and_a_lock_that_the_next_vinecli_removes
     finally:
         kill_session(proc)
     assert any(tmpdir.glob("vinecli-px4-*")) and (runs / ".m-s0.lock").exists()  # what kill -9 leaves
-    r = _vinecli("--version", tmpdir=tmpdir)  # any start sweeps the temporary directory
-    assert r.returncode == 0 and not any(tmpdir.glob("vinecli-*.*")), list(tmpdir.iterdir())
+    assert any(tmpdir.glob("vinecli-outputs-*.list")) and any(tmpdir.glob("vinecli-px4/instance-*.lock"))
+    r = _vinecli("--version", tmpdir=tmpdir)  # any start sweeps what a killed vinecli left, here and in its --out
+    assert r.returncode == 0 and list(tmpdir.iterdir()) == [], list(tmpdir.iterdir())
+    assert not (runs / ".m-s0.lock").exists()
     (tmp_path / "m2.yaml").write_text(yaml.safe_dump({**TAKEOFF, "name": "m2"}))
     r = _vinecli("run", "mission", tmp_path / "m2.yaml", "--world", flat_world_dir, "--out", runs, tmpdir=tmpdir)
-    assert r.returncode in (0, 1), r.stderr  # the next writer into the runs folder removes the dead run's lock
-    assert not (runs / ".m-s0.lock").exists()
+    assert r.returncode in (0, 1), r.stderr
+    assert list(tmpdir.iterdir()) == []  # a normal end removes its own list

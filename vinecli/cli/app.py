@@ -51,11 +51,15 @@ def root(
 
 def main() -> None:
     """Console-script entry point: SIGTERM stops a command like Ctrl-C (its temporary files removed, its locks
-    released); the scratch folders a killed vinecli left in the temporary directory are removed
-    (:func:`vinecli.scratch.sweep_scratch`); then the command runs."""
-    from vinecli.scratch import sweep_scratch
+    released); the scratch folders, instance locks and output temporaries a killed vinecli left are removed
+    (:func:`vinecli.scratch.sweep_scratch`, :func:`vinecli.outputs.sweep_gone_writers`); then the command runs, listing
+    the folders it writes into for the next start should it be killed."""
+    from vinecli.outputs import sweep_gone_writers
+    from vinecli.scratch import list_outputs, sweep_scratch
     from vinecli.stop_signals import abort_on_sigterm
 
     abort_on_sigterm()
     sweep_scratch()
+    sweep_gone_writers()
+    list_outputs()
     app()

@@ -217,7 +217,7 @@ class Px4MissionClient:
                 self.landed_state = m.landed_state
                 names = {1: "on_ground", 2: "in_air", 3: "takeoff", 4: "landing"}
                 self._event("landed_state", names.get(m.landed_state, "undefined"), {"landed_state": int(m.landed_state)})
-                if m.landed_state == M.LANDED_IN_AIR:
+                if m.landed_state in (M.LANDED_IN_AIR, M.LANDED_TAKEOFF, M.LANDED_LANDING):  # a short hop: never in_air
                     self.was_airborne = True
 
     def _statustext(self, m: Any) -> str | None:
