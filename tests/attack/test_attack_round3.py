@@ -1,11 +1,11 @@
 """Issue 32, done-when: the third attack pass, re-run as a new user would run it, on one sandbox. One attack per
-class (the focused tests, several instances each, are in tests/safety, tests/identify, tests/px4 and
+class (the focused tests, several instances each, are in tests/safety, tests/identify, tests/sitl/px4 and
 tests/missions); every refused command exits 2 with one line, no traceback, and afterwards the sandbox holds no
 temporary file or folder, no lock and no folder a failed command made, and no process is left.
 
 1 nesting, 2 a log's clock, 3 early firmware failures, 4 a firmware that speaks garbage, 5 a wrapper without exec,
 6 two writers of one file, 7 SIGTERM twice, 8 parents of a failed output, 9 sizes, 10 the wrong line,
-11 garbage on PX4's link (tests/px4/test_px4_link_garbage.py: the fake PX4 is a test fixture), 12 a young crop.
+11 garbage on PX4's link (tests/sitl/px4/test_px4_link_garbage.py: the fake PX4 is a test fixture), 12 a young crop.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from proc_tree import alive, descendants  # noqa: E402
 from repo_paths import REPO  # noqa: E402
 from row_fields import YoungCrop  # noqa: E402
 
+from tests.flightlog.synthetic_log import synthetic_log  # noqa: E402
 from tests.gis.test_gis_world import grower_world  # noqa: E402
-from tests.identify.synthetic_log import synthetic_log  # noqa: E402
 from tests.identify.ulog_edit import shifted  # noqa: E402
 
 SPRAY = {"name": "m", "vehicle": "x500-sprayer", "max_duration_s": 60,

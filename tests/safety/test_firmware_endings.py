@@ -7,7 +7,7 @@
   kills it when vinecli dies); with the real ArduCopter when ``../shared`` has it;
 * class 11: a ``land`` from 400 m does not time out (its timeout scales with the height); a real PX4's 2 m hop, which
   reports take-off and landing but never "in air", ends when PX4 has landed and disarmed, not at ``max_duration_s``
-  (PX4's link and early landings: tests/px4/test_px4_link_garbage.py).
+  (PX4's link and early landings: tests/sitl/px4/test_px4_link_garbage.py).
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ import yaml
 from attack_kit import kill_session, vinecli_proc, wait_for
 from proc_tree import alive, descendants
 
-from tests.ardupilot.real_ardupilot import ardupilot_bin  # noqa: F401 - fixture
-from tests.px4.real_px4 import px4_bin  # noqa: F401 - fixture
+from tests.sitl.ardupilot.real_ardupilot import ardupilot_bin  # noqa: F401 - fixture
+from tests.sitl.px4.real_px4 import px4_bin  # noqa: F401 - fixture
 
 HOLD = {"name": "hold", "vehicle": "x500-sprayer", "max_duration_s": 3600.0, "record_rate_hz": 2.0,
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 3500.0},

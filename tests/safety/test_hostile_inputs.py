@@ -178,7 +178,7 @@ def test_nan_coordinates_are_one_line_without_a_crs_hint(grower: Path, tmp_path:
 
 
 def test_garbage_after_a_dataflash_header_is_one_line(tmp_path: Path) -> None:
-    from tests.identify.synthetic_log import synthetic_log
+    from tests.flightlog.synthetic_log import synthetic_log
     from vinecli.flightlog.dataflash_write import write_dataflash
 
     head = write_dataflash(synthetic_log(), tmp_path / "full.bin").read_bytes()[:3000]

@@ -7,7 +7,7 @@ that stopped for minutes. :func:`continuous_stretch` cuts the reference stream (
 its time, in file order, goes back by more than :data:`RESET_S` or forward by more than :data:`JUMP_S`, and
 keeps the longest stretch; :meth:`Stretch.take` then picks each stream's samples of that stretch (same restart
 count, same time span). The readers say so in a note. Sorting and de-duplicating small out-of-order steps is
-:func:`vinecli.flightlog.convert.sorted_stream`'s job, after this.
+:func:`vinecli.flightlog.arrays.sorted_stream`'s job, after this.
 """
 
 from __future__ import annotations

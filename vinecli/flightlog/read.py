@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.inputs import open_input
 from vinecli.outputs import sha256_file
 from vinecli.specs.limits import MAX_DATAFLASH_BYTES, MAX_ULOG_BYTES
