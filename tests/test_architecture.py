@@ -1,7 +1,8 @@
 """The dependency rule (docs/architecture.md): every import of a vinecli module - at the top of a
-file or inside a function - goes to the same layer or one below, and no modules import each other
-in a circle. A private name (leading underscore) stays inside its unit: other units import public
-names only. Walked with ``ast`` over the package source, so a new upward edge or private import fails here."""
+file or inside a function - goes to the same layer or one below, and no modules, nor packages, import each
+other in a circle. A private name (leading underscore) stays inside its unit: other units import public
+names only. A module name repeats only in the families that say why (:data:`NAME_FAMILIES`). Walked with
+``ast`` over the package source, so a new upward edge, circle or private import fails here."""
 
 from __future__ import annotations
 
@@ -23,7 +24,8 @@ LAYERS: list[set[str]] = [
     {"sim"},
     {"missions"},
     {"runs"},
-    {"batch", "report"},
+    {"report"},
+    {"batch"},
     {"cli", "__main__", "__init__"},
 ]
 LAYER_OF = {unit: i for i, units in enumerate(LAYERS) for unit in units}
@@ -52,33 +54,33 @@ def _imports(path: Path, module: str, modules: set[str]) -> set[str]:
     return {m for m in found if m in modules and m != module}
 
 
-def _graph() -> dict[str, set[str]]:
+def import_graph() -> dict[str, set[str]]:
     files = {_module_name(p): p for p in sorted(PKG.rglob("*.py"))}
     return {mod: _imports(path, mod, set(files)) for mod, path in files.items()}
 
 
-def _unit(module: str) -> str:
+def unit_of(module: str) -> str:
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else "__init__"
 
 
 def test_every_unit_has_a_layer() -> None:
-    units = {_unit(m) for m in _graph()}
+    units = {unit_of(m) for m in import_graph()}
     assert units <= set(LAYER_OF), f"modules with no layer in docs/architecture.md: {sorted(units - set(LAYER_OF))}"
 
 
 def test_no_import_goes_up_a_layer() -> None:
-    graph = _graph()
+    graph = import_graph()
     upward = sorted(
-        f"{src} (layer {LAYER_OF[_unit(src)]}) -> {dst} (layer {LAYER_OF[_unit(dst)]})"
+        f"{src} (layer {LAYER_OF[unit_of(src)]}) -> {dst} (layer {LAYER_OF[unit_of(dst)]})"
         for src, dsts in graph.items() for dst in dsts
-        if _unit(dst) != "__init__" and LAYER_OF[_unit(dst)] > LAYER_OF[_unit(src)]
+        if unit_of(dst) != "__init__" and LAYER_OF[unit_of(dst)] > LAYER_OF[unit_of(src)]
     )
     assert not upward, "upward imports:\n" + "\n".join(upward)
 
 
-def test_no_import_circles() -> None:
-    graph = _graph()
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one node (Tarjan): the nodes importing each other in a circle."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -86,13 +88,13 @@ def test_no_import_circles() -> None:
     circles: list[list[str]] = []
     counter = 0
 
-    def visit(v: str) -> None:  # Tarjan's strongly connected components
+    def visit(v: str) -> None:
         nonlocal counter
         index[v] = low[v] = counter
         counter += 1
         stack.append(v)
         on_stack.add(v)
-        for w in sorted(graph[v]):
+        for w in sorted(graph.get(v, ())):
             if w not in index:
                 visit(w)
                 low[v] = min(low[v], low[w])
@@ -112,7 +114,48 @@ def test_no_import_circles() -> None:
     for v in sorted(graph):
         if v not in index:
             visit(v)
+    return circles
+
+
+def test_no_import_circles() -> None:
+    circles = _circles(import_graph())
     assert not circles, "modules importing each other in a circle: " + "; ".join(" <-> ".join(c) for c in circles)
+
+
+def _package(module: str, packages: set[str]) -> str:
+    """The package a module belongs to (itself for a package); a module of vinecli's top level is a unit of its own."""
+    if module in packages:
+        return module
+    parent = module.rsplit(".", 1)[0]
+    return module if parent == "vinecli" else parent
+
+
+def _package_graph(graph: dict[str, set[str]], packages: set[str]) -> dict[str, set[str]]:
+    """Imports between packages; a package and the packages inside it are one room (their edges are not counted)."""
+    out: dict[str, set[str]] = {}
+    for src, dsts in graph.items():
+        a = _package(src, packages)
+        for dst in dsts:
+            b = _package(dst, packages)
+            if a != b and not b.startswith(a + ".") and not a.startswith(b + "."):
+                out.setdefault(a, set()).add(b)
+    return out
+
+
+def test_no_package_circles() -> None:
+    """Two packages (batch and report, sitl/px4 and sitl/ardupilot, ...) never import each other, directly or
+    through others: a package's modules may depend on one another, packages only one way."""
+    packages = {_module_name(p.parent / "__init__.py") for p in PKG.rglob("__init__.py")}
+    circles = _circles(_package_graph(import_graph(), packages))
+    assert not circles, "packages importing each other in a circle: " + "; ".join(" <-> ".join(c) for c in circles)
+
+
+def test_the_rule_catches_a_package_circle() -> None:
+    graph = {"vinecli.batch.run": {"vinecli.report.plots"}, "vinecli.report.loader": {"vinecli.batch.run"},
+             "vinecli.report.plots": set(), "vinecli.sitl.options": {"vinecli.sitl.px4.backend"},
+             "vinecli.sitl.px4.backend": {"vinecli.sitl.process"}, "vinecli.sitl.process": set()}
+    packages = {"vinecli.batch", "vinecli.report", "vinecli.sitl", "vinecli.sitl.px4"}
+    assert _circles(_package_graph(graph, packages)) == [["vinecli.batch", "vinecli.report"]]
 
 
 def test_the_rule_catches_an_upward_import(tmp_path: Path) -> None:
@@ -172,7 +215,7 @@ def test_no_private_name_crosses_a_unit() -> None:
     crossing = sorted(
         f"{src}:{line} uses {name}"
         for src, path in files.items() for line, name in _private_uses(path, src, set(files))
-        if _unit(name) != _unit(src)
+        if unit_of(name) != unit_of(src)
     )
     assert not crossing, "private names used outside their unit:\n" + "\n".join(crossing)
 
@@ -190,7 +233,7 @@ def test_the_rule_catches_a_private_import(tmp_path: Path) -> None:
                      "vinecli.report.loader._load_run"]
 
 
-#: small files with one job, short functions (issue 24): limits for every file and function of vinecli/
+#: small files with one job, short functions: limits for every file and function of vinecli/
 MAX_FILE_LINES = 500
 MAX_FUNCTION_LINES = 120
 #: temporary exceptions, each with who removes it and when; an exception that is no longer needed fails
@@ -222,3 +265,36 @@ def test_files_and_functions_stay_small() -> None:
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
     stale = [f for f in SIZE_EXCEPTIONS if f not in files or files[f] <= MAX_FILE_LINES]
     assert not stale, f"remove these size exceptions, they are no longer needed: {stale}"
+
+
+#: where a module's file name may repeat, and why (each package's docstring says it too): a name that says which
+#: part of the product the module serves, the same in every package where it occurs
+NAME_FAMILIES: dict[str, str] = {
+    "vinecli/cli/": "the command line: one module per command group (vinecli terrain, plan, run, ...) and its options",
+    "vinecli/specs/": "a spec is named after the part it specifies (vehicle, wind, mission, sprayer, canopy)",
+    "vinecli/missions/metrics/": "metric families, named after what they measure (takeoff, wind, job)",
+    "defaults.py": "a package's defaults, light to import for the command line's help (terrain, identify)",
+    "read.py": "a file-format package's reader (gis, flightlog)",
+}
+#: inside it a name may repeat once per firmware (px4/, ardupilot/) and for their shared part: the same role
+PER_FIRMWARE = "vinecli/sitl/"
+
+
+def _in_family(path: str) -> bool:
+    return any(path.startswith(f) or path.endswith("/" + f) for f in NAME_FAMILIES)
+
+
+def test_module_names_repeat_only_for_a_reason() -> None:
+    """A file name several modules use (``__init__.py`` aside) is allowed when all of them but one sit in a
+    :data:`NAME_FAMILIES`, or the rest all in :data:`PER_FIRMWARE`: anything else is two modules named alike for no
+    reason (``mission.py`` in runs/ and in sitl/px4/), which a reader has to tell apart."""
+    by_name: dict[str, list[str]] = {}
+    for path in sorted(PKG.rglob("*.py")):
+        if path.name != "__init__.py":
+            by_name.setdefault(path.name, []).append(path.relative_to(REPO).as_posix())
+    alike = {}
+    for name, paths in by_name.items():
+        rest = [p for p in paths if not _in_family(p)]
+        if len(rest) > 1 and not all(p.startswith(PER_FIRMWARE) for p in rest):
+            alike[name] = paths
+    assert not alike, f"modules named alike without a reason (rename one, or say why in NAME_FAMILIES): {alike}"

@@ -47,11 +47,11 @@ from vinecli.inputs import note_input, reading_inputs
 from vinecli.locks import output_lock
 from vinecli.outputs import contained_path, jsonable, output_folder, remove_stale_temps, write_text_atomic
 from vinecli.runs import rundir
+from vinecli.runs.batch_json import BATCH_JSON
 from vinecli.specs.limits import MAX_DURATION_S
 
 log = logging.getLogger(__name__)
 
-BATCH_JSON = "batch.json"
 WORLDS_DIR = "_worlds"
 #: seconds running cases get to write their partial runs after a stop signal
 STOP_GRACE_S = 30.0
@@ -423,11 +423,3 @@ def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
         write_text_atomic(stamp, digest + "\n")
     return out
 
-
-def read_batch(runs_dir: Path) -> dict[str, Any]:
-    """``RUNS/batch.json`` as a dict."""
-    p = Path(runs_dir) / BATCH_JSON
-    try:
-        return json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"cannot read batch.json: {exc}", path=p) from None
