@@ -1,5 +1,5 @@
 """The loop's instructions and estimated cycles per step against the PyBullet floor's, counted by Valgrind: figures
-a shared machine cannot move, to compare one checkout with another (e.g. before and after the loop split, issue 24).
+a shared machine cannot move, to compare one checkout with another (e.g. before and after a change of the loop).
 
 ``loop_parts.py`` times the loop in CPU µs, which a virtual machine's neighbours inflate by 1.5-3x from one
 minute to the next (its floor read 6.0 µs one day and 12-21 µs on an idle machine another, the same checkout's

@@ -1,4 +1,4 @@
-"""Liquid in a grower's no-spray zone and the dose of the rows around it (issue 19): the grower case of
+"""Liquid in a grower's no-spray zone and the dose of the rows around it: the grower case of
 ``tests/gis/test_gis_world.py`` (three rows 2.5 m apart, the middle one cut by a stream grown by a 1 m buffer,
 x500-sprayer at 2 m and 3 m/s) flown with the built-in autopilot, and measured from the run directory alone:
 

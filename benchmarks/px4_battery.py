@@ -1,7 +1,7 @@
 """PX4's periodic work over many real PX4 runs: one mission (default the CI take-off) flown by real PX4 SITL
 over seeds, one PX4 at a time; after each run PX4's own kept ULog is audited (vinecli.sitl.px4.log_audit):
 did ``battery_status`` (battery_simulator) and ``cpuload`` (load_mon) run to the end of the log, and did PX4
-warn "Battery unhealthy"? Prints one line per run and the counts: the flake of issue 25 (PX4 v1.15's HRT race
+warn "Battery unhealthy"? Prints one line per run and the counts: the flake (PX4 v1.15's HRT race
 at arming, see vinecli/sitl/px4/process.py SAFE_BOOT_PARAMS) is a stopped topic.
 
     .venv/bin/python benchmarks/px4_battery.py --px4-bin PX4/bin/px4 --world build/vineyard [--seeds 40]

@@ -1,4 +1,4 @@
-"""Issue 9 item 5: check quantities (and metric/status bounds) are resolved when the mission loads, so a typo
+"""Check quantities (and metric/status bounds) are resolved when the mission loads, so a typo
 is exit 2 before simulating instead of a failed check after the whole run."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ plant, then :meth:`Flight.step` advances it one physics step at a time until the
 
 Everything the steps read is taken out of the run's dataclasses once, in the set-up: a step touches plain
 floats and compiled objects (the physics laws, :class:`~vinecli.sim.vehicle_physics.VehiclePhysics`, the
-sensors, the ground events), never a pydantic model or a dataclass of the run (design.md §8).
+sensors, the ground events), never a pydantic model or a dataclass of the run (docs/flight-models.md §6).
 """
 
 from __future__ import annotations

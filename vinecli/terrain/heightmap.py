@@ -50,7 +50,7 @@ from vinecli.terrain.raster import (
 log = logging.getLogger(__name__)
 
 METHODS: tuple[str, ...] = ("bilinear", "cubic", "average", "max", "nearest")
-#: PyBullet GEOM_HEIGHTFIELD breaks silently above this many samples (terrain-notes.md §4).
+#: PyBullet GEOM_HEIGHTFIELD breaks silently above this many samples (docs/terrain.md §4).
 MAX_SAMPLES = 2**21
 #: Crops above this many pixels are streamed through GDAL's warper when downsampling.
 MAX_READ_PX = 2**25

@@ -1,6 +1,6 @@
 """PX4 SITL backend: vinecli is the simulator side of PX4's ``simulator_mavlink`` (TCP 4560+i).
 
-Protocol (px4-sitl-and-mavlink.md §1): vinecli listens on TCP ``host:4560+instance``; PX4
+Protocol (docs/firmware-protocols.md §1): vinecli listens on TCP ``host:4560+instance``; PX4
 connects, sends one HEARTBEAT and SET_MESSAGE_INTERVAL(115). Each physics step vinecli sends
 
 * HIL_STATE_QUATERNION (optional ground truth, sent *first* so a peer answering on
