@@ -284,6 +284,13 @@ def _in_family(path: str) -> bool:
     return any(path.startswith(f) or path.endswith("/" + f) for f in NAME_FAMILIES)
 
 
+def test_every_package_says_what_lives_there_and_what_it_may_import() -> None:
+    """Each package's ``__init__.py`` has a docstring, and it says what the package may import."""
+    silent = sorted(p.relative_to(REPO).as_posix() for p in PKG.rglob("__init__.py")
+                    if "may import" not in " ".join((ast.get_docstring(ast.parse(p.read_text())) or "").lower().split()))
+    assert not silent, f"packages whose __init__ docstring does not say what they may import: {silent}"
+
+
 def test_module_names_repeat_only_for_a_reason() -> None:
     """A file name several modules use (``__init__.py`` aside) is allowed when all of them but one sit in a
     :data:`NAME_FAMILIES`, or the rest all in :data:`PER_FIRMWARE`: anything else is two modules named alike for no
