@@ -422,12 +422,3 @@ def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
         build_world(spec_path, out, overwrite=True)
         write_text_atomic(stamp, digest + "\n")
     return out
-
-
-def read_batch(runs_dir: Path) -> dict[str, Any]:
-    """``RUNS/batch.json`` as a dict."""
-    p = Path(runs_dir) / BATCH_JSON
-    try:
-        return json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"cannot read batch.json: {exc}", path=p) from None

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
+from vinecli.geometry import polyline_length
 from vinecli.rows.detect import Polyline
-from vinecli.rows.geometry import polyline_length
 from vinecli.rows.lanes import LaneLayout, lane_polyline, layout_lanes
 from vinecli.rows.no_spray import pass_pieces
 from vinecli.rows.stretches import SAME_LINE_M, cut_path, line_spans, merge_spans, row_lines

@@ -30,8 +30,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from vinecli.geometry import polyline_length
 from vinecli.rows.detect import Polyline
-from vinecli.rows.geometry import polyline_length
 from vinecli.rows.lanes import LaneLayout
 from vinecli.rows.no_spray import blocked_area, clearance_m, dosed_stretch, taper_m
 from vinecli.rows.passes import Pass, clip_rows, lay_passes, room_ahead

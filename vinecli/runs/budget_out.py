@@ -82,7 +82,7 @@ def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np
     """Per parcel: the row it was released over (nearest row to its emission group's nozzle path point)."""
     if not rows or path_xy.size == 0 or group.size == 0:
         return np.full(group.size, -1, dtype=np.int64)
-    from vinecli.rows.geometry import point_polyline_distance
+    from vinecli.geometry import point_polyline_distance
 
     d = np.stack([point_polyline_distance(path_xy[:, 0], path_xy[:, 1], [r]) for r in rows])
     return np.argmin(d, axis=0)[group]

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from vinecli import native
 from vinecli.constants import MAX_SEED, STANDARD_GRAVITY
-from vinecli.errors import ChecksFailed, InputError, RuntimeFailure, SpecError, VinecliError
+from vinecli.errors import InputError, RuntimeFailure, SpecError, VinecliError
 from vinecli.inputs import note_input, reading_inputs
 from vinecli.locks import output_lock
 from vinecli.missions.checks import evaluate_checks
@@ -78,12 +78,6 @@ class RunSummary:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
-
-    def raise_if_failed(self) -> None:
-        """ChecksFailed (exit 1) if a check failed."""
-        if not self.passed:
-            names = ", ".join(c["name"] for c in self.failed_checks) or self.status
-            raise ChecksFailed(f"{len(self.failed_checks)} check(s) failed: {names}", path=self.run_dir)
 
 
 class _StopFlag:
@@ -145,7 +139,7 @@ def run_mission(
         chain, the vehicle and the world always). The run holds the lock of its run id from the checks to the
         write: a second writer of the same id exits 2 (``in use by pid N``).
 
-    Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
+    Returns the :class:`RunSummary`; the run's checks decide ``passed``.
     Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
     """
     from vinecli.sim.memory import check_run_memory
