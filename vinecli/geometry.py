@@ -79,7 +79,8 @@ def segments(line: Polyline | np.ndarray, len2: Literal["sum", "hypot"] = "sum")
     for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
         dx, dy = bx - ax, by - ay
         length = math.hypot(dx, dy)
-        out.append(Segment(ax, ay, bx, by, dx, dy, length, dx * dx + dy * dy if len2 == "sum" else length * length, start))
+        squared = dx * dx + dy * dy if len2 == "sum" else length * length
+        out.append(Segment(ax, ay, bx, by, dx, dy, length, squared, start))
         start += length
     return out
 

@@ -16,12 +16,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vinecli.geometry import Polyline, points_in_polygon, segments
 from vinecli.physics.deposit_grid import GridSpec
+
+if TYPE_CHECKING:
+    from vinecli.sim.deposition import DepositionResult
 
 __all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "row_profiles"]
 
@@ -178,7 +181,7 @@ def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: fl
     return vals, win
 
 
-def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float,
+def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_width_m: float,
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
                        stretches: dict[int, tuple[float, float]] | None = None, window_m: float = 1.0,
@@ -269,7 +272,7 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     return m, profiles
 
 
-def no_spray_fraction(dep: Any, zones: Sequence[Sequence[tuple[float, float]]]) -> float:
+def no_spray_fraction(dep: DepositionResult, zones: Sequence[Sequence[tuple[float, float]]]) -> float:
     """Share of the emitted volume of ``dep`` landing in the no-spray ``zones`` (rings, ENU m; grid cells by their
     centres); 0 without zones, NaN when nothing was emitted."""
     em = float(dep.emitted_l)

@@ -1,5 +1,6 @@
 """Running missions into run directories (``RUNS/<run_id>/``)."""
 
 from vinecli.runs.mission import RunSummary, recheck_run, run_mission
+from vinecli.runs.request import RunRequest
 
-__all__ = ["RunSummary", "recheck_run", "run_mission"]
+__all__ = ["RunRequest", "RunSummary", "recheck_run", "run_mission"]

@@ -19,7 +19,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from vinecli.missions.budget_metrics import budget_metrics
 from vinecli.physics.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
 from vinecli.physics.deposit_grid import rasterise
 from vinecli.runs.deposition_out import NODATA, clean_json, write_grid_tif
+
+if TYPE_CHECKING:
+    from vinecli.sim.deposition import DepositionResult
 
 __all__ = ["BUDGET_JSON", "CANOPY_TIF", "DRIFT_CSV", "BudgetOutputs", "evaluate_budget", "write_budget"]
 
@@ -88,7 +91,7 @@ def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np
     return np.argmin(d, axis=0)[group]
 
 
-def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: float,
+def evaluate_budget(dep: DepositionResult, world: Any, rows_all: list[Any], applied_lpha: float,
                     config: BudgetConfig | None = None) -> BudgetOutputs:
     """The budget of one run's deposition (:class:`~vinecli.sim.deposition.DepositionResult`) over ``world``."""
     from vinecli.physics.canopy import hedge_window, row_spacing
@@ -110,7 +113,7 @@ def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: flo
     return BudgetOutputs(b, g, canopy_l, leaf, doc, metrics)
 
 
-def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float, config: BudgetConfig,
+def _document(b: SprayBudget, dep: DepositionResult, world: Any, canopy: Any, applied: float, config: BudgetConfig,
               metrics: dict[str, float], release: np.ndarray, maps: dict[str, float]) -> dict[str, Any]:
     rows_doc = []
     n_rows = len(canopy.rows) if canopy is not None else len(getattr(world, "vine_rows_enu", []) or [])
@@ -153,7 +156,7 @@ def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float,
     }
 
 
-def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: Any) -> None:
+def write_budget(out_dir: Path, out: BudgetOutputs, dep: DepositionResult, world: Any, crs: Any) -> None:
     """Write ``budget.json``, ``canopy_deposit.tif`` and ``drift_curve.csv`` into ``out_dir``."""
     g = out.grid
     cell_area = g.cell * g.cell
