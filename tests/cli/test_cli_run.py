@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from vinecli.cli.app import app
 from vinecli.missions.spec_io import load_mission
-from vinecli.sim.recorder import timeseries_columns
+from vinecli.sim.row import timeseries_columns
 
 runner = CliRunner()
 

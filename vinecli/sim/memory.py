@@ -25,7 +25,7 @@ from vinecli.errors import InputError
 from vinecli.physics.canopy import hedge_window, row_spacing
 from vinecli.physics.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
 from vinecli.physics.deposition import DepositionConfig
-from vinecli.sim.recorder import timeseries_columns
+from vinecli.sim.row import timeseries_columns
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.world.model import World
