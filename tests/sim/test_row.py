@@ -200,3 +200,14 @@ def test_a_swap_of_two_values_is_caught(probe_flight: tuple[dict[str, np.ndarray
                  ("tank_flow_lps", "tank_flow_cmd_lps"), ("battery_voltage_v", "battery_current_a")):
         swapped = {**row, a: row[b], b: row[a]}
         assert mismatches(swapped, sources[40]) == {a, b}
+
+
+def test_the_parquet_writer_keeps_the_schemas_order(tmp_path: Path) -> None:
+    """timeseries.parquet's columns come in the schema's order whatever order they are handed in; undeclared last."""
+    import pyarrow.parquet as pq
+
+    from vinecli.runs import rundir
+
+    names = timeseries_columns(6)
+    rundir.write_timeseries(tmp_path / "t.parquet", {c: np.arange(3.0) for c in ["extra", *names[::-1]]})
+    assert pq.read_schema(tmp_path / "t.parquet").names == [*names, "extra"]

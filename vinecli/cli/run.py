@@ -32,6 +32,7 @@ if TYPE_CHECKING:
 app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is_help=True)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("mission")
 @handles_errors
 def mission_cmd(
@@ -111,6 +112,7 @@ def mission_cmd(
                            + ", ".join(c["name"] for c in summary.failed_checks), path=summary.run_dir)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("batch")
 @handles_errors
 def batch_cmd(

@@ -181,6 +181,8 @@ def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: fl
     return vals, win
 
 
+# parameters: the run's deposition, rows and fence, then the dose's settings with their defaults (DoseSpec's
+# fields, named by the caller)
 def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_width_m: float,
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,

@@ -123,6 +123,8 @@ def _row_coords(x: np.ndarray, y: np.ndarray, line: Polyline) -> tuple[np.ndarra
     return s_signed, arc, nx, ny, np.full(x.shape, s0)
 
 
+# parameters: the parcels' arrays the capture model reads (position, size, volume, velocity, impaction
+# efficiency), one value per parcel each
 def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarray, avail: np.ndarray,
                   vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, eff: np.ndarray, nodes: int,
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -215,6 +217,8 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
                    out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]))
 
 
+# parameters: the parcels and their size classes, the rows and the field's wind, then the air, the options and
+# gravity with defaults
 def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: Canopy | None,
                  rows: Sequence[Polyline], spacing_m: float, applied_lpha: float, wind_xy: tuple[float, float],
                  air: tuple[float, float] | None = None, config: BudgetConfig = BudgetConfig(),

@@ -231,6 +231,7 @@ def _leg_time(leg: Leg, v: float, a: float) -> float:
 
 
 # ---------------------------------------------------------------- the plan
+# parameters: keyword-only options, each with its default (the plan's speed, acceleration, fence, terrain, climb, lanes, no-spray zones); a caller names the ones it sets
 def plan_rows(
     rows: Sequence[Sequence[tuple[float, float]]],
     start_xy: tuple[float, float],

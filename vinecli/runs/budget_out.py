@@ -108,13 +108,15 @@ def evaluate_budget(dep: DepositionResult, world: Any, rows_all: list[Any], appl
     leaf = _hedge_cells(g, canopy)
     metrics = budget_metrics(b, canopy, applied_lpha)
     release = _release_rows(np.asarray(p.path_xy), b.group, rows_all)
-    doc = _document(b, dep, world, canopy, applied_lpha, config, metrics, release,
-                    {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "grid": g.to_dict()})
+    doc = {**_document(b, dep, world, canopy, applied_lpha, config, release),
+           "maps": {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "grid": g.to_dict()},
+           "metrics": metrics}
     return BudgetOutputs(b, g, canopy_l, leaf, doc, metrics)
 
 
 def _document(b: SprayBudget, dep: DepositionResult, world: Any, canopy: Any, applied: float, config: BudgetConfig,
-              metrics: dict[str, float], release: np.ndarray, maps: dict[str, float]) -> dict[str, Any]:
+              release: np.ndarray) -> dict[str, Any]:
+    """budget.json but its ``maps`` and ``metrics`` (which follow)."""
     rows_doc = []
     n_rows = len(canopy.rows) if canopy is not None else len(getattr(world, "vine_rows_enu", []) or [])
     for i in range(n_rows):
@@ -151,8 +153,6 @@ def _document(b: SprayBudget, dep: DepositionResult, world: Any, canopy: Any, ap
             "evaporation": b.evaporation,
         },
         "rows": rows_doc,
-        "maps": maps,
-        "metrics": metrics,
     }
 
 

@@ -163,6 +163,7 @@ def _borders(cedges: list[int], redges: list[int]) -> list[tuple[tuple[int, int]
     return out
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli terrain convert --to tiles` option; a caller names the ones it sets
 def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, max_triangles: int | None = None,
                      tile_px: int = TILE_PX, fmt: str = TILE_FORMAT, fill: str | float = FILL, z_unit: str | None = None,
                      workers: int | None = None, overwrite: bool = False) -> TileSet:

@@ -87,6 +87,7 @@ class Px4SitlAutopilot:
 
     name = "px4"
 
+    # parameters: keyword-only options, each with its default, one per PX4 option of `vinecli run mission` or test knob; a caller names the ones it sets
     def __init__(self, *, host: str = "127.0.0.1", instance: int | None = None, port: int | None = None,
                  connect_timeout_s: float = 30.0, step_timeout_s: float | None = None, max_stalls: int = 10,
                  hang_timeout_s: float = 30.0,
