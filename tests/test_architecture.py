@@ -16,7 +16,7 @@ LAYERS: list[set[str]] = [
     {"constants", "errors", "frames", "geo", "geometry", "inputs", "lifeline", "locks", "names", "native", "output_guard",
      "outputs", "spray_defaults", "types"},
     {"specs"},
-    {"physics", "control", "terrain", "vehicle", "mavlink", "flightlog"},
+    {"flight", "spray", "control", "terrain", "vehicle", "mavlink", "flightlog"},
     {"rows", "phase_items", "identify", "gis"},
     {"autopilot"},
     {"sitl"},

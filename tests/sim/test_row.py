@@ -111,9 +111,9 @@ def mismatches(recorded: dict[str, float], expected: dict[str, float]) -> set[st
 @pytest.fixture(scope="module")
 def probe_flight(sample_world_dir: Path) -> tuple[dict[str, np.ndarray], list[dict[str, float]]]:
     """(the recorded columns, the sources of every row) of 0.6 s of a real flight (module doc)."""
-    from vinecli.physics.battery import Battery
-    from vinecli.physics.tank import Tank
-    from vinecli.physics.wind import make_wind
+    from vinecli.flight.battery import Battery
+    from vinecli.flight.tank import Tank
+    from vinecli.flight.wind import make_wind
     from vinecli.sim.loop import Flight, Plant
     from vinecli.sim.setup import prepare_run
     from vinecli.specs.mission import MissionSpec

@@ -27,7 +27,7 @@ from vinecli.sitl.options import PX4_DEFAULTS
 
 if TYPE_CHECKING:
     from vinecli.batch.case import CaseResult
-    from vinecli.batch.runner import BatchResult
+    from vinecli.batch.run import BatchResult
 
 app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is_help=True)
 
@@ -144,7 +144,7 @@ def batch_cmd(
 
         start_fork_server()
     from vinecli.batch import run_batch
-    from vinecli.batch.spec import pipeline_cases
+    from vinecli.batch.pipeline import pipeline_cases
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
 
     n = len(pipeline_cases(pipeline, world))  # for the progress bar (and a bad pipeline fails before any work)
@@ -198,7 +198,7 @@ def compare_cmd(
     Example: vinecli run compare pipelines/missions/px4/spray-rows.yaml --world build/vineyard --out cmp
     --px4-bin PX4/bin/px4 --ardupilot-bin ArduPilot/bin/arducopter
     """
-    from vinecli.batch.compare import compare_autopilots
+    from vinecli.batch.compare_autopilots import compare_autopilots
     from vinecli.errors import ChecksFailed, RuntimeFailure
     from vinecli.report.autopilots import markdown_table
 

@@ -21,10 +21,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vinecli.geometry import Polyline, points_in_polygon, segments
-from vinecli.physics.deposit_grid import GridSpec
+from vinecli.spray.deposit_grid import GridSpec
 
 if TYPE_CHECKING:
-    from vinecli.sim.deposition import DepositionResult
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "row_profiles"]
 
@@ -190,7 +190,7 @@ def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_w
                        bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15,
                        holes: dict[int, list[tuple[float, float]]] | None = None
                        ) -> tuple[dict[str, float], list[dict[str, Any]]]:
-    """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`.
+    """(metrics, per-row figures) of a :class:`~vinecli.sim.spray_deposit.DepositionResult`.
 
     ``rows``: the rows the mission targeted (coverage, mean rate, CV, per-row figures);
     ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``;

@@ -24,12 +24,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vinecli.missions.budget_metrics import budget_metrics
-from vinecli.physics.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
-from vinecli.physics.deposit_grid import rasterise
 from vinecli.runs.deposition_out import NODATA, clean_json, write_grid_tif
+from vinecli.spray.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
+from vinecli.spray.deposit_grid import rasterise
 
 if TYPE_CHECKING:
-    from vinecli.sim.deposition import DepositionResult
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["BUDGET_JSON", "CANOPY_TIF", "DRIFT_CSV", "BudgetOutputs", "evaluate_budget", "write_budget"]
 
@@ -54,9 +54,9 @@ class BudgetOutputs:
 
 def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
     """(ny, nx) one-sided leaf area (m²) of the hedges above each cell, splatted like the canopy deposit
-    (:data:`~vinecli.physics.budget.ACROSS` points across each hedge, every half cell along it) so both maps
+    (:data:`~vinecli.spray.budget.ACROSS` points across each hedge, every half cell along it) so both maps
     share their cells."""
-    from vinecli.physics.budget import ACROSS
+    from vinecli.spray.budget import ACROSS
 
     if canopy is None:
         return np.zeros((grid.ny, grid.nx))
@@ -93,8 +93,8 @@ def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np
 
 def evaluate_budget(dep: DepositionResult, world: Any, rows_all: list[Any], applied_lpha: float,
                     config: BudgetConfig | None = None) -> BudgetOutputs:
-    """The budget of one run's deposition (:class:`~vinecli.sim.deposition.DepositionResult`) over ``world``."""
-    from vinecli.physics.canopy import hedge_window, row_spacing
+    """The budget of one run's deposition (:class:`~vinecli.sim.spray_deposit.DepositionResult`) over ``world``."""
+    from vinecli.spray.canopy import hedge_window, row_spacing
 
     config = config or BudgetConfig()
     canopy = world.canopy_model() if hasattr(world, "canopy_model") else None

@@ -25,7 +25,7 @@ from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
 
 if TYPE_CHECKING:
-    from vinecli.sim.deposition import DepositionResult
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["DEPOSITION_JSON", "DEPOSITION_TIF", "NODATA", "clean_json", "dsm_crs", "evaluate_deposition",
            "write_deposition", "write_grid_tif"]

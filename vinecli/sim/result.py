@@ -18,7 +18,7 @@ from vinecli.sim.setup import PreparedRun
 from vinecli.types import Event
 
 if TYPE_CHECKING:
-    from vinecli.sim.deposition import DepositionResult
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["SimResult", "assemble_result"]
 
@@ -86,7 +86,7 @@ def assemble_result(flight: Flight, run: PreparedRun, seed: int, wall0: float, w
         flight.groups.flush()
     emitter = flight.emitter
     if emitter is not None and emitter.rows:  # the sprayer was used
-        from vinecli.sim.deposition import deposit
+        from vinecli.sim.spray_deposit import deposit
 
         cpu_dep0 = time.process_time()
         dep = deposit(emitter, run.world, run.vehicle, run.wind, seed, run.deposition_config)
