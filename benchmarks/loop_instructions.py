@@ -65,7 +65,12 @@ def floor(world_dir, steps):
 def mission(world_dir, mission_path, runs):
     from vinecli import native
     from vinecli.runs.mission import run_mission
-    s = run_mission(mission_path, world_dir, runs, seed=0, run_id="counted", overwrite=True)
+    try:
+        from vinecli.runs.request import RunRequest
+    except ImportError:  # a checkout from before RunRequest: run_mission's keywords
+        s = run_mission(mission_path, world_dir, runs, seed=0, run_id="counted", overwrite=True)
+    else:
+        s = run_mission(RunRequest(mission_path, world_dir, runs, seed=0, run_id="counted", overwrite=True))
     print(json.dumps({"kernel": native.state, "status": s.status, "sim_time_s": s.sim_time_s}))
 
 if __name__ == "__main__":

@@ -26,13 +26,14 @@ def one_run(mission: Path, world: Path, out: Path, seed: int, px4_bin: str) -> d
     import json
 
     from vinecli.errors import VinecliError
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
+    from vinecli.sitl.options import AutopilotOptions
     from vinecli.sitl.px4.log_audit import audit_ulog
 
     t0 = time.perf_counter()
     try:
-        run_mission(mission, world, out, seed=seed, autopilot="px4", run_id=f"s{seed}",
-                    autopilot_options={"px4_bin": px4_bin})
+        run_mission(RunRequest(mission, world, out, seed=seed, autopilot="px4", run_id=f"s{seed}",
+                               autopilot_options=AutopilotOptions(px4_bin=px4_bin)))
     except VinecliError as exc:
         return {"seed": seed, "error": str(exc)}
     summary = json.loads((out / f"s{seed}" / "summary.json").read_text())

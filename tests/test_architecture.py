@@ -7,14 +7,15 @@ names only. A module name repeats only in the families that say why (:data:`NAME
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 from tests.repo_paths import REPO
 
 #: the layers, ground floor first; a unit is a top-level module or a package of vinecli
 LAYERS: list[set[str]] = [
-    {"constants", "errors", "frames", "geo", "inputs", "lifeline", "locks", "names", "native", "output_guard", "outputs",
-     "spray_defaults", "types"},
+    {"constants", "errors", "frames", "geo", "geometry", "inputs", "lifeline", "locks", "names", "native", "output_guard",
+     "outputs", "spray_defaults", "types"},
     {"specs"},
     {"flight", "spray", "control", "terrain", "vehicle", "mavlink", "flightlog"},
     {"rows", "phase_items", "identify", "gis"},
@@ -231,6 +232,95 @@ def test_the_rule_catches_a_private_import(tmp_path: Path) -> None:
     names = sorted(n for _, n in _private_uses(f, "vinecli.physics.m", modules))
     assert names == ["vinecli.outputs._jsonable", "vinecli.outputs._x", "vinecli.report.baseline._fmt",
                      "vinecli.report.loader._load_run"]
+
+
+#: a function takes at most this many parameters (``self``/``cls`` not counted, ``*args`` and ``**kwargs`` one each):
+#: more travel in one named object, unless a comment at the def says why (:data:`WIDE_REASON`)
+MAX_PARAMETERS = 8
+#: the comment that says why a function takes more, on the lines just above its def (or in its signature)
+WIDE_REASON = re.compile(r"#\s*parameters:\s*\S.{9,}")
+#: names of results and records (a run's, a firmware's, a deposition's): never annotated ``Any``
+RESULTISH = re.compile(r"^(result|record|dep|deposition)$|_(result|record)$|^(result|record)_")
+
+
+def _parameter_count(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    a = fn.args
+    names = [x.arg for x in a.posonlyargs + a.args]
+    if names and names[0] in ("self", "cls"):
+        names = names[1:]
+    return len(names) + len(a.kwonlyargs) + (a.vararg is not None) + (a.kwarg is not None)
+
+
+def _wide_without_reason(text: str) -> list[tuple[int, str, int]]:
+    """(line, function, parameters) of every function of ``text`` over :data:`MAX_PARAMETERS` whose def has no
+    :data:`WIDE_REASON` comment: in the comment block right above it (above its decorators) or in its signature."""
+    lines = text.splitlines()
+    out = []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and _parameter_count(node) > MAX_PARAMETERS:
+            top = min([node.lineno, *(d.lineno for d in node.decorator_list)]) - 1  # 0-based index of the first line
+            above = top - 1
+            while above >= 0 and lines[above].lstrip().startswith("#"):
+                above -= 1
+            comments = lines[above + 1:top] + lines[node.lineno - 1:node.body[0].lineno - 1]
+            if not any(WIDE_REASON.search(line) for line in comments):
+                out.append((node.lineno, node.name, _parameter_count(node)))
+    return out
+
+
+def test_functions_take_few_parameters_or_say_why() -> None:
+    wide = [f"{path.relative_to(REPO)}:{line} {name} ({n} parameters)"
+            for path in sorted(PKG.rglob("*.py")) for line, name, n in _wide_without_reason(path.read_text())]
+    assert not wide, (f"functions with more than {MAX_PARAMETERS} parameters: pass a named object, or say why at the "
+                      "def ('# parameters: ...'):\n" + "\n".join(wide))
+
+
+def test_the_parameter_rule_reads_the_reason() -> None:
+    nine = "a, b, c, d, e, f, g, h, i"
+    src = (f"def bare({nine}): pass\n"
+           f"# parameters: the nine inputs of a published formula\n@decorated\ndef said({nine}): pass\n"
+           f"def inline(\n    {nine},  # parameters: Typer reads one option per parameter\n): pass\n"
+           f"# parameters:\ndef empty({nine}): pass\n"
+           f"class C:\n    def method(self, a, b, c, d, e, f, g, h): pass\n    def more(self, *, {nine}): pass\n")
+    assert [name for _, name, _ in _wide_without_reason(src)] == ["bare", "empty", "more"]
+
+
+def _any_annotated(text: str) -> list[tuple[int, str]]:
+    """(line, name) of every parameter, field or attribute named like a result or record (:data:`RESULTISH`)
+    annotated ``Any`` (alone or with None)."""
+    def is_any(ann: ast.expr | None) -> bool:
+        if ann is None:
+            return False
+        words = ast.unparse(ann).replace("typing.", "").replace("Optional[", "").replace("]", "").replace(" ", "")
+        return "Any" in words.split("|") or words.strip("'\"") == "Any"
+
+    out = []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            a = node.args
+            out += [(x.lineno, x.arg) for x in a.posonlyargs + a.args + a.kwonlyargs
+                    if RESULTISH.search(x.arg) and is_any(x.annotation)]
+        elif isinstance(node, ast.AnnAssign) and is_any(node.annotation):
+            target = node.target
+            name = target.id if isinstance(target, ast.Name) else target.attr if isinstance(target, ast.Attribute) else ""
+            if RESULTISH.search(name):
+                out.append((node.lineno, name))
+    return out
+
+
+def test_no_result_or_record_is_any() -> None:
+    untyped = [f"{path.relative_to(REPO)}:{line} {name}"
+               for path in sorted(PKG.rglob("*.py")) for line, name in _any_annotated(path.read_text())]
+    assert not untyped, "results and records annotated Any (give their type):\n" + "\n".join(untyped)
+
+
+def test_the_any_rule_sees_parameters_fields_and_attributes() -> None:
+    src = ("from typing import Any, Optional\n"
+           "def f(result: Any, run_record: Any | None, record: 'Any', summary: Any, dep: dict[str, Any]): pass\n"
+           "class R:\n    deposition: Optional[Any] = None\n    result: int = 0\n"
+           "    def __init__(self):\n        self.firmware_record: Any = None\n")
+    assert [name for _, name in _any_annotated(src)] == ["result", "run_record", "record", "deposition",
+                                                          "firmware_record"]
 
 
 #: small files with one job, short functions: limits for every file and function of vinecli/

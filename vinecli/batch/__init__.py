@@ -10,8 +10,8 @@ May import every floor below it, the report included (``run compare`` draws its 
 never imports the batch (``batch.json`` is :mod:`vinecli.runs.batch_json`'s).
 """
 
-from vinecli.batch.case import CaseResult, RunSpec, run_one
+from vinecli.batch.case import CaseResult, run_one
 from vinecli.batch.pipeline import PipelineSpec, expand_cases, load_pipeline
 from vinecli.batch.run import BatchResult, run_batch
 
-__all__ = ["BatchResult", "CaseResult", "PipelineSpec", "RunSpec", "expand_cases", "load_pipeline", "run_batch", "run_one"]
+__all__ = ["BatchResult", "CaseResult", "PipelineSpec", "expand_cases", "load_pipeline", "run_batch", "run_one"]

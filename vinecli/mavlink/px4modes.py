@@ -102,9 +102,3 @@ def mode_name(main: int, sub: int) -> str:
     if main == MAIN_AUTO and sub == 0:
         return "mission"
     return f"unknown({main}/{sub})"
-
-
-def mode_word(name: str) -> int:
-    """custom_mode word of a vinecli mode name."""
-    main, sub = MODES[name]
-    return custom_mode(main, sub)

@@ -193,6 +193,7 @@ def _figure_notes(runs: Sequence[Any], chosen: Sequence[Any], want_figs: bool, f
     return notes, policy_note
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli report` option; a caller names the ones it sets
 def build_report(
     runs_dir: str | Path,
     out_dir: str | Path,

@@ -13,5 +13,6 @@ command line, which read what it writes.
 """
 
 from vinecli.runs.mission import RunSummary, recheck_run, run_mission
+from vinecli.runs.request import RunRequest
 
-__all__ = ["RunSummary", "recheck_run", "run_mission"]
+__all__ = ["RunRequest", "RunSummary", "recheck_run", "run_mission"]

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.sim.recorder import timeseries_columns
+from vinecli.sim.row import timeseries_columns
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.spray.canopy import hedge_window, row_spacing

@@ -69,6 +69,8 @@ __all__ = ["SimResult", "run_simulation", "simulate"]
 SPAWN_GAP_M = 0.0  # m between the skids and the terrain at spawn
 
 
+# parameters: the library's one-call run: keyword-only options with their defaults, handed to prepare_run and
+# simulate as they are
 def run_simulation(
     world: World,
     mission: MissionSpec,

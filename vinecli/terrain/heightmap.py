@@ -448,6 +448,7 @@ def _tif_crs(meta: DsmMeta, crop: SquareCrop) -> Any:
     return crop.grid_crs
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli terrain convert --to heightmap` option; a caller names the ones it sets
 def convert_to_heightmap(dsm: Path, out: Path, *, size: int | None = None, method: str = HEIGHTMAP_METHOD,
                          window: tuple[int, int, int, int] | None = None,
                          bbox: tuple[float, float, float, float] | None = None, fill: str | float = FILL,

@@ -331,6 +331,7 @@ def terrain_engine(terrain: TerrainInfo, *, rate_hz: float, gravity: float) -> I
     engine.remove_vehicle()
 
 
+# parameters: keyword-only options, each with its default (the vehicle's box, gear, liquid and the engine's rate and gravity); a caller names the ones it sets
 def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
               collision_box_m: Vec3, landing_gear_height_m: float, liquid_kg: float = 0.0,
               mount_flu: Vec3 = (0.0, 0.0, 0.0), rate_hz: float = 250.0, gravity: float = STANDARD_GRAVITY) -> SettleResult:
