@@ -1,4 +1,4 @@
-"""Checks a batch passes before any case runs (issue 20): its inputs, its outputs, its memory.
+"""Checks a batch passes before any case runs: its inputs, its outputs, its memory.
 
 * :func:`note_case_inputs`: every file the cases read (the vehicles the missions name, the worlds: built
   folders, or specs with the terrain and vehicle files they name) joins the batch's inputs
@@ -19,8 +19,9 @@ from typing import Any
 
 from vinecli.batch.pipeline import Case
 from vinecli.errors import InputError, OutputError
-from vinecli.inputs import current_inputs, note_input, read_input_json
+from vinecli.inputs import current_inputs, note_input
 from vinecli.output_guard import contained_path, replaceable_problem
+from vinecli.runs.batch_json import read_batch_json
 
 __all__ = ["check_case_targets", "check_cases_memory", "note_case_inputs"]
 
@@ -77,10 +78,9 @@ def check_case_targets(cases: Sequence[Case], runs_dir: Path, pipeline: Path, *,
 
 def _is_batch_json(path: Path) -> bool:
     try:
-        doc = read_input_json(path, "batch.json")
-    except ValueError:  # InputError too: not JSON, nested too deeply
+        return "pipeline" in read_batch_json(path)
+    except InputError:
         return False
-    return isinstance(doc, dict) and isinstance(doc.get("cases"), list) and "pipeline" in doc
 
 
 def check_cases_memory(cases: Sequence[Case], worlds: Mapping[str, str], pipeline: Path) -> None:
