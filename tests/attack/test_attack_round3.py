@@ -1,6 +1,6 @@
-"""Issue 32, done-when: the third attack pass, re-run as a new user would run it, on one sandbox. One attack per
-class (the focused tests, several instances each, are in tests/safety, tests/identify, tests/sitl/px4 and
-tests/missions); every refused command exits 2 with one line, no traceback, and afterwards the sandbox holds no
+"""The third attack pass, re-run as a new user would run it, on one sandbox. One attack per
+class (the focused tests, several instances each, are in tests/safety, tests/flightlog, tests/sitl/px4 and
+tests/rows); every refused command exits 2 with one line, no traceback, and afterwards the sandbox holds no
 temporary file or folder, no lock and no folder a failed command made, and no process is left.
 
 1 nesting, 2 a log's clock, 3 early firmware failures, 4 a firmware that speaks garbage, 5 a wrapper without exec,

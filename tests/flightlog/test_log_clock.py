@@ -1,4 +1,4 @@
-"""Issue 32 class 2: a flight log's damaged clock is found and handled. A ULog whose second half is shifted by
+"""A flight log's damaged clock is found and handled. A ULog whose second half is shifted by
 10^12 or 10^16 µs, or whose clock restarts at 0 halfway, is fitted on its longest continuous stretch, with a note
 saying so, in seconds and bounded memory (``vehicle fit`` hung past 120 s and 1.5 GB, or asked for 3.6 TiB); a log
 cut short says so (a note, or the refusal names the cut: "never left the ground" of a log that took off at 3.9 s

@@ -143,7 +143,7 @@ def match_rows(rows: list[list[tuple[float, float]]], truth: list[np.ndarray]) -
 
 @dataclass
 class YoungCrop:
-    """A young row crop as a 1 cm drone DSM sees it (issue 32 class 12): single plants (``radius_m`` across, up to
+    """A young row crop as a 1 cm drone DSM sees it: single plants (``radius_m`` across, up to
     ``tall_m`` high, every ``step_m`` along the rows, ``missing`` of them absent) on rough bare soil (correlated
     roughness at 3 and 15 cm, clods 2-6 cm across, a tilt, wheel tracks between every 4th pair of rows). Most of the
     relief is soil and plant-vs-gap along the rows: the comb explains 11-13 % of it."""

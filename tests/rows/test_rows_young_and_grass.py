@@ -23,7 +23,7 @@ FOUND = {
                                 seed=3),
     # young vines as single plants 0.5 m tall, 0.4 m across, 1.1 m apart, 15 % missing: rows a person sees. The comb
     # explains only 8 % of the relief (most of it is plant-vs-gap along the rows), but 40-45 % of the relief averaged
-    # along the rows (issue 32: refused before, as the DSM could not resolve them)
+    # along the rows (refused before, as the DSM could not resolve them)
     "young-sparse": Field(width_m=40, height_m=30, res_m=0.05, direction_deg=17.0, spacing_m=2.4, n_rows=10,
                           t_range=(-17, 17), canopy_m=0.5, canopy_half_m=0.2, plants_m=1.1, plant_frac=0.2,
                           missing=0.15, noise_m=0.02, slope=(0.06, 0.02), seed=1),

@@ -1,4 +1,4 @@
-"""Issue 32 class 12: a young row crop a person can see is not refused. A 1 cm drone-like DSM of young crop rows
+"""A young row crop a person can see is not refused. A 1 cm drone-like DSM of young crop rows
 0.77 m apart (single plants with bare soil, clods and wheel tracks between them): the comb explains only 11-13 % of
 the relief variance (plant-or-soil along the rows; rows needed >= 30 %), which refused it; the relief averaged along
 the rows (the lateral profile) shows the rows (31-35 %), so every row is found, within 6 cm. With ``--spacing`` (and

@@ -57,7 +57,7 @@ def test_an_unwritable_folder_is_one_output_error(tmp_path: Path) -> None:
 
 
 def test_missing_folders_are_made_and_removed_again_when_the_write_fails(tmp_path: Path) -> None:
-    """Class 8 (issue 32): a failed write leaves no folder it made."""
+    """A failed write leaves no folder it made."""
     with pytest.raises(ValueError), atomic_file(tmp_path / "new" / "a" / "x.gpkg") as tmp:
         assert tmp.parent.is_dir()
         raise ValueError("the writer failed")
@@ -67,7 +67,7 @@ def test_missing_folders_are_made_and_removed_again_when_the_write_fails(tmp_pat
 
 
 def test_a_file_that_appears_meanwhile_is_kept_without_overwrite(tmp_path: Path) -> None:
-    """Class 6 (issue 32): one writer per output path. Another writer's file that appears while this one writes is
+    """One writer per output path. Another writer's file that appears while this one writes is
     never replaced without ``overwrite``; this one fails with one OutputError and leaves no temporary."""
     out = tmp_path / "field.gpkg"
     with pytest.raises(OutputError, match="another process"), atomic_file(out, ".gpkg", overwrite=False) as tmp:

@@ -1,4 +1,4 @@
-"""Issue 32 classes 4, 5 and 11: every firmware run ends, promptly, and leaves no process.
+"""Every firmware run ends, promptly, and leaves no process.
 
 * class 4: an ``--ardupilot-bin`` that writes garbage on ArduPilot's ports ends with a clear error within the
   frame timeout (it ran past 120 s), and SIGTERM during a hung firmware run ends it in seconds;

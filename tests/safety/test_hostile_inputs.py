@@ -1,4 +1,4 @@
-"""Issue 32 classes 1, 8, 9 and 10: hostile inputs end with exit 2 and one line naming the file and the problem,
+"""Hostile inputs end with exit 2 and one line naming the file and the problem,
 early, within bounded memory, and leave no folder behind.
 
 * class 1: JSON nested 200,000 levels deep (a .plan, a world's world.json, a run's summary.json) is bad input,

@@ -1,4 +1,4 @@
-"""Issue 32 classes 3 and 8: no temporary file or folder is left after any ending, and a failed command leaves no
+"""No temporary file or folder is left after any ending, and a failed command leaves no
 folder it made.
 
 * Scratch folders in the system's temporary directory are named after their owner (pid and start time); every

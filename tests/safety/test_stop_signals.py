@@ -1,4 +1,4 @@
-"""Issue 32 class 7: a second SIGTERM leaves nothing half-written. One handler (``vinecli.stop_signals``) for
+"""A second SIGTERM leaves nothing half-written. One handler (``vinecli.stop_signals``) for
 ``run mission`` and ``run batch``: the first signal stops the work at the next step, the second aborts at once,
 also while the run is being written, and the exit is 143 with one line; no temporary folder, no lock is left.
 Real processes, real signals."""

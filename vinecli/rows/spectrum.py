@@ -7,6 +7,7 @@ data). Used by :func:`vinecli.rows.detect.detect_rows_grid`.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -111,10 +112,20 @@ def tensor_normal(zz: np.ndarray, valid: np.ndarray, spacing_cells: float) -> np
     return np.array([math.cos(th), math.sin(th)])
 
 
-def _along_normal(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, normal: np.ndarray, lo: float,
-                  hi: float, ratio: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> tuple[np.ndarray, float, float]:
+class _RingRatio(NamedTuple):
+    """Each rfft2 bin's power over the median of its ring (``ratio``) and the bins' wavenumbers (cycles/m)."""
+
+    ratio: np.ndarray
+    kx: np.ndarray
+    ky: np.ndarray
+
+
+def _along_normal(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, normal: np.ndarray,
+                  band: tuple[float, float], spectrum: _RingRatio) -> tuple[np.ndarray, float, float]:
     """:func:`direction_and_spacing` along a given normal: the lateral profile's sharpest peak in the spacing band
-    (within 1.5 deg of it), and the spectrum's strength at that wavenumber."""
+    (``band``: lo, hi m; within 1.5 deg of the normal), and the spectrum's strength at that wavenumber."""
+    lo, hi = band
+    ratio, kx, ky = spectrum
     X, Y = np.meshgrid(x, y)
     Xv, Yv, h = X[valid], Y[valid], zz[valid]
     step = min(abs(float(x[1] - x[0])), abs(float(y[1] - y[0])))
@@ -168,7 +179,7 @@ def direction_and_spacing(zz: np.ndarray, valid: np.ndarray, x: np.ndarray, y: n
         ring_med[v] = float(np.median(chunk))
     ratio = np.where(band, spec / np.maximum(ring_med[ring], 1e-30), 0.0)
     if normal is not None:
-        return _along_normal(zz, valid, x, y, np.asarray(normal, float), lo, hi, ratio, kx, ky)
+        return _along_normal(zz, valid, x, y, np.asarray(normal, float), (lo, hi), _RingRatio(ratio, kx, ky))
     j, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     for m in (6, 5, 4, 3, 2):  # the peak may be a harmonic of the row profile (narrow canopies: up to the 6th): the
         # fundamental, the lowest frequency that is there

@@ -29,8 +29,8 @@ MIN_ORIGIN_ALT_M, MAX_ORIGIN_ALT_M = -500.0, 9_000.0
 #: largest image side, px
 MAX_IMAGE_PX = 4096
 
-# sizes of inputs (issue 32: a 10^6-vertex fence built a 72 MB world.json and flew at 0.2x real time, a 10^6-item
-# .plan needed 2.1 GB): far above any real field, refused at read with the limit and the real figure (exit 2)
+# sizes of inputs (an attack pass found that a 10^6-vertex fence built a 72 MB world.json and flew at 0.2x real
+# time, a 10^6-item .plan needed 2.1 GB): far above any real field, refused at read with the limit and the real figure (exit 2)
 #: most vertices of one fence or zone polygon (a boundary walked with a GNSS at 1 point/s for 2 h: 7,200)
 MAX_FENCE_VERTICES = 10_000
 #: most vertices of all rows together (2,000 rows of 50 vertices)

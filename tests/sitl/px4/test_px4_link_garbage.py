@@ -1,4 +1,4 @@
-"""Issue 32 class 11: the PX4 link keeps its footing, and a PX4 that stops early ends the run early. 1.5 kB of garbage on the simulator's TCP link swallows one of
+"""The PX4 link keeps its footing, and a PX4 that stops early ends the run early. 1.5 kB of garbage on the simulator's TCP link swallows one of
 PX4's answers (PX4 answers each HIL_SENSOR once); the lockstep notices the garbage, takes that step with the last
 outputs (a stall and a resynchronisation, in the metrics and the events) and PX4 answers the next one: the flight
 goes on to its end instead of waiting 30 s and ending "PX4 stopped answering". Real sockets, the fake PX4 peer,

@@ -365,8 +365,7 @@ class Px4SitlAutopilot:
                 + self._px4_log())
 
     def _resync(self, t: int, bad: int) -> None:
-        """Garbage on the link swallowed PX4's answer to HIL_SENSOR(``t``), which PX4 sends once: go on with the last
-        controls (a stall the checks see); PX4 answers the next step. Too many in a row raise, as stalls do."""
+        """Garbage swallowed PX4's one answer to HIL_SENSOR(``t``): go on with the last controls (a stall, as many raise)."""
         self.stalls, self.consecutive_stalls, self.resyncs = self.stalls + 1, self.consecutive_stalls + 1, self.resyncs + 1
         what = f"garbage on the simulator link (TCP {self.host}:{self.port}): {bad} bytes that decode to no message"
         self._emit(t - self.dt_us, "px4", f"{what}; PX4's answer was lost, resynchronised", {"undecoded_bytes": bad})
@@ -478,8 +477,7 @@ class Px4SitlAutopilot:
             from vinecli.sitl.identity import identity_from_message
             from vinecli.sitl.record import FirmwareRecord
 
-            version = self.mission_version
-            rec = FirmwareRecord(identity_from_message("PX4", version, self.px4_bin))
+            rec = FirmwareRecord(identity_from_message("PX4", self.mission_version, self.px4_bin))
             rec.files = self.process.keep(KEEP, rec.dir)
             rec.auditor = apply_audit  # PX4's own log: did its periodic work (battery, load monitor) run to the end?
             self.firmware_record = rec
@@ -496,9 +494,7 @@ def _unit(u: float) -> float:
 
 
 def _i16(x: float) -> int:
-    if not math.isfinite(x):
-        return 0
-    return max(-32767, min(32767, round(x)))
+    return max(-32767, min(32767, round(x))) if math.isfinite(x) else 0
 
 
 __all__ = ["Px4SitlAutopilot"]
