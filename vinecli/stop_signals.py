@@ -9,7 +9,8 @@ Inside :meth:`StopSignals.interruptible` (work that does not poll) the first sig
 
 Outside those sections the CLI turns SIGTERM into :class:`Aborted` too (:func:`abort_on_sigterm`), so a command
 stopped by ``kill`` cleans up like one stopped by Ctrl-C. Signals are handled in the main thread only;
-elsewhere these context managers do nothing.
+elsewhere these context managers do nothing, and in a process whose signals another handler owns
+(:func:`leave_signals_to_owner`: a batch worker) neither.
 """
 
 from __future__ import annotations
@@ -22,11 +23,22 @@ from contextlib import contextmanager
 from types import FrameType
 from typing import Any
 
-__all__ = ["STOP_SIGNALS", "Aborted", "StopRequested", "StopSignals", "abort_on_sigterm", "signal_name"]
+__all__ = ["STOP_SIGNALS", "Aborted", "StopRequested", "StopSignals", "abort_on_sigterm", "leave_signals_to_owner",
+           "signal_name"]
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT)
 
 log = logging.getLogger(__name__)
+
+_OWNED_ELSEWHERE = False  # this process's stop signals belong to another handler (:func:`leave_signals_to_owner`)
+
+
+def leave_signals_to_owner() -> None:
+    """From now on :class:`StopSignals` installs no handler in this process: another one owns its stop signals and
+    stops the work by other means (a batch worker: :func:`vinecli.batch.signals.worker_init`, whose handler raises
+    the flag the run polls, and ends an idle worker at once)."""
+    global _OWNED_ELSEWHERE
+    _OWNED_ELSEWHERE = True
 
 
 def signal_name(signum: int) -> str:
@@ -92,7 +104,7 @@ class StopSignals:
             self._raise = False
 
     def __enter__(self) -> StopSignals:
-        if threading.current_thread() is threading.main_thread():
+        if threading.current_thread() is threading.main_thread() and not _OWNED_ELSEWHERE:
             for s in STOP_SIGNALS:
                 self._old[s] = signal.signal(s, self.handle)
         return self

@@ -4,16 +4,20 @@
   ``max_tasks_per_child`` to cap memory growth of long batches. The fork server is a fresh,
   single-threaded interpreter that imports :data:`WORKER_PRELOAD` once; every worker is forked
   from it with those modules loaded (no PyBullet client, no BLAS thread and no parent state is
-  ever forked), so a worker starts in milliseconds instead of ~0.7 s of imports each.
+  ever forked), so a worker starts in milliseconds instead of ~0.7 s of imports each. Such a pool is
+  shut down by :func:`stop_local_pool`, which never waits for ever: a grace period, SIGTERM, another, SIGKILL.
 * ``dask``: ``dask.distributed.Client(...).get_executor()`` on a scheduler address, or on a
   local cluster (``LocalCluster``) when none is given. Same submit/wait code path.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing as mp
 import os
+import signal
+import time
 from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
@@ -59,6 +63,36 @@ def make_local_executor(workers: int, max_tasks_per_child: int = WORKER_CASES, s
     return ProcessPoolExecutor(max_workers=workers, mp_context=_context(),
                                max_tasks_per_child=max_tasks_per_child, initializer=worker_init,
                                initargs=(stop_flag, os.getpid()))
+
+
+#: seconds a local pool's workers get to end by themselves when the pool shuts down, and again after SIGTERM
+POOL_GRACE_S = 10.0
+
+
+def stop_local_pool(ex: Executor, grace_s: float = POOL_GRACE_S) -> dict[int, str]:
+    """Shut the pool ``ex`` down without ever waiting for ever: its pending cases cancelled, its workers given
+    ``grace_s`` to end (an idle one ends at once on the pool's end marker), then SIGTERM (an idle worker ends at
+    once, a running case stops at its next step and is written) and ``grace_s`` more, then SIGKILL; the pool's
+    manager thread joined last. Returns how each worker (by pid) was ended: ``"itself"``, ``"SIGTERM"`` or
+    ``"SIGKILL"``."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())  # ProcessPoolExecutor has no public list
+    manager = getattr(ex, "_executor_manager_thread", None)
+    ex.shutdown(wait=False, cancel_futures=True)
+    how: dict[int, str] = {}
+    for step, send in (("itself", None), ("SIGTERM", signal.SIGTERM), ("SIGKILL", signal.SIGKILL)):
+        live = [p for p in procs if p.is_alive()]
+        for p in live:
+            how[p.pid] = step
+            if send is not None:
+                log.debug("pool worker %s still running after %g s: %s", p.pid, grace_s, step)
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(p.pid, send)
+        deadline = time.monotonic() + (grace_s if send != signal.SIGKILL else 5.0)
+        for p in live:
+            p.join(max(0.0, deadline - time.monotonic()))
+    if manager is not None:
+        manager.join(5.0)  # its workers are gone: it ends at once
+    return how
 
 
 def local_stop_flag() -> Any:

@@ -33,11 +33,13 @@ from typing import Any
 from vinecli.batch.case import CaseResult, run_one
 from vinecli.batch.executors import (
     EXECUTORS,
+    POOL_GRACE_S,
     WORKER_CASES,
     dask_executor,
     local_stop_flag,
     make_local_executor,
     start_fork_server,
+    stop_local_pool,
 )
 from vinecli.batch.pipeline import Case, PipelineSpec, expand_cases, load_pipeline, with_world
 from vinecli.batch.prechecks import check_case_targets, check_cases_memory, note_case_inputs
@@ -289,6 +291,7 @@ def _execute(todo: Sequence[RunRequest], pool: _Pool, hard_limit: float | None, 
     run_case, workers, max_tasks_per_child = pool.run_case, pool.workers, pool.max_tasks_per_child
     local = pool.executor == "local"
     flag = local_stop_flag() if local else None
+    stuck = False  # cases that gave no result after a stop signal: their workers are killed at once
     with ExitStack() as stack:
         if local:
             ex: Executor = make_local_executor(workers, max_tasks_per_child, flag)
@@ -326,7 +329,7 @@ def _execute(todo: Sequence[RunRequest], pool: _Pool, hard_limit: float | None, 
                     for f, (s, _t, _a) in list(inflight.items()):  # the rest of the broken pool
                         suspects.append(s)
                         inflight.pop(f)
-                    ex.shutdown(wait=False, cancel_futures=True)
+                    stop_local_pool(ex, 0.0)  # its cases run again: a worker that took SIGTERM would wait idle
                     ex = make_local_executor(workers, max_tasks_per_child, flag)
                 if hard_limit is not None:
                     now = time.monotonic()
@@ -339,16 +342,13 @@ def _execute(todo: Sequence[RunRequest], pool: _Pool, hard_limit: float | None, 
                         for f, (s, _t, _a) in list(inflight.items()):
                             pending.appendleft(s)
                             inflight.pop(f)
-                        _kill_pool(ex)
+                        stop_local_pool(ex, 0.0)  # stuck in C code, perhaps
                         ex = make_local_executor(workers, max_tasks_per_child, flag)
-            if stop.signum is not None and inflight:
-                _drain(inflight, flag, record, stop.name)
+            if stop.signum is not None and inflight and _drain(inflight, flag, record, stop.name):
+                stuck = True
         finally:
-            if local:
-                if inflight or stop.signum is not None:  # stuck, or stopping: idle workers have nothing to save
-                    _kill_pool(ex)
-                else:
-                    ex.shutdown(wait=True)
+            if local:  # stuck, or aborted by a second signal: now; else the workers end by themselves (or are ended)
+                stop_local_pool(ex, 0.0 if inflight or stuck else POOL_GRACE_S)
 
 
 def _expected_cost(s: RunRequest) -> float:
@@ -357,10 +357,10 @@ def _expected_cost(s: RunRequest) -> float:
 
 
 def _drain(inflight: dict[Future[CaseResult], tuple[RunRequest, float, bool]], flag: Any,
-           record: Callable[[CaseResult], None], signame: str) -> None:
+           record: Callable[[CaseResult], None], signame: str) -> bool:
     """After a stop signal: raise a local pool's stop ``flag`` (its runs end at the next step and are written
     as ``interrupted``), wait up to :data:`STOP_GRACE_S` and record what the cases return (Dask, no flag:
-    the running cases are cancelled)."""
+    the running cases are cancelled). True when some case gave no result."""
     log.info("%s: stopping %d running case(s)", signame, len(inflight))
     if flag is not None:
         flag.value = 1
@@ -372,24 +372,16 @@ def _drain(inflight: dict[Future[CaseResult], tuple[RunRequest, float, bool]], f
         except BaseException as exc:  # noqa: BLE001 - a worker that died on the signal
             r = _interrupted(s, f"stopped by {signame}: {type(exc).__name__}")
         record(r)
+    stuck = bool(inflight)
     for f, (s, _t, _a) in list(inflight.items()):
         f.cancel()
         inflight.pop(f)
         record(_interrupted(s, f"stopped by {signame}: no result after {STOP_GRACE_S:g} s (worker killed)"))
+    return stuck
 
 
 def _interrupted(s: RunRequest, message: str) -> CaseResult:
     return CaseResult(s.case, s.run_id, "interrupted", False, message, seed=s.seed)
-
-
-def _kill_pool(ex: Executor) -> None:
-    """Stop a local process pool now (its workers may be stuck in C code)."""
-    procs = list(getattr(ex, "_processes", {}).values())  # ProcessPoolExecutor has no public kill
-    for p in procs:
-        p.kill()
-    ex.shutdown(wait=False, cancel_futures=True)
-    for p in procs:
-        p.join(timeout=5)
 
 
 def _error(s: RunRequest, message: str) -> CaseResult:

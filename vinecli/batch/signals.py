@@ -6,12 +6,16 @@
   ``interruptible()`` section (e.g. while a world is being built) the signal also raises
   :class:`~vinecli.stop_signals.StopRequested`. A second signal aborts at once
   (:class:`~vinecli.stop_signals.Aborted`).
-* Worker processes (:func:`worker_init`, the local pool's initializer): SIGINT is ignored outside a
-  run (a terminal's Ctrl-C reaches the whole process group; the run itself turns it into a stop)
-  and a SIGTERM of their own sets a local flag. :func:`worker_should_stop` reports either flag to the
-  simulation loop (polled every step: a plain read of shared memory), which ends the run as
-  ``interrupted`` and writes it. The shared flag reaches workers still starting up, where a signal
-  would kill them.
+* Worker processes (:func:`worker_init`, the local pool's initializer) own their signals (the run's
+  :class:`~vinecli.stop_signals.StopSignals` installs nothing there). SIGINT is ignored (a terminal's Ctrl-C
+  reaches the whole process group; the batch process turns it into the shared flag). A SIGTERM to a worker
+  running a case sets a local flag; :func:`worker_should_stop` reports either flag to the simulation loop
+  (polled every step: a plain read of shared memory), which ends the run as ``interrupted`` and writes it;
+  more SIGTERMs while it does change nothing (the pool's shutdown ends a worker that takes too long:
+  :func:`vinecli.batch.executors.stop_local_pool`). A SIGTERM to an idle worker ends it at once, by the
+  signal: ``ProcessPoolExecutor`` terminates the workers of a broken pool with one SIGTERM each and then
+  joins them, which hung for ever while an idle worker, waiting for its next case, only noted the signal.
+  The shared flag reaches workers still starting up, where a signal would kill them.
 * A worker whose batch process dies without a word (``kill -9``) follows it
   (:func:`vinecli.lifeline.watch_process`): a case in flight is stopped and written ``interrupted``
   if that takes less than :data:`PARENT_GRACE_S`, then the worker kills itself; an idle worker goes
@@ -27,6 +31,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
 from typing import Any
+
+from vinecli.stop_signals import leave_signals_to_owner
 
 #: seconds a worker whose batch process died gives its running case to write itself ``interrupted``
 PARENT_GRACE_S = 2.0
@@ -44,8 +50,15 @@ def make_stop_flag(ctx: Any) -> Any:
 
 
 def _worker_sigterm(signum: int, frame: FrameType | None) -> None:
+    """A worker's SIGTERM: running a case, its run stops at the next step; idle, the worker ends now, by the signal
+    (it holds nothing to save; its pool sees a worker killed by SIGTERM, as ``terminate()`` expects)."""
     global _WORKER_STOP
-    _WORKER_STOP = True
+    if _IN_CASE:
+        _WORKER_STOP = True
+        return
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+    os._exit(128 + signum)  # not reached: the default action of SIGTERM ends the process
 
 
 def _batch_gone() -> None:
@@ -66,6 +79,7 @@ def worker_init(stop_flag: Any = None, batch_pid: int | None = None) -> None:
     :func:`worker_should_stop`; the worker follows the batch process ``batch_pid`` when it dies."""
     global _SHARED_STOP, _FORK_SERVER
     _SHARED_STOP = stop_flag
+    leave_signals_to_owner()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_sigterm)
     if batch_pid is not None:
