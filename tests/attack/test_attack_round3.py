@@ -24,15 +24,14 @@ import pytest
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "safety"))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "missions"))
 from attack_kit import IDLE, PLAN, cli, error_line, kill_session, mission, vinecli_proc, wait_for  # noqa: E402
 from proc_tree import alive, descendants  # noqa: E402
 from repo_paths import REPO  # noqa: E402
-from row_fields import YoungCrop  # noqa: E402
 
 from tests.flightlog.synthetic_log import synthetic_log  # noqa: E402
 from tests.gis.test_gis_world import grower_world  # noqa: E402
 from tests.identify.ulog_edit import shifted  # noqa: E402
+from tests.rows.row_fields import YoungCrop  # noqa: E402
 
 SPRAY = {"name": "m", "vehicle": "x500-sprayer", "max_duration_s": 60,
          "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
