@@ -105,12 +105,13 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
     (as ``terrain convert --to tiles``); ``kw`` go to :func:`detect_rows_grid`."""
     import rasterio
 
-    from vinecli.terrain.raster import check_suffix, crs_label, to_lonlat
+    from vinecli.terrain.raster import check_dsm_size, check_suffix, crs_label, to_lonlat
 
     path = Path(path)
     check_suffix(path)
     try:
         with rasterio.open(path) as ds:
+            check_dsm_size(ds.width, ds.height, path)
             f = max(1, math.ceil(math.sqrt(ds.width * ds.height / max_cells)))
             shape = (max(8, ds.height // f), max(8, ds.width // f))
             z = ds.read(1, out_shape=shape, masked=True, resampling=rasterio.enums.Resampling.average)
@@ -123,6 +124,8 @@ def detect_rows_in_dsm(path: Path | str, *, max_cells: int = 300_000, **kw: Any)
     if abs(tr.b) > 1e-12 or abs(tr.d) > 1e-12:
         raise TerrainError("rotated/skewed geotransform: row detection needs a north-up raster", path=path)
     z[~np.isfinite(z) | (np.abs(z) > 1e6)] = np.nan
+    if not np.isfinite(z).any():
+        raise TerrainError("no valid heights (every pixel is nodata)", path=path)
     cx, cy = (b.left + b.right) / 2, (b.bottom + b.top) / 2
     origin = None
     if crs is not None:

@@ -30,8 +30,10 @@ M = TypeVar("M", bound=BaseModel)
 
 #: most values a spec file may expand to (YAML aliases counted every time they are used)
 MAX_YAML_VALUES = 1_000_000
-#: largest spec file read, bytes
-MAX_YAML_BYTES = 64 << 20
+#: largest spec file read, bytes: libyaml's node graph takes about 65 bytes per byte of YAML (a 27 MB mission, one
+#: row of 10^6 vertices, peaked at 1.8 GB before its values were counted), so 16 MB keeps a read near 1 GB; a
+#: world or mission at the row-vertex limit (100,000) is 3-4 MB
+MAX_YAML_BYTES = 16 << 20
 
 
 class StrictModel(BaseModel):

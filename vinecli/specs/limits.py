@@ -35,6 +35,9 @@ MAX_IMAGE_PX = 4096
 MAX_FENCE_VERTICES = 10_000
 #: most vertices of all rows together (2,000 rows of 50 vertices)
 MAX_ROW_VERTICES = 100_000
+#: most pixels of a DSM (a 63,000 px square: 40 ha at 1 cm, 25 km² at 8 cm); every pixel is read at least once,
+#: and a compressed GeoTIFF of 300,000 x 300,000 empty pixels is 11 MB
+MAX_DSM_PX = 4_000_000_000
 #: most mission items in a .plan (a survey of 400 rows of 10 items each: 4,000)
 MAX_PLAN_ITEMS = 10_000
 #: largest .plan file, bytes (a 10,000-item plan as QGroundControl writes it is about 8 MB)

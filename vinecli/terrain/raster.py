@@ -32,6 +32,7 @@ import numpy as np
 
 from vinecli.errors import InputError, TerrainError
 from vinecli.inputs import note_input, read_input_json, require_regular_file
+from vinecli.specs.limits import MAX_DSM_PX
 
 log = logging.getLogger(__name__)
 
@@ -356,6 +357,14 @@ def open_raster(path: Path) -> Iterator[Any]:
         src.close()
 
 
+def check_dsm_size(width: int, height: int, path: Path) -> None:
+    """TerrainError (exit 2) naming the limit and the raster's size when it has more than :data:`MAX_DSM_PX` pixels
+    (every reader of a DSM reads each pixel at least once)."""
+    if width * height > MAX_DSM_PX:
+        raise TerrainError(f"raster is {width:,}x{height:,} px ({width * height / 1e9:.1f} Gpx): at most "
+                           f"{MAX_DSM_PX / 1e9:g} Gpx (cut it to the field, or resample it coarser)", path=path)
+
+
 def inspect_dsm(src: Any, *, z_unit: str | None = None) -> DsmMeta:
     """Validate an open dataset as a DSM and describe it (raises TerrainError naming the file)."""
     from rasterio.enums import MaskFlags
@@ -377,6 +386,7 @@ def inspect_dsm(src: Any, *, z_unit: str | None = None) -> DsmMeta:
         raise TerrainError("geotransform is not north-up (need positive x and negative y pixel size)", path=path)
     if src.width < 2 or src.height < 2:
         raise TerrainError(f"raster is {src.width}x{src.height} px; need at least 2x2", path=path)
+    check_dsm_size(src.width, src.height, path)
     try:  # a truncated file opens (header intact) but its last block is missing
         src.read(1, window=Window(src.width - 1, src.height - 1, 1, 1))
     except RasterioError as exc:
@@ -443,25 +453,27 @@ def read_heights(src: Any, meta: DsmMeta, window: Any = None) -> tuple[np.ndarra
 
 
 def scan_heights(src: Any, meta: DsmMeta) -> dict[str, float | int | None]:
-    """Stream the whole band in row strips: valid count, nodata share, z min/max (metres).
+    """Stream the whole band in windows of whole blocks: valid count, nodata share, z min/max (metres).
 
-    Memory stays at one strip (about :data:`SCAN_CHUNK_PX` pixels) whatever the raster size.
+    Memory stays at one window (about :data:`SCAN_CHUNK_PX` pixels, one block when a block is larger) whatever
+    the raster's size or shape: a window spans the full width only when a block row fits (a 10^6 px wide raster
+    with 256-row blocks read in full-width strips held 1 GB).
     """
     from rasterio.windows import Window
 
-    rows = max(1, SCAN_CHUNK_PX // meta.width)
-    if meta.block_shape[0] > 1:
-        rows = max(meta.block_shape[0], rows - rows % meta.block_shape[0])
+    bh, bw = max(1, meta.block_shape[0]), max(1, meta.block_shape[1])
+    cols = min(meta.width, max(bw, SCAN_CHUNK_PX // bh // bw * bw))
+    rows = min(meta.height, max(bh, SCAN_CHUNK_PX // cols // bh * bh))
     n_valid = 0
     zmin, zmax = math.inf, -math.inf
     for r0 in range(0, meta.height, rows):
-        h = min(rows, meta.height - r0)
-        z, valid = read_heights(src, meta, Window(0, r0, meta.width, h))
-        k = int(valid.sum())
-        if k:
-            n_valid += k
-            zmin = min(zmin, float(np.nanmin(z)))
-            zmax = max(zmax, float(np.nanmax(z)))
+        for c0 in range(0, meta.width, cols):
+            z, valid = read_heights(src, meta, Window(c0, r0, min(cols, meta.width - c0), min(rows, meta.height - r0)))
+            k = int(valid.sum())
+            if k:
+                n_valid += k
+                zmin = min(zmin, float(np.nanmin(z)))
+                zmax = max(zmax, float(np.nanmax(z)))
     total = meta.width * meta.height
     return {
         "valid": n_valid,
