@@ -23,9 +23,11 @@ from vinecli.errors import InputError, OutputError, check_range
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
+from vinecli.missions.rowjob_dose import DoseOptions, plan_segment_rates, rates_paths, write_rates
 from vinecli.outputs import check_output_file
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
+from vinecli.rows.segment_rates import SegmentRates
 from vinecli.rows.source import RowFrame
 from vinecli.specs.vehicle import DEFAULT_VEHICLE, VehicleSpec
 from vinecli.spray_defaults import SPRAY_DEFAULTS
@@ -43,6 +45,7 @@ class RowsJob:
     sorties: int
     files: list[Path] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    rates: SegmentRates | None = None
 
 
 def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple[float, float]]:
@@ -58,18 +61,24 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
                   takeoff: float = SPRAY_DEFAULTS.takeoff_m, detect: bool = False, world_rows: bool = False,
                   vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
                   home: tuple[float, float] | None = None, mission_out: Path | None = None,
-                  overwrite: bool = False) -> RowsJob:
+                  overwrite: bool = False, dose: DoseOptions | None = None) -> RowsJob:
     """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
     (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
     rows are flown, only the headland turns are kept over the surveyed ground). Every file is checked before
     the first is written: none may be an input, or replace an existing file without ``overwrite``
-    (OutputError, exit 2, nothing written)."""
+    (OutputError, exit 2, nothing written). ``dose``: also the rate of every row segment
+    (:mod:`vinecli.missions.rowjob_dose`), its map checked before anything is written."""
+    dose = dose if dose is not None and dose.given else None
     with reading_inputs():
         note_input(source, "world" if source.is_dir() else "DSM")
-        _check_targets([out, _geojson_path(out), *([mission_out] if mission_out is not None else [])], overwrite)
+        if dose is not None:
+            dose.check()
+        _check_targets([out, _geojson_path(out), *(rates_paths(out) if dose is not None else []),
+                        *([mission_out] if mission_out is not None else [])], overwrite)
         return _plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
                               detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
-                              fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
+                              fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite,
+                              dose=dose)
 
 
 def _check_targets(targets: list[Path], overwrite: bool) -> None:
@@ -105,7 +114,7 @@ def _geojson_path(out: Path) -> Path:
 def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: float, speed: float, flow: float,
                    takeoff: float, detect: bool, world_rows: bool, vehicle: str | None, tank_l: float | None,
                    fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
-                   overwrite: bool) -> RowsJob:
+                   overwrite: bool, dose: DoseOptions | None) -> RowsJob:
     from vinecli.missions.patterns import spray_mission
     from vinecli.missions.qgc_export import export_plan, sortie_plan
     from vinecli.missions.qgc_format import vehicle_nozzle_flow_lps, write_plan
@@ -174,6 +183,14 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         home3 = (start[0], start[1], surface(*start))
     if not rows:
         raise InputError("no rows found (try --spacing)", path=source)
+    georef = Georef(frame, origin)
+    rates = None
+    if dose is not None:
+        rates = plan_segment_rates(
+            dose, rows, georef, dsm_path=None if source.is_dir() else source, dsm=None if source.is_dir() else dsm,
+            world_dir=source if source.is_dir() else None, world_rows=source.is_dir() and not detect,
+            grid=w.terrain.grid if source.is_dir() else None,
+            spacing_m=det.spacing_m if det is not None else None)
     _check_options(veh, speed=speed, height=height, flow=flow, takeoff=takeoff, tank_l=tank_l)
     accel = plan_accel(veh)
     plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
@@ -192,13 +209,17 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     gj = _geojson_path(out)
     sortie_files = [out.with_name(f"{out.stem}.sortie-{k}.plan") for k in range(1, len(sorties) + 1)] \
         if len(sorties) > 1 else []
-    targets = [out, gj, *sortie_files, *([mission_out] if mission_out is not None else [])]
+    targets = [out, gj, *sortie_files, *(rates_paths(out) if rates is not None else []),
+               *([mission_out] if mission_out is not None else [])]
     _check_targets(targets, overwrite)
     # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
     # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
-    write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows")
+    write_features(gj, rows_features(rows), georef, layer="rows")
+    if rates is not None:
+        write_rates(out, rates, georef)
+        job.rates = rates
     for p, legs in zip(sortie_files, sorties if sortie_files else [], strict=True):  # one sortie: OUT alone
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
                                   nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))

@@ -35,8 +35,8 @@ import numpy as np
 
 from vinecli.rows.dose_units import lwa_m2_per_ha, trv_m3_per_ha
 
-__all__ = ["CANOPY_SEGMENTS_SCHEMA", "CanopySegment", "CanopySegments", "hedge_segments", "row_stations",
-           "segment_canopy"]
+__all__ = ["CANOPY_SEGMENTS_SCHEMA", "CanopySegment", "CanopySegments", "hedge_segments", "plain_segments", "row_stations",
+           "segment_canopy", "summary_text"]
 
 CANOPY_SEGMENTS_SCHEMA = "vinecli.canopy_segments/1"
 HeightFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -132,10 +132,7 @@ class CanopySegments:
 
     def summary_line(self) -> str:
         """One line for ``world build`` and ``terrain info``."""
-        s = self.summary()
-        return (f"{s['segments']} segments of ~{s['segment_m']:g} m on {s['rows']} rows ({s['source']}): wall "
-                f"{s['wall_height_m']:.2f} m high, {s['width_m']:.2f} m wide, LWA {s['lwa_m2pha']:,.0f} m²/ha "
-                f"(both sides), TRV {s['trv_m3pha']:,.0f} m³/ha, {s['gaps']} gaps ({s['gap_length_m']:.1f} m)")
+        return summary_text(self.summary())
 
     def to_dict(self) -> dict[str, Any]:
         return {"schema": CANOPY_SEGMENTS_SCHEMA, "spacing_m": self.spacing_m, "segment_m": self.segment_m,
@@ -148,6 +145,13 @@ class CanopySegments:
             raise ValueError(f"not {CANOPY_SEGMENTS_SCHEMA}: schema {d.get('schema')!r}")
         return cls(tuple(CanopySegment.from_dict(g) for g in d["segments"]), float(d["spacing_m"]),
                    float(d["segment_m"]), str(d["source"]), float(d.get("step_m", math.nan)))
+
+
+def summary_text(s: dict[str, Any]) -> str:
+    """One line of a :meth:`CanopySegments.summary`."""
+    return (f"{s['segments']} segments of ~{s['segment_m']:g} m on {s['rows']} rows ({s['source']}): wall "
+            f"{s['wall_height_m']:.2f} m high, {s['width_m']:.2f} m wide, LWA {s['lwa_m2pha']:,.0f} m²/ha "
+            f"(both sides), TRV {s['trv_m3pha']:,.0f} m³/ha, {s['gaps']} gaps ({s['gap_length_m']:.1f} m)")
 
 
 def row_stations(line: Polyline, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -300,3 +304,18 @@ def hedge_segments(rows: Sequence[Polyline], hedges: Sequence[Any], spacing_m: f
                 volume_m3=0.0 if gap else wall * float(h.width_m) * float(s1 - s0), spacing_m=float(spacing_m)))
     return CanopySegments(tuple(out), float(spacing_m), float(segment_m), "hedges")
 
+
+
+def plain_segments(rows: Sequence[Polyline], spacing_m: float, segment_m: float = 2.0) -> CanopySegments:
+    """Segments of rows whose canopy is unknown (no surface model, no canopy given): uniform, no gaps, no
+    measures (a rate or a prescription map applies to them; a dose per LWA or TRV cannot)."""
+    out: list[CanopySegment] = []
+    for i, line in enumerate(rows):
+        total = float(np.sum(np.hypot(*np.diff(np.asarray(line, dtype=np.float64), axis=0).T))) if len(line) >= 2 else 0.0
+        if total <= 0.0:
+            continue
+        edges = np.linspace(0.0, total, max(1, int(round(total / segment_m))) + 1)
+        out += [CanopySegment(row=i, s0_m=round(float(a), 4), s1_m=round(float(b), 4), start_enu=_point(line, float(a)),
+                              end_enu=_point(line, float(b)), gap=False, top_m=0.0, base_m=0.0, width_m=0.0, cover=1.0,
+                              volume_m3=0.0, spacing_m=float(spacing_m)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    return CanopySegments(tuple(out), float(spacing_m), float(segment_m), "rows")
