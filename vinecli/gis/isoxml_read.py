@@ -40,6 +40,9 @@ def _load(path: Path) -> tuple[Any, dict[str, Any]]:
     if not (folder / "TASKDATA.XML").is_file():
         raise InputError("no TASKDATA.XML here", path=path)
     try:
+        from lxml import etree
+
+        etree.parse(str(folder / "TASKDATA.XML"))  # well-formed (isoxml's parser would read a truncated file)
         return isoxml_from_path(folder)
     except Exception as exc:  # noqa: BLE001 - xsdata/lxml parse errors, isoxml's asserts on references
         msg = " ".join(str(exc).split()) or type(exc).__name__

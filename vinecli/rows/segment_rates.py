@@ -7,7 +7,7 @@ dose per LWA or per TRV (:mod:`vinecli.rows.dose_units`), or a prescription map 
 * a gap gets 0 L/ha; a canopy segment its dose converted on its own wall height, width and cover (a thin or
   patchy canopy gets less), or the map's rate;
 * with a map, canopy segments are cut where the map's rate changes (pieces shorter than ``MIN_PIECE_M`` join
-  the one before), so that each segment has one rate;
+  the one before and take its rate), so that each segment has one rate, the map's;
 * rates are L of spray liquid per ha of ground; a metre of row stands for ``spacing_m`` m² of it:
   ``litres per m of row = rate x spacing / 10 000``.
 
@@ -177,15 +177,16 @@ def _map_pieces(g: CanopySegment, rate_map: RateFn, line: Any) -> list[RateSegme
         xs, ys = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
     r = np.nan_to_num(np.asarray(rate_map(xs, ys), dtype=np.float64), nan=0.0)
     cuts = [0, *(np.flatnonzero(np.abs(np.diff(r)) > 1e-9) + 1).tolist(), n]
-    spans: list[list[int]] = []
+    spans: list[list[Any]] = []  # [start, end, rate]: a short piece takes the rate of the one it joins
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
         if spans and (b - a) * ds < MIN_PIECE_M:
             spans[-1][1] = b
         else:
-            spans.append([a, b])
+            spans.append([a, b, float(r[a])])
     if len(spans) > 1 and (spans[0][1] - spans[0][0]) * ds < MIN_PIECE_M:
-        spans[1][0] = spans.pop(0)[0]
-    return [_piece(g, g.s0_m + a * ds, g.s0_m + b * ds, float(np.mean(r[a:b])), line) for a, b in spans]
+        first = spans.pop(0)
+        spans[0][0] = first[0]
+    return [_piece(g, g.s0_m + a * ds, g.s0_m + b * ds, rate, line) for a, b, rate in spans]
 
 
 def segment_rates(canopy: CanopySegments, *, dose: DoseExpr | None = None, rate_map: RateFn | None = None,
