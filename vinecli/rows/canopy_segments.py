@@ -144,7 +144,7 @@ class CanopySegments:
         if d.get("schema") != CANOPY_SEGMENTS_SCHEMA:
             raise ValueError(f"not {CANOPY_SEGMENTS_SCHEMA}: schema {d.get('schema')!r}")
         return cls(tuple(CanopySegment.from_dict(g) for g in d["segments"]), float(d["spacing_m"]),
-                   float(d["segment_m"]), str(d["source"]), float(d.get("step_m", math.nan)))
+                   float(d["segment_m"]), str(d["source"]), float(d.get("step_m") or math.nan))
 
 
 def summary_text(s: dict[str, Any]) -> str:

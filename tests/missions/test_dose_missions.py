@@ -1,0 +1,69 @@
+"""Missions dosed per canopy segment or by a prescription map: the spec takes exactly one dose, the run set-up
+turns it into the segment rates over the world's canopy segments (vinecli.sim.dose_setup), a bad map in a
+mission is refused with exit 2 naming the file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from vinecli.errors import InputError
+from vinecli.sim.dose_setup import resolve_dose_phases
+from vinecli.specs.mission import MissionSpec, SprayPhase
+from vinecli.world import build_world, load_world
+from vinecli.world.canopy_files import load_canopy_segments
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def block(tmp_path_factory: pytest.TempPathFactory):
+    """The flat vineyard block with hedges of growth stage 75 (given, not measured: uniform segments)."""
+    d = tmp_path_factory.mktemp("w")
+    spec = (REPO / "worlds" / "vineyard-block.yaml").read_text(encoding="utf-8") + "canopy: {bbch: 75}\n"
+    (d / "block.yaml").write_text(spec, encoding="utf-8")
+    out = d / "block"
+    build_world(d / "block.yaml", out)
+    return load_world(out)
+
+
+def _mission(**dose: object) -> MissionSpec:
+    return MissionSpec(name="m", phases=[{"type": "takeoff", "altitude_agl_m": 3.0},
+                                         {"type": "spray", "rows": [0, 2], "height_agl_m": 2.0, **dose},
+                                         {"type": "land"}])
+
+
+def test_exactly_one_dose() -> None:
+    with pytest.raises(ValidationError, match="exactly one"):
+        SprayPhase(rate_lpha=100.0, lwa_dose_l=200.0)
+    with pytest.raises(ValidationError, match="exactly one"):
+        SprayPhase()
+    assert SprayPhase(lwa_dose_l=200.0).segment_dose and not SprayPhase(rate_lpha=1.0).segment_dose
+
+
+def test_world_build_writes_segments(block) -> None:
+    segs = load_canopy_segments(block.dir)
+    assert segs is not None and segs.source == "hedges"
+    assert (block.dir / "canopy_segments.gpkg").is_file() and (block.dir / "canopy_segments.tif").is_file()
+    assert block.canopy["segments"]["segments"] == len(segs.segments)
+
+
+def test_lwa_dose_resolved_on_the_world_canopy(block) -> None:
+    segs = load_canopy_segments(block.dir)
+    g = segs.for_row(0)[0]
+    flown, rates = resolve_dose_phases(_mission(lwa_dose_l=250.0), block)
+    r = rates[1]
+    assert {s.row for s in r.segments} == {0, 1}  # rows 0 and 2 of the world, renumbered as the phase's
+    assert r.segments[0].rate_lpha == pytest.approx(250.0 * g.lwa_m2pha() / 10_000.0)
+    assert flown.phases[1].rate_lpha == pytest.approx(r.summary()["rate_mean_lpha"])
+    assert flown.phases[1].lwa_dose_l is None
+
+
+def test_bad_map_in_a_mission(block, tmp_path: Path) -> None:
+    bad = tmp_path / "TASKDATA.XML"
+    bad.write_text("<ISO11783_TaskData VersionMajor=\"4\"><TSK", encoding="utf-8")
+    with pytest.raises(InputError, match="broken ISO-XML") as err:
+        resolve_dose_phases(_mission(prescription={"path": str(bad)}), block)
+    assert "TASKDATA.XML" in str(err.value.path)

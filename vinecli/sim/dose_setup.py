@@ -1,0 +1,85 @@
+"""Run set-up of spray phases dosed per canopy segment or by a prescription map (docs/dose.md).
+
+A phase with ``lwa_dose_l``, ``trv_dose_l`` or ``prescription`` gets its :class:`~vinecli.rows.segment_rates.
+SegmentRates` over its target rows: the world's canopy segments (``canopy_segments.json`` of ``world build``)
+when it flies the world's rows (all, or some by index), else plain segments of its own rows (a map only); the map is read and checked
+against those rows through the world's georeference (exit 2 for a bad map).
+
+What is flown today: the phase's ``rate_lpha`` becomes the length-weighted mean rate of its sprayed segments
+and the built-in autopilot applies that uniformly; following the segment rates along the path is issue 34's
+flying half (``PreparedRun.segment_rates`` holds them for it). The run says so in its log.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from typing import TYPE_CHECKING
+
+from vinecli.errors import InputError
+from vinecli.rows.canopy_segments import CanopySegments, plain_segments
+from vinecli.rows.dose_units import DoseExpr
+from vinecli.rows.segment_rates import SegmentRates, segment_rates
+from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
+
+if TYPE_CHECKING:
+    from vinecli.world.model import World
+
+__all__ = ["resolve_dose_phases"]
+
+log = logging.getLogger(__name__)
+
+
+def _canopy(world: World, phase: SprayPhase, rows: list) -> CanopySegments:
+    from vinecli.physics.canopy import row_spacing
+    from vinecli.world.canopy_files import load_canopy_segments
+
+    segs = load_canopy_segments(world.dir) if world.dir is not None else None
+    if segs is not None and phase.rows == "world":
+        return segs
+    if segs is not None and phase.rows and isinstance(phase.rows[0], int):  # some of the world's rows, renumbered
+        order = {int(r): k for k, r in enumerate(phase.rows)}  # type: ignore[arg-type]
+        return dataclasses.replace(segs, segments=tuple(dataclasses.replace(g, row=order[g.row])
+                                                        for g in segs.segments if g.row in order))
+    return plain_segments(rows, segs.spacing_m if segs is not None else row_spacing(rows))
+
+
+def resolve_dose_phases(mission: MissionSpec, world: World) -> tuple[MissionSpec, dict[int, SegmentRates]]:
+    """``mission`` with every segment-dosed spray phase at its mean rate (``rate_lpha``, the dose fields cleared)
+    and the phases' segment rates by phase index (see the module docstring)."""
+    if not any(isinstance(p, SprayPhase) and p.segment_dose for p in mission.phases):
+        return mission, {}
+    phases, out = list(mission.phases), {}
+    for i, p in enumerate(phases):
+        if not (isinstance(p, SprayPhase) and p.segment_dose):
+            continue
+        rows = phase_rows(p, world.vine_rows_enu)
+        canopy = _canopy(world, p, rows)
+        name = f"phases.{i} (spray)"
+        try:
+            if p.prescription is not None:
+                from vinecli.gis.georef import world_dir_georef
+                from vinecli.gis.prescription import read_prescription
+
+                pr = p.prescription
+                m = read_prescription(pr.path, world_dir_georef(world.dir), rows, column=pr.column,
+                                      default_lpha=pr.default_lpha, layer=pr.layer, units=pr.units)
+                rates = segment_rates(canopy, rate_map=m.rates, prescription=m.summary(), rows=rows)
+            else:
+                dose = DoseExpr("lwa", p.lwa_dose_l, p.sides) if p.lwa_dose_l is not None else \
+                    DoseExpr("trv", float(p.trv_dose_l or 0.0), p.sides)
+                rates = segment_rates(canopy, dose=dose, rows=rows)
+        except InputError:
+            raise  # a bad map: the file and the problem
+        except ValueError as exc:
+            raise InputError(f"{name}: {exc}") from None
+        mean = float(rates.summary()["rate_mean_lpha"])
+        if not mean > 0:
+            raise InputError(f"{name}: the dose gives no spray on any segment (no canopy measured?)")
+        log.warning("%s: segment rates %.0f-%.0f L/ha are flown at their mean %.1f L/ha (the built-in autopilot does "
+                    "not follow segment rates yet)", name, rates.summary()["rate_min_lpha"],
+                    rates.summary()["rate_max_lpha"], mean)
+        phases[i] = SprayPhase.model_construct(**{**dict(p), "rate_lpha": mean, "lwa_dose_l": None, "trv_dose_l": None,
+                                                  "prescription": None})
+        out[i] = rates
+    return mission.model_copy(update={"phases": phases}), out
