@@ -16,7 +16,8 @@ from tests.canopy_fixtures import write_truth_dsm
 from tests.prescription_fixtures import write_rate_raster, write_taskdata, write_zones, zone_rate
 from vinecli.cli.app import app
 from vinecli.gis.georef import Georef
-from vinecli.gis.prescription import RateMap, read_prescription
+from vinecli.gis.prescription import read_prescription
+from vinecli.gis.rate_map import RateMap
 from vinecli.rows.dsm_canopy import DsmCanopy, measure_dsm_canopy
 from vinecli.rows.segment_rates import SegmentRates, segment_rates
 

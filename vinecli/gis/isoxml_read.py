@@ -23,7 +23,7 @@ import numpy as np
 
 from vinecli.errors import InputError
 from vinecli.gis.georef import Georef
-from vinecli.gis.prescription import MAX_RATE_LPHA, MIN_RATE_LPHA, RateMap, check_rate
+from vinecli.gis.rate_map import MAX_RATE_LPHA, MIN_RATE_LPHA, RateMap, check_rate
 
 __all__ = ["DDI_SETPOINT_VOLUME_PER_AREA", "LPHA_PER_MM3_M2", "read_isoxml"]
 
