@@ -20,7 +20,7 @@ from vinecli.outputs import atomic_file
 from vinecli.rows.canopy_segments import CanopySegments
 from vinecli.rows.source import RowFrame
 
-__all__ = ["SEGMENT_BANDS", "segment_features", "write_segments_gpkg", "write_segments_tif"]
+__all__ = ["SEGMENT_BANDS", "segment_features", "segment_strip", "write_segments_gpkg", "write_segments_tif"]
 
 SEGMENT_BANDS = ("wall_height_m", "width_m", "lwa_m2pha", "trv_m3pha", "cover")
 NODATA = -9999.0
@@ -43,8 +43,9 @@ def write_segments_gpkg(path: Path, segs: CanopySegments, georef: Georef, layer:
     return write_features(path, segment_features(segs), georef, layer=layer)
 
 
-def _strip(g: object, half: float) -> list[tuple[float, float]]:
-    (x0, y0), (x1, y1) = g.start_enu, g.end_enu  # type: ignore[attr-defined]
+def segment_strip(start: tuple[float, float], end: tuple[float, float], half: float) -> list[tuple[float, float]]:
+    """The ground strip of a segment from ``start`` to ``end`` (local m), ``half`` m either side: a quadrilateral."""
+    (x0, y0), (x1, y1) = start, end
     L = math.hypot(x1 - x0, y1 - y0) or 1.0
     nx, ny = -(y1 - y0) / L * half, (x1 - x0) / L * half
     return [(x0 + nx, y0 + ny), (x1 + nx, y1 + ny), (x1 - nx, y1 - ny), (x0 - nx, y0 - ny)]
@@ -61,7 +62,7 @@ def write_segments_tif(path: Path, segs: CanopySegments, frame: RowFrame | None,
         raise ValueError("no canopy segments to write")
     half = 0.5 * segs.spacing_m
     cell = cell_m or max(segs.spacing_m / 8.0, 0.02)
-    strips = [_strip(g, half) for g in segs.segments]
+    strips = [segment_strip(g.start_enu, g.end_enu, half) for g in segs.segments]
     pts = np.asarray([p for s in strips for p in s])
     x0, y0 = np.floor(pts.min(axis=0) / cell) * cell
     nx = int(np.ceil((pts[:, 0].max() - x0) / cell)) + 1

@@ -25,7 +25,7 @@ from vinecli.errors import InputError
 from vinecli.gis.georef import Georef
 from vinecli.gis.rate_map import MAX_RATE_LPHA, MIN_RATE_LPHA, RateMap, check_rate
 
-__all__ = ["DDI_SETPOINT_VOLUME_PER_AREA", "LPHA_PER_MM3_M2", "read_isoxml"]
+__all__ = ["DDI_SETPOINT_VOLUME_PER_AREA", "LPHA_PER_MM3_M2", "prescription_task", "read_isoxml"]
 
 #: ISO 11783-11 DDI 1: Setpoint Volume Per Area Application Rate, mm³/m², resolution 0.01
 DDI_SETPOINT_VOLUME_PER_AREA = 1
@@ -116,12 +116,21 @@ def _grid(task: Any, grid: Any, bins: dict[str, Any], tzn_rates: dict[int, float
     return rates
 
 
+def _tasks(task_data: Any) -> list[Any]:
+    return [t for t in task_data.tasks if t.grids or any(z.polygons for z in t.treatment_zones)]
+
+
+def prescription_task(task_data: Any) -> Any:
+    """The task of ``task_data`` whose prescription vinecli reads: the first with a grid or zone polygons."""
+    return _tasks(task_data)[0]
+
+
 def read_isoxml(path: Path, georef: Georef) -> RateMap:
     """The prescription of the TaskData at ``path`` (``TASKDATA.XML`` or its folder); see the module docstring."""
     from rasterio.transform import Affine
 
     task_data, refs = _load(path)
-    tasks = [t for t in task_data.tasks if t.grids or any(z.polygons for z in t.treatment_zones)]
+    tasks = _tasks(task_data)
     if not tasks:
         raise InputError("the TaskData has no task with a grid or treatment-zone polygons", path=path)
     task = tasks[0]

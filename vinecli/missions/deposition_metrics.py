@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.physics.deposit_grid import GridSpec
+from vinecli.rows.geometry import distance_along
 
 __all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "points_in_polygon",
            "row_profiles"]
@@ -96,26 +97,6 @@ def near_polylines(xc: np.ndarray, yc: np.ndarray, lines: Sequence[Polyline], re
     return mask
 
 
-def _dist_along(px: np.ndarray, py: np.ndarray, line: Polyline) -> tuple[np.ndarray, np.ndarray]:
-    """Distance to the polyline and the arc length of the nearest point (m)."""
-    pts = np.asarray(line, dtype=np.float64)
-    best = np.full(px.shape, np.inf)
-    s_best = np.zeros(px.shape)
-    s0 = 0.0
-    for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
-        dx, dy = bx - ax, by - ay
-        seg = math.hypot(dx, dy)
-        if seg <= 0:
-            continue
-        u = np.clip(((px - ax) * dx + (py - ay) * dy) / (seg * seg), 0.0, 1.0)
-        d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
-        better = d < best
-        best = np.where(better, d, best)
-        s_best = np.where(better, s0 + u * seg, s_best)
-        s0 += seg
-    return best, s_best
-
-
 def row_profiles(grid: GridSpec, volume_l: np.ndarray, rows: Sequence[Polyline], half_width_m: float,
                  segment_m: float = 0.5) -> list[dict[str, Any]]:
     """Per row: ``s_m`` (segment centres along the row, m) and ``rate_lpha`` (NaN where no grid cell)."""
@@ -133,7 +114,7 @@ def row_profiles(grid: GridSpec, volume_l: np.ndarray, rows: Sequence[Polyline],
         area = np.zeros(nseg)
         if ix1 > ix0 and iy1 > iy0:
             gx, gy = np.meshgrid(xc[ix0:ix1], yc[iy0:iy1])
-            d, s = _dist_along(gx, gy, line)
+            d, s = distance_along(gx, gy, line)
             band = (d <= half_width_m) & (s > 0.0) & (s < length)
             k = np.minimum((s[band] / segment_m).astype(np.int64), nseg - 1)
             vol = np.bincount(k, weights=volume_l[iy0:iy1, ix0:ix1][band], minlength=nseg)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -319,3 +319,44 @@ def plain_segments(rows: Sequence[Polyline], spacing_m: float, segment_m: float 
                               end_enu=_point(line, float(b)), gap=False, top_m=0.0, base_m=0.0, width_m=0.0, cover=1.0,
                               volume_m3=0.0, spacing_m=float(spacing_m)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
     return CanopySegments(tuple(out), float(spacing_m), float(segment_m), "rows")
+
+
+def coarsen(canopy: CanopySegments, segment_m: float) -> CanopySegments:
+    """``canopy`` with each stretch of canopy between gaps merged into about equal segments of ``segment_m`` (m):
+    whole segments joined, their measures length-weighted (volume summed); gaps kept. Unchanged when
+    ``segment_m`` is not longer than its segments."""
+    if segment_m <= canopy.segment_m * 1.25:
+        return canopy
+    out: list[CanopySegment] = []
+    run: list[CanopySegment] = []
+
+    def flush() -> None:
+        if not run:
+            return
+        total = run[-1].s1_m - run[0].s0_m
+        n = max(1, int(round(total / segment_m)))
+        groups: dict[int, list[CanopySegment]] = {}
+        for g in run:
+            k = min(n - 1, int((0.5 * (g.s0_m + g.s1_m) - run[0].s0_m) / (total / n)))
+            groups.setdefault(k, []).append(g)
+        for part in groups.values():
+            w = np.array([g.length_m for g in part])
+
+            def mean(vals: list[float], w: np.ndarray = w) -> float:
+                return float(np.average(vals, weights=w)) if w.sum() > 0 else float(vals[0])
+
+            out.append(CanopySegment(part[0].row, part[0].s0_m, part[-1].s1_m, part[0].start_enu, part[-1].end_enu,
+                                     False, mean([g.top_m for g in part]), mean([g.base_m for g in part]),
+                                     mean([g.width_m for g in part]), mean([g.cover for g in part]),
+                                     float(sum(g.volume_m3 for g in part)), part[0].spacing_m))
+        run.clear()
+
+    for g in canopy.segments:
+        if g.gap or (run and g.row != run[-1].row):
+            flush()
+        if g.gap:
+            out.append(g)
+        else:
+            run.append(g)
+    flush()
+    return replace(canopy, segments=tuple(out), segment_m=float(segment_m))

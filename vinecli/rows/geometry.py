@@ -24,6 +24,26 @@ def point_polyline_distance(px: np.ndarray, py: np.ndarray, lines: Sequence[Poly
     return best
 
 
+def distance_along(px: np.ndarray, py: np.ndarray, line: Polyline) -> tuple[np.ndarray, np.ndarray]:
+    """(distance to ``line``, arc length of its nearest point from its first point), m, for each point."""
+    pts = np.asarray(line, dtype=np.float64)
+    best = np.full(px.shape, np.inf)
+    s_best = np.zeros(px.shape)
+    s0 = 0.0
+    for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
+        dx, dy = bx - ax, by - ay
+        seg = math.hypot(dx, dy)
+        if seg <= 0:
+            continue
+        u = np.clip(((px - ax) * dx + (py - ay) * dy) / (seg * seg), 0.0, 1.0)
+        d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
+        better = d < best
+        best = np.where(better, d, best)
+        s_best = np.where(better, s0 + u * seg, s_best)
+        s0 += seg
+    return best, s_best
+
+
 def polyline_length(points: Polyline) -> float:
     """Length of a polyline (sum of its segment lengths), m."""
     return sum(math.dist(a, b) for a, b in zip(points[:-1], points[1:], strict=True))

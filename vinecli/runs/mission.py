@@ -37,6 +37,7 @@ from vinecli.missions.spec_io import MissionFile, dump_mission, load_mission, re
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path, output_folder
 from vinecli.runs import rundir
+from vinecli.runs.as_applied import as_applied_for
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 
@@ -280,6 +281,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
             dep_doc.update(spray)
         note = describe_spray(spray["dose_faults"], spray["sprayer_cutouts"])
         status_message = f"{status_message} ({note})" if note else status_message
+    dose = as_applied_for(run, result, dep_metrics, spray)  # segment rates flown: the as-applied log (docs/dose.md)
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -327,7 +329,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
-    _write_run_dir(out, manifest, result, run, summary, dep_doc, budget, world_dir, record, mcap=mcap,
+    _write_run_dir(out, manifest, result, run, summary, dep_doc, budget, world_dir, record, dose, mcap=mcap,
                    overwrite=overwrite)
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
     return RunSummary(
@@ -357,7 +359,7 @@ def _timing_doc(loop: dict[str, float], wall: float, rtf: float) -> dict[str, fl
 
 
 def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun, summary: dict[str, Any],
-                   dep_doc: dict[str, Any] | None, budget: Any, world_dir: Path, record: Any, *, mcap: bool,
+                   dep_doc: dict[str, Any] | None, budget: Any, world_dir: Path, record: Any, dose: Any, *, mcap: bool,
                    overwrite: bool) -> None:
     """Write the run directory ``out`` atomically: time series, events, the resolved mission, the terrain
     preview, run.mcap (``mcap``), the deposition outputs and the spray budget's, a firmware's kept logs
@@ -385,6 +387,8 @@ def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun,
                 write_budget(tmp, budget, result.deposition, run.world, crs)
         if record is not None:
             record.copy_into(tmp)
+        if dose is not None:
+            dose.write(tmp, run.world, world_dir)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
 

@@ -5,9 +5,11 @@ SegmentRates` over its target rows: the world's canopy segments (``canopy_segmen
 when it flies the world's rows (all, or some by index), else plain segments of its own rows (a map only); the map is read and checked
 against those rows through the world's georeference (exit 2 for a bad map).
 
-What is flown today: the phase's ``rate_lpha`` becomes the length-weighted mean rate of its sprayed segments
-and the built-in autopilot applies that uniformly; following the segment rates along the path is issue 34's
-flying half (``PreparedRun.segment_rates`` holds them for it). The run says so in its log.
+What is flown: the phase of the flight (:attr:`~vinecli.sim.setup.PreparedRun.flight`) gets the length-weighted
+mean rate of its sprayed segments as its ``rate_lpha`` (its nominal flow and the sprayer's range check), and
+``PreparedRun.segment_rates`` the segments themselves: the built-in autopilot follows them along the path
+(:mod:`vinecli.rows.rate_path`), a firmware as far as it can (:mod:`vinecli.sitl.ardupilot.pump_rates`, PX4's
+DO_SET_ACTUATOR items); the run's as-applied log judges what was delivered (:mod:`vinecli.runs.as_applied`).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import logging
 from typing import TYPE_CHECKING
 
 from vinecli.errors import InputError
-from vinecli.rows.canopy_segments import CanopySegments, plain_segments
+from vinecli.rows.canopy_segments import CanopySegments, coarsen, plain_segments
 from vinecli.rows.dose_units import DoseExpr
 from vinecli.rows.segment_rates import SegmentRates, segment_rates
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
@@ -45,8 +47,8 @@ def _canopy(world: World, phase: SprayPhase, rows: list) -> CanopySegments:
 
 
 def resolve_dose_phases(mission: MissionSpec, world: World) -> tuple[MissionSpec, dict[int, SegmentRates]]:
-    """``mission`` with every segment-dosed spray phase at its mean rate (``rate_lpha``, the dose fields cleared)
-    and the phases' segment rates by phase index (see the module docstring)."""
+    """``mission`` with every segment-dosed spray phase at its mean rate (``rate_lpha``, the dose fields cleared:
+    what the flight's nominal flow is taken from) and the phases' segment rates by phase index (module docstring)."""
     if not any(isinstance(p, SprayPhase) and p.segment_dose for p in mission.phases):
         return mission, {}
     phases, out = list(mission.phases), {}
@@ -55,6 +57,8 @@ def resolve_dose_phases(mission: MissionSpec, world: World) -> tuple[MissionSpec
             continue
         rows = phase_rows(p, world.vine_rows_enu)
         canopy = _canopy(world, p, rows)
+        if p.segment_m is not None:  # the dose resolution the phase asks for
+            canopy = coarsen(canopy, p.segment_m)
         name = f"phases.{i} (spray)"
         try:
             if p.prescription is not None:
@@ -76,9 +80,8 @@ def resolve_dose_phases(mission: MissionSpec, world: World) -> tuple[MissionSpec
         mean = float(rates.summary()["rate_mean_lpha"])
         if not mean > 0:
             raise InputError(f"{name}: the dose gives no spray on any segment (no canopy measured?)")
-        log.warning("%s: segment rates %.0f-%.0f L/ha are flown at their mean %.1f L/ha (the built-in autopilot does "
-                    "not follow segment rates yet)", name, rates.summary()["rate_min_lpha"],
-                    rates.summary()["rate_max_lpha"], mean)
+        log.info("%s: segment rates %.1f-%.1f L/ha (mean %.1f L/ha)", name, rates.summary()["rate_min_lpha"],
+                 rates.summary()["rate_max_lpha"], mean)
         phases[i] = SprayPhase.model_construct(**{**dict(p), "rate_lpha": mean, "lwa_dose_l": None, "trv_dose_l": None,
                                                   "prescription": None})
         out[i] = rates

@@ -183,10 +183,10 @@ def prepare_run(
     from vinecli.rows.spray_rate import resolve_spray_rates
     from vinecli.sim.dose_setup import resolve_dose_phases
 
-    mission, segment_rates = resolve_dose_phases(mission, world)  # per-segment doses: their mean rate (docs/dose.md)
+    dosed, segment_rates = resolve_dose_phases(mission, world)  # per-segment doses: their rates (docs/dose.md)
     fence = mission.geofence if mission.geofence is not None else world.geofence
     flight = resolve_spray_rates(  # phases in L/ha fly the equivalent flow of their plan, within the pump's range
-        mission, veh, world.vine_rows_enu, fence_enu=fence.polygon_enu if fence is not None else None,
+        dosed, veh, world.vine_rows_enu, fence_enu=fence.polygon_enu if fence is not None else None,
         terrain_bounds=tuple(world.terrain.bounds), air_density=float(world.air_density),
         canopy_width_m=world.canopy_width_m, no_spray=world.no_spray_enu)
     rate = float(world.physics_rate_hz)

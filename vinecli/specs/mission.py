@@ -121,6 +121,8 @@ class SprayPhase(StrictModel):
                                      "tree-row volume, converted per canopy segment")
     sides: Literal[1, 2] = Field(2, description="sides of each row treated (leaf wall area)")
     prescription: PrescriptionSpec | None = Field(None, description="dose: a prescription map (rates per zone or cell)")
+    segment_m: float | None = Field(None, ge=0.5, le=20.0, description="dose resolution along the rows, m: the world's "
+                                    "canopy segments merged to about this length (default: the world's segments)")
     until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
     allow_slower: bool = Field(False, description="fly slower than speed_mps when the sprayer cannot deliver the rate "
                                                   "at that speed (else the run is refused)")
