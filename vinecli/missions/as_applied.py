@@ -234,11 +234,11 @@ def _zones(bins: list[dict[str, np.ndarray]], spacing: float, bin_m: float) -> l
 
 
 def _per_second(smp: dict[str, np.ndarray], rates: SegmentRates) -> list[dict[str, Any]]:
-    """The 1 Hz log: the first sample of every second of the phase."""
+    """The 1 Hz log: the first sample of every second from the phase's start."""
     t = smp["t"]
     if not t.size:
         return []
-    sec = np.floor(t + 1e-9)
+    sec = np.floor(t - t[0] + 1e-9)
     first = np.flatnonzero(np.concatenate([[True], sec[1:] != sec[:-1]]))
     out = []
     for i in first:

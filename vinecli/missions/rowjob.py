@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from vinecli.errors import InputError, OutputError, check_range
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
-from vinecli.missions.rowjob_dose import DoseOptions, plan_segment_rates, rates_paths, write_rates
+from vinecli.missions.rowjob_dose import DoseOptions, mission_dose, plan_segment_rates, rates_paths, write_rates
 from vinecli.outputs import check_output_file
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
@@ -191,6 +192,9 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
             world_dir=source if source.is_dir() else None, world_rows=source.is_dir() and not detect,
             grid=w.terrain.grid if source.is_dir() else None,
             spacing_m=det.spacing_m if det is not None else None)
+    own_rows = len(rows) if source.is_dir() and not detect else None  # a world's own rows: a run finds their canopy
+    if dose is not None and mission_out is not None:
+        mission_dose(dose, world_rows=own_rows)  # refused before anything is written
     _check_options(veh, speed=speed, height=height, flow=flow, takeoff=takeoff, tank_l=tank_l)
     accel = plan_accel(veh)
     plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
@@ -226,6 +230,18 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     if mission_out is not None:
         from vinecli.missions.spec_io import write_mission
 
-        write_mission(mission_out, mission)
+        write_mission(mission_out, mission if dose is None else _dosed_mission(planned, out, height, speed, takeoff,
+                                                                              plan.time_s, dose, own_rows))
     job.files = targets
     return job
+
+
+def _dosed_mission(planned: list[Any], out: Path, height: float, speed: float, takeoff: float, time_s: float,
+                   dose: DoseOptions, own_rows: int | None) -> Any:
+    """The ``--mission`` of a plan with a dose: the dose itself on the spray phase (:func:`mission_dose`), not the
+    flow of one rate."""
+    from vinecli.missions.patterns import spray_mission
+    from vinecli.names import name_from
+
+    return spray_mission(planned, name=name_from(out.stem, "spray-rows"), height_m=height, speed_mps=speed,
+                         takeoff_m=takeoff, estimated_s=time_s, dose=mission_dose(dose, world_rows=own_rows))

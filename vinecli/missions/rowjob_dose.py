@@ -24,7 +24,7 @@ from vinecli.rows.detect import Polyline
 from vinecli.rows.dose_units import DoseExpr
 from vinecli.rows.segment_rates import SegmentRates, segment_rates
 
-__all__ = ["DoseOptions", "plan_segment_rates", "rates_paths", "write_rates"]
+__all__ = ["DoseOptions", "mission_dose", "plan_segment_rates", "rates_paths", "write_rates"]
 
 
 @dataclass(frozen=True)
@@ -142,3 +142,22 @@ def write_rates(out: Path, rates: SegmentRates, georef: Georef) -> list[Path]:
              for g in rates.segments]
     write_features(gj, feats, georef, layer="rates")
     return [js, gj]
+
+
+def mission_dose(opts: DoseOptions, *, world_rows: int | None) -> dict[str, Any]:
+    """The spray phase fields that carry ``opts``'s dose into ``plan rows --mission``: ``rate_lpha``, the
+    ``prescription`` (its path absolute), or a canopy dose (``lwa_dose_l``/``trv_dose_l``, ``sides``,
+    ``segment_m``) over the world's rows by index (``world_rows``: how many; None when the rows are not a world's
+    own: InputError, the run could not find their canopy)."""
+    if opts.rate_lpha is not None:
+        return {"rate_lpha": opts.rate_lpha}
+    if opts.prescription is not None:
+        return {"prescription": {"path": str(opts.prescription.resolve()), "column": opts.rate_column,
+                                 "layer": opts.layer, "default_lpha": opts.default_rate_lpha, "units": opts.rate_units}}
+    what = "--dose-lwa" if opts.lwa_dose_l is not None else "--dose-trv"
+    if world_rows is None:
+        raise InputError(f"--mission with {what}: a run doses on a world's canopy segments (world build); plan on "
+                         "a world with its own rows (not a DSM, not --detect) or give --rate / --prescription")
+    key = "lwa_dose_l" if opts.lwa_dose_l is not None else "trv_dose_l"
+    return {key: opts.lwa_dose_l if opts.lwa_dose_l is not None else opts.trv_dose_l, "sides": opts.sides,
+            "segment_m": opts.segment_m, "rows": list(range(world_rows))}

@@ -32,7 +32,7 @@ from vinecli.rows.geometry import distance_along
 from vinecli.rows.plan import Leg, RowPlan
 from vinecli.rows.segment_rates import SegmentRates
 
-__all__ = ["SAMPLE_M", "RatePath", "RowRates", "rate_path", "speed_caps"]
+__all__ = ["SAMPLE_M", "RatePath", "RowRates", "led_changes", "rate_legs", "rate_path", "speed_caps"]
 
 #: spacing of the samples along a pass where the rate under it is looked up, m
 SAMPLE_M = 0.05
@@ -190,3 +190,55 @@ def speed_caps(flows: Sequence[float], speed_mps: float, max_flow_lps: float) ->
     """The speed each path segment may be flown at (m/s): the phase's, or slower where its litres per metre at
     that speed would need more than ``max_flow_lps``."""
     return [min(speed_mps, max_flow_lps / f) if f > 0.0 else speed_mps for f in flows]
+
+
+def led_changes(points: Sequence[tuple[float, float]], flows: Sequence[float], lead_up_m: float, lead_down_m: float
+                ) -> tuple[list[tuple[float, float]], list[float]]:
+    """The path with every change of flow moved ``lead_up_m`` (a rise) or ``lead_down_m`` (a fall) earlier along
+    it (not before the previous change): what a firmware that switches at waypoints must be given so that its
+    lagging pump changes at the segment boundary. A pass's opening and closing move too."""
+    pts = np.asarray(points, dtype=np.float64)
+    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    starts = [0.0]
+    values = [flows[0]] if flows else []
+    for i in range(1, len(flows)):
+        if flows[i] != flows[i - 1]:
+            lead = lead_up_m if flows[i] > flows[i - 1] else lead_down_m
+            starts.append(max(float(cum[i]) - lead, starts[-1]))
+            values.append(flows[i])
+    cuts = sorted(set(starts[1:]) | set(cum.tolist()))
+    out_pts = [(float(np.interp(c, cum, pts[:, 0])), float(np.interp(c, cum, pts[:, 1]))) for c in cuts]
+    out_flows = []
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        k = int(np.searchsorted(starts, 0.5 * (a + b), side="right")) - 1
+        out_flows.append(float(values[k]))
+    return out_pts, out_flows
+
+
+def rate_legs(points: Sequence[tuple[float, float]], flows: Sequence[float], *, merge_sprayed: bool = False,
+              min_leg_m: float = 0.0) -> list[tuple[Leg, float]]:
+    """The path cut into legs of one flow each: (leg, litres per metre); a leg with flow is a spray leg.
+    ``merge_sprayed``: consecutive spray legs stay one (its flow the first's: a firmware that only switches the
+    sprayer on and off, the rate set otherwise). ``min_leg_m``: consecutive spray legs are joined until each is
+    at least this long, at their length-weighted litres per metre (a firmware that slows down at waypoints
+    closer than that)."""
+    out: list[tuple[Leg, float]] = []
+    for i, f in enumerate(flows):
+        a, b = points[i], points[i + 1]
+        last = out[-1] if out else None
+        same = last is not None and (last[1] == f or (merge_sprayed and last[1] > 0.0 and f > 0.0))
+        if same and last is not None:
+            last[0].points.append(b)
+        else:
+            out.append((Leg([a, b], f > 0.0, None, "row" if f > 0.0 else "gap"), f))
+    if min_leg_m <= 0.0:
+        return out
+    joined: list[tuple[Leg, float]] = []
+    for leg, f in out:
+        prev = joined[-1] if joined else None
+        if prev is not None and prev[1] > 0.0 and f > 0.0 and (prev[0].length_m < min_leg_m or leg.length_m < min_leg_m):
+            la, lb = prev[0].length_m, leg.length_m
+            joined[-1] = (Leg([*prev[0].points, *leg.points[1:]], True, None, "row"), (prev[1] * la + f * lb) / (la + lb))
+        else:
+            joined.append((leg, f))
+    return joined

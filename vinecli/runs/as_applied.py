@@ -68,14 +68,14 @@ def as_applied_for(run: PreparedRun, result: Any, metrics: dict[str, float], spr
 
     index, rates = next(iter(sorted(run.segment_rates.items())))
     dr, _, _ = dose_run(run, index)
-    plans = _events(result, "dose_plan")
+    follows = _follows(result, run.mission.autopilot)
+    plans = _events(result, "dose_plan") or ([follows["plan"]] if follows.get("plan") else [])
     out_of_range = sum(float(n.get("length_m", 0.0)) for n in (plans[-1].get("out_of_range", []) if plans else [])
                        if n.get("kind") in ("slowed", "over-dosed", "under-dosed"))
     dep = getattr(result, "deposition", None)
     aa: AsApplied = as_applied(result.timeseries, rates, dr, grid=dep.grid if dep is not None else None,
                                volume_l=dep.volume_l if dep is not None else None, out_of_range_m=out_of_range)
     metrics.update(aa.metrics)
-    follows = _follows(result, run.mission.autopilot)
     spray["as_applied"] = summary_doc(aa, rates, follows, plans[-1] if plans else None)
     return DoseOutputs(aa, rates, dr, spray["as_applied"], dep.grid if dep is not None else None)
 

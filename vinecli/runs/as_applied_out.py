@@ -2,7 +2,7 @@
 
 * ``as_applied.json`` (schema ``vinecli.as_applied/1``): the summary (``summary.json`` ``as_applied``), every
   segment (prescribed, pump and deposit rates, errors), every rate step (transition distance, bound), every gap,
-  the 1 Hz log;
+  the 1 Hz log and the rates of every 0.1 m bin along the rows (``bins``);
 * ``as_applied.gpkg``: GeoPackage points (EPSG:4326), layer ``per_second`` (position once a second of the spray
   phase: t_s, row, s_m, prescribed_lpha, pump_lpha, flow_lps, speed_mps) and layer ``per_segment`` (each
   segment's midpoint: row, s0_m, s1_m, gap, prescribed_lpha, pump_lpha, deposit_lpha, pump_error_pct,
@@ -77,10 +77,13 @@ class DoseOutputs:
         """``as_applied.json``."""
         from vinecli.runs.deposition_out import clean_json
 
+        bins = [{"row": k, "s_m": b["s_m"], "prescribed_lpha": b["prescribed"], "pump_lpha": b["pump"],
+                 "deposit_lpha": b["deposit"]} for k, b in enumerate(self.aa.bins)]
         return clean_json({"schema": "vinecli.as_applied/1",
                            "units": {"rate": "L/ha of ground", "s": "m along the row from its first point",
                                      "enu": "m, world ENU", "error": "applied / prescribed - 1"},
-                           "summary": self.summary, **self.aa.doc(), "per_second": self.aa.per_second})
+                           "summary": self.summary, **self.aa.doc(), "per_second": self.aa.per_second,
+                           "bins": bins}, digits=4)
 
     def write(self, out_dir: Path, world: Any, world_dir: Path) -> None:
         """Write every output into ``out_dir`` (module docstring)."""
