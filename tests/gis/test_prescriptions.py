@@ -167,3 +167,23 @@ def test_zone_rates_split_a_canopy_segment(field: tuple) -> None:
         edge = [s for s, t in zip(segs[:-1], segs[1:], strict=True) if s.rate_lpha != t.rate_lpha]
         assert len(edge) == 1
         assert edge[0].end_enu[1] == pytest.approx(0.3, abs=0.2)
+
+
+def test_a_zone_with_a_hole(field: tuple, tmp_path: Path) -> None:
+    """A zone's hole (an island of the field it does not cover) gets the default rate, and a zone inside the hole
+    its own: holes are read from the file (GeoPackage in Web Mercator) and survive the reprojection."""
+    import pyogrio.raw
+    from shapely.geometry import Polygon
+
+    _, c, g = field
+    outer = g.to_crs([(-8.0, -16.0), (8.0, -16.0), (8.0, 16.0), (-8.0, 16.0)], "EPSG:3857")
+    hole = g.to_crs([(-7.0, -4.0), (7.0, -4.0), (7.0, 4.0), (-7.0, 4.0)], "EPSG:3857")
+    island = g.to_crs([(-6.0, -2.0), (6.0, -2.0), (6.0, 2.0), (-6.0, 2.0)], "EPSG:3857")
+    path = tmp_path / "holed.gpkg"
+    assert Polygon(outer, [hole]).is_valid
+    geoms = np.array([Polygon(outer, [hole]).wkb, Polygon(island).wkb], dtype=object)
+    pyogrio.raw.write(path, geoms, [np.array([120.0, 300.0])], ["rate"], driver="GPKG", crs="EPSG:3857",
+                      geometry_type="Polygon")
+    m = read_prescription(path, g, c.rows.detection.rows, column="rate", default_lpha=50.0)
+    y = np.array([-10.0, -3.0, 0.0, 3.0, 10.0])
+    assert m.rates(np.zeros(5), y).tolist() == [120.0, 50.0, 300.0, 50.0, 120.0]

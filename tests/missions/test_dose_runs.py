@@ -155,3 +155,14 @@ def test_isoxml_timelog(dose_runs: dict[str, Path]) -> None:
     dt = np.diff([r[0] for r in recs]) / 1000.0
     assert np.allclose(dt, np.diff([p["t_s"] for p in log]), atol=0.002)
     assert all(44.11 < r[2] < 44.12 and -89.55 < r[3] < -89.53 for r in recs)  # on the sample field
+
+
+def test_dose_figures(dose_runs: dict[str, Path]) -> None:
+    """fig26 (canopy, prescription, applied, error maps) and fig27 (error histogram, transitions, product) of a
+    dosed run: drawn at their size, not blank."""
+    from vinecli.report.plots import expected_size, png_size, render_figures
+
+    figs = render_figures(str(dose_runs["lwa"]), only=["fig26", "fig27"])
+    for fid, f in figs.items():
+        assert f["png"], f["note"]
+        assert png_size(f["png"]) == expected_size(fid) and len(f["png"]) > 20_000

@@ -57,7 +57,8 @@ def _fly(pump_tau_scale: float = 1.0) -> dict[str, np.ndarray]:
 
 
 def _run() -> DoseRun:
-    return DoseRun(1, [ROW], WIDTH, {0: (0.0, 40.0)}, SPEED, TAU_UP, TAU_DOWN, record_rate_hz=1.0 / (DT * RECORD))
+    return DoseRun(1, [ROW], WIDTH, {0: (0.0, 40.0)}, SPEED, TAU_UP, TAU_DOWN, record_rate_hz=1.0 / (DT * RECORD),
+                   position_margin_m=POSITION_MARGIN_M)
 
 
 def test_every_step_within_its_pump_lag_bound_and_the_gap_stays_dry() -> None:

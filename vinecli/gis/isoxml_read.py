@@ -152,7 +152,7 @@ def read_isoxml(path: Path, georef: Georef) -> RateMap:
 
 
 def _zones(task: Any, rates: dict[int, float | None], georef: Georef, path: Path
-           ) -> list[tuple[list[tuple[float, float]], float, str]]:
+           ) -> list[tuple[list[tuple[float, float]], float, str, list[list[tuple[float, float]]]]]:
     from isoxml.converter.shapely_geom import ShapelyConverterV3, ShapelyConverterV4
 
     conv = ShapelyConverterV4() if type(task).__module__.split(".")[-2] == "v4" else ShapelyConverterV3()
@@ -167,5 +167,7 @@ def _zones(task: Any, rates: dict[int, float | None], georef: Georef, path: Path
             if rate is None:
                 raise InputError(f"treatment zone {z.code}: a polygon without a rate (no PDV)", path=path)
             ring = [(float(x), float(y)) for x, y in list(poly.exterior.coords)[:-1]]
-            out.append((georef.from_crs(ring, "EPSG:4326"), rate, z.designator or str(z.code)))
+            holes = [georef.from_crs([(float(x), float(y)) for x, y in list(i.coords)[:-1]], "EPSG:4326")
+                     for i in poly.interiors]
+            out.append((georef.from_crs(ring, "EPSG:4326"), rate, z.designator or str(z.code), holes))
     return out

@@ -72,7 +72,8 @@ def _read_zones(path: Path, georef: Georef, column: str | None, layer: str | Non
         if not math.isfinite(rate):
             raise InputError(f"{where}: {v!r} is not a number", path=path)
         rate = check_rate(rate * f, where, path)
-        zones += [(ring, rate, str(ft.properties.get("name", ft.fid))) for ring in ft.parts]
+        zones += [(ring, rate, str(ft.properties.get("name", ft.fid)), holes)
+                  for ring, holes in zip(ft.parts, ft.holes, strict=True)]
     return RateMap(path, "zones", georef, zones=zones, notes=[f"{len(feats)} zones, column {column!r} in {units}"])
 
 

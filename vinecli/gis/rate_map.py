@@ -47,15 +47,16 @@ def check_rate(rate: float, where: str, path: Path) -> float:
 
 @dataclass
 class RateMap:
-    """A prescription in local metres. Zones: ``zones`` [(ring, rate L/ha, name)] (the first containing a point
-    wins); a grid: ``grid`` values (ny, nx) L/ha (NaN: none) with ``to_pixel`` (CRS x, y -> col, row, float) in
+    """A prescription in local metres. Zones: ``zones`` [(ring, rate L/ha, name, holes)] (the first containing a
+    point wins; not in its holes); a grid: ``grid`` values (ny, nx) L/ha (NaN: none) with ``to_pixel`` (CRS x, y -> col, row, float) in
     ``grid_crs``. ``default_lpha``: the rate where the map prescribes nothing (None: none given)."""
 
     path: Path
     kind: str
     georef: Georef
     default_lpha: float | None = None
-    zones: list[tuple[list[tuple[float, float]], float, str]] = field(default_factory=list)
+    zones: list[tuple[list[tuple[float, float]], float, str, list[list[tuple[float, float]]]]] = \
+        field(default_factory=list)
     grid: np.ndarray | None = None
     to_pixel: Any = None
     grid_crs: Any = None
@@ -69,8 +70,8 @@ class RateMap:
             import shapely
             from shapely.geometry import Polygon
 
-            for ring, rate, _ in reversed(self.zones):  # the first zone containing a point wins
-                out[shapely.contains_xy(Polygon(ring), x, y)] = rate
+            for ring, rate, _, holes in reversed(self.zones):  # the first zone containing a point wins
+                out[shapely.contains_xy(Polygon(ring, holes), x, y)] = rate
         if self.grid is not None:
             pts = self.georef.to_crs(list(zip(x.tolist(), y.tolist(), strict=True)), self.grid_crs) if x.size else []
             cr = np.array([self.to_pixel * p for p in pts]).reshape(-1, 2)

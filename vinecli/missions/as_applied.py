@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.missions.dose_steps import PassRates, StepRecord, gap_records, step_records, traversals
+from vinecli.missions.dose_steps import POSITION_MARGIN_M, PassRates, StepRecord, gap_records, step_records, traversals
 from vinecli.rows.detect import Polyline
 from vinecli.rows.dose_units import HA_M2
 from vinecli.rows.geometry import distance_along, polyline_length
@@ -62,8 +62,8 @@ _SPEED_FRACTION = 0.25  # samples below this share of the phase's speed are not 
 @dataclass(frozen=True)
 class DoseRun:
     """What the as-applied judgement needs of a run's dosed spray phase: its index, its rows (the rates' ``row``
-    indices refer to them), the plan's track width (m) and stretches, the phase's speed (m/s) and the pump's
-    time constants (s)."""
+    indices refer to them), the plan's track width (m) and stretches, the phase's speed (m/s), the pump's time
+    constants (s), the canopy width (m), the recording rate (Hz) and the position margin of the step bounds (m)."""
 
     phase_index: int
     rows: Sequence[Polyline]
@@ -74,6 +74,7 @@ class DoseRun:
     tau_down_s: float
     canopy_width_m: float = 0.6
     record_rate_hz: float = 50.0
+    position_margin_m: float = POSITION_MARGIN_M  # along-track error of the autopilot's position estimate, m
 
 
 @dataclass
@@ -204,6 +205,7 @@ def _segments(rates: SegmentRates, bins: list[dict[str, np.ndarray]], tol: float
             r = g.rate_lpha
             mid = (0.5 * (g.start_enu[0] + g.end_enu[0]), 0.5 * (g.start_enu[1] + g.end_enu[1]))
             out.append({"segment": int(j), "row": k, "s0_m": g.s0_m, "s1_m": g.s1_m, "gap": g.gap, "mid_enu": mid,
+                        "wall_height_m": g.wall_height_m, "width_m": g.width_m, "lwa_m2pha": g.lwa_m2pha,
                         "start_enu": g.start_enu, "end_enu": g.end_enu, "prescribed_lpha": r, "pump_lpha": pump,
                         "deposit_lpha": dep if math.isfinite(dep) else None,
                         "pump_error": pump / r - 1.0 if r > 0 else None,

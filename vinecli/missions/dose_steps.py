@@ -6,8 +6,9 @@
 the next segment's length when it never is). Its **bound**: the sprayer commands the step ``v tau`` ahead of the boundary
 (``tau_up`` for a rise, ``tau_down`` for a fall), so a first-order pump is at ``1/e`` of the step there and within
 the tolerance ``v tau (ln(|new - old| / (tolerance x ref)) - 1)`` metres later (0 when negative), plus a margin:
-one bin, one recorded sample's travel (``v / record rate``) and :data:`POSITION_MARGIN_M` (the autopilot
-switches on its own position estimate, not the truth). A step whose next segment is shorter than its bound
+one bin, one recorded sample's travel (``v / record rate``) and the run's position margin (the autopilot switches on
+its own position estimate, not the truth: one σ of the vehicle's GNSS horizontal noise, :data:`POSITION_MARGIN_M`
+by default; 0 on ground truth). A step whose next segment is shorter than its bound
 cannot settle there: recorded, not judged.
 
 **Gaps** (rate 0 between sprayed segments): the interior beyond the pump's run-down after the entry (the fall's
@@ -30,8 +31,8 @@ from vinecli.rows.segment_rates import SegmentRates
 __all__ = ["POSITION_MARGIN_M", "PassRates", "StepRecord", "gap_records", "step_bound_m", "step_records",
            "traversals"]
 
-#: along-track error allowed for switching on the position estimate, m
-POSITION_MARGIN_M = 0.2
+#: along-track error allowed for switching on the position estimate by default, m (a GNSS's horizontal σ)
+POSITION_MARGIN_M = 0.3
 
 
 @dataclass(frozen=True)
@@ -101,7 +102,7 @@ def _segments_in(rates: SegmentRates, b: dict[str, np.ndarray]) -> list[int]:
 
 
 def _margin(run: Any, speed: float, bin_m: float) -> float:
-    return bin_m + speed / run.record_rate_hz + POSITION_MARGIN_M
+    return bin_m + speed / run.record_rate_hz + run.position_margin_m
 
 
 def step_records(rates: SegmentRates, bins: list[dict[str, np.ndarray]], passes: Sequence[Sequence[PassRates]],

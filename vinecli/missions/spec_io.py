@@ -70,10 +70,10 @@ def read_mission(mission: Path | str | MissionSpec | MissionFile) -> MissionFile
     path = Path(mission)
     spec = mission_from_dict(resolve_base(path.resolve(), read_yaml(path)), path)
     veh = resolve_vehicle(spec.vehicle, relative_to=path.parent, path=path) if spec.vehicle is not None else None
-    return MissionFile(_maps_from(spec, path.parent), path, veh)
+    return MissionFile(resolve_map_paths(spec, path.parent), path, veh)
 
 
-def _maps_from(spec: MissionSpec, folder: Path) -> MissionSpec:
+def resolve_map_paths(spec: MissionSpec, folder: Path) -> MissionSpec:
     """``spec`` with its spray phases' prescription paths resolved relative to the mission file's ``folder``."""
     phases = list(spec.phases)
     for i, p in enumerate(phases):

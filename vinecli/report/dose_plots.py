@@ -1,8 +1,8 @@
 """The dose figures of a run that flew segment rates (docs/dose.md §6), read from its ``as_applied.json``:
 
-* fig26, the maps side by side (top view, world ENU m): the prescription, the rate the pump applied and the
-  error, each segment painted on its strip of ground (± half the row spacing); rates on one scale, the error on a
-  diverging one (±30 %);
+* fig26, the maps side by side (top view, world ENU m): the canopy segments' leaf-wall height (measured on the
+  DSM, or given), the prescription, the rate the pump applied and the error, each segment painted on its strip of
+  ground (± half the row spacing); rates on one scale, the error on a diverging one (±30 %);
 * fig27: the error histogram (every 0.1 m of sprayed row: the pump's rate, and the deposit on the canopy band in
   outline, against the ±10 % band), the transition distance of every rate step against its bound (pump lag x
   speed), and the product: litres the uniform rate, the prescription and the pump used over the rows, with the
@@ -73,10 +73,13 @@ def fig26_dose_maps(data: Any) -> bytes:
     pump = np.array([_num(g["pump_lpha"]) for g in segs])
     err = np.array([100.0 * _num(g["pump_error"]) for g in segs])
     top = float(np.nanmax(np.concatenate([presc, pump]))) or 1.0
-    fig, axes = new_figure("fig26", rows=1, cols=3, sharex=True)
-    fig.subplots_adjust(left=0.06, right=0.97, top=0.88, bottom=0.08, wspace=0.35)
+    wall = np.array([_num(g.get("wall_height_m")) for g in segs])
+    fig, axes = new_figure("fig26", rows=1, cols=4, sharex=True)
+    fig.subplots_adjust(left=0.05, right=0.95, top=0.88, bottom=0.08, wspace=0.5)
     pts = np.concatenate(strips)
-    panels = [("prescribed, L/ha", presc, "viridis", 0.0, top), ("applied by the pump, L/ha", pump, "viridis", 0.0, top),
+    panels = [("canopy: leaf-wall height, m", wall, "Greens", 0.0, float(np.nanmax(wall)) if np.isfinite(wall).any()
+               and np.nanmax(wall) > 0 else 1.0),
+              ("prescribed, L/ha", presc, "viridis", 0.0, top), ("applied by the pump, L/ha", pump, "viridis", 0.0, top),
               ("error, % (applied / prescribed - 1)", err, "RdBu_r", -ERROR_RANGE_PCT, ERROR_RANGE_PCT)]
     for ax, (title, vals, cmap, lo, hi) in zip(axes[0], panels, strict=True):
         pc = PolyCollection(strips, array=np.ma.masked_invalid(vals), cmap=matplotlib.colormaps[cmap],

@@ -2,13 +2,16 @@
 :func:`as_applied_for` evaluates it (:func:`vinecli.missions.as_applied.as_applied`) after the loop, adds its
 metrics to the run's, its summary to ``summary.json`` (``as_applied``), and returns the outputs to write
 (:mod:`vinecli.runs.as_applied_out`). ``summary.json`` ``as_applied.follows`` says how the autopilot followed the
-rates: the built-in autopilot along the path, a firmware as its ``dose_follow`` event says (or not at all).
+rates: the built-in autopilot along the path, a firmware as its ``dose_follow`` event says (or not at all). The
+deposition's dose faults (hot spots and thin stretches against one asked rate) do not apply to a dosed run.
 """
 
 from __future__ import annotations
 
 import math
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from vinecli.missions.as_applied import AsApplied, DoseRun, as_applied
 from vinecli.rows.segment_rates import SegmentRates
@@ -37,9 +40,10 @@ def dose_run(run: PreparedRun, index: int) -> tuple[DoseRun, SprayPhase, Any]:
                       air_density=float(world.air_density), no_spray=world.no_spray_enu)
     pump = run.vehicle.sprayer.pump
     lead = run.vehicle.sprayer.control.section_lead
+    margin = 0.0 if run.flight.truth else float(run.vehicle.sensors.gnss.horizontal_noise_m)  # switching on GNSS
     return DoseRun(index, rows, plan.flow_width_m, dict(plan.stretches), ph.speed_mps, pump.tau_up_s if lead else 0.0,
                    pump.tau_down_s if lead else 0.0, float(ph.canopy_width_m or world.canopy_width_m),
-                   float(run.mission.record_rate_hz)), ph, plan
+                   float(run.mission.record_rate_hz), margin), ph, plan
 
 
 def _events(result: Any, kind: str) -> list[dict[str, Any]]:
@@ -58,10 +62,12 @@ def _follows(result: Any, autopilot: str) -> dict[str, Any]:
     return {"autopilot": autopilot, "method": NOT_FOLLOWED, "limits": ["segment rates not followed"]}
 
 
-def as_applied_for(run: PreparedRun, result: Any, metrics: dict[str, float], spray: dict[str, Any]
+def as_applied_for(run: PreparedRun, result: Any, metrics: dict[str, float], dep_doc: dict[str, Any] | None
                    ) -> DoseOutputs | None:
-    """The as-applied outputs of a run with segment rates (None without): its metrics go into ``metrics``, its
-    summary into ``spray['as_applied']`` (module docstring)."""
+    """The as-applied outputs of a run with segment rates (None without): its metrics go into ``metrics``; the
+    deposition's dose faults along the rows (``dep_doc`` rows), judged against one asked rate, are dropped and each
+    row's covered share is of its prescription (half of it or more where the segment's rate is above 0), the
+    as-applied log judges each segment against its own rate (module docstring)."""
     if not run.segment_rates or "phase_index" not in result.timeseries:
         return None
     from vinecli.runs.as_applied_out import DoseOutputs
@@ -76,8 +82,15 @@ def as_applied_for(run: PreparedRun, result: Any, metrics: dict[str, float], spr
     aa: AsApplied = as_applied(result.timeseries, rates, dr, grid=dep.grid if dep is not None else None,
                                volume_l=dep.volume_l if dep is not None else None, out_of_range_m=out_of_range)
     metrics.update(aa.metrics)
-    spray["as_applied"] = summary_doc(aa, rates, follows, plans[-1] if plans else None)
-    return DoseOutputs(aa, rates, dr, spray["as_applied"], dep.grid if dep is not None else None)
+    for row in (dep_doc or {}).get("rows") or []:  # judged against each segment's rate, not one asked rate
+        row["faults"] = []
+        b = aa.bins[row["row"]] if row["row"] < len(aa.bins) else None
+        if b is not None and (b["prescribed"] > 0).any():
+            p = b["prescribed"] > 0
+            got = b["deposit"] if np.isfinite(b["deposit"]).any() else b["pump"]
+            row["covered_fraction"] = float(np.mean(got[p] >= 0.5 * b["prescribed"][p]))
+    return DoseOutputs(aa, rates, dr, summary_doc(aa, rates, follows, plans[-1] if plans else None),
+                       dep.grid if dep is not None else None)
 
 
 def summary_doc(aa: AsApplied, rates: SegmentRates, follows: dict[str, Any], plan: dict[str, Any] | None

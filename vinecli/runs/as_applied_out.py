@@ -85,8 +85,10 @@ class DoseOutputs:
                            "summary": self.summary, **self.aa.doc(), "per_second": self.aa.per_second,
                            "bins": bins}, digits=4)
 
-    def write(self, out_dir: Path, world: Any, world_dir: Path) -> None:
-        """Write every output into ``out_dir`` (module docstring)."""
+    def write(self, out_dir: Path, world: Any, world_dir: Path, summary: dict[str, Any]) -> None:
+        """Write every output into ``out_dir`` (module docstring) and put :attr:`summary` into the run's ``summary``
+        (``as_applied``; summary.json is written after)."""
+        summary["as_applied"] = self.summary
         from vinecli.gis.georef import world_dir_georef
         from vinecli.runs.deposition_out import dsm_crs
         from vinecli.runs.dose_layers import write_dose_layers

@@ -262,6 +262,7 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         all_rows = [[tuple(q) for q in r] for r in world.vine_rows_enu] or rows
         budget = evaluate_budget(result.deposition, world, all_rows, dep_metrics.get("nominal_rate_lpha", math.nan))
         dep_metrics.update(budget.metrics)
+    dose = as_applied_for(run, result, dep_metrics, dep_doc)  # segment rates flown: the as-applied log (docs/dose.md)
     if any(isinstance(p, SprayPhase) for p in spec.phases):  # did every vine get its dose, and where not
         from vinecli.runs.deposition_out import world_row
         from vinecli.runs.spray_report import describe_spray, judge_ending, locate_cutouts, locate_faults
@@ -281,7 +282,6 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
             dep_doc.update(spray)
         note = describe_spray(spray["dose_faults"], spray["sprayer_cutouts"])
         status_message = f"{status_message} ({note})" if note else status_message
-    dose = as_applied_for(run, result, dep_metrics, spray)  # segment rates flown: the as-applied log (docs/dose.md)
     data = RunData(
         timeseries=result.timeseries,
         events=[(ev.t_us / 1e6, ev.kind) for ev in result.events],
@@ -387,8 +387,8 @@ def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun,
                 write_budget(tmp, budget, result.deposition, run.world, crs)
         if record is not None:
             record.copy_into(tmp)
-        if dose is not None:
-            dose.write(tmp, run.world, world_dir)
+        if dose is not None:  # and its summary.json entry as_applied
+            dose.write(tmp, run.world, world_dir, summary)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
 

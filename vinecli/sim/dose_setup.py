@@ -40,9 +40,9 @@ def _canopy(world: World, phase: SprayPhase, rows: list) -> CanopySegments:
     if segs is not None and phase.rows == "world":
         return segs
     if segs is not None and phase.rows and isinstance(phase.rows[0], int):  # some of the world's rows, renumbered
-        order = {int(r): k for k, r in enumerate(phase.rows)}  # type: ignore[arg-type]
-        return dataclasses.replace(segs, segments=tuple(dataclasses.replace(g, row=order[g.row])
-                                                        for g in segs.segments if g.row in order))
+        listed = [r for r in phase.rows if isinstance(r, int)]  # a row listed twice is flown (and dosed) twice
+        return dataclasses.replace(segs, segments=tuple(dataclasses.replace(g, row=k) for k, r in enumerate(listed)
+                                                        for g in segs.segments if g.row == r))
     return plain_segments(rows, segs.spacing_m if segs is not None else row_spacing(rows))
 
 
