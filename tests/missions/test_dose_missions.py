@@ -67,3 +67,36 @@ def test_bad_map_in_a_mission(block, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="broken ISO-XML") as err:
         resolve_dose_phases(_mission(prescription={"path": str(bad)}), block)
     assert "TASKDATA.XML" in str(err.value.path)
+
+
+def test_plan_rows_mission_carries_the_dose(block, tmp_path: Path) -> None:
+    """``plan rows --mission`` writes the dose, not the flow of one rate: a canopy dose over the world's own rows
+    (which a run finds the canopy of), a rate, a prescription map (its path absolute); a DSM source cannot carry a
+    canopy dose into a run: exit 2, one line, nothing written."""
+    import hashlib
+
+    from typer.testing import CliRunner
+
+    from tests.canopy_fixtures import write_truth_dsm
+    from vinecli.cli.app import app
+    from vinecli.missions.spec_io import load_mission
+
+    runner = CliRunner()
+    n = len(block.vine_rows_enu)
+    for opts, want in ((["--dose-lwa", "200"], {"lwa_dose_l": 200.0, "rows": list(range(n))}),
+                       (["--rate", "120"], {"rate_lpha": 120.0})):
+        out = tmp_path / f"{opts[0][2:]}.plan"
+        r = runner.invoke(app, ["plan", "rows", str(block.dir), "--out", str(out), *opts, "--mission",
+                                str(out.with_suffix(".yaml"))])
+        assert r.exit_code == 0, r.output
+        ph = load_mission(out.with_suffix(".yaml"), check_vehicle=False).phases[1]
+        assert ph.flow_lps is None and all(getattr(ph, k) == v for k, v in want.items())
+    flown, rates = resolve_dose_phases(load_mission(tmp_path / "dose-lwa.yaml", check_vehicle=False), block)
+    assert {g.row for g in rates[1].segments} == set(range(n)) and flown.phases[1].rate_lpha > 0
+    dsm = write_truth_dsm(tmp_path / "vineyard.tif")
+    before = hashlib.sha256(dsm.read_bytes()).hexdigest()
+    r = runner.invoke(app, ["plan", "rows", str(dsm), "--out", str(tmp_path / "d.plan"), "--dose-lwa", "200",
+                            "--mission", str(tmp_path / "d.yaml")])
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1 and "canopy segments" in r.output
+    assert not (tmp_path / "d.plan").exists() and not (tmp_path / "d.yaml").exists()
+    assert hashlib.sha256(dsm.read_bytes()).hexdigest() == before

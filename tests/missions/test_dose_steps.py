@@ -96,6 +96,8 @@ def test_bound_formula() -> None:
     assert step_bound_m(40.0, 20.0, 2.0, 0.3, 0.15, 0.1, 0.0) == pytest.approx(0.3 * (math.log(10.0) - 1.0))
     assert step_bound_m(40.0, 0.0, 2.0, 0.3, 0.15, 0.1, 0.25) == pytest.approx(0.3 * (math.log(10.0) - 1.0) + 0.25)
     assert step_bound_m(20.0, 21.0, 2.0, 0.3, 0.15, 0.1, 0.0) == 0.0  # within 10 % at once
+    # a speed estimate off by 0.05 m/s at 2 m/s leaves 7.5 % of the band to settle into
+    assert step_bound_m(20.0, 40.0, 2.0, 0.3, 0.15, 0.1, 0.0, 0.05) == pytest.approx(0.6 * (math.log(20 / 3) - 1.0))
 
 
 def test_rate_zones() -> None:

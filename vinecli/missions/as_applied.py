@@ -63,7 +63,8 @@ _SPEED_FRACTION = 0.25  # samples below this share of the phase's speed are not 
 class DoseRun:
     """What the as-applied judgement needs of a run's dosed spray phase: its index, its rows (the rates' ``row``
     indices refer to them), the plan's track width (m) and stretches, the phase's speed (m/s), the pump's time
-    constants (s), the canopy width (m), the recording rate (Hz) and the position margin of the step bounds (m)."""
+    constants (s), the canopy width (m), the recording rate (Hz), the position margin (m) and speed noise (m/s)
+    of the step bounds (:mod:`vinecli.missions.dose_steps`)."""
 
     phase_index: int
     rows: Sequence[Polyline]
@@ -75,6 +76,7 @@ class DoseRun:
     canopy_width_m: float = 0.6
     record_rate_hz: float = 50.0
     position_margin_m: float = POSITION_MARGIN_M  # along-track error of the autopilot's position estimate, m
+    speed_noise_mps: float = 0.0  # error of the autopilot's ground speed (its flow follows it), m/s
 
 
 @dataclass

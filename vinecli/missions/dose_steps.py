@@ -5,7 +5,10 @@
 (in the direction flown) until the pass's rate is within ``tolerance`` of ``new`` (of ``old`` for a step to 0;
 the next segment's length when it never is). Its **bound**: the sprayer commands the step ``v tau`` ahead of the boundary
 (``tau_up`` for a rise, ``tau_down`` for a fall), so a first-order pump is at ``1/e`` of the step there and within
-the tolerance ``v tau (ln(|new - old| / (tolerance x ref)) - 1)`` metres later (0 when negative), plus a margin:
+the tolerance ``v tau (ln(|new - old| / (tolerance' x ref)) - 1)`` metres later (0 when negative), where
+``tolerance' = tolerance - speed noise / v`` (the autopilot scales the flow with its estimate of the ground speed:
+an error of the GNSS velocity noise leaves that much less of the band to settle into; the vehicle's GNSS
+``velocity_noise_mps``, 0 on ground truth), plus a margin:
 one bin, one recorded sample's travel (``v / record rate``) and the run's position margin (the autopilot switches on
 its own position estimate, not the truth: one σ of the vehicle's GNSS horizontal noise, :data:`POSITION_MARGIN_M`
 by default; 0 on ground truth). A step whose next segment is shorter than its bound
@@ -87,11 +90,12 @@ def traversals(row: np.ndarray, moving: np.ndarray) -> Iterator[tuple[int, np.nd
 
 
 def step_bound_m(old: float, new: float, speed: float, tau_up: float, tau_down: float, tolerance: float,
-                 margin_m: float) -> float:
+                 margin_m: float, speed_noise_mps: float = 0.0) -> float:
     """Bound on the transition distance of a step ``old`` -> ``new`` L/ha at ``speed`` m/s (module docstring)."""
     ref = new if new > 0.0 else old
     tau = tau_up if new > old else tau_down
-    k = math.log(abs(new - old) / (tolerance * ref)) - 1.0 if ref > 0 and new != old else 0.0
+    tol = max(tolerance - (speed_noise_mps / speed if speed > 0 else 0.0), 0.5 * tolerance)
+    k = math.log(abs(new - old) / (tol * ref)) - 1.0 if ref > 0 and new != old else 0.0
     return speed * tau * max(0.0, k) + margin_m
 
 
@@ -133,7 +137,7 @@ def step_records(rates: SegmentRates, bins: list[dict[str, np.ndarray]], passes:
                 dist = float(max(d[good[0]] - 0.5 * bin_m, 0.0)) if reached else 0.0
                 length = float(d[-1] + 0.5 * bin_m)
                 bound = step_bound_m(old, new, p.speed_mps, run.tau_up_s, run.tau_down_s, tolerance,
-                                     _margin(run, p.speed_mps, bin_m))
+                                     _margin(run, p.speed_mps, bin_m), run.speed_noise_mps)
                 out.append(StepRecord(k, round(s_b, 3), old, new, round(dist if reached else length, 3),
                                       round(bound, 3), reached, length >= bound, p.direction, round(p.speed_mps, 3)))
     return out
@@ -157,7 +161,8 @@ def gap_records(rates: SegmentRates, bins: list[dict[str, np.ndarray]], passes: 
             for p in passes[k]:
                 r_in, r_out = (before, after) if p.direction > 0 else (after, before)
                 margin = _margin(run, p.speed_mps, bin_m)
-                enter = step_bound_m(r_in, 0.0, p.speed_mps, run.tau_up_s, run.tau_down_s, tolerance, margin)
+                enter = step_bound_m(r_in, 0.0, p.speed_mps, run.tau_up_s, run.tau_down_s, tolerance, margin,
+                                     run.speed_noise_mps)
                 leave = p.speed_mps * run.tau_up_s + margin if r_out > 0 else 0.0
                 lo, hi = (g.s0_m + enter, g.s1_m - leave) if p.direction > 0 else (g.s0_m + leave, g.s1_m - enter)
                 if hi <= lo:

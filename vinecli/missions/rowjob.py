@@ -193,8 +193,7 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
             grid=w.terrain.grid if source.is_dir() else None,
             spacing_m=det.spacing_m if det is not None else None)
     own_rows = len(rows) if source.is_dir() and not detect else None  # a world's own rows: a run finds their canopy
-    if dose is not None and mission_out is not None:
-        mission_dose(dose, world_rows=own_rows)  # refused before anything is written
+    dose_fields = mission_dose(dose, world_rows=own_rows) if dose is not None and mission_out is not None else None
     _check_options(veh, speed=speed, height=height, flow=flow, takeoff=takeoff, tank_l=tank_l)
     accel = plan_accel(veh)
     plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
@@ -228,20 +227,20 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
                                   nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))
     if mission_out is not None:
-        from vinecli.missions.spec_io import write_mission
-
-        write_mission(mission_out, mission if dose is None else _dosed_mission(planned, out, height, speed, takeoff,
-                                                                              plan.time_s, dose, own_rows))
+        _write_mission(mission_out, mission, dose_fields, planned, plan.time_s)
     job.files = targets
     return job
 
 
-def _dosed_mission(planned: list[Any], out: Path, height: float, speed: float, takeoff: float, time_s: float,
-                   dose: DoseOptions, own_rows: int | None) -> Any:
-    """The ``--mission`` of a plan with a dose: the dose itself on the spray phase (:func:`mission_dose`), not the
-    flow of one rate."""
+def _write_mission(path: Path, mission: Any, dose_fields: dict[str, Any] | None, planned: list[Any],
+                   time_s: float) -> None:
+    """``--mission``: the plan's mission, with a dose on its spray phase (:func:`mission_dose`) instead of the flow of
+    one rate when ``plan rows`` was given one."""
     from vinecli.missions.patterns import spray_mission
-    from vinecli.names import name_from
+    from vinecli.missions.spec_io import write_mission
 
-    return spray_mission(planned, name=name_from(out.stem, "spray-rows"), height_m=height, speed_mps=speed,
-                         takeoff_m=takeoff, estimated_s=time_s, dose=mission_dose(dose, world_rows=own_rows))
+    if dose_fields is not None:
+        sp = mission.phases[1]
+        mission = spray_mission(planned, name=mission.name, height_m=sp.height_agl_m, speed_mps=sp.speed_mps,
+                                takeoff_m=mission.phases[0].altitude_agl_m, estimated_s=time_s, dose=dose_fields)
+    write_mission(path, mission)

@@ -40,10 +40,11 @@ def dose_run(run: PreparedRun, index: int) -> tuple[DoseRun, SprayPhase, Any]:
                       air_density=float(world.air_density), no_spray=world.no_spray_enu)
     pump = run.vehicle.sprayer.pump
     lead = run.vehicle.sprayer.control.section_lead
-    margin = 0.0 if run.flight.truth else float(run.vehicle.sensors.gnss.horizontal_noise_m)  # switching on GNSS
+    gnss = run.vehicle.sensors.gnss  # the autopilot switches on its GNSS-driven estimate (none on ground truth)
+    noise = (0.0, 0.0) if run.flight.truth else (float(gnss.horizontal_noise_m), float(gnss.velocity_noise_mps))
     return DoseRun(index, rows, plan.flow_width_m, dict(plan.stretches), ph.speed_mps, pump.tau_up_s if lead else 0.0,
                    pump.tau_down_s if lead else 0.0, float(ph.canopy_width_m or world.canopy_width_m),
-                   float(run.mission.record_rate_hz), margin), ph, plan
+                   float(run.mission.record_rate_hz), *noise), ph, plan
 
 
 def _events(result: Any, kind: str) -> list[dict[str, Any]]:
