@@ -4,10 +4,11 @@ The missions of ``pipelines/dose.yaml`` (LWA dose, GeoPackage zones, ISO-XML gri
 5) against their uniform twin: the same mission with ``rate_lpha`` (the LWA run's mean rate: the same path, the
 same litres), flown in the same process, interleaved (uniform, lwa, zones, grid, uniform, ...) so that the
 machine's load moves them alike. Per run: the process CPU time of ``run_mission`` (set-up, loop, deposition,
-as-applied evaluation and outputs) and its parts from summary.json ``timing``; the ratios of the medians against
-the uniform twin.
+as-applied evaluation and outputs) and the loop's CPU per physics step (summary.json ``timing.cpu_per_step_us``:
+what following the rates costs in flight); the ratios of the medians against the uniform twin. A dosed run pays a fixed cost (reading the map, cutting the passes, the as-applied judgement and
+its files) that a longer run spreads: ``--rows`` flies more rows (``--rows 1 5 9 13``: four passes).
 
-    .venv/bin/python benchmarks/dose_speed.py [--repeats 5] [--world DIR] [--json out.json]
+    .venv/bin/python benchmarks/dose_speed.py [--repeats 5] [--rows 1 5] [--world DIR] [--json out.json]
 """
 
 from __future__ import annotations
@@ -27,14 +28,21 @@ REPO = Path(__file__).resolve().parents[1]
 MISSIONS = REPO / "pipelines" / "missions" / "dose"
 
 
-def _uniform_twin(work: Path, rate_lpha: float) -> Path:
-    doc = yaml.safe_load((MISSIONS / "lwa.yaml").read_text())
+def _variant(work: Path, name: str, rows: list[int], rate_lpha: float | None = None) -> Path:
+    """``pipelines/missions/dose/<name>.yaml`` over ``rows`` (its map's path absolute); with ``rate_lpha`` the
+    uniform twin of the LWA mission."""
+    doc = yaml.safe_load((MISSIONS / f"{name}.yaml").read_text())
     spray = doc["phases"][1]
-    for k in ("lwa_dose_l", "segment_m"):
-        spray.pop(k)
-    spray["rate_lpha"] = round(rate_lpha, 3)
-    doc["name"] = "dose-uniform"
-    path = work / "uniform.yaml"
+    spray["rows"] = rows
+    if spray.get("prescription"):
+        spray["prescription"]["path"] = str((MISSIONS / spray["prescription"]["path"]).resolve())
+    if rate_lpha is not None:
+        for k in ("lwa_dose_l", "segment_m"):
+            spray.pop(k)
+        spray["rate_lpha"] = round(rate_lpha, 3)
+        doc["name"] = "dose-uniform"
+    doc["max_duration_s"] = 120 * len(rows) + 60
+    path = work / f"{doc['name']}.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
 
@@ -46,13 +54,14 @@ def _fly(mission: Path, world: Path, out: Path) -> dict[str, Any]:
     s = run_mission(mission, world, out, overwrite=True)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     summary = json.loads((Path(s.run_dir) / "summary.json").read_text())
-    return {"cpu_s": cpu, "wall_s": wall, "loop_wall_s": summary["timing"]["wall_time_s"], "passed": s.passed,
+    return {"cpu_s": cpu, "wall_s": wall, "step_us": summary["timing"]["cpu_per_step_us"], "passed": s.passed,
             "in_band": (summary.get("as_applied") or {}).get("in_band_fraction")}
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--rows", type=int, nargs="+", default=[1, 5], help="the world's rows the missions spray")
     ap.add_argument("--world", type=Path, default=None, help="a built worlds/vineyard-sample.yaml (default: build it)")
     ap.add_argument("--json", type=Path, default=None)
     a = ap.parse_args()
@@ -63,15 +72,15 @@ def main() -> int:
             from vinecli.world import build_world
 
             world = build_world(REPO / "worlds" / "vineyard-sample.yaml", work / "world")
-        _fly(MISSIONS / "lwa.yaml", world, work / "warm")  # warm-up: imports, caches
         from vinecli.missions.spec_io import read_mission
         from vinecli.sim.dose_setup import resolve_dose_phases
         from vinecli.world import load_world
 
-        flown, _ = resolve_dose_phases(read_mission(MISSIONS / "lwa.yaml").spec, load_world(world))
+        cases = {name: _variant(work, name, a.rows) for name in ("lwa", "zones", "grid")}
+        _fly(cases["lwa"], world, work / "warm")  # warm-up: imports, caches
+        flown, _ = resolve_dose_phases(read_mission(cases["lwa"]).spec, load_world(world))
         rate = float(flown.phases[1].rate_lpha)  # the LWA run's mean rate: the uniform twin's
-        cases = {"uniform": _uniform_twin(work, rate), "lwa": MISSIONS / "lwa.yaml", "zones": MISSIONS / "zones.yaml",
-                 "grid": MISSIONS / "grid.yaml"}
+        cases = {"uniform": _variant(work, "lwa", a.rows, rate), **cases}
         res: dict[str, list[dict[str, Any]]] = {k: [] for k in cases}
         for i in range(a.repeats):
             for name, mission in cases.items():
@@ -79,13 +88,14 @@ def main() -> int:
                 r = res[name][-1]
                 print(f"repeat {i + 1} {name:8s} cpu {r['cpu_s']:6.2f} s  wall {r['wall_s']:6.2f} s  passed {r['passed']}",
                       flush=True)
-    med = {k: {m: statistics.median(r[m] for r in v) for m in ("cpu_s", "wall_s")} for k, v in res.items()}
-    print(f"uniform twin at {rate:.2f} L/ha; medians of {a.repeats} interleaved repeats:")
+    med = {k: {m: statistics.median(r[m] for r in v) for m in ("cpu_s", "wall_s", "step_us")} for k, v in res.items()}
+    print(f"rows {a.rows}, uniform twin at {rate:.2f} L/ha; medians of {a.repeats} interleaved repeats:")
     for k, m in med.items():
         print(f"  {k:8s} cpu {m['cpu_s']:6.2f} s ({m['cpu_s'] / med['uniform']['cpu_s']:.3f}x)  "
-              f"wall {m['wall_s']:6.2f} s ({m['wall_s'] / med['uniform']['wall_s']:.3f}x)")
+              f"wall {m['wall_s']:6.2f} s ({m['wall_s'] / med['uniform']['wall_s']:.3f}x)  "
+              f"loop {m['step_us']:5.1f} µs/step ({m['step_us'] / med['uniform']['step_us']:.3f}x)")
     if a.json:
-        a.json.write_text(json.dumps({"rate_lpha": rate, "runs": res, "medians": med}, indent=1) + "\n")
+        a.json.write_text(json.dumps({"rows": a.rows, "rate_lpha": rate, "runs": res, "medians": med}, indent=1) + "\n")
     worst = max(med[k]["cpu_s"] / med["uniform"]["cpu_s"] for k in ("lwa", "zones", "grid"))
     return 0 if worst < 1.10 else 1
 

@@ -95,7 +95,7 @@ class DoseOutputs:
 
         (out_dir / AS_APPLIED_JSON).write_text(json.dumps(self.doc(), indent=1, allow_nan=False), encoding="utf-8")
         georef = world_dir_georef(world_dir)
-        write_layers(out_dir / AS_APPLIED_GPKG, self.features(), georef)
+        write_layers(out_dir / AS_APPLIED_GPKG, self.features(), georef, spatial_index=False)
         self.write_tif(out_dir / AS_APPLIED_TIF, world, dsm_crs(world_dir))
         write_dose_layers(out_dir, self.aa.segments, self.rates.spacing_m, georef)
         pr = self.rates.prescription or {}

@@ -19,6 +19,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from vinecli.gis.canopy_out import segment_strip
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import LocalFeature, write_features
@@ -56,22 +58,23 @@ def write_dose_layers(out_dir: Path, segments: list[dict[str, Any]], spacing_m: 
     folder.mkdir(parents=True, exist_ok=True)
     rates = [_value(s, p) for s in segments for p in ("prescribed_lpha", "pump_lpha")]
     top = max((r for r in rates if math.isfinite(r)), default=1.0) or 1.0
-    strips = [georef.to_lonlat(segment_strip(tuple(s["start_enu"]), tuple(s["end_enu"]), 0.5 * spacing_m))
-              for s in segments]
+    rings = [segment_strip(tuple(s["start_enu"]), tuple(s["end_enu"]), 0.5 * spacing_m) for s in segments]
+    flat = georef.to_lonlat([p for r in rings for p in r])  # one transformation for every corner
+    strips = [flat[4 * k:4 * k + 4] for k in range(len(rings))]
+    label, bounds = _labels(strips)
     entries = []
     for name, (prop, units, cmap_name) in LAYERS.items():
         vmin, vmax = (-ERROR_RANGE_PCT, ERROR_RANGE_PCT) if units == "%" else (0.0, top)
         cmap = matplotlib.colormaps[cmap_name]
-        feats = []
-        colors = []
-        for s in segments:
-            v = _value(s, prop)
-            color = matplotlib.colors.to_hex(cmap((v - vmin) / (vmax - vmin))) if math.isfinite(v) else "#808080"
-            colors.append(color)
-            feats.append(LocalFeature("LineString", [tuple(s["start_enu"]), tuple(s["end_enu"])],
-                                      {**_props(s, name), "color": color}))
+        vals = np.array([_value(s, prop) for s in segments])
+        rgba = np.zeros((len(segments) + 1, 4), dtype=np.uint8)  # label 0: transparent
+        rgba[1:] = np.round(255 * cmap(np.clip((np.nan_to_num(vals) - vmin) / (vmax - vmin), 0.0, 1.0))).astype(np.uint8)
+        rgba[1:, 3] = np.where(np.isfinite(vals), 255, 0)
+        feats = [LocalFeature("LineString", [tuple(s["start_enu"]), tuple(s["end_enu"])],
+                              {**_props(s, name), "color": "#{:02x}{:02x}{:02x}".format(*c[:3]) if c[3] else "#808080"})
+                 for s, c in zip(segments, rgba[1:], strict=True)]
         write_features(folder / f"{name}.geojson", feats, georef, layer=name)
-        bounds = _png(folder / f"{name}.png", strips, colors, [math.isfinite(_value(s, prop)) for s in segments])
+        _png(folder / f"{name}.png", rgba[label])
         entries.append({"name": name, "geojson": f"{name}.geojson", "png": f"{name}.png", "property": prop,
                         "units": units, "vmin": vmin, "vmax": vmax, "cmap": cmap_name, "bounds": bounds})
     (folder / "overlays.json").write_text(json.dumps({"schema": "vinecli.dose_map/1", "layers": entries}, indent=1),
@@ -79,26 +82,27 @@ def write_dose_layers(out_dir: Path, segments: list[dict[str, Any]], spacing_m: 
     return folder
 
 
-def _png(path: Path, strips: list[list[tuple[float, float]]], colors: list[str], shown: list[bool]
-         ) -> list[list[float]]:
-    """Paint the strips (lon, lat rings) in their colours on a transparent PNG; its [[S, W], [N, E]] bounds."""
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Polygon
+def _labels(strips: list[list[tuple[float, float]]], px: int = 800) -> tuple[np.ndarray, list[list[float]]]:
+    """Each pixel's strip (1-based, 0 none) on a north-up longitude/latitude grid over the strips, at most ``px``
+    pixels on a side, square on the ground; the grid's [[S, W], [N, E]] bounds."""
+    from rasterio.features import rasterize
+    from rasterio.transform import from_bounds
+    from shapely.geometry import Polygon
 
     pts = [p for s in strips for p in s] or [(0.0, 0.0), (1e-6, 1e-6)]
     w, e = min(p[0] for p in pts), max(p[0] for p in pts)
     s_, n = min(p[1] for p in pts), max(p[1] for p in pts)
     width_m = (e - w) * 111_320.0 * math.cos(math.radians(0.5 * (s_ + n)))
     height_m = (n - s_) * 110_540.0
-    px = 800
     scale = px / max(width_m, height_m, 1e-9)
-    fig = Figure(figsize=(max(width_m * scale, 8) / 100, max(height_m * scale, 8) / 100), dpi=100)
-    ax = fig.add_axes((0, 0, 1, 1))
-    ax.set_axis_off()
-    ax.set_xlim(w, e)
-    ax.set_ylim(s_, n)
-    for ring, color, ok in zip(strips, colors, shown, strict=True):
-        if ok:
-            ax.add_patch(Polygon(ring, closed=True, facecolor=color, edgecolor="none"))
-    fig.savefig(path, transparent=True)
-    return [[s_, w], [n, e]]
+    nx, ny = max(int(round(width_m * scale)), 8), max(int(round(height_m * scale)), 8)
+    label = rasterize(((Polygon(r), k + 1) for k, r in enumerate(strips)), out_shape=(ny, nx),
+                      transform=from_bounds(w, s_, e, n, nx, ny), fill=0, dtype="int32") if strips else \
+        np.zeros((ny, nx), dtype=np.int32)
+    return label, [[s_, w], [n, e]]
+
+
+def _png(path: Path, rgba: np.ndarray) -> None:
+    from PIL import Image
+
+    Image.fromarray(rgba, "RGBA").save(path, optimize=False)
