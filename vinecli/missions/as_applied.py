@@ -136,7 +136,9 @@ def _row_bins(rates: SegmentRates, run: DoseRun, bin_m: float) -> list[dict[str,
 
 
 def _samples(ts: Mapping[str, np.ndarray], run: DoseRun) -> dict[str, np.ndarray]:
-    """The spray phase's samples: time, position, ground speed, delivered flow, pump rate (L/ha), row and s."""
+    """The spray phase's samples: time, position, ground speed, delivered flow, pump rate (L/ha), the nearest row
+    within half a track width and s along it (the 1 Hz log), and for every row the s of the samples within half a
+    track width of it (NaN elsewhere: a broadcast pass's track covers several rows, each gets its rate)."""
     phase = np.asarray(ts["phase_index"]) == run.phase_index
     x, y = np.asarray(ts["pos_enu_x_m"])[phase], np.asarray(ts["pos_enu_y_m"])[phase]
     v = np.hypot(np.asarray(ts["vel_enu_x_mps"])[phase], np.asarray(ts["vel_enu_y_mps"])[phase])
@@ -146,23 +148,27 @@ def _samples(ts: Mapping[str, np.ndarray], run: DoseRun) -> dict[str, np.ndarray
     row = np.full(x.size, -1)
     s = np.full(x.size, np.nan)
     best = np.full(x.size, np.inf)
+    per_row = []
     for k, line in enumerate(run.rows):
         d, sk = distance_along(x, y, line)
-        inside = (d <= 0.5 * run.flow_width_m) & (d < best) & (sk > 0.0) & (sk < polyline_length(line))
+        within = (d <= 0.5 * run.flow_width_m) & (sk > 0.0) & (sk < polyline_length(line))
+        per_row.append(np.where(within, sk, np.nan))
+        inside = within & (d < best)
         row = np.where(inside, k, row)
         s = np.where(inside, sk, s)
         best = np.where(inside, d, best)
     return {"t": np.asarray(ts["t_s"])[phase], "x": x, "y": y, "v": v, "q": q, "pump": pump, "row": row, "s": s,
-            "moving": moving}
+            "moving": moving, "s_rows": np.array(per_row).reshape(len(per_row), x.size)}
 
 
 def _fill_pump(bins: list[dict[str, np.ndarray]], smp: dict[str, np.ndarray]) -> list[list[PassRates]]:
     """Add each pass's pump rate onto the bins it crossed; per row its passes."""
     passes: list[list[PassRates]] = [[] for _ in bins]
-    for k, idx in traversals(smp["row"], smp["moving"]):
+    over = np.isfinite(smp["s_rows"]) & smp["moving"]
+    for k, idx in ((row, idx) for row in range(len(bins)) for idx in traversals(over[row])):
         if not (smp["q"][idx] > 0.0).any():  # flown over with the sections closed (a transit): no pass
             continue
-        s, r = smp["s"][idx], smp["pump"][idx]
+        s, r = smp["s_rows"][k][idx], smp["pump"][idx]
         direction = 1 if s[-1] >= s[0] else -1
         order = np.argsort(s)
         s, r = s[order], r[order]

@@ -73,20 +73,12 @@ class StepRecord:
         return {**asdict(self), "within_bound": self.within_bound}
 
 
-def traversals(row: np.ndarray, moving: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:
-    """(row, sample indices) of every pass: a run of consecutive moving samples over one row."""
-    ok = (row >= 0) & moving
-    i, n = 0, row.size
-    while i < n:
-        if not ok[i]:
-            i += 1
-            continue
-        j = i
-        while j + 1 < n and ok[j + 1] and row[j + 1] == row[i]:
-            j += 1
-        if j > i:
-            yield int(row[i]), np.arange(i, j + 1)
-        i = j + 1
+def traversals(over: np.ndarray) -> Iterator[np.ndarray]:
+    """Sample indices of every pass over a row: each run of two or more consecutive samples ``over`` it."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], over.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        if b - a >= 2:
+            yield np.arange(a, b)
 
 
 def step_bound_m(old: float, new: float, speed: float, tau_up: float, tau_down: float, tolerance: float,
