@@ -166,3 +166,59 @@ def test_dose_figures(dose_runs: dict[str, Path]) -> None:
     for fid, f in figs.items():
         assert f["png"], f["note"]
         assert png_size(f["png"]) == expected_size(fid) and len(f["png"]) > 20_000
+
+
+GAP_WORLD = """\
+name: gaps
+terrain: {type: dsm, path: vineyard.tif, format: tiles, max_error_m: 0.03, tile_px: 256}
+vehicle: x500-sprayer
+spawn: {x_m: -5.6, y_m: -18.0, yaw_deg: 90.0}
+wind: {law: {type: constant, velocity_enu: [0.0, 0.0, 0.0]}}
+rows: auto
+canopy: {source: chm, base_m: 0.5}
+"""
+# truth: the autopilot flies on the simulator's state, so the gaps' bounds are the pump's alone (0.2-0.5 m at
+# 1.5 m/s) and all three gaps of 1.2-2.0 m are judged; the field is 12.4 m wide: the spray reaches its edges
+GAP_MISSION = """\
+name: dose-gaps
+vehicle: x500-sprayer
+tank_fill_l: 1.0
+truth: true
+max_duration_s: 240
+record_rate_hz: 50
+dose: {drift_max: 0.5}
+phases:
+  - {type: takeoff, altitude_agl_m: 3.0}
+  - {type: spray, rows: [0, 2], height_agl_m: 2.0, speed_mps: 1.5, lwa_dose_l: 40.0}
+  - {type: rtl, return_altitude_agl_m: 4.0}
+checks:
+  - {name: completed, quantity: status, op: "==", bound: completed}
+"""
+
+
+def test_missing_vines_are_not_sprayed(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """The known-truth vineyard (tests/canopy_fixtures.py: missing vines of 1.6 m on row 0, 2.0 m and 1.2 m on row
+    2) as a world with its canopy measured on the DSM: the built-in autopilot closes the sections over each gap
+    (the pump delivers < 10 % of the rate beside it inside every gap, beyond its run-down), and doses the hedges."""
+    from tests.canopy_fixtures import TRUTH, write_truth_dsm
+    from vinecli.world import build_world
+
+    d = tmp_path_factory.mktemp("gap-world")
+    write_truth_dsm(d / "vineyard.tif")
+    (d / "w.yaml").write_text(GAP_WORLD)
+    world = build_world(d / "w.yaml", d / "world")
+    (d / "m.yaml").write_text(GAP_MISSION)
+    run = Path(run_mission(d / "m.yaml", world, d / "runs").run_dir)
+    s = _summary(run)
+    assert s["passed"], [(c["name"], c["value"]) for c in s["checks"] if not c["passed"]]
+    gaps = _as_applied(run)["gaps"]
+    truth = sorted(b - a for r in (TRUTH.rows[0], TRUTH.rows[2]) for a, b in r.gaps)
+    assert sorted(round(g["length_m"], 1) for g in gaps) == pytest.approx(truth, abs=0.15)
+    assert all(g["gap"] and g["judged"] and not g["sprayed"] and g["interior_max_ratio"] < 0.1 for g in gaps)
+    assert s["as_applied"]["in_band_fraction"] >= 0.9
+    a = _as_applied(run)
+    for b in a["bins"]:  # the pump's litres over the gaps are their ends' run-down only: < 25 % of the rate there
+        presc, pump = np.array(b["prescribed_lpha"]), np.array(b["pump_lpha"])
+        sprayed = presc[presc > 0].mean() if (presc > 0).any() else 0.0
+        if (presc == 0).any():
+            assert pump[presc == 0].mean() < 0.25 * sprayed
