@@ -1,7 +1,7 @@
 """The as-applied judgement of rate steps and gaps (vinecli.missions.as_applied, dose_steps) on a pass flown by the
 real pump model: a vehicle at constant speed along a straight row, the sprayer commanding each piece's litres per
 metre led by the pump's lag as the built-in autopilot does (a rise speed x tau_up ahead, a fall speed x tau_down
-ahead), the first-order pump (vinecli.physics.pump.Pump) delivering it. Every transition distance lies within its
+ahead), the first-order pump (vinecli.flight.pump.Pump) delivering it. Every transition distance lies within its
 bound from pump lag x speed, and the bound is the first-order law's; a pump three times slower than the sprayer
 assumes overruns it (the check can fail); the gap is not sprayed beyond the pump's run-down."""
 
@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
+from vinecli.flight.pump import Pump
 from vinecli.missions.as_applied import DoseRun, as_applied, rate_zones
 from vinecli.missions.dose_steps import POSITION_MARGIN_M, step_bound_m
-from vinecli.physics.pump import Pump
 from vinecli.rows.segment_rates import RateSegment, SegmentRates
 from vinecli.specs.sprayer import PumpSpec
 

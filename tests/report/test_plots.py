@@ -25,7 +25,7 @@ from vinecli.report.plots import (
 from .synth_runs import MISSIONS
 
 SPRAY_FIGURES = ("fig23", "fig24", "fig25")  # vinecli/report/deposition_plots.py, budget_plots.py
-DOSE_FIGURES = ("fig26", "fig27")  # vinecli/report/dose_plots.py: runs with segment rates (tests/missions/test_dose_runs.py)
+DOSE_FIGURES = ("fig26", "fig27")  # vinecli/report/dose_plots.py: runs with segment rates (tests/runs/test_dose_runs.py)
 
 
 @pytest.fixture(scope="module")

@@ -110,7 +110,7 @@ def plan_segment_rates(opts: DoseOptions, rows: list[Polyline], georef: Georef, 
                        spacing_m: float | None = None) -> SegmentRates:
     """The rates of the planned ``rows`` (local m of ``georef``) for the dose of ``opts`` (InputError, exit 2, for
     a map that does not fit, or a dose per LWA/TRV without a canopy)."""
-    from vinecli.physics.canopy import row_spacing
+    from vinecli.spray.canopy import row_spacing
 
     spacing = spacing_m if spacing_m is not None else row_spacing(rows)
     if not (spacing is not None and math.isfinite(spacing) and spacing > 0):

@@ -284,7 +284,7 @@ def segment_canopy(height: HeightFn, rows: Sequence[Polyline], *, spacing_m: flo
 def hedge_segments(rows: Sequence[Polyline], hedges: Sequence[Any], spacing_m: float, segment_m: float = 2.0
                    ) -> CanopySegments:
     """Segments of rows whose canopy is given (each hedge's ``row``, ``base_m``, ``top_m``, ``width_m``, as
-    :class:`vinecli.physics.canopy.Hedge`): uniform along each row, no gaps, cover 1."""
+    :class:`vinecli.spray.canopy.Hedge`): uniform along each row, no gaps, cover 1."""
     by_row = {int(h.row): h for h in hedges}
     out: list[CanopySegment] = []
     for i, line in enumerate(rows):

@@ -110,8 +110,8 @@ class DoseOutputs:
         from rasterio.transform import Affine
         from shapely.geometry import Polygon
 
-        from vinecli.physics.deposit_grid import GridSpec
         from vinecli.runs.deposition_out import write_grid_tif
+        from vinecli.spray.deposit_grid import GridSpec
 
         segs = self.aa.segments
         half = 0.5 * self.rates.spacing_m

@@ -33,7 +33,7 @@ log = logging.getLogger(__name__)
 
 
 def _canopy(world: World, phase: SprayPhase, rows: list) -> CanopySegments:
-    from vinecli.physics.canopy import row_spacing
+    from vinecli.spray.canopy import row_spacing
     from vinecli.world.canopy_files import load_canopy_segments
 
     segs = load_canopy_segments(world.dir) if world.dir is not None else None
