@@ -28,10 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.geometry import distance_along, polyline_length
 from vinecli.missions.dose_steps import POSITION_MARGIN_M, PassRates, StepRecord, gap_records, step_records, traversals
 from vinecli.rows.detect import Polyline
 from vinecli.rows.dose_units import HA_M2
-from vinecli.rows.geometry import distance_along, polyline_length
 from vinecli.rows.segment_rates import SegmentRates
 
 __all__ = ["AS_APPLIED_METRICS", "AsApplied", "DoseRun", "as_applied", "rate_zones"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +32,9 @@ from vinecli.rows.segment_rates import SegmentRates
 from vinecli.rows.source import RowFrame
 from vinecli.specs.vehicle import DEFAULT_VEHICLE, VehicleSpec
 from vinecli.spray_defaults import SPRAY_DEFAULTS
+
+if TYPE_CHECKING:
+    from vinecli.specs.mission import MissionSpec
 
 __all__ = ["RowsJob", "plan_rows_job"]
 
@@ -57,17 +60,31 @@ def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
 
 
-def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = SPRAY_DEFAULTS.height_m,
-                  speed: float = SPRAY_DEFAULTS.speed_mps, flow: float = SPRAY_DEFAULTS.flow_lps,
-                  takeoff: float = SPRAY_DEFAULTS.takeoff_m, detect: bool = False, world_rows: bool = False,
-                  vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
-                  home: tuple[float, float] | None = None, mission_out: Path | None = None,
-                  overwrite: bool = False, dose: DoseOptions | None = None) -> RowsJob:
+@dataclass(frozen=True)
+class RowsPlanOptions:
+    """The options of ``vinecli plan rows`` (:func:`plan_rows_job`); the defaults are the command's."""
+
+    spacing: float | None = None  # expected row spacing, m (None: searched over 0.5-6 m)
+    height: float = SPRAY_DEFAULTS.height_m  # spray height above the canopy surface, m
+    speed: float = SPRAY_DEFAULTS.speed_mps  # ground speed along the rows, m/s
+    flow: float = SPRAY_DEFAULTS.flow_lps  # nozzle flow on the rows, L/s
+    takeoff: float = SPRAY_DEFAULTS.takeoff_m  # take-off altitude above home, m
+    detect: bool = False  # a world source: detect rows on its height grid instead of taking its rows
+    world_rows: bool = False  # a world source: its rows (an error when it has none)
+    vehicle: str | None = None  # None: the world's, else the default sprayer
+    tank_l: float | None = None  # litres per sortie (None: the vehicle's tank; 0: one sortie)
+    fence_margin: float | None = None  # m inside the fence (None: 1 m inside a world's, 0 inside a DSM's extent)
+    home: tuple[float, float] | None = None  # take-off point, ENU m of the source (None: spawn / a corner row end)
+
+
+def plan_rows_job(source: Path, out: Path, options: RowsPlanOptions = RowsPlanOptions(), *,
+                  mission_out: Path | None = None, overwrite: bool = False,
+                  dose: DoseOptions | None = None) -> RowsJob:
     """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
-    (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
-    rows are flown, only the headland turns are kept over the surveyed ground). Every file is checked before
-    the first is written: none may be an input, or replace an existing file without ``overwrite``
-    (OutputError, exit 2, nothing written). ``dose``: also the rate of every row segment
+    (m, :class:`RowsPlanOptions`): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the
+    survey area: its edge rows are flown, only the headland turns are kept over the surveyed ground). Every file
+    is checked before the first is written: none may be an input, or replace an existing file without
+    ``overwrite`` (OutputError, exit 2, nothing written). ``dose``: also the rate of every row segment
     (:mod:`vinecli.missions.rowjob_dose`), its map checked before anything is written."""
     dose = dose if dose is not None and dose.given else None
     with reading_inputs():
@@ -76,10 +93,7 @@ def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, heig
             dose.check()
         _check_targets([out, _geojson_path(out), *(rates_paths(out) if dose is not None else []),
                         *([mission_out] if mission_out is not None else [])], overwrite)
-        return _plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
-                              detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
-                              fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite,
-                              dose=dose)
+        return _plan_rows_job(source, out, options, (mission_out, overwrite), dose)
 
 
 def _check_targets(targets: list[Path], overwrite: bool) -> None:
@@ -112,10 +126,13 @@ def _geojson_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.rows.geojson")
 
 
-def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: float, speed: float, flow: float,
-                   takeoff: float, detect: bool, world_rows: bool, vehicle: str | None, tank_l: float | None,
-                   fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
-                   overwrite: bool, dose: DoseOptions | None) -> RowsJob:
+def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, writing: tuple[Path | None, bool],
+                   dose: DoseOptions | None) -> RowsJob:
+    """``writing``: (``--mission`` path, ``overwrite``)."""
+    mission_out, overwrite = writing
+    spacing, height, speed, flow, takeoff = o.spacing, o.height, o.speed, o.flow, o.takeoff
+    detect, world_rows, vehicle, tank_l = o.detect, o.world_rows, o.vehicle, o.tank_l
+    fence_margin, home = o.fence_margin, o.home
     from vinecli.missions.patterns import spray_mission
     from vinecli.missions.qgc_export import export_plan, sortie_plan
     from vinecli.missions.qgc_format import vehicle_nozzle_flow_lps, write_plan
@@ -232,8 +249,8 @@ def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: fl
     return job
 
 
-def _write_mission(path: Path, mission: Any, dose_fields: dict[str, Any] | None, planned: list[Any],
-                   time_s: float) -> None:
+def _write_mission(path: Path, mission: MissionSpec, dose_fields: dict[str, object] | None,
+                   planned: list[Polyline], time_s: float) -> None:
     """``--mission``: the plan's mission, with a dose on its spray phase (:func:`mission_dose`) instead of the flow of
     one rate when ``plan rows`` was given one."""
     from vinecli.missions.patterns import spray_mission

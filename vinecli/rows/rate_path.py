@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.geometry import distance_along
 from vinecli.rows.detect import Polyline
 from vinecli.rows.dose_units import HA_M2
-from vinecli.rows.geometry import distance_along
 from vinecli.rows.plan import Leg, RowPlan
 from vinecli.rows.segment_rates import SegmentRates
 
