@@ -24,7 +24,14 @@ from vinecli.errors import InputError, OutputError, check_range
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
-from vinecli.missions.rowjob_dose import DoseOptions, mission_dose, plan_segment_rates, rates_paths, write_rates
+from vinecli.missions.rowjob_dose import (
+    CanopySource,
+    DoseOptions,
+    mission_dose,
+    plan_segment_rates,
+    rates_paths,
+    write_rates,
+)
 from vinecli.outputs import check_output_file
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
@@ -146,6 +153,7 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, writing: tuple[P
         from vinecli.world import load_world
 
         w = load_world(source)
+        canopy = CanopySource(world_dir=source, world_rows=not detect, grid=w.terrain.grid)
         veh = w.vehicle if vehicle is None else load_vehicle(vehicle)
         origin, frame = w.origin, world_frame(source)
         start = home or (w.spawn_enu[0], w.spawn_enu[1])
@@ -174,6 +182,7 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, writing: tuple[P
 
         dsm = detect_rows_in_dsm(source, spacing_m=spacing)
         det, frame, rows = dsm.detection, dsm.frame, dsm.detection.rows
+        canopy = CanopySource(dsm_path=source, dsm=dsm)
         if dsm.origin is None:
             raise InputError("the DSM has no CRS: a .plan needs latitude/longitude (build a world with origin: "
                              "and plan on it)", path=source)
@@ -202,13 +211,8 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, writing: tuple[P
     if not rows:
         raise InputError("no rows found (try --spacing)", path=source)
     georef = Georef(frame, origin)
-    rates = None
-    if dose is not None:
-        rates = plan_segment_rates(
-            dose, rows, georef, dsm_path=None if source.is_dir() else source, dsm=None if source.is_dir() else dsm,
-            world_dir=source if source.is_dir() else None, world_rows=source.is_dir() and not detect,
-            grid=w.terrain.grid if source.is_dir() else None,
-            spacing_m=det.spacing_m if det is not None else None)
+    rates = None if dose is None else plan_segment_rates(dose, rows, georef, canopy,
+                                                         spacing_m=det.spacing_m if det is not None else None)
     own_rows = len(rows) if source.is_dir() and not detect else None  # a world's own rows: a run finds their canopy
     dose_fields = mission_dose(dose, world_rows=own_rows) if dose is not None and mission_out is not None else None
     _check_options(veh, speed=speed, height=height, flow=flow, takeoff=takeoff, tank_l=tank_l)

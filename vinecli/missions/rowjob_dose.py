@@ -12,19 +12,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vinecli.errors import InputError, check_range
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import LocalFeature, write_features
 from vinecli.inputs import note_input
 from vinecli.outputs import json_text, write_text_atomic
-from vinecli.rows.canopy_segments import CanopySegments, plain_segments, segment_canopy
+from vinecli.rows.canopy_segments import CanopySegments, Sampling, plain_segments, segment_canopy
 from vinecli.rows.detect import Polyline
 from vinecli.rows.dose_units import DoseExpr
 from vinecli.rows.segment_rates import SegmentRates, segment_rates
 
-__all__ = ["DoseOptions", "mission_dose", "plan_segment_rates", "rates_paths", "write_rates"]
+if TYPE_CHECKING:
+    from vinecli.rows.source import DsmRows
+    from vinecli.terrain.grid import TerrainGrid
+
+__all__ = ["CanopySource", "DoseOptions", "mission_dose", "plan_segment_rates", "rates_paths", "write_rates"]
 
 
 @dataclass(frozen=True)
@@ -85,14 +89,27 @@ def rates_paths(out: Path) -> list[Path]:
     return [out.with_name(f"{out.stem}.rates.json"), out.with_name(f"{out.stem}.rates.geojson")]
 
 
-def _canopy(opts: DoseOptions, rows: list[Polyline], spacing: float, *, dsm_path: Path | None, dsm: Any,
-            world_dir: Path | None, world_rows: bool, grid: Any) -> CanopySegments:
+@dataclass(frozen=True)
+class CanopySource:
+    """Where the planned rows' canopy is measured: on a DSM (``dsm_path``, its rows ``dsm``), from a world's
+    canopy segments (``world_dir``; ``world_rows``: the rows planned are the world's own), or on a world's height
+    grid (``grid``); none: plain segments (no canopy measured)."""
+
+    dsm_path: Path | None = None
+    dsm: DsmRows | None = None
+    world_dir: Path | None = None
+    world_rows: bool = False
+    grid: TerrainGrid | None = None
+
+
+def _canopy(opts: DoseOptions, rows: list[Polyline], spacing: float, src: CanopySource) -> CanopySegments:
+    dsm_path, dsm, world_dir, world_rows, grid = src.dsm_path, src.dsm, src.world_dir, src.world_rows, src.grid
     if dsm is not None and dsm_path is not None:
         from vinecli.rows.dsm_canopy import read_heights
 
         h = read_heights(dsm_path, dsm)
         return segment_canopy(h, rows, spacing_m=spacing, base_m=opts.foliage_base_m, segment_m=opts.segment_m,
-                              step_m=min(0.1, max(abs(h.dx), 0.02)))
+                              sampling=Sampling(step_m=min(0.1, max(abs(h.dx), 0.02))))
     if world_dir is not None and world_rows:
         from vinecli.world.canopy_files import load_canopy_segments
 
@@ -105,18 +122,16 @@ def _canopy(opts: DoseOptions, rows: list[Polyline], spacing: float, *, dsm_path
     return plain_segments(rows, spacing, opts.segment_m)
 
 
-def plan_segment_rates(opts: DoseOptions, rows: list[Polyline], georef: Georef, *, dsm_path: Path | None = None,
-                       dsm: Any = None, world_dir: Path | None = None, world_rows: bool = False, grid: Any = None,
-                       spacing_m: float | None = None) -> SegmentRates:
-    """The rates of the planned ``rows`` (local m of ``georef``) for the dose of ``opts`` (InputError, exit 2, for
-    a map that does not fit, or a dose per LWA/TRV without a canopy)."""
+def plan_segment_rates(opts: DoseOptions, rows: list[Polyline], georef: Georef,
+                       source: CanopySource = CanopySource(), spacing_m: float | None = None) -> SegmentRates:
+    """The rates of the planned ``rows`` (local m of ``georef``) for the dose of ``opts``, the canopy measured
+    from ``source`` (InputError, exit 2, for a map that does not fit, or a dose per LWA/TRV without a canopy)."""
     from vinecli.spray.canopy import row_spacing
 
     spacing = spacing_m if spacing_m is not None else row_spacing(rows)
     if not (spacing is not None and math.isfinite(spacing) and spacing > 0):
         raise InputError("a dose needs the row spacing: plan at least two rows")
-    canopy = _canopy(opts, rows, spacing, dsm_path=dsm_path, dsm=dsm, world_dir=world_dir, world_rows=world_rows,
-                     grid=grid)
+    canopy = _canopy(opts, rows, spacing, source)
     if opts.prescription is not None:
         from vinecli.gis.prescription import read_prescription
 

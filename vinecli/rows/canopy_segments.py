@@ -35,7 +35,7 @@ import numpy as np
 
 from vinecli.rows.dose_units import lwa_m2_per_ha, trv_m3_per_ha
 
-__all__ = ["CANOPY_SEGMENTS_SCHEMA", "CanopySegment", "CanopySegments", "hedge_segments", "plain_segments", "row_stations",
+__all__ = ["CANOPY_SEGMENTS_SCHEMA", "CanopySegment", "CanopySegments", "Sampling", "hedge_segments", "plain_segments", "row_stations",
            "segment_canopy", "summary_text"]
 
 CANOPY_SEGMENTS_SCHEMA = "vinecli.canopy_segments/1"
@@ -234,11 +234,25 @@ def _section(chm: np.ndarray, top: np.ndarray) -> np.ndarray:
     return np.sum(np.where(out, np.clip(chm, 0.0, None), 0.0), axis=1)
 
 
+@dataclass(frozen=True)
+class Sampling:
+    """How :func:`segment_canopy` samples a row and finds its gaps (module docstring): every ``step_m`` along it
+    and every ``across_step_m`` across it (None: a 32nd of the row spacing), m; canopy present where the wall is
+    higher than ``gap_share`` of the row's median wall; absences at least ``gap_min_m`` long are gaps, m."""
+
+    step_m: float = 0.1
+    across_step_m: float | None = None
+    gap_min_m: float = 0.5
+    gap_share: float = 0.25
+
+
 def segment_canopy(height: HeightFn, rows: Sequence[Polyline], *, spacing_m: float,
-                   base_m: float | Sequence[float], segment_m: float = 2.0, gap_min_m: float = 0.5,
-                   gap_share: float = 0.25, step_m: float = 0.1, across_step_m: float | None = None) -> CanopySegments:
+                   base_m: float | Sequence[float], segment_m: float = 2.0,
+                   sampling: Sampling = Sampling()) -> CanopySegments:
     """Every row's segments measured on the surface ``height(x, y)`` (m, any vertical datum; NaN = no data);
     see the module docstring. ``base_m``: foliage base above the ground, one for all rows or one per row."""
+    step_m, across_step_m, gap_min_m, gap_share = (sampling.step_m, sampling.across_step_m, sampling.gap_min_m,
+                                                   sampling.gap_share)
     if not (math.isfinite(spacing_m) and spacing_m > 0):
         raise ValueError(f"row spacing must be > 0 m, got {spacing_m!r}")
     if not 0.5 <= segment_m <= 50:

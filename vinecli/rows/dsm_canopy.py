@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import TerrainError
-from vinecli.rows.canopy_segments import CanopySegments, segment_canopy
+from vinecli.rows.canopy_segments import CanopySegments, Sampling, segment_canopy
 from vinecli.rows.source import DsmRows, detect_rows_in_dsm
 
 __all__ = ["DsmCanopy", "RasterHeights", "measure_dsm_canopy"]
@@ -81,6 +81,7 @@ def measure_dsm_canopy(path: Path | str, *, base_m: float = 0.0, segment_m: floa
     heights = read_heights(path, rows)
     step = min(0.1, max(abs(heights.dx), 0.02))
     segs = segment_canopy(heights, rows.detection.rows, spacing_m=rows.detection.spacing_m, base_m=base_m,
-                          segment_m=segment_m, gap_min_m=gap_min_m, step_m=step,
-                          across_step_m=min(rows.detection.spacing_m / 32.0, max(abs(heights.dx), 0.01)))
+                          segment_m=segment_m, sampling=Sampling(
+                              step_m=step, across_step_m=min(rows.detection.spacing_m / 32.0, max(abs(heights.dx), 0.01)),
+                              gap_min_m=gap_min_m))
     return DsmCanopy(rows, segs, heights)

@@ -37,7 +37,7 @@ from vinecli.missions.spec_io import dump_mission, load_mission, read_mission
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path, output_folder
 from vinecli.runs import rundir
-from vinecli.runs.as_applied import as_applied_for
+from vinecli.runs.as_applied_run import as_applied_for
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 

@@ -9,7 +9,7 @@ What is flown: the phase of the flight (:attr:`~vinecli.sim.setup.PreparedRun.fl
 mean rate of its sprayed segments as its ``rate_lpha`` (its nominal flow and the sprayer's range check), and
 ``PreparedRun.segment_rates`` the segments themselves: the built-in autopilot follows them along the path
 (:mod:`vinecli.rows.rate_path`), a firmware as far as it can (:mod:`vinecli.sitl.ardupilot.pump_rates`, PX4's
-DO_SET_ACTUATOR items); the run's as-applied log judges what was delivered (:mod:`vinecli.runs.as_applied`).
+DO_SET_ACTUATOR items); the run's as-applied log judges what was delivered (:mod:`vinecli.runs.as_applied_run`).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from vinecli.errors import SpecError
-from vinecli.rows.canopy_segments import CanopySegments, hedge_segments, segment_canopy
+from vinecli.rows.canopy_segments import CanopySegments, Sampling, hedge_segments, segment_canopy
 from vinecli.specs.canopy import CanopySpec
 from vinecli.spray.canopy import Canopy, Hedge, bbch_dims, measure_row_heights, row_spacing
 
@@ -84,5 +84,5 @@ def canopy_segments(spec: CanopySpec, canopy: Canopy,
         step = 0.1
         return segment_canopy(height, canopy.rows, spacing_m=canopy.spacing_m,
                               base_m=[h.base_m for h in canopy.hedges], segment_m=spec.segment_m,
-                              gap_min_m=spec.gap_min_m, step_m=step)
+                              sampling=Sampling(step_m=step, gap_min_m=spec.gap_min_m))
     return hedge_segments(canopy.rows, canopy.hedges, canopy.spacing_m, spec.segment_m)

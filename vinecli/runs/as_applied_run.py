@@ -20,6 +20,7 @@ from vinecli.specs.mission import SprayPhase, phase_rows
 
 if TYPE_CHECKING:
     from vinecli.runs.as_applied_out import DoseOutputs
+    from vinecli.sim.result import SimResult
     from vinecli.sim.setup import PreparedRun
 
 __all__ = ["as_applied_for", "dose_run"]
@@ -47,11 +48,11 @@ def dose_run(run: PreparedRun, index: int) -> tuple[DoseRun, SprayPhase, Any]:
                    float(run.mission.record_rate_hz), *noise), ph, plan
 
 
-def _events(result: Any, kind: str) -> list[dict[str, Any]]:
+def _events(result: SimResult, kind: str) -> list[dict[str, Any]]:
     return [dict(e.data) for e in result.events if e.kind == kind]
 
 
-def _follows(result: Any, autopilot: str) -> dict[str, Any]:
+def _follows(result: SimResult, autopilot: str) -> dict[str, Any]:
     """How the autopilot followed the rates: the backend's ``dose_follow`` event, else the built-in autopilot's
     ``dose_plan`` (it follows the path), else :data:`NOT_FOLLOWED`."""
     said = _events(result, "dose_follow")
@@ -63,7 +64,7 @@ def _follows(result: Any, autopilot: str) -> dict[str, Any]:
     return {"autopilot": autopilot, "method": NOT_FOLLOWED, "limits": ["segment rates not followed"]}
 
 
-def as_applied_for(run: PreparedRun, result: Any, metrics: dict[str, float], dep_doc: dict[str, Any] | None
+def as_applied_for(run: PreparedRun, result: SimResult, metrics: dict[str, float], dep_doc: dict[str, Any] | None
                    ) -> DoseOutputs | None:
     """The as-applied outputs of a run with segment rates (None without): its metrics go into ``metrics``; the
     deposition's dose faults along the rows (``dep_doc`` rows), judged against one asked rate, are dropped and each
