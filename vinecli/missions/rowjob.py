@@ -248,20 +248,19 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, writing: tuple[P
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
                                   nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))
     if mission_out is not None:
-        _write_mission(mission_out, mission, dose_fields, planned, plan.time_s)
+        _write_mission(mission_out, mission, dose_fields, (planned, plan.time_s), o)
     job.files = targets
     return job
 
 
 def _write_mission(path: Path, mission: MissionSpec, dose_fields: dict[str, object] | None,
-                   planned: list[Polyline], time_s: float) -> None:
+                   planned: tuple[list[Polyline], float], o: RowsPlanOptions) -> None:
     """``--mission``: the plan's mission, with a dose on its spray phase (:func:`mission_dose`) instead of the flow of
-    one rate when ``plan rows`` was given one."""
+    one rate when ``plan rows`` was given one; ``planned``: (the rows sprayed, in order; the plan's time, s)."""
     from vinecli.missions.patterns import spray_mission
     from vinecli.missions.spec_io import write_mission
 
     if dose_fields is not None:
-        sp = mission.phases[1]
-        mission = spray_mission(planned, name=mission.name, height_m=sp.height_agl_m, speed_mps=sp.speed_mps,
-                                takeoff_m=mission.phases[0].altitude_agl_m, estimated_s=time_s, dose=dose_fields)
+        mission = spray_mission(planned[0], name=mission.name, height_m=o.height, speed_mps=o.speed,
+                                takeoff_m=o.takeoff, estimated_s=planned[1], dose=dose_fields)
     write_mission(path, mission)
