@@ -1,4 +1,4 @@
-"""Canopy segmentation of the bundled sample DSM (issue 34: under 2 s) against a baseline in the same run: the
+"""Canopy segmentation of the bundled sample DSM (target: under 2 s) against a baseline in the same run: the
 row detection alone on the same DSM (what ``plan rows`` and ``world build`` already do). Interleaved, median of
 ``--repeats``; prints seconds and the ratio.
 

@@ -1,4 +1,4 @@
-"""What segment rates cost a run (issue 34 item 7: a prescription adds < 10 % to the time of a run).
+"""What segment rates cost a run (target: a prescription adds < 10 % to the time of a run).
 
 The missions of ``pipelines/dose.yaml`` (LWA dose, GeoPackage zones, ISO-XML grid on the sample vineyard, rows 1 and
 5) against their uniform twin: the same mission with ``rate_lpha`` (the LWA run's mean rate: the same path, the
