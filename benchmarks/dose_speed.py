@@ -49,9 +49,10 @@ def _variant(work: Path, name: str, rows: list[int], rate_lpha: float | None = N
 
 def _fly(mission: Path, world: Path, out: Path) -> dict[str, Any]:
     from vinecli.runs.mission import run_mission
+    from vinecli.runs.request import RunRequest
 
     c0, w0 = time.process_time(), time.perf_counter()
-    s = run_mission(mission, world, out, overwrite=True)
+    s = run_mission(RunRequest(mission, world, out, overwrite=True))
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     summary = json.loads((Path(s.run_dir) / "summary.json").read_text())
     return {"cpu_s": cpu, "wall_s": wall, "step_us": summary["timing"]["cpu_per_step_us"], "passed": s.passed,

@@ -20,6 +20,7 @@ import pytest
 
 from tests.repo_paths import REPO
 from vinecli.runs.mission import run_mission
+from vinecli.runs.request import RunRequest
 
 MISSIONS = REPO / "pipelines" / "missions" / "dose"
 
@@ -27,7 +28,7 @@ MISSIONS = REPO / "pipelines" / "missions" / "dose"
 @pytest.fixture(scope="module")
 def dose_runs(sample_world_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out = tmp_path_factory.mktemp("dose-runs")
-    return {m: Path(run_mission(MISSIONS / f"{m}.yaml", sample_world_dir, out).run_dir) for m in ("lwa", "zones", "grid")}
+    return {m: Path(run_mission(RunRequest(MISSIONS / f"{m}.yaml", sample_world_dir, out)).run_dir) for m in ("lwa", "zones", "grid")}
 
 
 def _summary(run: Path) -> dict[str, Any]:
@@ -208,7 +209,7 @@ def test_missing_vines_are_not_sprayed(tmp_path_factory: pytest.TempPathFactory)
     (d / "w.yaml").write_text(GAP_WORLD)
     world = build_world(d / "w.yaml", d / "world")
     (d / "m.yaml").write_text(GAP_MISSION)
-    run = Path(run_mission(d / "m.yaml", world, d / "runs").run_dir)
+    run = Path(run_mission(RunRequest(d / "m.yaml", world, d / "runs")).run_dir)
     s = _summary(run)
     assert s["passed"], [(c["name"], c["value"]) for c in s["checks"] if not c["passed"]]
     gaps = _as_applied(run)["gaps"]
