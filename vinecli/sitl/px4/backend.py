@@ -12,22 +12,19 @@ connects, sends one HEARTBEAT and SET_MESSAGE_INTERVAL(115). Each physics step v
 * HIL_GPS whenever the GNSS model has a new sample (10 Hz by default; noise is the vehicle's
   ``sensors.gnss`` spec), with ``time_usec`` in UNIX-epoch µs, eph/epv in cm.
 
-HIL time = sim time + one step (never 0), strictly increasing by exactly the physics step.
-**Boot phase** (until the first HIL_ACTUATOR_CONTROLS): motors off, steps paced at wall-clock
-rate, so PX4 boots in real time. **Lockstep phase**: after sending HIL_SENSOR(t) the step
-waits for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``: PX4's clock does not move until it gets
-the next HIL_SENSOR, so however long a loaded machine makes that take, the flight is the same (the
-wait is the lockstep, not a race with the wall clock). Only a PX4 that exited, closed the link or
-sent nothing for ``hang_timeout_s`` (default 30 s) ends the run, with an error. With an explicit
-``step_timeout_s`` (``--px4-lockstep-timeout``) a step instead proceeds after that long with the last
-controls and counts a stall (``px4_stalls``: any stall fails the run's checks); ``max_stalls``
-consecutive stalls raise AutopilotError (PX4 stopped answering). Outputs map to rotor speeds with the vehicle's
-``px4.motor_channels``: w = w_min + u (w_max - w_min) while armed (mode bit 128), 0 disarmed;
-the sprayer channel gives flow = clamp(u, 0, 1) * nozzle_max_flow.
+HIL time = sim time + one step (never 0), strictly increasing by exactly the physics step. **Boot phase** (until the
+first HIL_ACTUATOR_CONTROLS): motors off, steps paced at wall-clock rate, so PX4 boots in real time. **Lockstep
+phase**: after sending HIL_SENSOR(t) the step waits for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``: PX4's clock
+does not move until it gets the next HIL_SENSOR, so however long a loaded machine makes that take, the flight is the
+same (the wait is the lockstep, not a race with the wall clock). Only a PX4 that exited, closed the link or sent
+nothing for ``hang_timeout_s`` (default 30 s) ends the run, with an error. With an explicit ``step_timeout_s``
+(``--px4-lockstep-timeout``) a step instead proceeds after that long with the last controls and counts a stall
+(``px4_stalls``: any stall fails the run's checks); ``max_stalls`` consecutive stalls raise AutopilotError (PX4
+stopped answering). Outputs map to rotor speeds with the vehicle's ``px4.motor_channels``: w = w_min + u (w_max -
+w_min) while armed (mode bit 128), 0 disarmed; the sprayer channel gives flow = clamp(u, 0, 1) * nozzle_max_flow.
 
-Mission control runs on PX4's API link (UDP 14540+i) in a background thread
-(:class:`vinecli.sitl.px4.mission_client.Px4MissionClient`); ``step`` only polls its state, so
-the lockstep never blocks on mission traffic.
+Mission control runs on PX4's API link (UDP 14540+i) in a background thread (``Px4MissionClient`` of
+:mod:`vinecli.sitl.px4.mission_client`); ``step`` only polls its state: the lockstep never waits for mission traffic.
 """
 
 from __future__ import annotations
@@ -44,6 +41,7 @@ from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, qu
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sitl.converter import pump_max_flow_lps
+from vinecli.sitl.dose_follow import follow_event
 from vinecli.sitl.px4.log_audit import apply_audit
 from vinecli.sitl.px4.process import px4_start_command
 from vinecli.sitl.takeoff import TakeoffWatch
@@ -203,6 +201,8 @@ class Px4SitlAutopilot:
             except AutopilotTimeout as exc:  # nobody started PX4 where the user said: exit 2, no run written
                 raise FirmwareUnreachable(exc.problem) from None
         self._emit(0, "px4", f"PX4 connected on TCP {self.host}:{self.port}", {"peer": str(self.link.peer)})
+        if self.plan is not None and (said := follow_event("px4", self.plan.rate_paths)) is not None:
+            self._emit(0, *said)  # segment rates: what PX4 does with them
         hb = self.link.recv_match("HEARTBEAT", timeout=min(5.0, self.connect_timeout_s))
         if hb is None:
             raise AutopilotError(f"TCP {self.host}:{self.port}: the peer connected but sent no HEARTBEAT (is it PX4?)")
