@@ -171,11 +171,12 @@ def test_a_wrapper_around_the_real_arducopter_leaves_nothing(ardupilot_bin: Path
 
 def test_a_land_from_400_m_does_not_time_out(flat_world_dir: Path, tmp_path: Path) -> None:
     from vinecli.runs import run_mission
+    from vinecli.runs.request import RunRequest
 
     doc = {"name": "high", "vehicle": "x500-sprayer", "max_duration_s": 1200.0, "record_rate_hz": 1.0,
            "geofence": {"max_altitude_agl_m": 500.0},
            "phases": [{"type": "takeoff", "altitude_agl_m": 400.0}, {"type": "land"}]}
-    s = run_mission(_mission(tmp_path, doc), flat_world_dir, tmp_path / "runs")
+    s = run_mission(RunRequest(mission=_mission(tmp_path, doc), world_dir=flat_world_dir, runs_dir=tmp_path / "runs"))
     assert s.status == "completed", s.status_message  # 571 s of descent at 0.7 m/s: more than the 60 s margin
 
 

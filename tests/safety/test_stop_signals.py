@@ -44,6 +44,7 @@ SECOND_WHILE_WRITING = """
 import os, signal, sys
 from vinecli.runs import rundir
 from vinecli.runs.mission import run_mission
+from vinecli.runs.request import RunRequest
 
 write = rundir.write_summary
 
@@ -60,7 +61,7 @@ def progress(sim_t, wall_t):
         os.kill(os.getpid(), signal.SIGTERM)  # the first: stop at the next step
 
 try:
-    run_mission(sys.argv[1], sys.argv[2], sys.argv[3], progress=progress)
+    run_mission(RunRequest(mission=sys.argv[1], world_dir=sys.argv[2], runs_dir=sys.argv[3]), progress=progress)
 except KeyboardInterrupt as exc:
     print("aborted", getattr(exc, "signum", None), getattr(exc, "second", None))
     sys.exit(143)
