@@ -1,10 +1,10 @@
 """``build_report``: runs directory -> report directory (HTML, Markdown, JUnit XML, JSON).
 
 Everything is written through :func:`vinecli.outputs.atomic_output_dir` (nothing half-written).
-Figures are rendered per run, in a process pool when several runs need them. For large batches
-only a budget of runs gets figures (errored/failing/regressed runs first, then one run per
-mission) so a 1,000-run report still builds in well under a minute; ``figures="all"`` renders
-every run.
+Each run gets the figures that fit it and its field map (:mod:`vinecli.report.render`: from the cache, else
+drawn in a process pool). For large batches only a budget of runs gets figures and maps (errored/failing/regressed
+runs first, then one run per mission) so a 1,000-run report still builds in well under a minute;
+``figures="all"`` draws every run.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ import logging
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -25,6 +24,7 @@ from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, wr
 from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_section
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
+from vinecli.report.render import RunDrawing, draw_runs
 from vinecli.runs.rundir import SUMMARY
 
 log = logging.getLogger(__name__)
@@ -93,41 +93,8 @@ def select_figure_runs(runs: Sequence[Run], policy: FigurePolicy, budget: int,
     return chosen
 
 
-def _render_one(run_dir: str) -> tuple[str, dict[str, dict[str, Any]]]:
-    os.environ.setdefault("MPLBACKEND", "Agg")
-    from vinecli.report.plots import render_figures
-
-    return run_dir, render_figures(run_dir)
-
-
-def render_all(runs: Sequence[Run], workers: int = 1, progress: Callable[[int, int], None] | None = None
-               ) -> dict[str, dict[str, dict[str, Any]]]:
-    """Figures of ``runs`` (case -> fig id -> {png, note, caption}); a spawn process pool when workers > 1."""
-    by_dir = {str(r.dir): r.case for r in runs if r.dir is not None}
-    out: dict[str, dict[str, dict[str, Any]]] = {}
-    total = len(by_dir)
-    if total == 0:
-        return out
-    if workers <= 1 or total == 1:
-        for i, d in enumerate(by_dir, 1):
-            out[by_dir[d]] = _render_one(d)[1]
-            if progress:
-                progress(i, total)
-        return out
-    import multiprocessing as mp
-
-    with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=mp.get_context("spawn")) as ex:
-        futs = [ex.submit(_render_one, d) for d in by_dir]
-        for i, fut in enumerate(as_completed(futs), 1):
-            d, figs = fut.result()
-            out[by_dir[d]] = figs
-            if progress:
-                progress(i, total)
-    return out
-
-
 def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: Path,
-                 figures: Mapping[str, Mapping[str, Any]], pages: Mapping[str, str],
+                 figures: Mapping[str, RunDrawing], pages: Mapping[str, str],
                  autopilots: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """The report's machine-readable ``summary.json`` (``autopilots``: :func:`comparison_groups`)."""
     from vinecli import __version__
@@ -153,7 +120,9 @@ def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: P
             "checks": r.checks, "failed_checks": [c["name"] for c in r.failed_checks], "metrics": r.metrics(),
             "regressions": [g.to_dict() for g in (comparison.for_case(r.case) if comparison else [])],
             "figures": {fid: ("rendered" if f.get("png") else f"skipped: {f.get('note')}")
-                        for fid, f in (figures.get(r.case) or {}).items()},
+                        for fid, f in (figures[r.case].figures.items() if r.case in figures else ())},
+            "map": (("drawn" if figures[r.case].map is not None else f"skipped: {figures[r.case].map_note}")
+                    if r.case in figures else None),
             "page": pages.get(r.case),
         } for r in runs],
         "regressions": [g.to_dict() for g in regs],
@@ -209,6 +178,9 @@ def build_report(
     workers: int | None = None,
     title: str | None = None,
     overwrite: bool = False,
+    use_cache: bool = True,
+    maps: bool = True,
+    basemap: str | None = None,
     progress: Callable[[str, int, int], None] | None = None,
 ) -> ReportResult:
     """Build the report of ``runs_dir`` into ``out_dir`` (atomically) and return a :class:`ReportResult`.
@@ -217,7 +189,9 @@ def build_report(
     name (regressions per :mod:`vinecli.report.baseline`, ``tolerances`` override the defaults);
     ``figures``/``max_figure_runs``: which runs get figures (see :func:`select_figure_runs`); ``inline_limit``:
     batches up to this size put every run in report.html, larger ones get runs/<id>.html pages and an overview
-    paginated by ``page_size``; ``workers``: figure processes (default min(4, CPUs)).
+    paginated by ``page_size``; ``workers``: figure processes (default min(4, CPUs)); ``use_cache``: reuse and keep
+    drawn figures and maps (:mod:`vinecli.report.cache`); ``maps``: a field map per run with figures; ``basemap``: a
+    tile URL template drawn under the maps (fetched by the browser; none by default: the page is offline).
     Raises InputError (exit 2) for a bad runs/baseline directory or option, OutputError (exit 2, before any
     work) when ``out_dir`` is not writable or exists without ``overwrite``, and before anything is written when it
     is, contains or lies inside a run folder it reads (a report may go into the runs folder itself).
@@ -234,7 +208,7 @@ def build_report(
     manifest = Manifest(command="report", parameters={
         "runs_dir": str(runs_dir), "formats": list(fmts), "baseline": str(baseline) if baseline else None,
         "figures": figures, "max_figure_runs": max_figure_runs, "inline_limit": inline_limit,
-        "page_size": page_size, "workers": workers,
+        "page_size": page_size, "workers": workers, "cache": use_cache, "maps": maps, "basemap": basemap,
         "tolerances": {k: vars(v) for k, v in (tolerances or {}).items()}})
     t0 = time.perf_counter()
     with manifest.stage("load"):
@@ -257,10 +231,15 @@ def build_report(
     pipeline = _pipeline_name(runs_dir)
     want_figs = "html" in fmts
     chosen = select_figure_runs(runs, figures, max_figure_runs, comparison) if want_figs else []
-    figs: dict[str, dict[str, dict[str, Any]]] = {}
+    figs: dict[str, RunDrawing] = {}
     with manifest.stage("figures"):
         if chosen:
-            figs = render_all(chosen, workers, (lambda i, n: progress("figures", i, n)) if progress else None)
+            from vinecli.report.cache import FigureCache, cache_root
+
+            cache = FigureCache(cache_root() if use_cache else None)
+            figs = draw_runs(chosen, cache, workers, (lambda i, n: progress("figures", i, n)) if progress else None,
+                             maps=maps)
+            cache.prune()
     notes, policy_note = _figure_notes(runs, chosen, want_figs, figures, max_figure_runs)
     ttl = title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
     result = ReportResult(out_dir=Path(out_dir), n_runs=len(runs), n_errors=sum(r.errored for r in runs),
@@ -277,7 +256,7 @@ def build_report(
             with manifest.stage("html"):
                 write_html(tmp, runs, figs, comparison, title=ttl, runs_dir=str(runs_dir), pipeline=pipeline,
                            inline_limit=inline_limit, page_size=page_size, figure_notes=notes,
-                           figure_policy=policy_note, autopilots=html_blocks(autopilots))
+                           figure_policy=policy_note, autopilots=html_blocks(autopilots), basemap=basemap)
             if not inline:
                 from vinecli.report.markdown import run_order
 

@@ -100,8 +100,15 @@ def new_figure(name: str, rows: int = 1, cols: int = 1, sharex: bool = True) -> 
 
 
 def png_bytes(fig: Any) -> bytes:
+    """The figure as a 256-colour PNG (a third of the size of the RGB one; line plots, text and colour scales of
+    256 steps lose nothing visible)."""
+    from PIL import Image
+
+    fig.canvas.draw()
+    rgb = Image.frombuffer("RGBA", fig.canvas.get_width_height(), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
+    img = rgb.convert("RGB").quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None}, pil_kwargs={"compress_level": 4})
+    img.save(buf, format="PNG", compress_level=6)
     return buf.getvalue()
 
 

@@ -1,0 +1,124 @@
+"""The raster layers of the field map: the terrain's hillshade (hover: elevation), the deposition in L/ha on the
+colour scale of fig. 23 (fixed on the asked rate; hover: the cell's rate and its share of the asked rate) and the
+canopy deposit of the spray budget (µL/cm² of leaf). Read from terrain_preview.npz, deposition.tif and
+canopy_deposit.tif of the run directory; world ENU metres, rows of the arrays south first."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vinecli.report.fieldmap.context import MapContext
+from vinecli.report.fieldmap.model import Legend, MapLayer, Raster
+
+__all__ = ["canopy_layer", "deposition_layer", "hillshade_layer", "scale_legend"]
+
+WET_SHARE = 0.02  # cells below this share of the scale's top stay transparent (as in fig. 23)
+
+
+def _hex(rgba: Any) -> str:
+    r, g, b = (int(round(255 * float(c))) for c in rgba[:3])
+    return f"#{r:02x}{g:02x}{b:02x}"
+
+
+def scale_legend(cmap: Any, norm: Any, marks: dict[float, str], unit: str) -> Legend:
+    """A colour-scale legend: the colour map sampled along the norm, ticks at ``marks`` (value -> label)."""
+    colours = [_hex(cmap(f)) for f in np.linspace(0.0, 1.0, 11)]
+    ticks = [(float(np.clip(norm(v), 0.0, 1.0)), lab) for v, lab in sorted(marks.items())]
+    return Legend(scale_colours=colours, ticks=ticks, unit=unit)
+
+
+def _rgba(cmap: Any, norm: Any, v: np.ndarray, alpha: float, shown: np.ndarray) -> np.ndarray:
+    rgba = (255 * cmap(norm(np.nan_to_num(v)))).astype(np.uint8)
+    rgba[..., 3] = np.where(shown, int(255 * alpha), 0)
+    return rgba
+
+
+def hillshade_layer(ctx: MapContext) -> MapLayer | None:
+    """The terrain preview hillshaded (sun from the north-west, 3x vertical exaggeration)."""
+    from matplotlib.colors import LightSource
+
+    pv = ctx.preview
+    if pv is None or pv["x"].size < 2 or pv["y"].size < 2:
+        return None
+    x, y, z = pv["x"], pv["y"], pv["z"]
+    if y[1] < y[0]:
+        y, z = y[::-1], z[::-1]
+    dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
+    if abs(dx - dy) > 1e-6 * max(dx, dy):  # square cells for the overlay, of the mean size
+        from scipy.ndimage import zoom
+
+        c = float(np.sqrt(dx * dy))
+        z = zoom(z, (dy / c, dx / c), order=1)
+        x, y = x[0] + c * np.arange(z.shape[1]), y[0] + c * np.arange(z.shape[0])
+        dx = dy = c
+    shade = LightSource(azdeg=315, altdeg=45).hillshade(z, vert_exag=3.0, dx=dx, dy=dy)
+    grey = (255 * (0.35 + 0.65 * shade)).astype(np.uint8)
+    rgba = np.stack([grey, grey, grey, np.full_like(grey, 255)], axis=-1)
+    rgba[~np.isfinite(z)] = 0
+    r = Raster(rgba, float(x[0]) - dx / 2, float(y[0]) - dy / 2, dx, values=z, label="terrain", unit="m",
+               digits=2, smooth=True, values_px=128)
+    return MapLayer("hillshade", "Terrain (hillshade)", raster=r, note="hover: elevation")
+
+
+def _read_band(path: Any, band: int = 1) -> np.ndarray:
+    """A band of a GeoTIFF (row 0 north, as written) as floats with NaN for no data, flipped to row 0 south."""
+    import rasterio
+
+    with rasterio.open(path) as ds:
+        a = ds.read(band).astype(np.float64)
+        nod = ds.nodata
+    if nod is not None:
+        a[a == nod] = np.nan
+    return np.flipud(a)
+
+
+def deposition_layer(ctx: MapContext) -> MapLayer | None:
+    """The application rate (L/ha) on the dose scale of fig. 23, with the asked rate and the dose bands marked."""
+    from vinecli.report.deposition_plots import dose_scale
+
+    doc = ctx.deposition
+    if doc is None or not (ctx.run_dir / doc["geotiff"]["file"]).is_file():
+        return None
+    rate = _read_band(ctx.run_dir / doc["geotiff"]["file"])
+    g = doc["grid"]
+    nominal = (doc.get("metrics") or {}).get("nominal_rate_lpha")
+    cmap, norm = dose_scale(nominal, rate)
+    top = float(norm.vmax)
+    shown = np.nan_to_num(rate) > WET_SHARE * top
+    asked = isinstance(nominal, (int, float)) and nominal > 0
+    r = Raster(_rgba(cmap, norm, rate, 0.85, shown), g["x0_m"], g["y0_m"], g["cell_m"],
+               values=np.where(np.isfinite(rate), rate, np.nan), label="deposition", unit="L/ha", digits=1,
+               ref=float(nominal) if asked else None, ref_label="asked")
+    bands = doc.get("dose_bands") or {}
+    marks = {0.0: "0", top: f"{top:.3g}"}
+    if asked:
+        gap, hot = float(bands.get("gap_ratio", 0.6)), float(bands.get("hot_ratio", 1.3))
+        marks |= {gap * nominal: f"gap {gap:g}×", float(nominal): f"{nominal:.3g} asked",
+                  hot * nominal: f"hot {hot:g}×"}
+    return MapLayer("deposition", "Deposition, L/ha", raster=r, legend=scale_legend(cmap, norm, marks, "L/ha"),
+                    note="hover: the cell's rate")
+
+
+def canopy_layer(ctx: MapContext) -> MapLayer | None:
+    """The spray budget's deposit on the canopy, µL per cm² of leaf (runs with a budget and a canopy)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import Normalize
+
+    b = ctx.budget
+    if b is None or not (b.get("geotiff") or {}).get("file") or not (ctx.run_dir / b["geotiff"]["file"]).is_file():
+        return None
+    dep = _read_band(ctx.run_dir / b["geotiff"]["file"], 1)
+    pos = dep[np.isfinite(dep) & (dep > 0)]
+    if not pos.size:
+        return None
+    g = (b.get("maps") or {})["grid"]
+    top = float(np.percentile(pos, 98))
+    cmap, norm = colormaps["YlGn"], Normalize(0.0, top)
+    r = Raster(_rgba(cmap, norm, dep, 0.9, np.nan_to_num(dep) > 0), g["x0_m"], g["y0_m"], g["cell_m"],
+               values=np.where(np.nan_to_num(dep) > 0, dep, np.nan), label="canopy deposit", unit="µL/cm²",
+               digits=3)
+    legend = scale_legend(cmap, norm, {0.0: "0", top / 2: f"{top / 2:.2g}", top: f"{top:.2g}"}, "µL/cm² of leaf")
+    return MapLayer("canopy", "Canopy deposit (budget)", raster=r, visible=False, legend=legend,
+                    note="hover: the leaf deposit")
