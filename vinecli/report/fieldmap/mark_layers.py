@@ -108,7 +108,10 @@ _ROW_DOSE = ("row_rate_error", "mean_rate_lpha", "deposit_cv", "deposit_on_rows"
 
 
 def locate_check(ctx: MapContext, check: dict[str, Any]) -> list[LocalFeature]:
-    """Where a check failed on the field (local features, empty when it has no place)."""
+    """Where a check failed on the field (local features, empty when it has no place): a row dose check its rows off
+    the bound (the tolerance; else the worst row), a hot-spot / gap check its fault stretches, a coverage check its
+    rows under half covered, a drift or no-spray check the fence or the zones, a status check its failsafes, any
+    other check with a time window the path flown in it."""
     q = str(check.get("quantity", ""))
     dep = ctx.deposition or {}
     rows = [r for r in dep.get("rows") or [] if len(r.get("polyline_enu") or []) >= 2]
@@ -122,8 +125,11 @@ def locate_check(ctx: MapContext, check: dict[str, Any]) -> list[LocalFeature]:
     elif "coverage" in q:
         out = [("LineString", r["polyline_enu"]) for r in rows if (r.get("covered_fraction") or 0.0) < 0.5]
     elif any(k in q for k in _ROW_DOSE) and nominal > 0:
-        off = [r for r in rows if abs(float(r.get("mean_rate_lpha") or 0.0) / nominal - 1.0) > tol]
-        worst = max(rows, key=lambda r: abs(float(r.get("mean_rate_lpha") or 0.0) / nominal - 1.0), default=None)
+        err = lambda r: abs(float(r.get("mean_rate_lpha") or 0.0) / nominal - 1.0)  # noqa: E731
+        bound = check.get("bound")
+        limit = float(bound) if "row_rate_error" in q and isinstance(bound, (int, float)) else tol
+        off = [r for r in rows if err(r) > limit]
+        worst = max(rows, key=err, default=None)
         out = [("LineString", r["polyline_enu"]) for r in (off or ([worst] if worst else []))]
     elif "no_spray" in q:
         out = [("Polygon", [tuple(p) for p in z]) for z in (ctx.world.get("gis") or {}).get("no_spray_enu") or []]
