@@ -1,0 +1,168 @@
+"""The field map's data (vinecli/report/fieldmap): rasters and vectors land where pyproj puts the world's points
+(a UTM world, its grid 1.8 deg off north), hover values decode to the raster's, every layer of a spray run is
+there with its legend, a new layer is one function, a failed check is located, and it stays small."""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pyproj import Transformer
+
+from vinecli.gis.georef import Georef
+from vinecli.report.fieldmap.build import LAYERS, run_map
+from vinecli.report.fieldmap.model import Legend, LocalFeature, MapLayer, Raster, map_data
+from vinecli.report.fieldmap.overlay import overlay
+from vinecli.rows.source import RowFrame
+
+UTM = "EPSG:32616"
+CENTRE = (296615.14709, 4888216.64168)  # the sample vineyard (Hancock, WI): grid convergence -1.77 deg
+R = 6378137.0
+
+
+def _utm_georef() -> Georef:
+    return Georef(RowFrame(UTM, CENTRE))
+
+
+def _to_utm(lon: float, lat: float) -> tuple[float, float]:
+    return Transformer.from_crs("EPSG:4326", UTM, always_xy=True).transform(lon, lat)
+
+
+def _pixel_lonlat(ov: dict, row: float, col: float, w: int, h: int) -> tuple[float, float]:
+    """Lon/lat of a pixel centre of an overlay (bounds stretched over Web-Mercator, as Leaflet draws it)."""
+    (s, wl), (n, e) = ov["bounds"]
+    x0, x1 = R * np.radians(wl), R * np.radians(e)
+    y0, y1 = (R * np.log(np.tan(np.pi / 4 + np.radians(v) / 2)) for v in (s, n))
+    mx, my = x0 + (col + 0.5) * (x1 - x0) / w, y1 - (row + 0.5) * (y1 - y0) / h
+    return float(np.degrees(mx / R)), float(np.degrees(2 * np.arctan(np.exp(my / R)) - np.pi / 2))
+
+
+def _decode_png(uri: str) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(base64.b64decode(uri.split(",", 1)[1]))).convert("RGBA"))
+
+
+def _decode_values(v: dict) -> np.ndarray:
+    q = np.frombuffer(zlib.decompress(base64.b64decode(v["deflated"])), dtype="<u2").reshape(v["h"], v["w"])
+    return np.where(q == 65535, np.nan, v["offset"] + q * v["step"])
+
+
+def test_a_raster_cell_lands_where_pyproj_puts_it() -> None:
+    """One hot cell on a 40 x 80 m local grid of a UTM world: its pixel in the overlay, and its hover value, sit
+    on the cell's ground position (pyproj), within a cell and a pixel; so does a vector point."""
+    cell, nx, ny = 0.5, 80, 160
+    rgba = np.zeros((ny, nx, 4), np.uint8)
+    values = np.full((ny, nx), np.nan)
+    i, j = 130, 61  # north-east part: far from the centre, where a rotation would show
+    rgba[i, j] = (255, 0, 0, 255)
+    values[i, j] = 42.0
+    r = Raster(rgba, -20.0, -40.0, cell, values=values, label="x", unit="u", digits=1, values_px=160)
+    ov = overlay(r, _utm_georef(), max_px=400)
+    px = _decode_png(ov["png"])
+    hot = np.argwhere(px[..., 3] > 0)
+    row, col = hot.mean(axis=0)
+    want = (CENTRE[0] - 20.0 + (j + 0.5) * cell, CENTRE[1] - 40.0 + (i + 0.5) * cell)
+    got = _to_utm(*_pixel_lonlat(ov, row, col, ov["w"], ov["h"]))
+    pixel_m = 80.0 * 1.05 / ov["h"]
+    assert np.hypot(got[0] - want[0], got[1] - want[1]) < cell + pixel_m
+    vals = _decode_values(ov["values"])
+    vr, vc = np.argwhere(np.isfinite(vals)).mean(axis=0)
+    assert np.nanmax(vals) == pytest.approx(42.0, abs=0.05)
+    got = _to_utm(*_pixel_lonlat(ov, vr, vc, ov["values"]["w"], ov["values"]["h"]))
+    assert np.hypot(got[0] - want[0], got[1] - want[1]) < cell + 80.0 * 1.05 / ov["values"]["h"]
+    # a vector point through map_data: pyproj to the millimetre
+    layer = MapLayer("p", "p", [LocalFeature("Point", [(12.5, -31.0)])])
+    data = map_data([layer], _utm_georef(), view_local=(-20, -40, 20, 40))
+    lon, lat = data["layers"][0]["features"]["features"][0]["geometry"]["coordinates"]
+    x, y = _to_utm(lon, lat)
+    assert abs(x - (CENTRE[0] + 12.5)) < 1e-3 and abs(y - (CENTRE[1] - 31.0)) < 1e-3
+    (s, w), (n, e) = data["view"]
+    assert s < lat < n and w < lon < e
+
+
+def test_the_grid_is_turned_by_the_convergence() -> None:
+    """A north-south line of cells along the UTM grid's y axis leans by the grid convergence on the map."""
+    cell, nx, ny = 0.5, 40, 200
+    rgba = np.zeros((ny, nx, 4), np.uint8)
+    rgba[:, 20] = (0, 0, 255, 255)
+    ov = overlay(Raster(rgba, -10.0, -50.0, cell), _utm_georef(), max_px=400)
+    px = _decode_png(ov["png"])
+    rows = np.arange(px.shape[0])
+    cols = np.array([np.mean(np.flatnonzero(px[k, :, 3] > 0)) if (px[k, :, 3] > 0).any() else np.nan for k in rows])
+    ok = np.isfinite(cols)
+    slope = np.polyfit(rows[ok], cols[ok], 1)[0]  # columns per row (pixels are ~square on the ground)
+    gamma = np.degrees(np.arctan(slope))
+    assert gamma == pytest.approx(1.77, abs=0.15)  # the grid's north points 1.77 deg west of true north
+
+
+def test_a_spray_runs_map_has_every_layer_with_its_legend(ci_runs: Path) -> None:
+    data = run_map(ci_runs / "spray")
+    keys = [lay["key"] for lay in data["layers"]]
+    assert keys == ["hillshade", "canopy", "deposition", "field", "fence", "rows", "path_sprayer", "path_phase",
+                    "events"]
+    by = {lay["key"]: lay for lay in data["layers"]}
+    assert all(by[k].get("legend") for k in keys if k != "hillshade")
+    assert by["path_sprayer"]["visible"] and not by["path_phase"]["visible"]  # a spraying run opens on its sprayer
+    assert not by["canopy"]["visible"] and by["deposition"]["visible"]
+    assert "the run's world folder is gone" in data["note"]  # the synthetic world has no folder
+    # the deposition's hover values are the raster's rates (nearest cells, 0.1 L/ha steps)
+    import rasterio
+
+    with rasterio.open(ci_runs / "spray" / "deposition.tif") as ds:
+        top = float(np.nanmax(np.where(ds.read(1) == ds.nodata, np.nan, ds.read(1))))
+    vals = _decode_values(by["deposition"]["raster"]["values"])
+    assert np.nanmax(vals) <= top + 0.06 and np.nanmax(vals) > 0.8 * top
+    ticks = dict((lab, f) for f, lab in by["deposition"]["legend"]["ticks"])
+    assert ticks["0"] == 0.0 and 0.4 < ticks[next(k for k in ticks if k.endswith("asked"))] < 0.6
+    # targeted rows carry their dose in their hover text
+    tips = [f["properties"]["tip"] for f in by["rows"]["features"]["features"] if f["properties"].get("targeted")]
+    assert tips and all("L/ha" in t and "covered" in t for t in tips)
+    assert len(json.dumps(data)) < 150_000
+
+
+def test_a_new_layer_is_one_function(ci_runs: Path) -> None:
+    def prescription(ctx):  # e.g. a prescription map: here one zone around the first row
+        x, y = zip(*ctx.rows[0], strict=True)
+        ring = [(min(x) - 1, min(y)), (max(x) + 1, min(y)), (max(x) + 1, max(y)), (min(x) - 1, max(y))]
+        return MapLayer("prescription", "Prescription, L/ha", [LocalFeature("Polygon", ring, {"tip": "zone A: 80 L/ha"})],
+                        style={"color": "#6a1b9a"}, legend=Legend(swatches=[("#6a1b9a", "zone", "fill")]))
+
+    data = run_map(ci_runs / "gust", layers=[*LAYERS, prescription])
+    lay = data["layers"][-1]
+    assert lay["key"] == "prescription" and lay["features"]["features"][0]["properties"]["tip"] == "zone A: 80 L/ha"
+
+
+def test_a_failed_check_is_located_on_the_path_of_its_window(failing_runs: Path) -> None:
+    """The gust's failed hold: the path flown in the check's window, in red, linked from the check."""
+    from vinecli.report.fieldmap.context import load_context
+
+    data = run_map(failing_runs / "gust")
+    assert data["located"] == ["holds_position"]
+    failed = next(lay for lay in data["layers"] if lay["key"] == "failed")
+    (f,) = failed["features"]["features"]
+    assert f["properties"]["check"] == "holds_position" and f["properties"]["style"]["className"] == "fm-failed"
+    summary = json.loads((failing_runs / "gust" / "summary.json").read_text())
+    t0, t1 = next(c["window"] for c in summary["checks"] if c["name"] == "holds_position")
+    ctx = load_context(failing_runs / "gust")
+    sel = (ctx.cols["t_s"] >= t0) & (ctx.cols["t_s"] <= t1)
+    want = ctx.georef.to_lonlat([(float(ctx.cols["pos_enu_x_m"][sel][0]), float(ctx.cols["pos_enu_y_m"][sel][0]))])[0]
+    assert np.allclose(f["geometry"]["coordinates"][0], want, atol=1e-7)
+
+
+def test_the_map_html_is_escaped_and_offline(ci_runs: Path, tmp_path: Path) -> None:
+    from vinecli.report.fieldmap.page import head_assets, map_block
+
+    data = run_map(ci_runs / "takeoff")
+    data["title"] = "</script><script>alert(1)</script>"
+    block = map_block(data, "t")
+    assert "</script><script>alert" not in block and block.count("</script>") == 1
+    assets = head_assets()
+    assert "Leaflet 1.9.4" in assets and "url(images/" not in assets  # Leaflet's images inline
+    assert (Path(__file__).parents[2] / "vinecli/report/fieldmap/assets/leaflet/LICENSE").read_text().startswith(
+        "BSD 2-Clause License")
