@@ -1,6 +1,7 @@
 """Drawing what the report shows of each run: the figures that fit it (:mod:`~vinecli.report.figure_fit`) and its
 field map (:mod:`~vinecli.report.fieldmap`), taken from the cache (:mod:`~vinecli.report.cache`) when they are
-there, else drawn one item (a figure or a map) per task in a process pool, the costly items first, and cached.
+there, else drawn one item (a figure or a map) per task, the costly items first by a pool of worker processes
+while this process draws the cheap ones, and cached.
 """
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ import json
 import logging
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -145,16 +146,29 @@ def _store(d: RunDrawing, item: str, data: bytes | None, note: str) -> None:
 
 
 def _draw(pending: list[tuple[str, str]], workers: int) -> Any:
-    """Draw ``pending`` (run dir, item) here or in a spawn process pool; yields draw_item's results."""
+    """Draw ``pending`` (run dir, item); yields draw_item's results. With ``workers`` > 1, ``workers - 1`` spawned
+    processes take the costly items from the front while this process draws from the back (no core idles while
+    the workers start, and one process start fewer)."""
+    from collections import deque
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    queue = deque(pending)
     if workers <= 1 or len(pending) < POOL_MIN_TASKS:
-        for run_dir, item in pending:
-            yield draw_item(run_dir, item)
+        while queue:
+            yield draw_item(*queue.popleft())
         return
     import multiprocessing as mp
 
-    with ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=mp.get_context("spawn"),
+    with ProcessPoolExecutor(max_workers=workers - 1, mp_context=mp.get_context("spawn"),
                              initializer=_warm_worker) as ex:
-        futs = [ex.submit(draw_item, run_dir, item) for run_dir, item in pending]
-        for fut in as_completed(futs):
-            yield fut.result()
-
+        inflight: set[Any] = set()
+        while queue or inflight:
+            while queue and len(inflight) < 2 * (workers - 1):  # two queued per worker: none waits for work
+                inflight.add(ex.submit(draw_item, *queue.popleft()))
+            if queue:
+                yield draw_item(*queue.pop())
+            else:
+                wait(inflight, return_when=FIRST_COMPLETED)
+            for fut in [f for f in inflight if f.done()]:
+                inflight.discard(fut)
+                yield fut.result()

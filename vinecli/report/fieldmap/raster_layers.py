@@ -57,9 +57,9 @@ def hillshade_layer(ctx: MapContext) -> MapLayer | None:
     grey = (255 * (0.35 + 0.65 * shade)).astype(np.uint8)
     rgba = np.stack([grey, grey, grey, np.full_like(grey, 255)], axis=-1)
     rgba[~np.isfinite(z)] = 0
-    r = Raster(rgba, float(x[0]) - dx / 2, float(y[0]) - dy / 2, dx, values=z, label="terrain", unit="m",
+    r = Raster(rgba, float(x[0]) - dx / 2, float(y[0]) - dy / 2, dx, values=z, label="terrain z", unit="m",
                digits=2, smooth=True, values_px=128)
-    return MapLayer("hillshade", "Terrain (hillshade)", raster=r, note="hover: elevation")
+    return MapLayer("hillshade", "Terrain (hillshade)", raster=r, note="hover: height (world z, m)")
 
 
 def _read_band(path: Any, band: int = 1) -> np.ndarray:

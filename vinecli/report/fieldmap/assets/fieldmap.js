@@ -75,7 +75,9 @@
   }
 
   function describe(r, val) {
-    var x = r.spec.raster, s = x.label + " " + val.toFixed(x.digits) + " " + x.unit;
+    var x = r.spec.raster;
+    if (Math.abs(val) < 0.5 * Math.pow(10, -x.digits)) val = 0;  // no "-0.00"
+    var s = x.label + " " + val.toFixed(x.digits) + " " + x.unit;
     if (x.ref) s += " (" + (val / x.ref).toFixed(2) + "× " + x.ref_label + ")";
     return s;
   }
