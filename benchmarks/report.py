@@ -45,7 +45,7 @@ def _report_once(src: Path, runs: Path, out: Path, cache: Path | None) -> dict[s
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     html = (out / "report.html").read_text(encoding="utf-8")
     return {"wall_s": wall, "cpu_s": (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime),
-            "bytes": float(len(html.encode())), "figures": float(len(re.findall(r"<figure id=", html))),
+            "bytes": float(len(html.encode())), "figures": float(len(re.findall(r'<figure id="[^"]*">\s*<img', html))),
             "maps": float(html.count('<script type="application/json" class="fm-data">'))}
 
 

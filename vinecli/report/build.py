@@ -23,6 +23,7 @@ from vinecli.errors import InputError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
 from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_section
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
+from vinecli.report.cache import FigureCache, cache_root
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
 from vinecli.report.render import RunDrawing, draw_runs
 from vinecli.runs.rundir import SUMMARY
@@ -234,8 +235,6 @@ def build_report(
     figs: dict[str, RunDrawing] = {}
     with manifest.stage("figures"):
         if chosen:
-            from vinecli.report.cache import FigureCache, cache_root
-
             cache = FigureCache(cache_root() if use_cache else None)
             figs = draw_runs(chosen, cache, workers, (lambda i, n: progress("figures", i, n)) if progress else None,
                              maps=maps)

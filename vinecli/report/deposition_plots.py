@@ -235,8 +235,9 @@ def fig23_deposition(data: Any) -> bytes:
     fig.text(xt, yt, "\n".join(_fig23_key_figures(doc, nominal, m, faults)), fontsize=8.5, family="monospace",
              va="top")
     pos = ax.get_position()
-    anchor = (xt, pos.y0) if side else (pos.x0, 0.02)
-    fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="lower left", bbox_to_anchor=anchor, frameon=False,
+    h_in = fig.get_size_inches()[1]
+    anchor = (xt, yt - 2.55 / h_in) if side else (pos.x0, 2.4 / h_in)  # under the key figures / under the map
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="upper left", bbox_to_anchor=anchor, frameon=False,
                ncol=1 if side else 2)
     set_title(fig, data, "Fig. 23  Spray deposition, L/ha")
     return png_bytes(fig)

@@ -87,11 +87,13 @@ def columns_needed() -> list[str]:
     return base + [f"rotor{i}_w_radps" for i in range(1, 9)]
 
 
-def new_figure(name: str, rows: int = 1, cols: int = 1, sharex: bool = True) -> tuple[Any, Any]:
+def new_figure(name: str, rows: int = 1, cols: int = 1, sharex: bool = True,
+               size: tuple[float, float] | None = None) -> tuple[Any, Any]:
+    """A figure of ``SIZES[name]`` (or ``size``, inches) with a grid of axes and fixed margins."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=SIZES[name], dpi=DPI)
+    fig = Figure(figsize=size or SIZES[name], dpi=DPI)
     FigureCanvasAgg(fig)
     axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False)
     # fixed margins (a layout engine costs about half of the rendering time); room for twin-axis labels

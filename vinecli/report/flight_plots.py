@@ -16,14 +16,25 @@ from vinecli.report.figure_base import (
 from vinecli.report.figure_marks import event_lines, need, shade_check_windows
 
 
+def _varies(a: np.ndarray, share: float) -> bool:
+    """A column that moves by more than ``share`` of its largest magnitude."""
+    fin = a[np.isfinite(a)]
+    return bool(fin.size and float(np.ptp(fin)) > share * max(float(np.max(np.abs(fin))), 1e-9))
+
+
 def fig20_rotors(data: PlotData) -> bytes:
-    """Rotor speeds against what drives them: total (tank) mass and the wind."""
+    """Rotor speeds against what drives them: total (tank) mass and the wind; a driver that stays constant gets no
+    panel (the figure is shorter)."""
     rotors = data.rotors()
     if not rotors:
         raise NoData("no rotor speeds in this run")
     c, t = data.cols, data.t
-    fig, axes = new_figure("fig20", 3, 1)
-    ax, axm, axw = axes[0, 0], axes[1, 0], axes[2, 0]
+    wind = np.hypot(c["wind_enu_x_mps"], c["wind_enu_y_mps"]) if data.has("wind_enu_x_mps", "wind_enu_y_mps") else None
+    show_mass = data.has("total_mass_kg") and _varies(c["total_mass_kg"], 0.01)
+    show_wind = wind is not None and float(np.nanmax(wind)) >= 0.5
+    n = 1 + show_mass + show_wind
+    fig, axes = new_figure("fig20", n, 1, size=(9.0, 3.0 + 2.0 * n))
+    ax = axes[0, 0]
     for i, r in enumerate(rotors):
         ax.plot(t, c[r], lw=0.7, alpha=0.6, label=f"rotor {i + 1}")
     mean = np.mean([c[r] for r in rotors], axis=0)
@@ -42,26 +53,32 @@ def fig20_rotors(data: PlotData) -> bytes:
         ax.set_ylim(ymin - pad, ymax + pad)
     ax.set_ylabel("rotor speed, rad/s")
     ax.legend(fontsize=7, ncol=min(5, len(rotors) + 1), loc="upper right")
-    if data.has("total_mass_kg"):
+    used = [ax]
+    if show_mass:
+        axm = axes[len(used), 0]
+        used.append(axm)
         axm.plot(t, c["total_mass_kg"], color="#8c564b", lw=1.4, label="total mass, kg")
-    if data.has("tank_mass_kg"):
-        tw = axm.twinx()
-        tw.plot(t, c["tank_mass_kg"], color="#1f77b4", lw=1.0, ls="--", label="tank liquid, kg")
-        tw.set_ylabel("tank liquid, kg")
-        lines = axm.get_lines()[:1] + tw.get_lines()
-        axm.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right")
-    axm.set_ylabel("total mass, kg")
-    if data.has("wind_enu_x_mps", "wind_enu_y_mps"):
-        axw.plot(t, np.hypot(c["wind_enu_x_mps"], c["wind_enu_y_mps"]), color="#1f77b4", lw=1.2,
-                 label="horizontal wind speed, m/s")
+        if data.has("tank_mass_kg"):
+            tw = axm.twinx()
+            tw.plot(t, c["tank_mass_kg"], color="#1f77b4", lw=1.0, ls="--", label="tank liquid, kg")
+            tw.set_ylabel("tank liquid, kg")
+            lines = axm.get_lines()[:1] + tw.get_lines()
+            axm.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right")
+        axm.set_ylabel("total mass, kg")
+    if show_wind:
+        axw = axes[len(used), 0]
+        used.append(axw)
+        axw.plot(t, wind, color="#1f77b4", lw=1.2, label="horizontal wind speed, m/s")
         axw.legend(fontsize=7, loc="upper right")
-    axw.set_ylabel("wind, m/s (ENU)")
-    axw.set_xlabel("time, s")
-    for a in (ax, axm, axw):
+        axw.set_ylabel("wind, m/s (ENU)")
+    used[-1].set_xlabel("time, s")
+    for a in used:
         a.grid(alpha=0.3)
         event_lines(a, data)
-    shade_check_windows([ax, axm, axw], "fig20", data)
-    set_title(fig, data, "Fig. 20  Rotor speeds vs mass and wind (hover: w ∝ √m)")
+    shade_check_windows(used, "fig20", data)
+    const = [w for w, shown in (("mass", show_mass), ("wind", show_wind)) if not shown]
+    what = "Fig. 20  Rotor speeds vs mass and wind (hover: w ∝ √m)"
+    set_title(fig, data, what + (f"; constant {' and '.join(const)} not shown" if const else ""))
     return png_bytes(fig)
 
 

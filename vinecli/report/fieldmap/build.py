@@ -38,9 +38,21 @@ LAYERS: list[Callable[[MapContext], MapLayer | None]] = [
 MARGIN_M = 4.0
 
 
+#: the layers a flight that did not spray opens on (the field is a zoom-out away)
+FLIGHT_KEYS = ("path_phase", "path_sprayer", "events", "failed")
+FLIGHT_VIEW_M = 30.0  # the smallest box a flight's map opens on, m
+
+
 def _view(ctx: MapContext, layers: list[MapLayer]) -> tuple[float, float, float, float]:
-    """The local box the map opens on: every feature and wet raster cell, with a margin; else the terrain."""
-    pts = [p for lay in layers for f in lay.features for p in f.coords]
+    """The local box the map opens on: a spray run's field (every feature and wet raster cell), a flight's path and
+    marks (at least :data:`FLIGHT_VIEW_M` across), with a margin; else the terrain."""
+    flight = ctx.deposition is None
+    pts = [p for lay in layers if not flight or lay.key in FLIGHT_KEYS for f in lay.features for p in f.coords]
+    if flight and pts:
+        a = np.asarray(pts, float)
+        mid, half = (a.min(axis=0) + a.max(axis=0)) / 2, np.maximum((a.max(axis=0) - a.min(axis=0)) / 2,
+                                                                    FLIGHT_VIEW_M / 2 - MARGIN_M)
+        pts = [tuple(mid - half), tuple(mid + half)]
     for lay in layers:
         r = lay.raster
         if r is not None and lay.key != "hillshade" and r.values is not None:

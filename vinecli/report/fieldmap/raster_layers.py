@@ -95,8 +95,8 @@ def deposition_layer(ctx: MapContext) -> MapLayer | None:
     marks = {0.0: "0", top: f"{top:.3g}"}
     if asked:
         gap, hot = float(bands.get("gap_ratio", 0.6)), float(bands.get("hot_ratio", 1.3))
-        marks |= {gap * nominal: f"gap {gap:g}×", float(nominal): f"{nominal:.3g} asked",
-                  hot * nominal: f"hot {hot:g}×"}
+        marks |= {v: lab for v, lab in ((gap * nominal, f"gap {gap:g}×"), (float(nominal), f"{nominal:.3g} asked"),
+                                        (hot * nominal, f"hot {hot:g}×")) if v < top}  # as fig. 23's colour bar
     return MapLayer("deposition", "Deposition, L/ha", raster=r, legend=scale_legend(cmap, norm, marks, "L/ha"),
                     note="hover: the cell's rate")
 
