@@ -166,3 +166,41 @@ def test_the_map_html_is_escaped_and_offline(ci_runs: Path, tmp_path: Path) -> N
     assert "Leaflet 1.9.4" in assets and "url(images/" not in assets  # Leaflet's images inline
     assert (Path(__file__).parents[2] / "vinecli/report/fieldmap/assets/leaflet/LICENSE").read_text().startswith(
         "BSD 2-Clause License")
+
+
+def test_zones_failsafes_faults_and_breakpoints_are_marked(ci_runs: Path, tmp_path: Path) -> None:
+    """A spray run whose world has a no-spray zone and whose summary records a failsafe, a dose fault and sortie
+    breakpoints (the formats run_mission writes, docs/architecture.md "Run directory"): each is on the map with its
+    time and cause, a failed no-spray check highlights the zone, and the world's folder is found beside the runs."""
+    import shutil
+
+    runs = tmp_path / "runs"
+    shutil.copytree(ci_runs / "spray", runs / "spray")
+    world = runs / "_worlds" / "synthetic-vineyard"
+    world.mkdir(parents=True)
+    zone = [[6.0, -4.0], [9.0, -4.0], [9.0, 4.0], [6.0, 4.0]]
+    (world / "world.json").write_text(json.dumps({
+        "name": "synthetic-vineyard", "origin": {"lat": 46.001, "lon": 7.001, "alt": 510.0},
+        "terrain": {"kind": "flat"}, "gis": {"files": {}, "no_spray_enu": [zone]}}))
+    s = json.loads((runs / "spray" / "summary.json").read_text())
+    s["failsafes"] = [{"t_s": 30.5, "cause": "geofence", "action": "hold", "detail": "left the fence by 0.4 m",
+                       "position_enu": [-4.0, 10.0, 2.0]}]
+    s["dose_faults"] = [{"row": 1, "kind": "gap", "from_m": 3.0, "to_m": 5.0, "ratio": 0.41, "t_s": 40.2,
+                         "position_enu": [-2.5, -8.0]}]
+    s["sorties"] = [{"sortie": 1, "t_end_s": 50.0, "end_reason": "tank empty", "breakpoint_enu": [-5.0, 3.0, 2.0]},
+                    {"sortie": 2, "t_end_s": 90.0, "end_reason": "done", "breakpoint_enu": [0.0, 0.0, 2.0]}]
+    s["checks"].append({"name": "dose_no_spray", "quantity": "metric:deposit_in_no_spray_fraction", "op": "<=",
+                        "bound": 0.001, "value": 0.02, "passed": False})
+    (runs / "spray" / "summary.json").write_text(json.dumps(s))
+    data = run_map(runs / "spray")
+    assert data["note"] == ""  # the world found in RUNS/_worlds/<name>
+    by = {lay["key"]: lay for lay in data["layers"]}
+    (z,) = by["no_spray"]["features"]["features"]
+    assert len(z["geometry"]["coordinates"][0]) == 5
+    tips = {f["properties"]["kind"]: f["properties"]["tip"] for f in by["events"]["features"]["features"]}
+    assert "geofence" in tips["failsafe"] and "30.5" in tips["failsafe"] and "left the fence" in tips["failsafe"]
+    assert "gap on row 1" in tips["gap"] and "0.41×" in tips["gap"] and "40.2 s" in tips["gap"]
+    assert "sortie 1 ended at 50.0 s (tank empty)" in tips["breakpoint"]
+    assert sum(f["properties"]["kind"] == "breakpoint" for f in by["events"]["features"]["features"]) == 1
+    (f,) = [f for f in by["failed"]["features"]["features"] if f["properties"]["check"] == "dose_no_spray"]
+    assert f["geometry"] == z["geometry"] and data["located"] == ["dose_no_spray"]
