@@ -21,13 +21,13 @@ def export_cmd(
                                                     "property per feature).")],
     overwrite: Annotated[bool, overwrite_option("Replace an existing --out file (and its map).")] = False,
     with_map: Annotated[bool, typer.Option("--map/--no-map", help="Also write the run's field map (the report's "
-                                                                  "Leaflet map, offline) beside it as FILE.html.")
+                                                                  "Leaflet map, offline) beside it as FILE.gpkg.html.")
                         ] = True,
 ) -> None:
     """Rows, passes, sprayed stretches, gaps, the deposition map (rate classes), fence and no-spray zones of a run,
-    in WGS84 through the world's CRS: they open in place over the DSM in QGIS; and the run's field map as FILE.html.
+    in WGS84 through the world's CRS: they open in place over the DSM in QGIS; and the run's field map as FILE.gpkg.html.
 
-    Example: vinecli gis export runs/spray-s0 --out spray.gpkg   (spray.gpkg and spray.html)
+    Example: vinecli gis export runs/spray-s0 --out spray.gpkg   (spray.gpkg and spray.gpkg.html)
     """
     from vinecli.report.fieldmap.export import export_run_gis_with_map
 

@@ -1,6 +1,7 @@
 """``gis export`` with its map: the run's GIS layers (:func:`vinecli.runs.gis_out.export_run_gis`) and, beside
-them, the same field map the report shows, as one offline page ``FILE.html`` next to ``FILE.gpkg`` /
-``FILE.geojson`` (open it in a browser; the GeoPackage opens in QGIS)."""
+them, the same field map the report shows, as one offline page ``FILE.gpkg.html`` next to ``FILE.gpkg`` (or
+``FILE.geojson.html``: a GeoPackage and a GeoJSON export of one run keep a map each; open it in a browser, the
+GeoPackage in QGIS)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ __all__ = ["export_run_gis_with_map", "map_path"]
 
 
 def map_path(out: Path | str) -> Path:
-    """Where the map of a GIS export ``out`` goes: ``out`` with the suffix ``.html``."""
-    return Path(out).with_suffix(".html")
+    """Where the map of a GIS export ``out`` goes: ``out`` with ``.html`` appended."""
+    out = Path(out)
+    return out.with_name(out.name + ".html")
 
 
 def export_run_gis_with_map(run_dir: Path | str, out: Path | str, *, overwrite: bool = False, with_map: bool = True
