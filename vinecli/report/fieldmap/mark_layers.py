@@ -50,8 +50,8 @@ def events_layer(ctx: MapContext) -> MapLayer | None:
     if t is not None and t.size and "pos_enu_x_m" in ctx.cols:
         marks.append(_mark("start", ctx.position_at(float(t[0])), f"start at {float(t[0]):.1f} s"))
         marks.append(_mark("end", ctx.position_at(float(t[-1])), f"end at {float(t[-1]):.1f} s ({s.get('status')})"))
-    sorties = s.get("sorties") if isinstance(s.get("sorties"), list) else []
-    for so in sorties[:-1]:
+    sorties = s.get("sorties")
+    for so in sorties[:-1] if isinstance(sorties, list) else []:
         marks.append(_mark("breakpoint", so.get("breakpoint_enu"), f"sortie {so.get('sortie')} ended at "
                            f"{so.get('t_end_s', float('nan')):.1f} s ({so.get('end_reason', '?')}): the next one "
                            "resumes here"))

@@ -87,16 +87,16 @@ def deposition_layer(ctx: MapContext) -> MapLayer | None:
     cmap, norm = dose_scale(nominal, rate)
     top = float(norm.vmax)
     shown = np.nan_to_num(rate) > WET_SHARE * top
-    asked = isinstance(nominal, (int, float)) and nominal > 0
+    asked = float(nominal) if isinstance(nominal, (int, float)) and nominal > 0 else None
     r = Raster(_rgba(cmap, norm, rate, 0.85, shown), g["x0_m"], g["y0_m"], g["cell_m"],
                values=np.where(np.isfinite(rate), rate, np.nan), label="deposition", unit="L/ha", digits=1,
-               ref=float(nominal) if asked else None, ref_label="asked")
+               ref=asked, ref_label="asked")
     bands = doc.get("dose_bands") or {}
     marks = {0.0: "0", top: f"{top:.3g}"}
-    if asked:
+    if asked is not None:
         gap, hot = float(bands.get("gap_ratio", 0.6)), float(bands.get("hot_ratio", 1.3))
-        marks |= {v: lab for v, lab in ((gap * nominal, f"gap {gap:g}×"), (float(nominal), f"{nominal:.3g} asked"),
-                                        (hot * nominal, f"hot {hot:g}×")) if v < top}  # as fig. 23's colour bar
+        marks |= {v: lab for v, lab in ((gap * asked, f"gap {gap:g}×"), (asked, f"{asked:.3g} asked"),
+                                        (hot * asked, f"hot {hot:g}×")) if v < top}  # as fig. 23's colour bar
     return MapLayer("deposition", "Deposition, L/ha", raster=r, legend=scale_legend(cmap, norm, marks, "L/ha"),
                     note="hover: the cell's rate")
 
