@@ -217,4 +217,9 @@ def test_gis_exports_map_opens_offline(report: dict[str, Any], open_page: Any, t
     page = open_page(out, 390)
     assert page.locator("div.fm").count() == 1 and page.locator("img.fm-raster-deposition").count() == 1
     assert page.blocked == [] and page.errors == []
+    # a basemap is asked for: then, and only then, the browser fetches its tiles
+    out.write_text(standalone_page(run_map(report["runs"] / "spray"), "spray", basemap="https://tiles.invalid/{z}/{x}/{y}.png"),
+                   encoding="utf-8")
+    page = open_page(out, 390)
+    assert page.blocked and all(u.startswith("https://tiles.invalid/") for u in page.blocked)
 
