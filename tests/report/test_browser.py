@@ -102,7 +102,7 @@ def open_page(browser: Any) -> Iterator[Any]:
         page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
         page.on("pageerror", lambda e: errors.append(str(e)))
         page.goto(path.as_uri())
-        page.wait_for_function("[...document.querySelectorAll('div.fm')].every(d => d.dataset.ready === '1')")
+        page.wait_for_function("[...document.querySelectorAll('div.fm, div.tsc')].every(d => d.dataset.ready === '1')")
         page.blocked, page.errors = blocked, errors
         return page
 
@@ -115,8 +115,12 @@ def open_page(browser: Any) -> Iterator[Any]:
 def test_the_page_loads_offline_with_every_figure_and_map(report: dict[str, Any], open_page: Any, width: int) -> None:
     page = open_page(report["html"], width)
     figures = page.eval_on_selector_all("figure img", "imgs => imgs.map(i => [i.complete, i.naturalWidth])")
+    charts = page.eval_on_selector_all("figure div.tsc", """cs => cs.map(c => [
+        JSON.parse(c.querySelector('script.tsc-data').textContent).panels.length, c.querySelectorAll('.uplot').length,
+        [...c.querySelectorAll('canvas')].every(k => k.width > 0 && k.getBoundingClientRect().right <= innerWidth)])""")
     n_fig = sum(f == "rendered" for r in report["summary"]["runs"] for f in r["figures"].values())
-    assert len(figures) == n_fig > 0 and all(ok and w > 0 for ok, w in figures)
+    assert len(figures) + len(charts) == n_fig > 0 and all(ok and w > 0 for ok, w in figures)
+    assert charts and all(panels == plots and fits for panels, plots, fits in charts)
     maps = page.eval_on_selector_all("div.fm", """ds => ds.map(d => [d.id, d.querySelectorAll('.leaflet-pane').length,
         [...d.querySelectorAll('img.fm-raster')].every(i => i.complete && i.naturalWidth > 0),
         d.querySelectorAll('svg path').length, d.querySelector('.fm-map').getBoundingClientRect().width])""")
@@ -131,6 +135,38 @@ def test_the_page_loads_offline_with_every_figure_and_map(report: dict[str, Any]
         assert panel["y"] >= box["y"] + box["height"] and box["width"] >= width - 40
     else:
         assert panel["x"] >= box["x"] + box["width"] and abs(panel["y"] - box["y"]) < 5
+
+
+def _duration(report: dict[str, Any], case: str) -> float:
+    return float(next(r["sim_time_s"] for r in report["summary"]["runs"] if r["case"] == case))
+
+
+def test_a_time_series_figure_zooms_its_plots_together_and_reads_values(report: dict[str, Any], open_page: Any) -> None:
+    """Fig. 18 of the gust: dragging across its first plot zooms all three (x, y, z) to that stretch; the legend reads
+    the values under the cursor; a double-click zooms out again."""
+    page = open_page(report["html"], 1400)
+    fig = page.locator("#gust-fig18")
+    fig.scroll_into_view_if_needed()
+    over = fig.locator(".u-over")
+    assert over.count() == 3
+    box = over.first.bounding_box()
+    page.mouse.move(box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"])
+    legend = fig.locator(".u-legend").nth(1).text_content()  # the second plot's legend follows the cursor too
+    got = re.search(r"time, s\s*([0-9.]+)\s*drag y, N\s*(-?[0-9.]+)", legend)
+    assert got and 0.3 < float(got.group(1)) / _duration(report, "gust") < 0.7, legend
+    # drag from 25 % to 50 % of the width on the first plot
+    page.mouse.move(box["x"] + 0.25 * box["width"], box["y"] + 0.5 * box["height"])
+    page.mouse.down()
+    page.mouse.move(box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"], steps=5)
+    page.mouse.up()
+    scales = "() => document.querySelector('#gust-fig18 div.tsc').charts.map(u => [u.scales.x.min, u.scales.x.max])"
+    ranges = page.evaluate(scales)
+    duration = _duration(report, "gust")
+    assert len(ranges) == 3 and ranges[0] == ranges[1] == ranges[2]  # the same stretch on every plot
+    assert 0.15 * duration < ranges[0][1] - ranges[0][0] < 0.35 * duration
+    page.mouse.dblclick(box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"])
+    full = page.evaluate(scales)
+    assert all(hi - lo > 0.95 * duration for lo, hi in full)
 
 
 def test_layers_toggle(report: dict[str, Any], open_page: Any) -> None:

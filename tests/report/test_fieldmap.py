@@ -204,3 +204,42 @@ def test_zones_failsafes_faults_and_breakpoints_are_marked(ci_runs: Path, tmp_pa
     assert sum(f["properties"]["kind"] == "breakpoint" for f in by["events"]["features"]["features"]) == 1
     (f,) = [f for f in by["failed"]["features"]["features"] if f["properties"]["check"] == "dose_no_spray"]
     assert f["geometry"] == z["geometry"] and data["located"] == ["dose_no_spray"]
+
+
+def test_the_hillshade_reads_the_grounds_elevation_at_the_worlds_resolution(tmp_path: Path) -> None:
+    """A potato field's ridges (0.25 m high, 0.75 m apart, on a 5 cm terrain grid) read on hover as they are: the
+    hover values come from the world's terrain grid, not from the run's preview (every 3rd column of it would read
+    the ridges wrong), as elevations (the origin's altitude + world z)."""
+    from vinecli.geo import GeoOrigin
+    from vinecli.report.fieldmap.context import MapContext
+    from vinecli.report.fieldmap.raster_layers import hillshade_layer
+
+    dx = 0.05
+    x = -9.5 + dx * np.arange(380)
+    y = -34.0 + dx * np.arange(1360)
+    z = 0.125 * np.sin(2 * np.pi * x / 0.75)[None, :] + 0.002 * y[:, None]  # ridges along y, a gentle slope
+    (tmp_path / "terrain").mkdir()
+    np.savez_compressed(tmp_path / "terrain" / "grid.npz", z=z.astype(np.float32),
+                        x0=x[0], y0=y[0], dx=dx, dy=dx)
+    origin = {"lat": 44.1189, "lon": -89.5418, "alt": 331.0}
+    preview = {"x": x[::3], "y": y[::11], "z": z[::11, ::3]}  # how a run samples its preview (129 at most a side)
+    ctx = MapContext(run_dir=tmp_path, summary={}, world={"origin": origin}, world_dir=tmp_path,
+                     georef=Georef(None, GeoOrigin.from_dict(origin)), preview=preview)
+    lay = hillshade_layer(ctx)
+    assert lay is not None and lay.raster is not None
+    r = lay.raster
+    assert r.label == "ground" and "331.00 m" in lay.note
+    v = r.values
+    assert r.cell_m == pytest.approx(0.1)  # 2 x 2 block means of the 5 cm grid: the overlay's resolution
+    across = v[v.shape[0] // 2]
+    assert np.ptp(across) == pytest.approx(0.25, abs=0.03)  # each ridge's full height
+    assert float(np.mean(across)) == pytest.approx(331.0 + 0.002 * y.mean(), abs=0.01)
+    # hovered at the map's resolution (320 values on the long side: 0.21 m), the ridges still stand out
+    ov = overlay(r, ctx.georef)
+    hv = _decode_values(ov["values"])
+    assert max(ov["values"]["w"], ov["values"]["h"]) == 320
+    assert np.nanmax(np.ptp(hv, axis=1)) > 0.18
+    # without the world, the run's preview (and the world z it records)
+    no_world = hillshade_layer(MapContext(run_dir=tmp_path, summary={}, world={}, world_dir=None,
+                                          georef=ctx.georef, preview=preview))
+    assert no_world is not None and no_world.raster is not None and no_world.raster.label == "ground, world z"

@@ -11,7 +11,7 @@ import pytest
 from lxml import etree
 
 from vinecli.report import build_report
-from vinecli.report.plots import FIGURES
+from vinecli.report.plots import CHARTS, FIGURES
 
 from .synth_runs import MISSIONS, clone_batch, write_ci_batch
 
@@ -48,11 +48,15 @@ def test_html_is_self_contained_with_every_figure_and_check(ci_report, ci_runs: 
     markup = re.sub(r"<script>.*?</script>", "", html, flags=re.S)  # the inline Leaflet and map script
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", markup, re.I)
     assert "<script src" not in html.lower() and "<link" not in html.lower() and "@import" not in html
-    assert html.count("<script>") == 2 and html.count('<script type="application/json" class="fm-data">') == len(MISSIONS)  # Leaflet once, a map each
+    # Leaflet and the map script, uPlot and the chart script once; a map each
+    assert html.count("<script>") == 4 and html.count('<script type="application/json" class="fm-data">') == len(MISSIONS)
     imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', markup)
-    # the figures that fit each run: the spray figures (deposition, coverage, budget) only for the run that sprayed
+    charts = re.findall(r'<script type="application/json" class="tsc-data">', markup)
+    # the figures that fit each run: the spray figures (deposition, coverage, budget) only for the run that sprayed;
+    # the time series (17-22) drawn by the browser, the others PNG images
     fit = {m: _fitting(ci_runs, m) for m in MISSIONS}
-    assert len(imgs) == sum(len(f) for f in fit.values()) and {"fig23", "fig24", "fig25"} <= fit["spray"]
+    assert len(imgs) == sum(len(f - CHARTS) for f in fit.values()) and {"fig23", "fig24", "fig25"} <= fit["spray"]
+    assert len(charts) == sum(len(f & CHARTS) for f in fit.values()) > 0
     assert not any({"fig23", "fig24", "fig25"} & fit[m] for m in MISSIONS if m != "spray")
     import base64
 
@@ -208,6 +212,8 @@ def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None
     assert sorted(drawn) == ["overload", "takeoff"] and calls[-1] == (n_items, n_items)
     for case, d in drawn.items():
         fit = _fitting(ci_runs, case)
-        assert all(png_size(f["png"]) for fid, f in d.figures.items() if fid in fit)
-        assert all(f["png"] is None and f["note"] for fid, f in d.figures.items() if fid not in fit)
+        assert all(png_size(f["png"]) for fid, f in d.figures.items() if fid in fit - CHARTS)
+        assert all(f["chart"]["panels"] for fid, f in d.figures.items() if fid in fit & CHARTS)
+        assert all(f["png"] is None and f["chart"] is None and f["note"] for fid, f in d.figures.items()
+                   if fid not in fit)
         assert d.map is not None and d.map["layers"]

@@ -2,11 +2,22 @@
 
 Public API: :func:`build_report` -> :class:`ReportResult`; :func:`load_runs`; :class:`Tolerance`
 and :data:`DEFAULT_TOLERANCES` for ``--baseline`` comparisons; the figure functions live in
-:mod:`vinecli.report.plots`.
+:mod:`vinecli.report.plots`. The names are imported on first use, so a figure process that imports
+:mod:`vinecli.report.plots` does not load the report builder and its batch machinery.
 """
 
-from vinecli.report.baseline import DEFAULT_TOLERANCES, Tolerance
-from vinecli.report.build import FORMATS, ReportResult, build_report
-from vinecli.report.loader import Run, load_runs
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
 
 __all__ = ["DEFAULT_TOLERANCES", "FORMATS", "ReportResult", "Run", "Tolerance", "build_report", "load_runs"]
+
+_WHERE = {"DEFAULT_TOLERANCES": "baseline", "Tolerance": "baseline", "FORMATS": "build", "ReportResult": "build",
+          "build_report": "build", "Run": "loader", "load_runs": "loader"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        return getattr(import_module(f"vinecli.report.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'vinecli.report' has no attribute {name!r}")

@@ -9,6 +9,7 @@ runs first, then one run per mission) so a 1,000-run report still builds in well
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
@@ -25,7 +26,7 @@ from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_s
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.cache import FigureCache, cache_root
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
-from vinecli.report.render import RunDrawing, draw_runs
+from vinecli.report.render import FigurePool, RunDrawing, all_cached, draw_runs
 from vinecli.runs.rundir import SUMMARY
 
 log = logging.getLogger(__name__)
@@ -120,7 +121,7 @@ def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: P
             "failsafes": r.failsafes, "timing": r.timing,
             "checks": r.checks, "failed_checks": [c["name"] for c in r.failed_checks], "metrics": r.metrics(),
             "regressions": [g.to_dict() for g in (comparison.for_case(r.case) if comparison else [])],
-            "figures": {fid: ("rendered" if f.get("png") else f"skipped: {f.get('note')}")
+            "figures": {fid: ("rendered" if f.get("png") or f.get("chart") else f"skipped: {f.get('note')}")
                         for fid, f in (figures[r.case].figures.items() if r.case in figures else ())},
             "map": (("drawn" if figures[r.case].map is not None else f"skipped: {figures[r.case].map_note}")
                     if r.case in figures else None),
@@ -212,8 +213,32 @@ def build_report(
         "page_size": page_size, "workers": workers, "cache": use_cache, "maps": maps, "basemap": basemap,
         "tolerances": {k: vars(v) for k, v in (tolerances or {}).items()}})
     t0 = time.perf_counter()
+    with contextlib.ExitStack() as stack:
+        result = _build(stack, runs_dir, Path(out_dir), fmts, baseline, tolerances, figures, max_figure_runs,
+                        inline_limit, page_size, workers, title, overwrite, use_cache, maps, basemap, progress,
+                        manifest)
+    result.timings = dict(manifest.timings)
+    result.timings["total"] = round(time.perf_counter() - t0, 4)
+    log.info("report of %d runs in %s (%.2f s)", result.n_runs, out_dir, result.timings["total"])
+    return result
+
+
+def _build(stack: contextlib.ExitStack, runs_dir: Path, out_dir: Path, fmts: tuple[str, ...],
+           baseline: str | Path | None, tolerances: Mapping[str, Tolerance] | None, figures: FigurePolicy,
+           max_figure_runs: int, inline_limit: int, page_size: int, workers: int, title: str | None,
+           overwrite: bool, use_cache: bool, maps: bool, basemap: str | None,
+           progress: Callable[[str, int, int], None] | None, manifest: Manifest) -> ReportResult:
+    """:func:`build_report`'s work; the drawing processes, when started, are closed with ``stack``."""
+    want_figs = "html" in fmts
+    cache = FigureCache(cache_root() if use_cache else None)
+    keys: dict[str, str] = {}
+    pool = None
     with manifest.stage("load"):
         runs = load_runs(runs_dir)
+        # the drawing processes start now, importing while this one reads the runs, unless nothing needs drawing
+        if want_figs and figures != "none" and workers > 1 and \
+                not all_cached(select_figure_runs(runs, figures, max_figure_runs), cache, maps, keys):
+            pool = stack.enter_context(FigurePool(workers))
         for r in runs:
             r.report_metrics = compute_report_metrics(r)
     manifest.inputs = [r.dir / SUMMARY for r in runs if r.dir is not None]
@@ -230,14 +255,12 @@ def build_report(
     read = [r.dir for r in [*runs, *(base_runs if baseline is not None else [])] if r.dir is not None]
     check_output_target(Path(out_dir), overwrite=overwrite, inputs=[*read, runs_dir / BATCH_JSON], kind="report")
     pipeline = _pipeline_name(runs_dir)
-    want_figs = "html" in fmts
     chosen = select_figure_runs(runs, figures, max_figure_runs, comparison) if want_figs else []
     figs: dict[str, RunDrawing] = {}
     with manifest.stage("figures"):
         if chosen:
-            cache = FigureCache(cache_root() if use_cache else None)
             figs = draw_runs(chosen, cache, workers, (lambda i, n: progress("figures", i, n)) if progress else None,
-                             maps=maps)
+                             maps=maps, pool=pool, keys=keys)
             cache.prune()
     notes, policy_note = _figure_notes(runs, chosen, want_figs, figures, max_figure_runs)
     ttl = title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
@@ -280,7 +303,4 @@ def build_report(
                 write_json(tmp / FILES["json"], summary_dict(runs, comparison, runs_dir, figs, pages, autopilots))
         manifest.extra = {"exit_code": result.exit_code, "runs": len(runs), "figure_runs": len(chosen)}
     result.files = {f: Path(out_dir) / FILES[f] for f in fmts}
-    result.timings = dict(manifest.timings)
-    result.timings["total"] = round(time.perf_counter() - t0, 4)
-    log.info("report of %d runs in %s (%.2f s)", len(runs), out_dir, result.timings["total"])
     return result

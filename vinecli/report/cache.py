@@ -2,7 +2,7 @@
 over the same runs draws nothing.
 
 A run's key is a BLAKE2 digest of the content of every file of its run directory, of its world's world.json (the
-map's georeference) and of the report's own code (vinecli's version and the source of ``vinecli/report``, its
+map's georeference) and terrain grid (the map's hillshade) and of the report's own code (vinecli's version and the source of ``vinecli/report``, its
 templates and the map's assets, matplotlib's version): any change to a run or to the drawing code is a new key, so
 an entry is never stale. Entries live in ``$VINECLI_CACHE_DIR`` (``off`` disables the cache), else
 ``$XDG_CACHE_HOME/vinecli/report``, else ``~/.cache/vinecli/report``: one folder per run key, written atomically
@@ -65,14 +65,15 @@ def _hash_file(h: Any, p: Path) -> None:
 
 
 def run_digest(run_dir: Path, world_dir: Path | None) -> str:
-    """The cache key of a run: its files, its world's world.json and :func:`code_fingerprint`."""
+    """The cache key of a run: its files, its world's world.json and terrain grid, and :func:`code_fingerprint`."""
     h = hashlib.blake2b(digest_size=20)
     h.update(code_fingerprint().encode())
     for p in sorted(run_dir.iterdir()):
         if p.is_file() and not p.is_symlink():
             _hash_file(h, p)
-    if world_dir is not None and (world_dir / "world.json").is_file():
-        _hash_file(h, world_dir / "world.json")
+    for name in ("world.json", "terrain/grid.npz"):  # the georeference; the ground the map's hillshade shows
+        if world_dir is not None and (world_dir / name).is_file():
+            _hash_file(h, world_dir / name)
     return h.hexdigest()
 
 
@@ -100,6 +101,10 @@ class FigureCache:
             return None
         self.hits += 1
         return data
+
+    def has(self, key: str, name: str) -> bool:
+        """Whether the entry is there (without reading it)."""
+        return self.root is not None and (self._dir(key) / name).is_file()
 
     def put(self, key: str, name: str, data: bytes) -> None:
         if self.root is None:

@@ -240,7 +240,7 @@ def fig23_deposition(data: Any) -> bytes:
     fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="upper left", bbox_to_anchor=anchor, frameon=False,
                ncol=1 if side else 2)
     set_title(fig, data, "Fig. 23  Spray deposition, L/ha")
-    return png_bytes(fig)
+    return png_bytes(fig, colour_scale=True)
 
 
 def _row_rates(r: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -350,4 +350,4 @@ def fig24_row_coverage(data: Any) -> bytes:
     axb.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     axb.grid(alpha=0.3, axis="y")
     set_title(fig, data, "Fig. 24  Dose along the targeted rows")
-    return png_bytes(fig)
+    return png_bytes(fig, colour_scale=len(rows) > _CURVES_MAX)

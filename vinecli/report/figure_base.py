@@ -14,7 +14,7 @@ from vinecli.constants import STANDARD_GRAVITY
 
 DPI = 100
 #: figure sizes in inches (pixels = inches * DPI)
-SIZES = {"fig16": (12.0, 5.2), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
+SIZES = {"fig16": (9.0, 6.4), "fig17": (9.0, 5.6), "fig18": (9.0, 7.0), "fig19": (9.0, 5.6),
          "fig20": (9.0, 7.0), "fig21": (9.0, 7.0), "fig22": (9.0, 5.6), "fig23": (11.0, 8.0), "fig24": (9.0, 6.0),
          "fig25": (11.0, 5.0)}
 C_OK, C_FAIL = "#2ca02c", "#d62728"
@@ -101,21 +101,29 @@ def new_figure(name: str, rows: int = 1, cols: int = 1, sharex: bool = True,
     return fig, axes
 
 
-def png_bytes(fig: Any) -> bytes:
-    """The figure as a 256-colour PNG (a third of the size of the RGB one; line plots, text and colour scales of
-    256 steps lose nothing visible)."""
+def png_bytes(fig: Any, colour_scale: bool = False) -> bytes:
+    """The figure as a 256-colour PNG (a third of the size of the RGB one; line plots and text lose nothing
+    visible). ``colour_scale``: the figure has a continuous colour scale (a colour bar over a hillshade): its
+    palette is chosen by maximum coverage, whose colours stay within 6 % of the drawn ones (the fast octree merges
+    neighbouring steps of a colour bar into visible bands, up to 18 % off) for 0.07 s more."""
     from PIL import Image
 
     fig.canvas.draw()
     rgb = Image.frombuffer("RGBA", fig.canvas.get_width_height(), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
-    img = rgb.convert("RGB").quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+    method = Image.Quantize.MAXCOVERAGE if colour_scale else Image.Quantize.FASTOCTREE
+    img = rgb.convert("RGB").quantize(colors=256, method=method, dither=Image.Dither.NONE)
     buf = io.BytesIO()
     img.save(buf, format="PNG", compress_level=6)
     return buf.getvalue()
 
 
-def set_title(fig: Any, data: PlotData, what: str) -> None:
+def title_text(data: PlotData, what: str, width: int = 90) -> str:
+    """A figure's title: what it shows — the run (case, mission, seed); on two lines beyond ``width`` characters."""
     s = data.summary
     who = f"{s.get('case') or s.get('run_id', '')} ({s.get('mission', '')}, seed {s.get('seed', '-')})"
-    sep = "\n" if len(what) + len(who) > 90 else " — "
-    fig.suptitle(f"{what}{sep}{who}", fontsize=11 if sep == " — " else 10)
+    return f"{what}{chr(10) if len(what) + len(who) > width else ' — '}{who}"
+
+
+def set_title(fig: Any, data: PlotData, what: str) -> None:
+    text = title_text(data, what)
+    fig.suptitle(text, fontsize=10 if "\n" in text else 11)

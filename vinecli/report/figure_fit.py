@@ -1,7 +1,6 @@
-"""Which figures fit a run: each figure is drawn only when the run did what it shows (a tank that was used, a
-wind that blew, several sorties, a deposition ...) or, for the thesis' physics figures that every flight could
-draw (the tank force at lift-off, the drag in still air), when the run tests it (a check on its quantities);
-the others get one line saying why not.
+"""Which figures fit a run: each figure is drawn when the run did what it shows (a lift-off with liquid in the tank,
+a flight through the air, a tank that was used, a wind that blew, several sorties, a deposition ...); the others
+get one line saying why not.
 
 :func:`run_profile` reads what decides it (a few time-series columns, the events, the files of the run
 directory); :data:`FIT` maps each figure to its rule, a function of the :class:`RunProfile` returning None when
@@ -50,7 +49,6 @@ class RunProfile:
     deposition: bool
     targeted_rows: bool
     budget: bool
-    checked: frozenset[str] = frozenset()  # the figures whose quantities the run's checks test
 
 
 def _span(a: np.ndarray | None) -> float:
@@ -86,10 +84,6 @@ def run_profile(run_dir: str | Path) -> RunProfile:
     rows = bool(json.loads(dep.read_text(encoding="utf-8")).get("rows")) if dep.is_file() else False
     soc = g("battery_soc")
     sortie = g("sortie")
-    from vinecli.report.figure_marks import CHECK_TOPICS
-
-    quantities = [str(ch.get("quantity", "")) for ch in run.checks]
-    checked = frozenset(fid for fid, topics in CHECK_TOPICS.items() if any(k in q for k in topics for q in quantities))
     return RunProfile(
         has_position=x is not None and y is not None, airborne=data.liftoff() is not None,
         tried_takeoff=run.summary.get("status") == "cannot_take_off",
@@ -99,7 +93,7 @@ def run_profile(run_dir: str | Path) -> RunProfile:
         mass_share=_span(mass) / _peak(mass) if _peak(mass) > 0 else 0.0, rotors=data.has("rotor1_w_radps"),
         battery=soc is not None, soc_drop=_span(soc), sorties=int(np.nanmax(sortie)) if sortie is not None else 1,
         services=sum(e.get("kind") in ("refill", "battery_swap") for e in data.events),
-        deposition=dep.is_file(), targeted_rows=rows, budget=(d / "budget.json").is_file(), checked=checked)
+        deposition=dep.is_file(), targeted_rows=rows, budget=(d / "budget.json").is_file())
 
 
 def _fig16(p: RunProfile) -> str | None:
@@ -113,19 +107,13 @@ def _fig16(p: RunProfile) -> str | None:
 def _fig17(p: RunProfile) -> str | None:
     if not p.tank_liquid:
         return "no liquid in the tank"
-    if not (p.airborne or p.tried_takeoff):
-        return "no lift-off"
-    if "fig17" in p.checked or p.tried_takeoff:
-        return None
-    return "the lift-off is not what this run tests (no check on the tank force; see a takeoff run)"
+    return None if p.airborne or p.tried_takeoff else "no lift-off"
 
 
 def _fig18(p: RunProfile) -> str | None:
     if p.airspeed_mps < AIRSPEED_MPS:
         return f"the vehicle never moved through the air faster than {AIRSPEED_MPS} m/s: no drag to show"
-    if p.wind_mps >= WIND_MPS or "fig18" in p.checked:
-        return None
-    return "still air and no check on the drag: the drag only mirrors the vehicle's own speed"
+    return None
 
 
 def _fig19(p: RunProfile) -> str | None:

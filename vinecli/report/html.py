@@ -109,12 +109,13 @@ def _section(run: Run, drawing: RunDrawing | None, comparison: Comparison | None
         f = figs.get(fid)
         if f is None:
             continue
-        if not f.get("png"):
+        if not f.get("png") and not f.get("chart"):
             left_out.append(f"{fid[3:]} ({f.get('note') or 'nothing to show'})")
             continue
         spans = ", ".join(c["name"] for c in check_spans(fid, run.checks))
-        figures.append({"id": fid, "label": f"Figure {fid[3:]}", "caption": caption,
-                        "b64": base64.b64encode(f["png"]).decode("ascii"), "spans": spans})
+        figures.append({"id": fid, "label": f"Figure {fid[3:]}", "caption": caption, "spans": spans,
+                        "b64": base64.b64encode(f["png"]).decode("ascii") if f.get("png") else None,
+                        "chart": _chart_html(f["chart"]) if f.get("chart") else None})
     metrics = sorted((k, format_value(v)) for k, v in run.metrics().items())
     return {
         "anchor": anchor, "case": run.case, "run_id": run.run_id, "mission": run.mission,
@@ -132,13 +133,25 @@ def _section(run: Run, drawing: RunDrawing | None, comparison: Comparison | None
     }
 
 
-def _assets(sections: Sequence[Mapping[str, Any]]) -> Any:
-    """Leaflet and the map script for a page with a map, else nothing."""
+def _chart_html(chart: Mapping[str, Any]) -> Any:
     from markupsafe import Markup
 
+    from vinecli.report.chart_page import chart_block
+
+    return Markup(chart_block(chart))  # noqa: S704 - built escaped (chart_page)
+
+
+def _assets(sections: Sequence[Mapping[str, Any]]) -> Any:
+    """Leaflet and the map script for a page with a map, uPlot and the chart script for a page with a time-series
+    figure, else nothing."""
+    from markupsafe import Markup
+
+    from vinecli.report.chart_page import chart_assets
     from vinecli.report.fieldmap.page import head_assets
 
-    return Markup(head_assets()) if any(s.get("map") for s in sections) else ""  # noqa: S704 - vinecli's assets
+    maps = any(s.get("map") for s in sections)
+    charts = any(f.get("chart") for s in sections for f in s.get("figures", ()))
+    return Markup((head_assets() if maps else "") + (chart_assets() if charts else ""))  # noqa: S704 - vinecli's
 
 
 def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:

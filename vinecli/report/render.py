@@ -1,36 +1,43 @@
 """Drawing what the report shows of each run: the figures that fit it (:mod:`~vinecli.report.figure_fit`) and its
 field map (:mod:`~vinecli.report.fieldmap`), taken from the cache (:mod:`~vinecli.report.cache`) when they are
-there, else drawn one item (a figure or a map) per task, the costly items first by a pool of worker processes
-while this process draws the cheap ones, and cached.
+there, else drawn one item (a figure or a map) per task and cached.
+
+The time-series figures are chart JSON (:mod:`~vinecli.report.chart`, cheap): this process computes them. The PNG
+figures and the maps go to a :class:`FigurePool`, started before the runs are read so that its processes import
+matplotlib and the drawing code while this process loads the runs: a fork server preloads those modules once and
+forks the workers from it (spawned processes where there is no fork server).
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import os
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 from vinecli.report.cache import FigureCache, run_digest
 from vinecli.report.loader import Run
 
-__all__ = ["MAP", "RunDrawing", "draw_item", "draw_runs"]
+__all__ = ["MAP", "FigurePool", "RunDrawing", "all_cached", "draw_item", "draw_runs"]
 
 log = logging.getLogger(__name__)
 MAP = "map"
 FIT_FILE = "fit.json"
+NOTE = ".note"  # an item that had nothing to show: its note, cached beside the drawn ones
 #: the items that take longest, drawn first (the pool ends sooner)
-COSTLY = (MAP, "fig16", "fig23", "fig20", "fig18")
-#: fewer tasks than this are drawn in this process (starting workers would cost more)
+COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
+#: fewer PNG items than this are drawn in this process (starting workers would cost more)
 POOL_MIN_TASKS = 4
+#: what the pool's fork server imports once for all its workers
+PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "scipy.ndimage", "rasterio",
+           "vinecli.report.loader", "vinecli.report.plots", "vinecli.report.fieldmap.build"]
 
 
 @dataclass
 class RunDrawing:
-    """One run's figures (id -> {"png": bytes | None, "note", "caption"}, in figure order, the ones that do not
+    """One run's figures (id -> :func:`~vinecli.report.plots.figure_entry`, in figure order, the ones that do not
     fit with their reason) and map (its data, or None with ``map_note``)."""
 
     figures: dict[str, dict[str, Any]] = field(default_factory=dict)
@@ -38,13 +45,12 @@ class RunDrawing:
     map_note: str = ""
 
 
-_DATA: dict[str, Any] = {}  # a worker's plot data of the (two) runs it draws now
+_DATA: dict[str, Any] = {}  # a process's plot data of the (two) runs it draws now
 
 
 def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
-    """(run_dir, item, bytes or None, note): a figure's PNG or a map's JSON; None with the note when the run has
-    nothing to show or its data is too degenerate to draw. Top-level and picklable for the pool."""
-    os.environ.setdefault("MPLBACKEND", "Agg")
+    """(run_dir, item, bytes or None, note): a figure's PNG or chart JSON, or a map's JSON; None with the note when
+    the run has nothing to show or its data is too degenerate to draw. Top-level and picklable for the pool."""
     if item == MAP:
         from vinecli.report.fieldmap.build import run_map
 
@@ -53,12 +59,13 @@ def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
         except (ValueError, KeyError, IndexError, TypeError, OSError) as exc:
             log.warning("%s: map not drawn: %s", run_dir, exc)
             return run_dir, item, None, f"map not drawn: {type(exc).__name__}: {exc}"
-    import matplotlib
+    from vinecli.report.plots import CHARTS, FIGURES, NoData, load_plot_data
 
-    from vinecli.report.plots import FIGURES, NoData, load_plot_data
+    if item not in CHARTS:
+        import matplotlib
 
-    # dense lines (10,000 samples of four rotors) simplified at half a pixel: 15 % faster, nothing visible lost
-    matplotlib.rcParams["path.simplify_threshold"] = 0.5
+        # dense lines (10,000 samples of four rotors) simplified at half a pixel: nothing visible lost
+        matplotlib.rcParams["path.simplify_threshold"] = 0.5
     if run_dir not in _DATA:
         if len(_DATA) >= 2:
             _DATA.pop(next(iter(_DATA)))
@@ -72,10 +79,53 @@ def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
         return run_dir, item, None, f"not drawn: {type(exc).__name__}: {exc}"
 
 
-def _warm_worker() -> None:
-    os.environ.setdefault("MPLBACKEND", "Agg")
-    import vinecli.report.fieldmap.build  # noqa: F401 - imported once per worker, before the first task
-    import vinecli.report.plots  # noqa: F401
+def _pool_context() -> Any:
+    import multiprocessing as mp
+
+    if "forkserver" in mp.get_all_start_methods():
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(PRELOAD)  # no effect when this process already runs a fork server
+        return ctx
+    return mp.get_context("spawn")
+
+
+class FigurePool:
+    """``workers`` processes drawing PNG figures and maps, started by a thread of their own (a fork server answers
+    once its imports are done) so the caller goes on at once. A context manager: leaving it ends the processes."""
+
+    def __init__(self, workers: int) -> None:
+        import threading
+
+        self.workers = workers
+        self._ex = ProcessPoolExecutor(max_workers=workers, mp_context=_pool_context())
+        self._started = threading.Thread(target=self._start, name="vinecli-figure-pool", daemon=True)
+        self._started.start()
+
+    def _start(self) -> None:
+        for _ in range(self.workers):
+            self._ex.submit(int)  # a task per worker: each process starts now
+
+    def submit(self, run_dir: str, item: str) -> Future[tuple[str, str, bytes | None, str]]:
+        self._started.join()
+        return self._ex.submit(draw_item, run_dir, item)
+
+    def close(self) -> None:
+        self._started.join()
+        self._ex.shutdown(wait=True, cancel_futures=True)
+
+    def __enter__(self) -> FigurePool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _key(r: Run, keys: dict[str, str]) -> str:
+    from vinecli.report.fieldmap.context import find_world_dir
+
+    if r.case not in keys:
+        keys[r.case] = run_digest(r.dir, find_world_dir(r.dir, r.summary))  # type: ignore[arg-type]
+    return keys[r.case]
 
 
 def _fit(run: Run, key: str, cache: FigureCache) -> dict[str, str | None]:
@@ -90,50 +140,70 @@ def _fit(run: Run, key: str, cache: FigureCache) -> dict[str, str | None]:
 
 
 def _item_file(item: str) -> str:
-    return f"{item}.json" if item == MAP else f"{item}.png"
+    from vinecli.report.plots import CHARTS
+
+    return f"{item}.json" if item == MAP or item in CHARTS else f"{item}.png"
 
 
-def draw_runs(runs: Sequence[Run], cache: FigureCache, workers: int = 1,
-              progress: Callable[[int, int], None] | None = None, maps: bool = True) -> dict[str, RunDrawing]:
-    """Figures (and maps) of ``runs`` by case; ``workers`` processes draw what the cache lacks."""
-    from vinecli.report.fieldmap.context import find_world_dir
-    from vinecli.report.plots import FIGURES
+def _items(fit: dict[str, str | None], maps: bool) -> list[str]:
+    return [fid for fid, note in fit.items() if note is None] + ([MAP] if maps else [])
 
-    out: dict[str, RunDrawing] = {}
-    todo: list[tuple[str, str]] = []
-    where: dict[str, tuple[str, str]] = {}  # run dir -> (case, key)
+
+def all_cached(runs: Sequence[Run], cache: FigureCache, maps: bool = True, keys: dict[str, str] | None = None) -> bool:
+    """Whether the cache holds every figure and map of ``runs`` (then no process needs starting)."""
+    keys = {} if keys is None else keys
     for r in runs:
         if r.dir is None:
             continue
-        key = run_digest(r.dir, find_world_dir(r.dir, r.summary))
+        key = _key(r, keys)
+        got = cache.get(key, FIT_FILE)
+        if got is None:
+            return False
+        if not all(cache.has(key, _item_file(i)) or cache.has(key, i + NOTE)
+                   for i in _items(json.loads(got), maps)):
+            return False
+    return True
+
+
+def draw_runs(runs: Sequence[Run], cache: FigureCache, workers: int = 1,
+              progress: Callable[[int, int], None] | None = None, maps: bool = True,
+              pool: FigurePool | None = None, keys: dict[str, str] | None = None) -> dict[str, RunDrawing]:
+    """Figures (and maps) of ``runs`` by case: from the cache, else drawn (PNG figures and maps by ``pool``, or a
+    pool of ``workers`` processes when there are enough of them, else by this process) and cached. ``keys``: the
+    runs' cache keys by case, computed when missing."""
+    from vinecli.report.plots import CHARTS, FIGURES, figure_entry
+
+    keys = {} if keys is None else keys
+    out: dict[str, RunDrawing] = {}
+    where: dict[str, tuple[str, str]] = {}  # run dir -> (case, key)
+    pending: list[tuple[str, str]] = []
+    total = done = 0
+    for r in runs:
+        if r.dir is None:
+            continue
+        key = _key(r, keys)
         fit = _fit(r, key, cache)
         d = out[r.case] = RunDrawing()
         where[str(r.dir)] = (r.case, key)
         for fid, (caption, _fn) in FIGURES.items():
-            note = fit.get(fid, "not drawn: unknown figure")
-            d.figures[fid] = {"png": None, "note": note or "", "caption": caption}
-            if note is None:
-                todo.append((str(r.dir), fid))
-        if maps:
-            todo.append((str(r.dir), MAP))
-    total, done = len(todo), 0
-    pending = []
-    for run_dir, item in todo:
-        case, key = where[run_dir]
-        got = cache.get(key, _item_file(item))
-        if got is None:
-            pending.append((run_dir, item))
-            continue
-        _store(out[case], item, got, "")
-        done += 1
-        if progress:
-            progress(done, total)
-    per_run = {d: sum(p[0] == d for p in pending) for d, _ in pending}  # busiest runs first, a run's items together
-    pending.sort(key=lambda t: (-per_run[t[0]], t[0], COSTLY.index(t[1]) if t[1] in COSTLY else len(COSTLY)))
-    for run_dir, item, data, note in _draw(pending, workers):
+            d.figures[fid] = figure_entry(fid, None, fit.get(fid, "not drawn: unknown figure") or "", caption)
+        for item in _items(fit, maps):
+            total += 1
+            got = cache.get(key, _item_file(item))
+            note = cache.get(key, item + NOTE) if got is None else None
+            if got is None and note is None:
+                pending.append((str(r.dir), item))
+                continue
+            _store(d, item, got, note.decode() if note is not None else "")
+            done += 1
+    if progress and done:
+        progress(done, total)
+    for run_dir, item, data, note in _draw(pending, workers, pool, CHARTS):
         case, key = where[run_dir]
         if data is not None:
             cache.put(key, _item_file(item), data)
+        else:
+            cache.put(key, item + NOTE, note.encode())
         _store(out[case], item, data, note)
         done += 1
         if progress:
@@ -142,37 +212,33 @@ def draw_runs(runs: Sequence[Run], cache: FigureCache, workers: int = 1,
 
 
 def _store(d: RunDrawing, item: str, data: bytes | None, note: str) -> None:
+    from vinecli.report.plots import figure_entry
+
     if item == MAP:
         d.map = json.loads(data) if data is not None else None
         d.map_note = note
     else:
-        d.figures[item].update(png=data, note=note)
+        d.figures[item] = figure_entry(item, data, note, d.figures[item]["caption"])
 
 
-def _draw(pending: list[tuple[str, str]], workers: int) -> Any:
-    """Draw ``pending`` (run dir, item); yields draw_item's results. With ``workers`` > 1, ``workers - 1`` spawned
-    processes take the costly items from the front while this process draws from the back (no core idles while
-    the workers start, and one process start fewer)."""
-    from collections import deque
-    from concurrent.futures import FIRST_COMPLETED, wait
+def _draw(pending: list[tuple[str, str]], workers: int, pool: FigurePool | None,
+          charts: frozenset[str]) -> Iterator[tuple[str, str, bytes | None, str]]:
+    """Draw ``pending`` (run dir, item); yields draw_item's results. The PNG figures and maps go to ``pool`` (or a
+    pool of ``workers`` started here when there are at least :data:`POOL_MIN_TASKS` of them), the costly ones first,
+    while this process computes the charts; without a pool this process draws everything."""
+    from concurrent.futures import as_completed
 
-    queue = deque(pending)
-    if workers <= 1 or len(pending) < POOL_MIN_TASKS:
-        while queue:
-            yield draw_item(*queue.popleft())
-        return
-    import multiprocessing as mp
-
-    with ProcessPoolExecutor(max_workers=workers - 1, mp_context=mp.get_context("spawn"),
-                             initializer=_warm_worker) as ex:
-        inflight: set[Any] = set()
-        while queue or inflight:
-            while queue and len(inflight) < 2 * (workers - 1):  # two queued per worker: none waits for work
-                inflight.add(ex.submit(draw_item, *queue.popleft()))
-            if queue:
-                yield draw_item(*queue.pop())
-            else:
-                wait(inflight, return_when=FIRST_COMPLETED)
-            for fut in [f for f in inflight if f.done()]:
-                inflight.discard(fut)
-                yield fut.result()
+    heavy = sorted((p for p in pending if p[1] not in charts),
+                   key=lambda p: (COSTLY.index(p[1]) if p[1] in COSTLY else len(COSTLY), p[0]))
+    light = [p for p in pending if p[1] in charts]
+    own = pool is None and workers > 1 and len(heavy) >= POOL_MIN_TASKS
+    use = FigurePool(workers) if own else pool
+    try:
+        futures = [use.submit(*p) for p in heavy] if use is not None and heavy else []
+        for p in light + ([] if futures else heavy):
+            yield draw_item(*p)
+        for fut in as_completed(futures):
+            yield fut.result()
+    finally:
+        if own and use is not None:
+            use.close()

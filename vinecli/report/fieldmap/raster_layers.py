@@ -15,6 +15,10 @@ from vinecli.report.fieldmap.model import Legend, MapLayer, Raster
 __all__ = ["canopy_layer", "deposition_layer", "hillshade_layer", "scale_legend"]
 
 WET_SHARE = 0.02  # cells below this share of the scale's top stay transparent (as in fig. 23)
+#: the terrain's hover grid, long side: 0.2 m cells over a 70 m field, so ridges and furrows (0.75 m apart on the
+#: sample potato field) read as the hillshade shows them
+HOVER_PX_TERRAIN = 320
+OVERLAY_PX = 640  # the overlays' long side (fieldmap.overlay)
 
 
 def _hex(rgba: Any) -> str:
@@ -35,18 +39,41 @@ def _rgba(cmap: Any, norm: Any, v: np.ndarray, alpha: float, shown: np.ndarray) 
     return rgba
 
 
+def _terrain(ctx: MapContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(x, y, z[y, x]) of the ground, rows south first: the world's full terrain grid (``terrain/grid.npz``, e.g.
+    5 cm cells) when the world is there, else the run's terrain preview (every n-th sample of it, 129 at most on
+    a side: ridges finer than its step would read wrong)."""
+    grid = ctx.world_dir / "terrain" / "grid.npz" if ctx.world_dir is not None else None
+    if grid is not None and grid.is_file():
+        with np.load(grid) as g:
+            z, dx, dy = g["z"].astype(float), float(g["dx"]), float(g["dy"])
+            x0, y0 = float(g["x0"]), float(g["y0"])
+        f = max(1, max(z.shape) // OVERLAY_PX)  # block means of f x f cells: no finer than the overlay shows
+        if f > 1:
+            ny, nx = (z.shape[0] // f) * f, (z.shape[1] // f) * f
+            z = z[:ny, :nx].reshape(ny // f, f, nx // f, f).mean(axis=(1, 3))
+            x0, y0, dx, dy = x0 + (f - 1) * dx / 2, y0 + (f - 1) * dy / 2, f * dx, f * dy
+        x, y = x0 + dx * np.arange(z.shape[1]), y0 + dy * np.arange(z.shape[0])
+    elif ctx.preview is not None:
+        x, y, z = ctx.preview["x"], ctx.preview["y"], np.asarray(ctx.preview["z"], float)
+    else:
+        return None
+    if x.size < 2 or y.size < 2:
+        return None
+    return (x, y[::-1], z[::-1]) if y[1] < y[0] else (x, y, z)
+
+
 def hillshade_layer(ctx: MapContext) -> MapLayer | None:
-    """The terrain preview hillshaded (sun from the north-west, 3x vertical exaggeration)."""
+    """The ground hillshaded (sun from the north-west, 3x vertical exaggeration); hover: its elevation (the world's
+    origin altitude + world z, m, as the georeference maps heights)."""
     from matplotlib.colors import LightSource
 
-    pv = ctx.preview
-    if pv is None or pv["x"].size < 2 or pv["y"].size < 2:
+    ground = _terrain(ctx)
+    if ground is None:
         return None
-    x, y, z = pv["x"], pv["y"], pv["z"]
-    if y[1] < y[0]:
-        y, z = y[::-1], z[::-1]
+    x, y, z = ground
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
-    if abs(dx - dy) > 1e-6 * max(dx, dy):  # square cells for the overlay, of the mean size
+    if abs(dx - dy) > 1e-3 * max(dx, dy):  # square cells for the overlay, of the mean size (0.1 %: under a pixel)
         from scipy.ndimage import zoom
 
         c = float(np.sqrt(dx * dy))
@@ -57,9 +84,14 @@ def hillshade_layer(ctx: MapContext) -> MapLayer | None:
     grey = (255 * (0.35 + 0.65 * shade)).astype(np.uint8)
     rgba = np.stack([grey, grey, grey, np.full_like(grey, 255)], axis=-1)
     rgba[~np.isfinite(z)] = 0
-    r = Raster(rgba, float(x[0]) - dx / 2, float(y[0]) - dy / 2, dx, values=z, label="terrain z", unit="m",
-               digits=2, smooth=True, values_px=128)
-    return MapLayer("hillshade", "Terrain (hillshade)", raster=r, note="hover: height (world z, m)")
+    alt = ((ctx.world or ctx.summary.get("world") or {}).get("origin") or {}).get("alt")
+    known = isinstance(alt, (int, float)) and np.isfinite(alt)
+    r = Raster(rgba, float(x[0]) - dx / 2, float(y[0]) - dy / 2, dx, values=z + (float(alt) if known else 0.0),
+               label="ground" if known else "ground, world z", unit="m", digits=2, smooth=True,
+               values_px=HOVER_PX_TERRAIN)
+    note = (f"hover: the ground's elevation, m (world z 0 = {float(alt):.2f} m)" if known else
+            "hover: the ground's height, world z, m")
+    return MapLayer("hillshade", "Terrain (hillshade)", raster=r, note=note)
 
 
 def _read_band(path: Any, band: int = 1) -> np.ndarray:
