@@ -32,7 +32,8 @@ COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
 POOL_MIN_TASKS = 4
 #: what the pool's fork server imports once for all its workers
 PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "scipy.ndimage", "rasterio",
-           "vinecli.report.loader", "vinecli.report.plots", "vinecli.report.fieldmap.build"]
+           "vinecli.report.loader", "vinecli.report.plots", "vinecli.report.fieldmap.build",
+           "vinecli.report.figure_warm"]  # the last draws a small figure: fonts and caches loaded once
 
 
 @dataclass

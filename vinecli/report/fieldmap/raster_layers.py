@@ -40,9 +40,10 @@ def _rgba(cmap: Any, norm: Any, v: np.ndarray, alpha: float, shown: np.ndarray) 
 
 
 def _terrain(ctx: MapContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(x, y, z[y, x]) of the ground, rows south first: the world's full terrain grid (``terrain/grid.npz``, e.g.
-    5 cm cells) when the world is there, else the run's terrain preview (every n-th sample of it, 129 at most on
-    a side: ridges finer than its step would read wrong)."""
+    """(x, y, z[y, x]) of the ground, rows south first: the world's terrain grid (``terrain/grid.npz``, e.g. 5 cm
+    cells, in block means no finer than the overlay, over the preview's extent: the map crops it to its view) when
+    the world is there, else the run's terrain preview (every n-th sample of the grid, 129 at most on a side: ridges
+    finer than its step would read wrong)."""
     grid = ctx.world_dir / "terrain" / "grid.npz" if ctx.world_dir is not None else None
     if grid is not None and grid.is_file():
         with np.load(grid) as g:
@@ -54,6 +55,12 @@ def _terrain(ctx: MapContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | Non
             z = z[:ny, :nx].reshape(ny // f, f, nx // f, f).mean(axis=(1, 3))
             x0, y0, dx, dy = x0 + (f - 1) * dx / 2, y0 + (f - 1) * dy / 2, f * dx, f * dy
         x, y = x0 + dx * np.arange(z.shape[1]), y0 + dy * np.arange(z.shape[0])
+        if ctx.preview is not None and ctx.preview["x"].size > 1 and ctx.preview["y"].size > 1:  # its crop (the view)
+            px, py = ctx.preview["x"], ctx.preview["y"]
+            kx = (x >= px.min() - dx) & (x <= px.max() + dx)
+            ky = (y >= py.min() - dy) & (y <= py.max() + dy)
+            if kx.sum() >= 2 and ky.sum() >= 2:
+                x, y, z = x[kx], y[ky], z[np.ix_(ky, kx)]
     elif ctx.preview is not None:
         x, y, z = ctx.preview["x"], ctx.preview["y"], np.asarray(ctx.preview["z"], float)
     else:
