@@ -84,7 +84,7 @@ def field_layer(ctx: MapContext) -> MapLayer | None:
     rows = ctx.rows
     if not rows:
         return None
-    from vinecli.physics.drift import field_polygon
+    from vinecli.spray.drift import field_polygon
 
     geom: Any = field_polygon(rows, _row_spacing(ctx, rows), np.zeros((0, 2)), 0.5)
     if geom is None:
