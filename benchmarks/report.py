@@ -5,10 +5,10 @@ Usage: ``python benchmarks/report.py [--quick] [--runs 1000] [--workers N]``
 
 Synthetic (default): writes four synthetic chapter-5 runs (tests/report/synth_runs.py), clones them into a batch of
 ``--runs`` run directories (5 % with a failed check) and times ``build_report`` on it and on a 10-run batch. Prints
-the total time, the cost per run and the ratio of the two. Budget (issue 5): a 1,000-run report builds in under a
+the total time, the cost per run and the ratio of the two. Budget: a 1,000-run report builds in under a
 minute on the project's 2-core machine. ``--quick``: 100 runs (smoke run).
 
-CI runs (issue 35): ``vinecli report RUNS`` (the runs of ``vinecli run batch pipelines/ci.yaml``) by the checkout
+CI runs: ``vinecli report RUNS`` (the runs of ``vinecli run batch pipelines/ci.yaml``) by the checkout
 of ``--baseline-src`` (e.g. a ``git worktree`` of main; run with this venv's Python, its source first on the path)
 and by this one with an empty cache, then again with the cache that run filled; interleaved ``--repeats`` times.
 Prints wall and CPU seconds (the report's processes and their children), the page's size and its figures and maps,

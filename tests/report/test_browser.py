@@ -245,8 +245,8 @@ def test_a_failed_checks_row_is_highlighted_on_the_map(report: dict[str, Any], o
 def test_gis_exports_map_opens_offline(report: dict[str, Any], open_page: Any, tmp_path: Path) -> None:
     """``gis export``'s map beside the GeoPackage is the same map, standalone (the synthetic run's world is a
     stand-in: the map itself is exercised, the GeoPackage needs a real world and is tested in tests/gis)."""
-    from vinecli.report.fieldmap.build import run_map
-    from vinecli.report.fieldmap.page import standalone_page
+    from vinecli.report.fieldmap.map_page import standalone_page
+    from vinecli.report.fieldmap.run_map import run_map
 
     out = tmp_path / "spray.html"
     out.write_text(standalone_page(run_map(report["runs"] / "spray"), "spray"), encoding="utf-8")

@@ -15,9 +15,9 @@ import pytest
 from pyproj import Transformer
 
 from vinecli.gis.georef import Georef
-from vinecli.report.fieldmap.build import LAYERS, run_map
-from vinecli.report.fieldmap.model import Legend, LocalFeature, MapLayer, Raster, map_data
+from vinecli.report.fieldmap.map_model import Legend, LocalFeature, MapLayer, Raster, map_data
 from vinecli.report.fieldmap.overlay import overlay
+from vinecli.report.fieldmap.run_map import LAYERS, run_map
 from vinecli.rows.source import RowFrame
 
 UTM = "EPSG:32616"
@@ -156,7 +156,7 @@ def test_a_failed_check_is_located_on_the_path_of_its_window(failing_runs: Path)
 
 
 def test_the_map_html_is_escaped_and_offline(ci_runs: Path, tmp_path: Path) -> None:
-    from vinecli.report.fieldmap.page import head_assets, map_block
+    from vinecli.report.fieldmap.map_page import head_assets, map_block
 
     data = run_map(ci_runs / "takeoff")
     data["title"] = "</script><script>alert(1)</script>"

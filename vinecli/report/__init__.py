@@ -4,6 +4,9 @@ Public API: :func:`build_report` -> :class:`ReportResult`; :func:`load_runs`; :c
 and :data:`DEFAULT_TOLERANCES` for ``--baseline`` comparisons; the figure functions live in
 :mod:`vinecli.report.plots`. The names are imported on first use, so a figure process that imports
 :mod:`vinecli.report.plots` does not load the report builder and its batch machinery.
+
+Reads run directories and ``batch.json`` only through :mod:`vinecli.runs` (their file names and readers). May
+import every floor below it; never the batch (the batch imports the report for ``run compare``'s figure).
 """
 
 from __future__ import annotations
@@ -13,8 +16,8 @@ from typing import Any
 
 __all__ = ["DEFAULT_TOLERANCES", "FORMATS", "ReportResult", "Run", "Tolerance", "build_report", "load_runs"]
 
-_WHERE = {"DEFAULT_TOLERANCES": "baseline", "Tolerance": "baseline", "FORMATS": "build", "ReportResult": "build",
-          "build_report": "build", "Run": "loader", "load_runs": "loader"}
+_WHERE = {"DEFAULT_TOLERANCES": "baseline", "Tolerance": "baseline", "FORMATS": "assemble",
+          "ReportResult": "assemble", "build_report": "assemble", "Run": "loader", "load_runs": "loader"}
 
 
 def __getattr__(name: str) -> Any:

@@ -19,7 +19,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from vinecli.batch.run import BATCH_JSON
 from vinecli.errors import InputError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
 from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_section
@@ -27,6 +26,7 @@ from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.cache import FigureCache, cache_root
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
 from vinecli.report.render import FigurePool, RunDrawing, all_cached, draw_runs
+from vinecli.runs.batch_json import BATCH_JSON, read_batch_json
 from vinecli.runs.rundir import SUMMARY
 
 log = logging.getLogger(__name__)
@@ -137,11 +137,9 @@ def _pipeline_name(runs_dir: Path) -> str | None:
     """The pipeline a batch's runs directory comes from (its batch.json), None for loose runs."""
     if not (runs_dir / BATCH_JSON).is_file():
         return None
-    import json
-
     try:
-        return json.loads((runs_dir / BATCH_JSON).read_text(encoding="utf-8")).get("pipeline")
-    except (OSError, ValueError):
+        return read_batch_json(runs_dir / BATCH_JSON).get("pipeline")
+    except InputError:
         return None
 
 
@@ -166,6 +164,7 @@ def _figure_notes(runs: Sequence[Any], chosen: Sequence[Any], want_figs: bool, f
     return notes, policy_note
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli report` option; a caller names the ones it sets
 def build_report(
     runs_dir: str | Path,
     out_dir: str | Path,
@@ -214,23 +213,44 @@ def build_report(
         "tolerances": {k: vars(v) for k, v in (tolerances or {}).items()}})
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
-        result = _build(stack, runs_dir, Path(out_dir), fmts, baseline, tolerances, figures, max_figure_runs,
-                        inline_limit, page_size, workers, title, overwrite, use_cache, maps, basemap, progress,
-                        manifest)
+        opts = _Options(runs_dir, Path(out_dir), fmts, baseline, tolerances, figures, max_figure_runs, inline_limit,
+                        page_size, workers, title, overwrite, use_cache, maps, basemap)
+        result = _build(stack, opts, progress, manifest)
     result.timings = dict(manifest.timings)
     result.timings["total"] = round(time.perf_counter() - t0, 4)
     log.info("report of %d runs in %s (%.2f s)", result.n_runs, out_dir, result.timings["total"])
     return result
 
 
-def _build(stack: contextlib.ExitStack, runs_dir: Path, out_dir: Path, fmts: tuple[str, ...],
-           baseline: str | Path | None, tolerances: Mapping[str, Tolerance] | None, figures: FigurePolicy,
-           max_figure_runs: int, inline_limit: int, page_size: int, workers: int, title: str | None,
-           overwrite: bool, use_cache: bool, maps: bool, basemap: str | None,
-           progress: Callable[[str, int, int], None] | None, manifest: Manifest) -> ReportResult:
+@dataclass(frozen=True)
+class _Options:
+    """:func:`build_report`'s options, checked (``workers`` resolved)."""
+
+    runs_dir: Path
+    out_dir: Path
+    fmts: tuple[str, ...]
+    baseline: str | Path | None
+    tolerances: Mapping[str, Tolerance] | None
+    figures: FigurePolicy
+    max_figure_runs: int
+    inline_limit: int
+    page_size: int
+    workers: int
+    title: str | None
+    overwrite: bool
+    use_cache: bool
+    maps: bool
+    basemap: str | None
+
+
+def _build(stack: contextlib.ExitStack, o: _Options, progress: Callable[[str, int, int], None] | None,
+           manifest: Manifest) -> ReportResult:
     """:func:`build_report`'s work; the drawing processes, when started, are closed with ``stack``."""
+    runs_dir, out_dir, fmts, baseline, figures = o.runs_dir, o.out_dir, o.fmts, o.baseline, o.figures
+    max_figure_runs, inline_limit, workers, maps, overwrite = (o.max_figure_runs, o.inline_limit, o.workers, o.maps,
+                                                               o.overwrite)
     want_figs = "html" in fmts
-    cache = FigureCache(cache_root() if use_cache else None)
+    cache = FigureCache(cache_root() if o.use_cache else None)
     keys: dict[str, str] = {}
     pool = None
     with manifest.stage("load"):
@@ -249,7 +269,7 @@ def _build(stack: contextlib.ExitStack, runs_dir: Path, out_dir: Path, fmts: tup
             base_runs = load_runs(baseline)
             for r in base_runs:
                 r.report_metrics = compute_report_metrics(r)
-            comparison = compare(runs, base_runs, str(baseline), tolerances)
+            comparison = compare(runs, base_runs, str(baseline), o.tolerances)
     # the inputs are the run folders read (and batch.json): the report may go into the runs folder, not
     # over or into a run, nor contain one
     read = [r.dir for r in [*runs, *(base_runs if baseline is not None else [])] if r.dir is not None]
@@ -263,7 +283,7 @@ def _build(stack: contextlib.ExitStack, runs_dir: Path, out_dir: Path, fmts: tup
                              maps=maps, pool=pool, keys=keys)
             cache.prune()
     notes, policy_note = _figure_notes(runs, chosen, want_figs, figures, max_figure_runs)
-    ttl = title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
+    ttl = o.title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
     result = ReportResult(out_dir=Path(out_dir), n_runs=len(runs), n_errors=sum(r.errored for r in runs),
                           n_failed=sum((not r.passed) and not r.errored for r in runs),
                           failed_checks=[(r.case, c["name"]) for r in runs for c in r.failed_checks],
@@ -277,8 +297,8 @@ def _build(stack: contextlib.ExitStack, runs_dir: Path, out_dir: Path, fmts: tup
 
             with manifest.stage("html"):
                 write_html(tmp, runs, figs, comparison, title=ttl, runs_dir=str(runs_dir), pipeline=pipeline,
-                           inline_limit=inline_limit, page_size=page_size, figure_notes=notes,
-                           figure_policy=policy_note, autopilots=html_blocks(autopilots), basemap=basemap)
+                           inline_limit=inline_limit, page_size=o.page_size, figure_notes=notes,
+                           figure_policy=policy_note, autopilots=html_blocks(autopilots), basemap=o.basemap)
             if not inline:
                 from vinecli.report.markdown import run_order
 

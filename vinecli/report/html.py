@@ -85,11 +85,11 @@ def _world(run: Run) -> str:
 def _map_html(drawing: RunDrawing | None, anchor: str, basemap: str | None) -> Any:
     from markupsafe import Markup
 
-    from vinecli.report.fieldmap.page import map_block
+    from vinecli.report.fieldmap.map_page import map_block
 
     if drawing is None or drawing.map is None:
         return None
-    return Markup(map_block(drawing.map, anchor, basemap=basemap))  # noqa: S704 - built escaped (fieldmap.page)
+    return Markup(map_block(drawing.map, anchor, basemap=basemap))  # noqa: S704 - built escaped (fieldmap.map_page)
 
 
 def _section(run: Run, drawing: RunDrawing | None, comparison: Comparison | None,
@@ -147,7 +147,7 @@ def _assets(sections: Sequence[Mapping[str, Any]]) -> Any:
     from markupsafe import Markup
 
     from vinecli.report.chart_page import chart_assets
-    from vinecli.report.fieldmap.page import head_assets
+    from vinecli.report.fieldmap.map_page import head_assets
 
     maps = any(s.get("map") for s in sections)
     charts = any(f.get("chart") for s in sections for f in s.get("figures", ()))
@@ -171,6 +171,7 @@ def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
     return out
 
 
+# parameters: the runs and their figures, then keyword-only page options with their defaults
 def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, RunDrawing],
                comparison: Comparison | None = None, *, title: str = "vinecli report", runs_dir: str = "",
                pipeline: str | None = None, inline_limit: int = 20, page_size: int = 100,

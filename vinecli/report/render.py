@@ -32,7 +32,7 @@ COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
 POOL_MIN_TASKS = 4
 #: what the pool's fork server imports once for all its workers
 PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "scipy.ndimage", "rasterio",
-           "vinecli.report.loader", "vinecli.report.plots", "vinecli.report.fieldmap.build",
+           "vinecli.report.loader", "vinecli.report.plots", "vinecli.report.fieldmap.run_map",
            "vinecli.report.figure_warm"]  # the last draws a small figure: fonts and caches loaded once
 
 
@@ -53,7 +53,7 @@ def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
     """(run_dir, item, bytes or None, note): a figure's PNG or chart JSON, or a map's JSON; None with the note when
     the run has nothing to show or its data is too degenerate to draw. Top-level and picklable for the pool."""
     if item == MAP:
-        from vinecli.report.fieldmap.build import run_map
+        from vinecli.report.fieldmap.run_map import run_map
 
         try:
             return run_dir, item, json.dumps(run_map(run_dir), allow_nan=False).encode(), ""

@@ -22,8 +22,8 @@ def export_run_gis_with_map(run_dir: Path | str, out: Path | str, *, overwrite: 
     targets are checked and the map built before anything is written. Returns the files written."""
     from vinecli.output_guard import check_output_file
     from vinecli.outputs import write_text_atomic
-    from vinecli.report.fieldmap.build import run_map
-    from vinecli.report.fieldmap.page import standalone_page
+    from vinecli.report.fieldmap.map_page import standalone_page
+    from vinecli.report.fieldmap.run_map import run_map
     from vinecli.runs.gis_out import export_run_gis
 
     page = None

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.report.fieldmap.context import MapContext
-from vinecli.report.fieldmap.model import Legend, LocalFeature, MapLayer
+from vinecli.report.fieldmap.map_model import Legend, LocalFeature, MapLayer
 
 __all__ = ["events_layer", "failed_checks_layer", "locate_check"]
 

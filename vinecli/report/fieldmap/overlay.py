@@ -95,7 +95,7 @@ def _encode_values(v: np.ndarray, digits: int) -> dict[str, Any]:
 
 
 def overlay(r: Any, georef: Georef, max_px: int = 640) -> dict[str, Any]:
-    """A :class:`~vinecli.report.fieldmap.model.Raster` as ``{"png", "bounds": [[S, W], [N, E]], "w", "h",
+    """A :class:`~vinecli.report.fieldmap.map_model.Raster` as ``{"png", "bounds": [[S, W], [N, E]], "w", "h",
     "values": {...} | absent, "label", "unit", "digits", "ref", "ref_label"}``."""
     ny, nx = r.rgba.shape[:2]
     cell = float(r.cell_m)

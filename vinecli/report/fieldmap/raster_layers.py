@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.report.fieldmap.context import MapContext
-from vinecli.report.fieldmap.model import Legend, MapLayer, Raster
+from vinecli.report.fieldmap.map_model import Legend, MapLayer, Raster
 
 __all__ = ["canopy_layer", "deposition_layer", "hillshade_layer", "scale_legend"]
 

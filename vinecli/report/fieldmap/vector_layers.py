@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.report.fieldmap.context import MapContext
-from vinecli.report.fieldmap.model import Legend, LocalFeature, MapLayer
+from vinecli.report.fieldmap.map_model import Legend, LocalFeature, MapLayer
 
 __all__ = ["PHASE_COLOURS", "fence_layer", "field_layer", "no_spray_layer", "path_phase_layer", "simplified_line",
            "path_sprayer_layer", "rows_layer", "sprayer_on"]

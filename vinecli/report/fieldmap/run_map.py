@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from vinecli.report.fieldmap.context import MapContext, load_context
+from vinecli.report.fieldmap.map_model import MapLayer, map_data
 from vinecli.report.fieldmap.mark_layers import events_layer, failed_checks_layer
-from vinecli.report.fieldmap.model import MapLayer, map_data
 from vinecli.report.fieldmap.raster_layers import canopy_layer, deposition_layer, hillshade_layer
 from vinecli.report.fieldmap.vector_layers import (
     fence_layer,
@@ -82,7 +82,7 @@ def _crop_terrain(ctx: MapContext, view: tuple[float, float, float, float], marg
 
 def run_map(run_dir: str | Path, layers: list[Callable[[MapContext], MapLayer | None]] | None = None
             ) -> dict[str, Any]:
-    """The browser's data of the field map of one run (:func:`~vinecli.report.fieldmap.model.map_data`), with
+    """The browser's data of the field map of one run (:func:`~vinecli.report.fieldmap.map_model.map_data`), with
     ``located``: the failed checks the map shows a place for."""
     ctx = load_context(run_dir)
     fns = LAYERS if layers is None else layers

@@ -3,7 +3,7 @@ local grid, each with its legend; turned into the browser's data (WGS84 longitud
 overlays on the Web-Mercator grid Leaflet draws in) by :func:`map_data` through the world's georeference.
 
 A layer is one small function of a :class:`~vinecli.report.fieldmap.context.MapContext` returning a
-:class:`MapLayer` (or None when the run has nothing for it); :data:`vinecli.report.fieldmap.build.LAYERS` lists them
+:class:`MapLayer` (or None when the run has nothing for it); :data:`vinecli.report.fieldmap.run_map.LAYERS` lists them
 in drawing order.
 """
 

@@ -50,7 +50,7 @@ def _json_for_script(data: Any) -> str:
 
 
 def map_block(data: dict[str, Any], anchor: str, *, basemap: str | None = None) -> str:
-    """The HTML of one map (:func:`vinecli.report.fieldmap.build.run_map`'s data) with id ``map-<anchor>``;
+    """The HTML of one map (:func:`vinecli.report.fieldmap.run_map.run_map`'s data) with id ``map-<anchor>``;
     ``basemap``: a tile URL template (``{z}/{x}/{y}``) drawn under the layers, fetched by the browser (off by
     default: the page is offline)."""
     payload = {**data, **({"basemap": basemap} if basemap else {})}
