@@ -243,3 +243,27 @@ def test_the_hillshade_reads_the_grounds_elevation_at_the_worlds_resolution(tmp_
     no_world = hillshade_layer(MapContext(run_dir=tmp_path, summary={}, world={}, world_dir=None,
                                           georef=ctx.georef, preview=preview))
     assert no_world is not None and no_world.raster is not None and no_world.raster.label == "ground, world z"
+
+
+def test_a_colour_scales_overlay_keeps_every_step(ci_runs: Path) -> None:
+    """The deposition's overlay keeps the colour scale's steps exactly (an octree-quantized PNG merged the 256 steps
+    of a scale into ~40 bands, up to 16 levels off): every drawn pixel is one of the scale's colours, and a ramp
+    over the whole scale keeps each of its 255 steps."""
+    from matplotlib import colormaps
+    from matplotlib.colors import Normalize
+
+    from vinecli.report.fieldmap.overlay import png_data_uri
+    from vinecli.report.fieldmap.raster_layers import _rgba
+
+    cmap = colormaps["RdYlBu_r"]
+    v = np.linspace(0.0, 100.0, 600)[None, :].repeat(20, axis=0)
+    ramp = _rgba(cmap, Normalize(0.0, 100.0), v, 0.85, v > 2.0)
+    back = _decode_png(png_data_uri(ramp))
+    assert np.array_equal(back, ramp)
+    assert len(np.unique(back[back[..., 3] > 0].reshape(-1, 4), axis=0)) >= 245  # 98 % of the 255 steps shown
+    data = run_map(str(ci_runs / "spray"))
+    (dep,) = [lay for lay in data["layers"] if lay["key"] == "deposition"]
+    px = _decode_png(dep["raster"]["png"])
+    scale = np.rint(255 * cmap(np.linspace(0.0, 1.0, 255))).astype(np.uint8)[:, :3]
+    drawn = px[px[..., 3] > 0][:, :3]
+    assert drawn.size and np.isin(drawn.view("V3").ravel(), scale.view("V3").ravel()).all()

@@ -15,12 +15,13 @@ import logging
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
-from vinecli.report.cache import FigureCache, run_digest
+from vinecli.report.cache import FigureCache, cache_root, run_digest
 from vinecli.report.loader import Run
 
-__all__ = ["MAP", "FigurePool", "RunDrawing", "all_cached", "draw_item", "draw_runs"]
+__all__ = ["MAP", "FigurePool", "RunDrawing", "all_cached", "draw_into_cache", "draw_item", "draw_runs"]
 
 log = logging.getLogger(__name__)
 MAP = "map"
@@ -243,3 +244,20 @@ def _draw(pending: list[tuple[str, str]], workers: int, pool: FigurePool | None,
     finally:
         if own and use is not None:
             use.close()
+
+
+def draw_into_cache(run_dir: str | Path, maps: bool = True) -> bool:
+    """Draw the figures and the map of one finished run into the report's cache, in this process (a batch worker
+    calls it when its run ends, so the first ``vinecli report`` over the batch finds them drawn). False when there
+    was nothing to draw: the cache is off or holds them already."""
+    root = cache_root()
+    if root is None:
+        return False
+    from vinecli.report.loader import load_run
+
+    cache, keys = FigureCache(root), {}
+    run = [load_run(Path(run_dir))]
+    if all_cached(run, cache, maps, keys):
+        return False
+    draw_runs(run, cache, workers=1, maps=maps, keys=keys)
+    return True

@@ -66,16 +66,32 @@ def _sample(a: np.ndarray, ci: np.ndarray, cj: np.ndarray, smooth: bool, fill: f
     return out
 
 
+def _palette_image(rgba: np.ndarray) -> Any:
+    """An RGBA image of at most 256 distinct colours as an exact palette image (its colours and their alphas as
+    they are; Pillow's octree quantizer merges the neighbouring steps of a colour scale into bands), else None."""
+    from PIL import Image
+
+    packed = np.ascontiguousarray(rgba, dtype=np.uint8).view("<u4")[..., 0]
+    colours, index = np.unique(packed, return_inverse=True)
+    if colours.size > 256:
+        return None
+    img = Image.fromarray(index.reshape(packed.shape).astype(np.uint8), "P")
+    table = colours.astype("<u4").view(np.uint8).reshape(-1, 4)
+    img.putpalette(table[:, :3].ravel().tolist(), rawmode="RGB")
+    img.info["transparency"] = bytes(table[:, 3].tolist())
+    return img
+
+
 def png_data_uri(rgba: np.ndarray) -> str:
-    """An RGBA image (rows top to bottom) as a ``data:image/png;base64`` URI: grey + alpha when it is grey, else
-    a 256-colour palette."""
+    """An RGBA image (rows top to bottom) as a ``data:image/png;base64`` URI: grey + alpha when it is grey, an exact
+    palette when it has at most 256 colours (a colour scale of 256 steps), else quantized to 256."""
     from PIL import Image
 
     img = Image.fromarray(np.ascontiguousarray(rgba, dtype=np.uint8), "RGBA")
     if np.array_equal(rgba[..., 0], rgba[..., 1]) and np.array_equal(rgba[..., 0], rgba[..., 2]):
         img = img.convert("LA")
-    else:  # exact when the image has at most 256 colours (a colour scale of 256 steps)
-        img = img.quantize(colors=256, method=Image.Quantize.FASTOCTREE)
+    else:
+        img = _palette_image(rgba) or img.quantize(colors=256, method=Image.Quantize.FASTOCTREE)
     buf = io.BytesIO()
     img.save(buf, format="PNG", compress_level=6)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")

@@ -34,8 +34,12 @@ def scale_legend(cmap: Any, norm: Any, marks: dict[float, str], unit: str) -> Le
 
 
 def _rgba(cmap: Any, norm: Any, v: np.ndarray, alpha: float, shown: np.ndarray) -> np.ndarray:
-    rgba = (255 * cmap(norm(np.nan_to_num(v)))).astype(np.uint8)
-    rgba[..., 3] = np.where(shown, int(255 * alpha), 0)
+    """Colours of ``v`` in 255 steps of the scale and transparent where not ``shown``: 256 colours at most, which
+    the overlay's PNG palette keeps exactly (no bands)."""
+    steps = np.floor(np.clip(np.ma.filled(norm(np.nan_to_num(v)), 0.0), 0.0, 1.0) * 254.0 + 0.5) / 254.0
+    rgba = np.rint(255 * cmap(steps)).astype(np.uint8)
+    rgba[..., 3] = int(255 * alpha)
+    rgba[~shown] = 0
     return rgba
 
 
