@@ -19,7 +19,7 @@ import pytest
 
 pytest.importorskip("playwright", reason="pytest-playwright is not installed (make test installs it)")
 
-from .synth_runs import write_ci_batch  # noqa: E402
+from .synth_runs import ORIGIN, terrain_height, write_ci_batch  # noqa: E402
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -216,6 +216,11 @@ def test_hovering_a_deposition_cell_reads_its_rate(report: dict[str, Any], open_
     assert abs(float(got.group(1)) - rate[i, j]) <= max(0.06, 0.02 * rate[i, j])
     nominal = doc["metrics"]["nominal_rate_lpha"]
     assert abs(float(got.group(2)) - rate[i, j] / nominal) <= 0.011
+    # the hillshade under it reads the ground's elevation there: the origin's altitude + the terrain's height
+    ground = re.search(r"ground ([0-9.]+) m", text)
+    assert ground, text
+    x, y = g["x0_m"] + (j + 0.5) * g["cell_m"], g["y0_m"] + (i + 0.5) * g["cell_m"]
+    assert float(ground.group(1)) == pytest.approx(ORIGIN["alt"] + float(terrain_height(x, y)), abs=0.05)
 
 
 def test_a_failed_checks_row_is_highlighted_on_the_map(report: dict[str, Any], open_page: Any) -> None:
