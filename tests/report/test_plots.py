@@ -163,3 +163,33 @@ def test_the_dose_colour_scale_is_fixed_on_the_asked_rate() -> None:
     assert over.vmax == pytest.approx(80.0)
     _cmap, free = dose_scale(float("nan"), rates)  # no asked rate: 0 to the highest
     assert free.vmax == pytest.approx(29.0)
+
+
+def test_a_colour_scale_keeps_its_steps(rendered: dict) -> None:
+    """Fig. 23's dose scale keeps its colours (a 256-colour palette shared with the hillshade's greys turned it
+    into bands): the most coloured column (through the colour bar or the map) holds well over the ~20 steps a
+    shared palette left."""
+    from PIL import Image
+
+    img = np.asarray(Image.open(io.BytesIO(rendered["spray"]["fig23"]["png"])).convert("RGB")).astype(int)
+    chroma = img.max(axis=2) - img.min(axis=2)
+    col = int(np.argmax((chroma > 60).sum(axis=0)))  # the most coloured column: through the colour bar
+    assert len({tuple(p) for p in img[:, col]}) > 150  # 72 with a shared palette (the sample job: 528 now)
+
+
+def test_the_drift_curve_reads_on_log_axes_and_keeps_its_zeros() -> None:
+    """Fig. 25's drift: both axes logarithmic (a 68 % point at 1 m flattened 3-50 m into one line at 0 on a linear
+    axis), and the distances with no drift on the ground stay on the plot, at the axis' floor, marked 0."""
+    from matplotlib.figure import Figure
+
+    from vinecli.report.budget_plots import DRIFT_FLOOR_PCT, _drift
+
+    ax = Figure().subplots()
+    curve = [{"distance_m": d, "percent_of_applied": v} for d, v in ((1, 68.0), (3, 0.4), (5, 0.02), (10, 0.0))]
+    _drift(ax, {"drift_curve": curve, "drift": {"calm": True}})
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    assert ax.get_ylim()[0] == pytest.approx(DRIFT_FLOOR_PCT) and ax.get_ylim()[1] > 68.0
+    run, zero = ax.lines[0], ax.lines[1]
+    assert list(run.get_xdata()) == [1, 3, 5] and list(run.get_ydata()) == [68.0, 0.4, 0.02]
+    assert list(zero.get_xdata()) == [10] and list(zero.get_ydata()) == [DRIFT_FLOOR_PCT]
+    assert [t.get_text() for t in ax.texts] == ["68", "0.4", "0.02", "0"]

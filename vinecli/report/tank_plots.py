@@ -50,7 +50,7 @@ def fig17_tank_force(data: PlotData) -> bytes:
     what = "Fig. 17  Tank force around lift-off" + ("" if lo is not None else " (no lift-off)")
     return chart_bytes(Chart(
         title_text(data, what), t[sel],
-        [Panel("tank force, world z (ENU, up +), N", force, ylim=f_lim, zero=True),
+        [Panel("tank force z, N (up +)", force, ylim=f_lim, zero=True),
          Panel("vertical motion (ENU z)", motion, ylim=m_lim, zero=True)],
         events=event_marks(data, ("liftoff",)), windows=check_windows("fig17", data),
         notes=["spawn transient clipped (the first 0.5 s)"] if f_clip or m_clip else []))

@@ -50,6 +50,8 @@
     ctx.rect(b.left, b.top, b.width, b.height);
     ctx.clip();
     ctx.font = (11 * px) + "px system-ui, sans-serif";
+    ctx.textAlign = "left";  // uPlot leaves the canvas right-aligned from its axes: labels would end at their line
+    ctx.textBaseline = "alphabetic";
     if (panel.zero) {
       var y0 = Math.round(u.valToPos(0, "y", true));
       ctx.strokeStyle = "#999";
@@ -63,7 +65,12 @@
       ctx.setLineDash([2 * px, 3 * px]);
       ctx.beginPath(); ctx.moveTo(x, b.top); ctx.lineTo(x, b.top + b.height); ctx.stroke();
       ctx.setLineDash([]);
-      if (e[1]) ctx.fillText(e[1], x + 3 * px, b.top + 12 * px);
+      if (e[1]) {  // right of its line, or left of it where it would run off the plot
+        var right = x + 3 * px + ctx.measureText(e[1]).width > b.left + b.width;
+        ctx.textAlign = right ? "right" : "left";
+        ctx.fillText(e[1], right ? x - 3 * px : x + 3 * px, b.top + 12 * px);
+        ctx.textAlign = "left";
+      }
     });
     if (first) {
       spec.windows.forEach(function (w, i) {
