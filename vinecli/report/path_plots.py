@@ -47,7 +47,8 @@ def fig16_path(data: PlotData) -> bytes:
         dx = abs(pv["x"][1] - pv["x"][0]) if pv["x"].size > 1 else 1.0
         dy = abs(pv["y"][1] - pv["y"][0]) if pv["y"].size > 1 else 1.0
         shade = LightSource(azdeg=315, altdeg=45).hillshade(pv["z"], vert_exag=3.0, dx=dx, dy=dy)
-        ax.imshow(shade, extent=ext, origin="lower", cmap="gray", alpha=0.55, aspect="equal", zorder=0)
+        ax.imshow(shade, extent=ext, origin="lower", cmap="gray", alpha=0.55, aspect="equal", zorder=0,
+                  interpolation="bilinear")  # the preview's cells (0.2-0.5 m) would show as blocks zoomed in
         from scipy.ndimage import gaussian_filter
 
         # contours of the smoothed surface (a DSM's canopy would otherwise turn them into noise)
