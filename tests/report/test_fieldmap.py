@@ -267,3 +267,21 @@ def test_a_colour_scales_overlay_keeps_every_step(ci_runs: Path) -> None:
     scale = np.rint(255 * cmap(np.linspace(0.0, 1.0, 255))).astype(np.uint8)[:, :3]
     drawn = px[px[..., 3] > 0][:, :3]
     assert drawn.size and np.isin(drawn.view("V3").ravel(), scale.view("V3").ravel()).all()
+
+
+def test_a_page_writes_the_rasters_its_maps_repeat_once(ci_runs: Path, tmp_path: Path) -> None:
+    """The runs of a batch fly over one world: its hillshade (image and hover heights) goes into the page once, each
+    map refers to it, and a run's own rasters stay in its map."""
+    from vinecli.report import build_report
+    from vinecli.report.fieldmap.map_page import share_repeats
+
+    a, b = run_map(str(ci_runs / "spray")), run_map(str(ci_runs / "gust"))
+    (ma, mb), shared = share_repeats([a, b])
+    hill = [lay["raster"] for lay in a["layers"] if lay["key"] == "hillshade"][0]
+    assert set(shared.values()) == {hill["png"], hill["values"]["deflated"]}
+    by = {lay["key"]: lay["raster"] for lay in ma["layers"] if lay.get("raster")}
+    assert by["hillshade"]["png"].startswith("@") and shared[by["hillshade"]["png"][1:]] == hill["png"]
+    assert by["deposition"]["png"].startswith("data:image/png")  # the spray run's own
+    assert hill["png"].startswith("data:image/png")  # the maps given are not changed
+    html = build_report(ci_runs, tmp_path / "r", workers=1).html.read_text(encoding="utf-8")
+    assert html.count(hill["png"]) == 1 and 'id="fm-shared"' in html

@@ -141,17 +141,32 @@ def _chart_html(chart: Mapping[str, Any]) -> Any:
     return Markup(chart_block(chart))  # noqa: S704 - built escaped (chart_page)
 
 
-def _assets(sections: Sequence[Mapping[str, Any]]) -> Any:
-    """Leaflet and the map script for a page with a map, uPlot and the chart script for a page with a time-series
-    figure, else nothing."""
+def _assets(sections: Sequence[Mapping[str, Any]], shared: Mapping[str, str] | None = None) -> Any:
+    """Leaflet and the map script for a page with a map (and the images its maps share), uPlot and the chart
+    script for a page with a time-series figure, else nothing."""
     from markupsafe import Markup
 
     from vinecli.report.chart_page import chart_assets
-    from vinecli.report.fieldmap.map_page import head_assets
+    from vinecli.report.fieldmap.map_page import head_assets, shared_block
 
     maps = any(s.get("map") for s in sections)
     charts = any(f.get("chart") for s in sections for f in s.get("figures", ()))
-    return Markup((head_assets() if maps else "") + (chart_assets() if charts else ""))  # noqa: S704 - vinecli's
+    return Markup((head_assets() + shared_block(dict(shared or {})) if maps else "")  # noqa: S704 - vinecli's
+                  + (chart_assets() if charts else ""))
+
+
+def _share_maps(drawings: list[RunDrawing | None]) -> tuple[list[RunDrawing | None], dict[str, str]]:
+    """The drawings of one page with the raster strings their maps repeat written once (fieldmap.map_page)."""
+    from dataclasses import replace
+
+    from vinecli.report.fieldmap.map_page import share_repeats
+
+    have = [i for i, d in enumerate(drawings) if d is not None and d.map is not None]
+    maps, shared = share_repeats([drawings[i].map for i in have])  # type: ignore[union-attr]
+    out = list(drawings)
+    for i, m in zip(have, maps, strict=True):
+        out[i] = replace(drawings[i], map=m)  # type: ignore[arg-type]
+    return out, shared
 
 
 def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
@@ -231,13 +246,15 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, RunDraw
         pages = [{"num": j, "current": j == k,
                   "href": f"{root}report.html" if j == 1 else f"{root}pages/overview-{j}.html"} for j in
                  range(1, n_pages + 1)]
-        sections = ([_section(r, figures.get(r.case), comparison, notes.get(r.case, ""), pages_of[r.case], basemap)
-                     for r in ordered] if inline else [])
+        shown = ordered if inline else []
+        drawings, shared = _share_maps([figures.get(r.case) for r in shown])
+        sections = [_section(r, d, comparison, notes.get(r.case, ""), pages_of[r.case], basemap)
+                    for r, d in zip(shown, drawings, strict=True)]
         html = tpl.render(page="overview", root=root, page_num=k, pages=pages, rows=rows, sections=sections,
                           missions=_missions(runs),
                           regressions=[{**g.to_dict(), "baseline": format_value(g.baseline), "current": format_value(g.current)}
                                        for g in regs[:200]],
                           regressions_more=max(0, len(regs) - 200), figure_policy=figure_policy,
-                          autopilots=autopilots if k == 1 else [], map_assets=_assets(sections), **common)
+                          autopilots=autopilots if k == 1 else [], map_assets=_assets(sections, shared), **common)
         here.write_text(html, encoding="utf-8")
     return report

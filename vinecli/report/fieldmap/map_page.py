@@ -13,7 +13,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-__all__ = ["ASSETS", "head_assets", "map_block", "standalone_page"]
+__all__ = ["ASSETS", "head_assets", "map_block", "share_repeats", "shared_block", "standalone_page"]
 
 ASSETS = Path(__file__).parent / "assets"
 LEAFLET_VERSION = "1.9.4"
@@ -47,6 +47,45 @@ def head_assets() -> str:
 def _json_for_script(data: Any) -> str:
     """JSON safe inside a ``<script>`` element (no ``</``, no ``<!--``)."""
     return json.dumps(data, separators=(",", ":"), allow_nan=False).replace("<", "\\u003c")
+
+
+def _raster_strings(data: dict[str, Any]) -> list[tuple[dict[str, Any], str]]:
+    """(holder, key) of each raster image and hover-value string of a map's data."""
+    out = []
+    for lay in data.get("layers") or []:
+        r = lay.get("raster")
+        if r:
+            out.append((r, "png"))
+            if r.get("values"):
+                out.append((r["values"], "deflated"))
+    return out
+
+
+def share_repeats(maps: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], dict[str, str]]:
+    """The maps of one page with the raster images and hover values that several of them repeat (the world's
+    hillshade under each run of a batch: 100-200 kB each) replaced by ``"@key"``, and ``{key: string}`` to write
+    once (:func:`shared_block`). The maps given are not changed."""
+    import copy
+    import hashlib
+    from collections import Counter
+
+    count = Counter(holder[key] for m in maps for holder, key in _raster_strings(m))
+    keys = {s: hashlib.blake2b(s.encode(), digest_size=8).hexdigest() for s, n in count.items() if n > 1}
+    if not keys:
+        return maps, {}
+    out = []
+    for m in maps:
+        m = copy.deepcopy(m)
+        for holder, key in _raster_strings(m):
+            if holder[key] in keys:
+                holder[key] = "@" + keys[holder[key]]
+        out.append(m)
+    return out, {k: s for s, k in keys.items()}
+
+
+def shared_block(shared: dict[str, str]) -> str:
+    """The strings the maps of a page share (:func:`share_repeats`), once."""
+    return f'<script type="application/json" id="fm-shared">{_json_for_script(shared)}</script>' if shared else ""
 
 
 def map_block(data: dict[str, Any], anchor: str, *, basemap: str | None = None) -> str:

@@ -82,8 +82,23 @@
     return s;
   }
 
+  var shared = null;
+  function unshared(s) {  // "@key": a string several maps of the page share, written once (#fm-shared)
+    if (typeof s !== "string" || s.charAt(0) !== "@") return s;
+    if (shared === null) {
+      var el = document.getElementById("fm-shared");
+      shared = el ? JSON.parse(el.textContent) : {};
+    }
+    return shared[s.slice(1)];
+  }
+
   function initMap(root) {
     var data = JSON.parse(root.querySelector("script.fm-data").textContent);
+    data.layers.forEach(function (spec) {
+      if (!spec.raster) return;
+      spec.raster.png = unshared(spec.raster.png);
+      if (spec.raster.values) spec.raster.values.deflated = unshared(spec.raster.values.deflated);
+    });
     var el = root.querySelector(".fm-map");
     var aspect = data.aspect || 0.75;
     el.style.height = Math.round(Math.max(320, Math.min(el.clientWidth * aspect, 0.8 * window.innerHeight, 760))) + "px";
