@@ -264,3 +264,68 @@ def test_gis_exports_map_opens_offline(report: dict[str, Any], open_page: Any, t
     page = open_page(out, 390)
     assert page.blocked and all(u.startswith("https://tiles.invalid/") for u in page.blocked)
 
+
+
+@pytest.fixture(scope="module")
+def dose_report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The report of the synthetic spray run with an as-applied log (tests/report/synth_dose.py): two prescription
+    zones, one segment 25 % over, one gap."""
+    import shutil
+
+    from vinecli.report import build_report
+
+    from .synth_dose import write_as_applied
+
+    tmp = tmp_path_factory.mktemp("browser-dose")
+    batch = write_ci_batch(tmp / "ci")
+    runs = tmp / "runs"
+    runs.mkdir()
+    shutil.copytree(batch / "spray", runs / "spray")
+    doc = write_as_applied(runs / "spray")
+    res = build_report(runs, tmp / "report", workers=1)
+    return {"html": res.html, "runs": runs, "doc": doc}
+
+
+def _hover(page: Any, case: str, x: float, y: float, run_dir: Path) -> None:
+    """Move the cursor over world point (x, y) m of run ``case``'s map, zoomed in."""
+    from vinecli.report.fieldmap.context import load_context
+
+    (lon, lat), = load_context(run_dir).georef.to_lonlat([(x, y)])
+    page.locator(f"#map-{case}").scroll_into_view_if_needed()
+    xy = page.evaluate("""([id, lat, lon]) => { const m = document.getElementById(id).fieldmap.map;
+        m.setView([lat, lon], 21, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
+        const r = m.getContainer().getBoundingClientRect(); return [r.left + p.x, r.top + p.y]; }""",
+                       [f"map-{case}", lat, lon])
+    page.mouse.move(xy[0] - 3, xy[1])
+    page.mouse.move(*xy)
+
+
+def test_a_dosed_runs_map_shows_target_against_applied(dose_report: dict[str, Any], open_page: Any) -> None:
+    """A run that flew segment rates: the dose layers are on its map with their legends (the error per segment
+    shown when the page opens), hovering a segment reads its target, what the pump applied and the error, a zone's
+    outline its error, and figures 26 and 27 load."""
+    from .synth_dose import HOT
+
+    page = open_page(dose_report["html"], 1400)
+    assert page.errors == [] and page.blocked == []
+    panel = page.locator("#map-spray .fm-layers")
+    for key in ("prescription", "as_applied", "dose_error", "dose_zones", "canopy_segments"):
+        assert panel.locator(f'.fm-layer[data-layer="{key}"] .fm-legend > *').count() >= 1, key
+    assert panel.locator('.fm-layer[data-layer="dose_error"] input').is_checked()
+    assert not panel.locator('.fm-layer[data-layer="prescription"] input').is_checked()
+    for fid in ("fig26", "fig27"):
+        assert page.evaluate("id => { const i = document.querySelector('#' + id + ' img');"
+                             " return !!i && i.complete && i.naturalWidth > 600; }", f"spray-{fid}"), fid
+    hot = next(g for g in dose_report["doc"]["segments"] if (g["row"], round(g["s0_m"] / 2)) == HOT)
+    _hover(page, "spray", *hot["mid_enu"], dose_report["runs"] / "spray")
+    tip = page.locator(".leaflet-tooltip").last.text_content()
+    assert f"row {HOT[0]}" in tip and "target 30.0 L/ha" in tip and "applied (pump) 37.5 L/ha (+25.0 %)" in tip, tip
+    # the prescription layer switched on: a strip per segment, in its target's colour
+    before = page.locator("#map-spray path").count()
+    panel.locator('.fm-layer[data-layer="prescription"] input').check()
+    assert page.locator("#map-spray path").count() == before + len(dose_report["doc"]["segments"])
+    # a zone's outline: its error
+    zone = next(g for g in dose_report["doc"]["segments"] if g["row"] == 0 and g["s0_m"] == 0.0)
+    _hover(page, "spray", zone["start_enu"][0] - 1.25, zone["mid_enu"][1], dose_report["runs"] / "spray")
+    tip = page.locator(".leaflet-tooltip").last.text_content()
+    assert tip.startswith("zone 20 L/ha") and "applied (pump)" in tip, tip

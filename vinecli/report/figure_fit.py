@@ -1,6 +1,6 @@
 """Which figures fit a run: each figure is drawn when the run did what it shows (a lift-off with liquid in the tank,
-a flight through the air, a tank that was used, a wind that blew, several sorties, a deposition ...); the others
-get one line saying why not.
+a flight through the air, a tank that was used, a wind that blew, several sorties, a deposition, segment rates
+...); the others get one line saying why not.
 
 :func:`run_profile` reads what decides it (a few time-series columns, the events, the files of the run
 directory); :data:`FIT` maps each figure to its rule, a function of the :class:`RunProfile` returning None when
@@ -49,6 +49,7 @@ class RunProfile:
     deposition: bool
     targeted_rows: bool
     budget: bool
+    segment_rates: bool = False  # flew a canopy dose or a prescription map (an as-applied log)
 
 
 def _span(a: np.ndarray | None) -> float:
@@ -67,6 +68,7 @@ def run_profile(run_dir: str | Path) -> RunProfile:
 
     from vinecli.report.figure_base import PlotData
     from vinecli.report.loader import load_run
+    from vinecli.runs.as_applied_out import AS_APPLIED_JSON
 
     d = Path(run_dir)
     run = load_run(d)
@@ -93,7 +95,8 @@ def run_profile(run_dir: str | Path) -> RunProfile:
         mass_share=_span(mass) / _peak(mass) if _peak(mass) > 0 else 0.0, rotors=data.has("rotor1_w_radps"),
         battery=soc is not None, soc_drop=_span(soc), sorties=int(np.nanmax(sortie)) if sortie is not None else 1,
         services=sum(e.get("kind") in ("refill", "battery_swap") for e in data.events),
-        deposition=dep.is_file(), targeted_rows=rows, budget=(d / "budget.json").is_file())
+        deposition=dep.is_file(), targeted_rows=rows, budget=(d / "budget.json").is_file(),
+        segment_rates=(d / AS_APPLIED_JSON).is_file())
 
 
 def _fig16(p: RunProfile) -> str | None:
@@ -143,6 +146,7 @@ def _fig22(p: RunProfile) -> str | None:
 
 
 NO_SPRAY = "no deposition in this run (no sprayer used)"
+NO_DOSE = "no segment rates in this run (no canopy dose or prescription map)"
 
 #: figure id -> its rule: None when the figure fits the run, else why it is left out
 FIT: dict[str, Callable[[RunProfile], str | None]] = {
@@ -151,6 +155,8 @@ FIT: dict[str, Callable[[RunProfile], str | None]] = {
     "fig23": lambda p: None if p.deposition else NO_SPRAY,
     "fig24": lambda p: None if p.targeted_rows else (NO_SPRAY if not p.deposition else "no targeted rows to chart"),
     "fig25": lambda p: None if p.budget else "no spray budget in this run (no sprayer used)",
+    "fig26": lambda p: None if p.segment_rates else NO_DOSE,
+    "fig27": lambda p: None if p.segment_rates else NO_DOSE,
 }
 
 

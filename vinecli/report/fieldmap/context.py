@@ -53,6 +53,11 @@ class MapContext:
     def budget(self) -> dict[str, Any] | None:
         return self.json("budget.json")
 
+    @cached_property
+    def as_applied(self) -> dict[str, Any] | None:
+        """as_applied.json of a run that flew segment rates (a canopy dose or a prescription map)."""
+        return self.json("as_applied.json")
+
     @property
     def rows(self) -> list[list[tuple[float, float]]]:
         """The world's vine rows (ENU m polylines)."""

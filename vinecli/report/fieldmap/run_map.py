@@ -15,6 +15,13 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.report.fieldmap.as_applied_layers import (
+    as_applied_layer,
+    canopy_segments_layer,
+    dose_error_layer,
+    dose_zones_layer,
+    prescription_layer,
+)
 from vinecli.report.fieldmap.context import MapContext, load_context
 from vinecli.report.fieldmap.map_model import MapLayer, map_data
 from vinecli.report.fieldmap.mark_layers import events_layer, failed_checks_layer
@@ -32,7 +39,8 @@ __all__ = ["LAYERS", "run_map"]
 
 #: the layers, bottom first
 LAYERS: list[Callable[[MapContext], MapLayer | None]] = [
-    hillshade_layer, canopy_layer, deposition_layer, field_layer, no_spray_layer, fence_layer, rows_layer,
+    hillshade_layer, canopy_layer, deposition_layer, prescription_layer, as_applied_layer, dose_error_layer,
+    dose_zones_layer, canopy_segments_layer, field_layer, no_spray_layer, fence_layer, rows_layer,
     path_sprayer_layer, path_phase_layer, events_layer, failed_checks_layer,
 ]
 MARGIN_M = 4.0
