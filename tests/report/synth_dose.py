@@ -61,7 +61,8 @@ def as_applied_doc() -> dict[str, Any]:
     presc = sum(g["prescribed_lpha"] for g in segs) * SEGMENT_M * SPACING_M / 1e4
     applied = sum(g["pump_lpha"] for g in segs) * SEGMENT_M * SPACING_M / 1e4
     uniform = 30.0 * SEGMENT_M * SPACING_M / 1e4 * sum(not g["gap"] for g in segs)
-    summary = {"dose": "prescription map (zones)", "spacing_m": SPACING_M, "tolerance": 0.1, "zones": zones,
+    summary = {"dose": None, "prescription": {"file": "zones.gpkg", "kind": "zones", "zones": 2}, "spacing_m": SPACING_M,
+               "tolerance": 0.1, "zones": zones,
                "in_band_fraction": float(np.mean([g["pump_in_band"] for g in segs if not g["gap"]])),
                "in_band_fraction_deposit": 0.0}
     return {"schema": "vinecli.as_applied/1", "summary": summary, "tolerance": 0.1, "metrics": {},

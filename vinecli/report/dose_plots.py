@@ -99,7 +99,8 @@ def fig26_dose_maps(data: Any) -> bytes:
         fig.colorbar(pc, ax=ax, shrink=0.8)
     axes[0, 0].set_ylabel("north, m")
     s = doc.get("summary") or {}
-    set_title(fig, data, f"dose maps: {s.get('dose') or (s.get('prescription') or {}).get('kind', 'prescription')}")
+    set_title(fig, data, "Fig. 26  Dose maps: "
+              f"{s.get('dose') or (s.get('prescription') or {}).get('kind', 'prescription')}")
     return png_bytes(fig, colour_scale=True)  # four colour scales: a palette would band them
 
 
@@ -163,5 +164,5 @@ def fig27_dose_quality(data: Any) -> bytes:
     ax.set_title(f"saving against the uniform rate: {_num(p.get('saving_l')):.3g} L "
                  f"({_num(p.get('saving_pct')):.1f} %)", fontsize=8)
     ax.tick_params(axis="x", labelsize=7)
-    set_title(fig, data, "as applied: errors, transitions, product")
+    set_title(fig, data, "Fig. 27  As applied: errors, transitions, product")
     return png_bytes(fig)

@@ -58,10 +58,20 @@ def _pct(v: float) -> str:
     return f"{v:+.1f} %" if math.isfinite(v) else "-"
 
 
-def segment_tip(g: dict[str, Any]) -> str:
+def _row_names(ctx: MapContext) -> dict[Any, Any]:
+    """The phase's row index (a segment's ``row``) -> the row's name on the map (the deposition's rows, in the
+    same order: the world's row number when the mission named world rows)."""
+    return {r["row"]: ctx.row_name(r) for r in (ctx.deposition or {}).get("rows") or []}
+
+
+def _where(g: dict[str, Any], names: dict[Any, Any]) -> str:
+    return f"row {names.get(g['row'], g['row'])}, {g['s0_m']:.1f}-{g['s1_m']:.1f} m"
+
+
+def segment_tip(g: dict[str, Any], names: dict[Any, Any]) -> str:
     """A segment's hover text: where it is, its target, what the pump applied and what reached the canopy."""
     target, pump, dep = _num(g.get("prescribed_lpha")), _num(g.get("pump_lpha")), _num(g.get("deposit_lpha"))
-    head = f"row {g['row']}, {g['s0_m']:.1f}-{g['s1_m']:.1f} m"
+    head = _where(g, names)
     if g.get("gap") or not target > 0:
         return f"{head}: gap (no vines), target 0 L/ha, pump {pump:.1f} L/ha"
     text = (f"{head}: target {target:.1f} L/ha · applied (pump) {pump:.1f} L/ha "
@@ -88,14 +98,14 @@ def _rate_layer(ctx: MapContext, key: str, name: str, prop: str, note: str) -> M
     if doc is None:
         return None
     cmap, norm, top = _rate_scale(doc)
-    half = _half_spacing(doc)
+    half, names = _half_spacing(doc), _row_names(ctx)
     feats = []
     for g in doc["segments"]:
         v = _num(g.get(prop))
         if not math.isfinite(v):
             continue
         c = _hex(cmap(norm(v)))
-        feats.append(LocalFeature("Polygon", _strip(g, half), {"tip": segment_tip(g),
+        feats.append(LocalFeature("Polygon", _strip(g, half), {"tip": segment_tip(g, names),
                                                                "style": {"fillColor": c}}))
     legend = scale_legend(cmap, norm, {0.0: "0", top / 2: f"{top / 2:.3g}", top: f"{top:.3g}"}, "L/ha")
     return MapLayer(key, name, feats, style={"stroke": False, "fillOpacity": 0.85}, visible=False, legend=legend,
@@ -124,7 +134,7 @@ def dose_error_layer(ctx: MapContext) -> MapLayer | None:
     if doc is None:
         return None
     cmap, norm = colormaps["RdBu_r"], Normalize(-ERROR_RANGE_PCT, ERROR_RANGE_PCT)
-    half = _half_spacing(doc)
+    half, names = _half_spacing(doc), _row_names(ctx)
     tol = 100 * _num(doc.get("tolerance"))
     feats = []
     for g in doc["segments"]:
@@ -133,7 +143,7 @@ def dose_error_layer(ctx: MapContext) -> MapLayer | None:
             style = {"fillColor": "#ffffff", "fillOpacity": 0.3, "stroke": True, "color": C_GAP, "weight": 1}
         else:
             style = {"fillColor": _hex(cmap(norm(err)))}
-        feats.append(LocalFeature("Polygon", _strip(g, half), {"tip": segment_tip(g), "style": style}))
+        feats.append(LocalFeature("Polygon", _strip(g, half), {"tip": segment_tip(g, names), "style": style}))
     marks = {-ERROR_RANGE_PCT: f"-{ERROR_RANGE_PCT:g}", 0.0: "0", ERROR_RANGE_PCT: f"+{ERROR_RANGE_PCT:g} %"}
     if math.isfinite(tol) and 0 < tol < ERROR_RANGE_PCT:
         marks |= {-tol: f"-{tol:g}", tol: f"+{tol:g}"}
@@ -177,8 +187,11 @@ def dose_zones_layer(ctx: MapContext) -> MapLayer | None:
             feats.append(LocalFeature("Polygon", ring, {"zone": name, "tip": tip,
                                                         "style": {"color": colour}}))
         swatches.append((colour, f"zone {name}", "dash"))
-    # outlines only (no fill: the segments under them keep their hover), hovered on the line
-    return MapLayer("dose_zones", "Prescription zones", feats, style={"weight": 3, "fill": False, "dashArray": "6 4"},
+    # outlines only (no fill: the segments under them keep their hover), hovered on the line; a map's zones shown
+    # when the page opens, a dose expression's rate classes (which alternate along a row) on demand
+    a_map = bool((doc.get("summary") or {}).get("prescription"))
+    return MapLayer("dose_zones", "Prescription zones" if a_map else "Rate classes (dose per canopy)", feats,
+                    style={"weight": 3, "fill": False, "dashArray": "6 4"}, visible=a_map,
                     legend=Legend(swatches=swatches), note="hover its outline: the zone's error")
 
 
@@ -195,11 +208,12 @@ def canopy_segments_layer(ctx: MapContext) -> MapLayer | None:
     heights = [_num(g.get("wall_height_m")) for g in doc["segments"] if not g.get("gap")]
     top = max((h for h in heights if math.isfinite(h)), default=0.0)
     cmap, norm = colormaps["YlGn"], Normalize(0.0, top or 1.0)
+    names = _row_names(ctx)
     feats = []
     for g in doc["segments"]:
         h, w, lwa = _num(g.get("wall_height_m")), _num(g.get("width_m")), _num(g.get("lwa_m2pha"))
         line = [(float(g["start_enu"][0]), float(g["start_enu"][1])), (float(g["end_enu"][0]), float(g["end_enu"][1]))]
-        head = f"row {g['row']}, {g['s0_m']:.1f}-{g['s1_m']:.1f} m"
+        head = _where(g, names)
         if g.get("gap"):
             feats.append(LocalFeature("LineString", line, {"tip": f"{head}: gap (missing vines)",
                                                            "style": {"color": C_GAP, "dashArray": "3 3"}}))

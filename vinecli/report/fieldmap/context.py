@@ -58,6 +58,11 @@ class MapContext:
         """as_applied.json of a run that flew segment rates (a canopy dose or a prescription map)."""
         return self.json("as_applied.json")
 
+    @staticmethod
+    def row_name(row: dict[str, Any]) -> Any:
+        """A deposition row's name: the world's row number when the mission named world rows, else its index."""
+        return row["row"] if row.get("world_row") is None else row["world_row"]
+
     @property
     def rows(self) -> list[list[tuple[float, float]]]:
         """The world's vine rows (ENU m polylines)."""

@@ -37,7 +37,7 @@ def _point_along(line: list[Any], s: float) -> tuple[float, float]:
 
 
 def _row_lines(ctx: MapContext) -> dict[Any, list[Any]]:
-    return {r.get("world_row", r["row"]): r["polyline_enu"] for r in (ctx.deposition or {}).get("rows") or []}
+    return {ctx.row_name(r): r["polyline_enu"] for r in (ctx.deposition or {}).get("rows") or []}
 
 
 def events_layer(ctx: MapContext) -> MapLayer | None:

@@ -131,12 +131,15 @@ def deposition_layer(ctx: MapContext) -> MapLayer | None:
     top = float(norm.vmax)
     shown = np.nan_to_num(rate) > WET_SHARE * top
     asked = float(nominal) if isinstance(nominal, (int, float)) and nominal > 0 else None
+    dosed = bool((ctx.as_applied or {}).get("segments"))  # segment rates: no one asked rate, no dose bands
     r = Raster(_rgba(cmap, norm, rate, 0.85, shown), g["x0_m"], g["y0_m"], g["cell_m"],
                values=np.where(np.isfinite(rate), rate, np.nan), label="deposition", unit="L/ha", digits=1,
-               ref=asked, ref_label="asked")
+               ref=None if dosed else asked, ref_label="asked")
     bands = doc.get("dose_bands") or {}
     marks = {0.0: "0", top: f"{top:.3g}"}
-    if asked is not None:
+    if dosed and asked is not None:
+        marks[asked] = f"{asked:.3g} mean target"
+    elif asked is not None:
         gap, hot = float(bands.get("gap_ratio", 0.6)), float(bands.get("hot_ratio", 1.3))
         marks |= {v: lab for v, lab in ((gap * asked, f"gap {gap:g}×"), (asked, f"{asked:.3g} asked"),
                                         (hot * asked, f"hot {hot:g}×")) if v < top}  # as fig. 23's colour bar

@@ -39,7 +39,7 @@ def rows_layer(ctx: MapContext) -> MapLayer | None:
     """Every vine row (thin), the targeted ones (thick) with their mean rate, coverage and dose faults."""
     rows = ctx.rows
     dep = ctx.deposition or {}
-    targeted = [(r.get("world_row", r["row"]), [(float(p[0]), float(p[1])) for p in r["polyline_enu"]], r)
+    targeted = [(ctx.row_name(r), [(float(p[0]), float(p[1])) for p in r["polyline_enu"]], r)
                 for r in dep.get("rows") or [] if len(r.get("polyline_enu") or []) >= 2]
     nominal = (dep.get("metrics") or {}).get("nominal_rate_lpha")
     if not rows and not targeted:
