@@ -14,6 +14,7 @@ import os
 import time
 import traceback
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 from vinecli.batch.signals import case_running, worker_should_stop
@@ -86,8 +87,6 @@ def _draw_for_report(request: RunRequest) -> None:
     drawn is the report's to tell: never a failure of the case."""
     if worker_should_stop():
         return
-    from pathlib import Path
-
     from vinecli.report.render import draw_into_cache
 
     run_dir = Path(request.runs_dir) / str(request.run_id)
