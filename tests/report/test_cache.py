@@ -95,3 +95,30 @@ def test_prune_keeps_the_cache_under_its_size(tmp_path: Path) -> None:
     c.prune(max_bytes=2500)
     left = sorted(p.name[:2] for p in tmp_path.glob("*/*"))
     assert left == ["03", "04"]  # the most recently used
+
+
+def test_a_batch_worker_draws_its_run_for_the_first_report(ci_runs: Path, tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch,
+                                                           drawn: list[tuple[str, str]]) -> None:
+    """What a batch worker does when its run ends (batch/case.py): the run's figures and map go into the cache, so
+    the first report over the batch draws nothing; with the cache off it draws nothing at the run's end either."""
+    from vinecli.batch.case import _draw_for_report
+    from vinecli.report.render import draw_into_cache
+    from vinecli.runs.request import RunRequest
+
+    runs = tmp_path / "runs"
+    shutil.copytree(ci_runs, runs)
+    monkeypatch.setenv("VINECLI_CACHE_DIR", "off")
+    assert draw_into_cache(runs / "spray") is False and drawn == []
+    monkeypatch.setenv("VINECLI_CACHE_DIR", str(tmp_path / "cache"))
+    for case in ("takeoff", "overload", "spray", "gust"):  # as each worker's run ends
+        _draw_for_report(RunRequest(mission="m.yaml", world_dir=tmp_path, runs_dir=runs, run_id=case, case=case))
+    n = len(drawn)
+    assert {d for d, _ in drawn} == {"takeoff", "overload", "spray", "gust"} and ("spray", "map") in drawn
+    cached = sorted(p.relative_to(tmp_path) for p in (tmp_path / "cache").rglob("*") if p.is_file())
+    build_report(runs, tmp_path / "report", workers=2)
+    # the first report: everything from the cache (nothing drawn here, nothing new cached from a worker)
+    assert len(drawn) == n and sorted(p.relative_to(tmp_path) for p in (tmp_path / "cache").rglob("*")
+                                      if p.is_file()) == cached
+    assert draw_into_cache(runs / "spray") is False  # and drawn once
+    _draw_for_report(RunRequest(mission="m.yaml", world_dir=tmp_path, runs_dir=runs, run_id="gone", case="gone"))
