@@ -1,10 +1,12 @@
 # Two set-up commands work on a fresh machine: `make demo` and `make test`.
-# Each creates .venv and installs what is missing (apt packages included) first.
+# Each creates .venv and installs what is missing (apt packages included) first. Debian's chromium is the
+# browser of the report's browser tests (tests/report/test_browser.py, through pytest-playwright; Playwright's own
+# browser download is never used).
 PY      ?= python3
 VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
-APT_PKGS := libusb-1.0-0 gdal-bin gcc
+APT_PKGS := libusb-1.0-0 gdal-bin gcc chromium
 DEMO_OUT ?= demo-out
 LOCK    := requirements.lock
 LOCK_ROTORPY := requirements-rotorpy.lock

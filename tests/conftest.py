@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("VINECLI_CACHE_DIR", "off")  # the report cache: only its own tests use one (tmp_path)
 
 
 @pytest.fixture(scope="session")

@@ -125,6 +125,9 @@ def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Pat
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(app, ["gis", "export", str(s.run_dir), "--out", str(tmp_path / "out.gpkg")])
     assert r.exit_code == 0, r.output
+    for html in (tmp_path / "out.geojson.html", tmp_path / "out.gpkg.html"):  # the run's field map beside each
+        page = html.read_text()
+        assert '<script type="application/json" class="fm-data">' in page and '"key":"no_spray"' in page
     fc = json.loads((tmp_path / "out.geojson").read_text())
     assert "crs" not in fc
     by = {k: [f for f in fc["features"] if f["properties"]["layer"] == k] for k in

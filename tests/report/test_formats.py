@@ -11,7 +11,7 @@ import pytest
 from lxml import etree
 
 from vinecli.report import build_report
-from vinecli.report.plots import FIGURES
+from vinecli.report.plots import CHARTS, FIGURES
 
 from .synth_runs import MISSIONS, clone_batch, write_ci_batch
 
@@ -37,13 +37,27 @@ def test_passing_batch(ci_report) -> None:
         "junit.xml", "manifest.json", "report.html", "summary.json", "summary.md"]
 
 
+def _fitting(runs: Path, case: str) -> set[str]:
+    from vinecli.report.figure_fit import fitting_figures, run_profile
+
+    return {fid for fid, why in fitting_figures(run_profile(runs / case)).items() if why is None}
+
+
 def test_html_is_self_contained_with_every_figure_and_check(ci_report, ci_runs: Path) -> None:
     html = ci_report.html.read_text(encoding="utf-8")
-    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
-    assert "<script" not in html.lower() and "<link" not in html.lower() and "@import" not in html
-    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
-    # every figure of every run; the three spray figures (deposition, coverage, budget) only for the run that sprayed
-    assert len(imgs) == len(MISSIONS) * (len(FIGURES) - 3) + 3
+    markup = re.sub(r"<script>.*?</script>", "", html, flags=re.S)  # the inline Leaflet and map script
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", markup, re.I)
+    assert "<script src" not in html.lower() and "<link" not in html.lower() and "@import" not in html
+    # Leaflet and the map script, uPlot and the chart script once; a map each
+    assert html.count("<script>") == 4 and html.count('<script type="application/json" class="fm-data">') == len(MISSIONS)
+    imgs = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', markup)
+    charts = re.findall(r'<script type="application/json" class="tsc-data">', markup)
+    # the figures that fit each run: the spray figures (deposition, coverage, budget) only for the run that sprayed;
+    # the time series (17-22) drawn by the browser, the others PNG images
+    fit = {m: _fitting(ci_runs, m) for m in MISSIONS}
+    assert len(imgs) == sum(len(f - CHARTS) for f in fit.values()) and {"fig23", "fig24", "fig25"} <= fit["spray"]
+    assert len(charts) == sum(len(f & CHARTS) for f in fit.values()) > 0
+    assert not any({"fig23", "fig24", "fig25"} & fit[m] for m in MISSIONS if m != "spray")
     import base64
 
     assert all(base64.b64decode(b)[:8] == b"\x89PNG\r\n\x1a\n" for b in imgs)
@@ -73,10 +87,12 @@ def test_summary_json_and_markdown(ci_report) -> None:
     s = json.loads(ci_report.files["json"].read_text())
     assert s["passed"] is True and s["exit_code"] == 0 and s["totals"]["runs"] == 4
     gust = next(r for r in s["runs"] if r["case"] == "gust")
-    assert gust["figures"] == {fid: "rendered" if fid not in ("fig23", "fig24", "fig25") else
-                               "skipped: no deposition in this run (no sprayer used)" for fid in FIGURES}
+    assert set(gust["figures"]) == set(FIGURES) and gust["map"] == "drawn"
+    assert gust["figures"]["fig21"] == "rendered"  # the gust: the tilt into the wind
+    assert gust["figures"]["fig23"] == "skipped: no deposition in this run (no sprayer used)"
+    assert gust["figures"]["fig19"].startswith("skipped: the tank was not used")
     spray = next(r for r in s["runs"] if r["case"] == "spray")
-    assert spray["figures"] == {fid: "rendered" for fid in FIGURES}
+    assert all(spray["figures"][f] == "rendered" for f in ("fig19", "fig23", "fig24", "fig25"))
     assert spray["metrics"]["deposit_balance_error"] <= 1e-6 and spray["metrics"]["deposit_emitted_l"] > 0.5
     assert gust["metrics"]["max_tilt_deg"] > 3.0  # the gust tilts the vehicle ~5°
     md = ci_report.files["md"].read_text()
@@ -184,12 +200,20 @@ def test_large_batch_paginates_with_per_run_pages(ci_runs: Path, tmp_path: Path)
 
 
 def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None:
-    from vinecli.report.assemble import render_all
+    from vinecli.report.cache import FigureCache
     from vinecli.report.loader import load_runs
     from vinecli.report.plots import png_size
+    from vinecli.report.render import draw_runs
 
     runs = [r for r in load_runs(ci_runs) if r.case in ("overload", "takeoff")]
     calls: list[tuple[int, int]] = []
-    figs = render_all(runs, workers=2, progress=lambda i, n: calls.append((i, n)))
-    assert sorted(figs) == ["overload", "takeoff"] and calls[-1] == (2, 2)
-    assert all(png_size(f["png"]) for run in figs.values() for fid, f in run.items() if fid not in ("fig23", "fig24", "fig25"))
+    drawn = draw_runs(runs, FigureCache(None), workers=2, progress=lambda i, n: calls.append((i, n)))
+    n_items = sum(len(_fitting(ci_runs, c)) + 1 for c in ("overload", "takeoff"))  # + the map
+    assert sorted(drawn) == ["overload", "takeoff"] and calls[-1] == (n_items, n_items)
+    for case, d in drawn.items():
+        fit = _fitting(ci_runs, case)
+        assert all(png_size(f["png"]) for fid, f in d.figures.items() if fid in fit - CHARTS)
+        assert all(f["chart"]["panels"] for fid, f in d.figures.items() if fid in fit & CHARTS)
+        assert all(f["png"] is None and f["chart"] is None and f["note"] for fid, f in d.figures.items()
+                   if fid not in fit)
+        assert d.map is not None and d.map["layers"]

@@ -14,6 +14,7 @@ import os
 import time
 import traceback
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 from vinecli.batch.signals import case_running, worker_should_stop
@@ -65,6 +66,7 @@ def run_one(request: RunRequest) -> CaseResult:
         log.debug("case %s failed:\n%s", case, traceback.format_exc())
         return CaseResult(case, run_id, "error", False, f"{type(exc).__name__}: {exc}", seed=seed,
                           wall_time_s=round(time.perf_counter() - t0, 3))
+    _draw_for_report(request)
     error = None
     status = s.status
     if status == "interrupted" and s.status_message.startswith("stopped: wall-clock"):
@@ -76,3 +78,20 @@ def run_one(request: RunRequest) -> CaseResult:
         wall_time_s=s.wall_time_s, real_time_factor=s.real_time_factor,
         failed_checks=[c["name"] for c in s.failed_checks],
     )
+
+
+def _draw_for_report(request: RunRequest) -> None:
+    """The run's report figures and field map drawn into the report's cache while this worker is warm (its
+    matplotlib loaded, the batch's other cases still flying), so the report over the batch starts from them
+    (:func:`vinecli.report.render.draw_into_cache`; off with ``VINECLI_CACHE_DIR=off``). A figure that cannot be
+    drawn is the report's to tell: never a failure of the case."""
+    if worker_should_stop():
+        return
+    from vinecli.report.render import draw_into_cache
+
+    run_dir = Path(request.runs_dir) / str(request.run_id)
+    try:
+        os.environ.setdefault("MPLBACKEND", "Agg")
+        draw_into_cache(run_dir)
+    except Exception as exc:  # noqa: BLE001 - the run is written; its figures are a convenience of the report
+        log.warning("%s: report figures not drawn at the run's end: %s: %s", run_dir, type(exc).__name__, exc)

@@ -19,14 +19,17 @@ def export_cmd(
     run_dir: Annotated[Path, typer.Argument(help="A run directory (vinecli run mission --out RUNS: RUNS/<run_id>).")],
     out: Annotated[Path, typer.Option("--out", help="FILE.gpkg (one layer each) or FILE.geojson (WGS84, a 'layer' "
                                                     "property per feature).")],
-    overwrite: Annotated[bool, overwrite_option("Replace an existing --out file.")] = False,
+    overwrite: Annotated[bool, overwrite_option("Replace an existing --out file (and its map).")] = False,
+    with_map: Annotated[bool, typer.Option("--map/--no-map", help="Also write the run's field map (the report's "
+                                                                  "Leaflet map, offline) beside it as FILE.gpkg.html.")
+                        ] = True,
 ) -> None:
     """Rows, passes, sprayed stretches, gaps, the deposition map (rate classes), fence and no-spray zones of a run,
-    in WGS84 through the world's CRS: they open in place over the DSM in QGIS.
+    in WGS84 through the world's CRS: they open in place over the DSM in QGIS; and the run's field map as FILE.gpkg.html.
 
-    Example: vinecli gis export runs/spray-s0 --out spray.gpkg
+    Example: vinecli gis export runs/spray-s0 --out spray.gpkg   (spray.gpkg and spray.gpkg.html)
     """
-    from vinecli.runs.gis_out import export_run_gis
+    from vinecli.report.fieldmap.export import export_run_gis_with_map
 
-    path = export_run_gis(run_dir, out, overwrite=overwrite)
-    out_console.print(f"wrote {path}")
+    for path in export_run_gis_with_map(run_dir, out, overwrite=overwrite, with_map=with_map):
+        out_console.print(f"wrote {path}")

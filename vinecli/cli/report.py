@@ -31,9 +31,19 @@ def report_cmd(
     max_figure_runs: Annotated[int, typer.Option("--max-figure-runs", help="Figure budget (runs) for "
                                                                            "--figures auto/failed.")] = 20,
     workers: Annotated[int | None, workers_option("Processes rendering figures (default: min(4, CPUs)).")] = None,
+    cache: Annotated[bool, typer.Option("--cache/--no-cache", help="Reuse figures and maps drawn before for the same "
+                                                                   "run content (VINECLI_CACHE_DIR, default "
+                                                                   "~/.cache/vinecli/report).")] = True,
+    maps: Annotated[bool, typer.Option("--maps/--no-maps", help="A field map per run with figures (Leaflet, "
+                                                                "offline).")] = True,
+    basemap: Annotated[str | None, typer.Option("--basemap", help="Tile URL template under the maps, e.g. "
+                                                                  "'https://tile.openstreetmap.org/{z}/{x}/{y}.png' "
+                                                                  "(fetched by the browser; default: none, offline)."
+                                                 )] = None,
     overwrite: Annotated[bool, overwrite_option("Replace an existing, non-empty --out.")] = False,
 ) -> None:
-    """Build the HTML/Markdown/JUnit/JSON report of a batch of runs (thesis figures 16-21 per run).
+    """Build the HTML/Markdown/JUnit/JSON report of a batch of runs: per run its checks, a map of the field and the
+    figures that fit it.
 
     Exit 1 if a check failed, a case errored or a regression against --baseline was flagged; 2 for bad input.
 
@@ -55,6 +65,7 @@ def report_cmd(
 
         result = build_report(runs, out, fmt, baseline, tolerances=parse_tolerances(tolerance or []),
                               figures=figures, max_figure_runs=max_figure_runs, workers=workers, overwrite=overwrite,
+                              use_cache=cache, maps=maps, basemap=basemap,
                               progress=on_progress)  # type: ignore[arg-type]
     out_console.print(f"{result.n_runs} runs: {result.n_passed} passed, {result.n_failed} failed, "
                       f"{result.n_errors} errors" + (f", {len(result.regressions)} regressions vs {baseline}"

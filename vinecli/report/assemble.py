@@ -1,19 +1,19 @@
 """``build_report``: runs directory -> report directory (HTML, Markdown, JUnit XML, JSON).
 
 Everything is written through :func:`vinecli.outputs.atomic_output_dir` (nothing half-written).
-Figures are rendered per run, in a process pool when several runs need them. For large batches
-only a budget of runs gets figures (errored/failing/regressed runs first, then one run per
-mission) so a 1,000-run report still builds in well under a minute; ``figures="all"`` renders
-every run.
+Each run gets the figures that fit it and its field map (:mod:`vinecli.report.render`: from the cache, else
+drawn in a process pool). For large batches only a budget of runs gets figures and maps (errored/failing/regressed
+runs first, then one run per mission) so a 1,000-run report still builds in well under a minute;
+``figures="all"`` draws every run.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -23,7 +23,9 @@ from vinecli.errors import InputError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
 from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_section
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
+from vinecli.report.cache import FigureCache, cache_root
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
+from vinecli.report.render import FigurePool, RunDrawing, all_cached, draw_runs
 from vinecli.runs.batch_json import BATCH_JSON, read_batch_json
 from vinecli.runs.rundir import SUMMARY
 
@@ -93,41 +95,8 @@ def select_figure_runs(runs: Sequence[Run], policy: FigurePolicy, budget: int,
     return chosen
 
 
-def _render_one(run_dir: str) -> tuple[str, dict[str, dict[str, Any]]]:
-    os.environ.setdefault("MPLBACKEND", "Agg")
-    from vinecli.report.plots import render_figures
-
-    return run_dir, render_figures(run_dir)
-
-
-def render_all(runs: Sequence[Run], workers: int = 1, progress: Callable[[int, int], None] | None = None
-               ) -> dict[str, dict[str, dict[str, Any]]]:
-    """Figures of ``runs`` (case -> fig id -> {png, note, caption}); a spawn process pool when workers > 1."""
-    by_dir = {str(r.dir): r.case for r in runs if r.dir is not None}
-    out: dict[str, dict[str, dict[str, Any]]] = {}
-    total = len(by_dir)
-    if total == 0:
-        return out
-    if workers <= 1 or total == 1:
-        for i, d in enumerate(by_dir, 1):
-            out[by_dir[d]] = _render_one(d)[1]
-            if progress:
-                progress(i, total)
-        return out
-    import multiprocessing as mp
-
-    with ProcessPoolExecutor(max_workers=min(workers, total), mp_context=mp.get_context("spawn")) as ex:
-        futs = [ex.submit(_render_one, d) for d in by_dir]
-        for i, fut in enumerate(as_completed(futs), 1):
-            d, figs = fut.result()
-            out[by_dir[d]] = figs
-            if progress:
-                progress(i, total)
-    return out
-
-
 def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: Path,
-                 figures: Mapping[str, Mapping[str, Any]], pages: Mapping[str, str],
+                 figures: Mapping[str, RunDrawing], pages: Mapping[str, str],
                  autopilots: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """The report's machine-readable ``summary.json`` (``autopilots``: :func:`comparison_groups`)."""
     from vinecli import __version__
@@ -152,8 +121,10 @@ def summary_dict(runs: Sequence[Run], comparison: Comparison | None, runs_dir: P
             "failsafes": r.failsafes, "timing": r.timing,
             "checks": r.checks, "failed_checks": [c["name"] for c in r.failed_checks], "metrics": r.metrics(),
             "regressions": [g.to_dict() for g in (comparison.for_case(r.case) if comparison else [])],
-            "figures": {fid: ("rendered" if f.get("png") else f"skipped: {f.get('note')}")
-                        for fid, f in (figures.get(r.case) or {}).items()},
+            "figures": {fid: ("rendered" if f.get("png") or f.get("chart") else f"skipped: {f.get('note')}")
+                        for fid, f in (figures[r.case].figures.items() if r.case in figures else ())},
+            "map": (("drawn" if figures[r.case].map is not None else f"skipped: {figures[r.case].map_note}")
+                    if r.case in figures else None),
             "page": pages.get(r.case),
         } for r in runs],
         "regressions": [g.to_dict() for g in regs],
@@ -208,6 +179,9 @@ def build_report(
     workers: int | None = None,
     title: str | None = None,
     overwrite: bool = False,
+    use_cache: bool = True,
+    maps: bool = True,
+    basemap: str | None = None,
     progress: Callable[[str, int, int], None] | None = None,
 ) -> ReportResult:
     """Build the report of ``runs_dir`` into ``out_dir`` (atomically) and return a :class:`ReportResult`.
@@ -216,7 +190,9 @@ def build_report(
     name (regressions per :mod:`vinecli.report.baseline`, ``tolerances`` override the defaults);
     ``figures``/``max_figure_runs``: which runs get figures (see :func:`select_figure_runs`); ``inline_limit``:
     batches up to this size put every run in report.html, larger ones get runs/<id>.html pages and an overview
-    paginated by ``page_size``; ``workers``: figure processes (default min(4, CPUs)).
+    paginated by ``page_size``; ``workers``: figure processes (default min(4, CPUs)); ``use_cache``: reuse and keep
+    drawn figures and maps (:mod:`vinecli.report.cache`); ``maps``: a field map per run with figures; ``basemap``: a
+    tile URL template drawn under the maps (fetched by the browser; none by default: the page is offline).
     Raises InputError (exit 2) for a bad runs/baseline directory or option, OutputError (exit 2, before any
     work) when ``out_dir`` is not writable or exists without ``overwrite``, and before anything is written when it
     is, contains or lies inside a run folder it reads (a report may go into the runs folder itself).
@@ -233,11 +209,56 @@ def build_report(
     manifest = Manifest(command="report", parameters={
         "runs_dir": str(runs_dir), "formats": list(fmts), "baseline": str(baseline) if baseline else None,
         "figures": figures, "max_figure_runs": max_figure_runs, "inline_limit": inline_limit,
-        "page_size": page_size, "workers": workers,
+        "page_size": page_size, "workers": workers, "cache": use_cache, "maps": maps, "basemap": basemap,
         "tolerances": {k: vars(v) for k, v in (tolerances or {}).items()}})
     t0 = time.perf_counter()
+    with contextlib.ExitStack() as stack:
+        opts = _Options(runs_dir, Path(out_dir), fmts, baseline, tolerances, figures, max_figure_runs, inline_limit,
+                        page_size, workers, title, overwrite, use_cache, maps, basemap)
+        result = _build(stack, opts, progress, manifest)
+    result.timings = dict(manifest.timings)
+    result.timings["total"] = round(time.perf_counter() - t0, 4)
+    log.info("report of %d runs in %s (%.2f s)", result.n_runs, out_dir, result.timings["total"])
+    return result
+
+
+@dataclass(frozen=True)
+class _Options:
+    """:func:`build_report`'s options, checked (``workers`` resolved)."""
+
+    runs_dir: Path
+    out_dir: Path
+    fmts: tuple[str, ...]
+    baseline: str | Path | None
+    tolerances: Mapping[str, Tolerance] | None
+    figures: FigurePolicy
+    max_figure_runs: int
+    inline_limit: int
+    page_size: int
+    workers: int
+    title: str | None
+    overwrite: bool
+    use_cache: bool
+    maps: bool
+    basemap: str | None
+
+
+def _build(stack: contextlib.ExitStack, o: _Options, progress: Callable[[str, int, int], None] | None,
+           manifest: Manifest) -> ReportResult:
+    """:func:`build_report`'s work; the drawing processes, when started, are closed with ``stack``."""
+    runs_dir, out_dir, fmts, baseline, figures = o.runs_dir, o.out_dir, o.fmts, o.baseline, o.figures
+    max_figure_runs, inline_limit, workers, maps, overwrite = (o.max_figure_runs, o.inline_limit, o.workers, o.maps,
+                                                               o.overwrite)
+    want_figs = "html" in fmts
+    cache = FigureCache(cache_root() if o.use_cache else None)
+    keys: dict[str, str] = {}
+    pool = None
     with manifest.stage("load"):
         runs = load_runs(runs_dir)
+        # the drawing processes start now, importing while this one reads the runs, unless nothing needs drawing
+        if want_figs and figures != "none" and workers > 1 and \
+                not all_cached(select_figure_runs(runs, figures, max_figure_runs), cache, maps, keys):
+            pool = stack.enter_context(FigurePool(workers))
         for r in runs:
             r.report_metrics = compute_report_metrics(r)
     manifest.inputs = [r.dir / SUMMARY for r in runs if r.dir is not None]
@@ -248,20 +269,21 @@ def build_report(
             base_runs = load_runs(baseline)
             for r in base_runs:
                 r.report_metrics = compute_report_metrics(r)
-            comparison = compare(runs, base_runs, str(baseline), tolerances)
+            comparison = compare(runs, base_runs, str(baseline), o.tolerances)
     # the inputs are the run folders read (and batch.json): the report may go into the runs folder, not
     # over or into a run, nor contain one
     read = [r.dir for r in [*runs, *(base_runs if baseline is not None else [])] if r.dir is not None]
     check_output_target(Path(out_dir), overwrite=overwrite, inputs=[*read, runs_dir / BATCH_JSON], kind="report")
     pipeline = _pipeline_name(runs_dir)
-    want_figs = "html" in fmts
     chosen = select_figure_runs(runs, figures, max_figure_runs, comparison) if want_figs else []
-    figs: dict[str, dict[str, dict[str, Any]]] = {}
+    figs: dict[str, RunDrawing] = {}
     with manifest.stage("figures"):
         if chosen:
-            figs = render_all(chosen, workers, (lambda i, n: progress("figures", i, n)) if progress else None)
+            figs = draw_runs(chosen, cache, workers, (lambda i, n: progress("figures", i, n)) if progress else None,
+                             maps=maps, pool=pool, keys=keys)
+            cache.prune()
     notes, policy_note = _figure_notes(runs, chosen, want_figs, figures, max_figure_runs)
-    ttl = title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
+    ttl = o.title or (f"vinecli report — {pipeline}" if pipeline else "vinecli report")
     result = ReportResult(out_dir=Path(out_dir), n_runs=len(runs), n_errors=sum(r.errored for r in runs),
                           n_failed=sum((not r.passed) and not r.errored for r in runs),
                           failed_checks=[(r.case, c["name"]) for r in runs for c in r.failed_checks],
@@ -275,8 +297,8 @@ def build_report(
 
             with manifest.stage("html"):
                 write_html(tmp, runs, figs, comparison, title=ttl, runs_dir=str(runs_dir), pipeline=pipeline,
-                           inline_limit=inline_limit, page_size=page_size, figure_notes=notes,
-                           figure_policy=policy_note, autopilots=html_blocks(autopilots))
+                           inline_limit=inline_limit, page_size=o.page_size, figure_notes=notes,
+                           figure_policy=policy_note, autopilots=html_blocks(autopilots), basemap=o.basemap)
             if not inline:
                 from vinecli.report.markdown import run_order
 
@@ -301,7 +323,4 @@ def build_report(
                 write_json(tmp / FILES["json"], summary_dict(runs, comparison, runs_dir, figs, pages, autopilots))
         manifest.extra = {"exit_code": result.exit_code, "runs": len(runs), "figure_runs": len(chosen)}
     result.files = {f: Path(out_dir) / FILES[f] for f in fmts}
-    result.timings = dict(manifest.timings)
-    result.timings["total"] = round(time.perf_counter() - t0, 4)
-    log.info("report of %d runs in %s (%.2f s)", len(runs), out_dir, result.timings["total"])
     return result

@@ -3,7 +3,7 @@
 Left: one stacked bar for the whole run, then one per sprayed row (the spray released over that row):
 canopy, ground in the field, ground off the field, airborne out of the drift domain, evaporated, in %
 of the volume. Right: sedimenting drift downwind of the last row, % of the applied rate, against the
-distance on a log axis, with the German basic drift values of vineyards (Rautmann et al. 2001, 90th
+distance, both on log axes (no drift: on the floor, marked 0), with the German basic drift values of vineyards (Rautmann et al. 2001, 90th
 percentile, one application; ground air-blast sprayers) for scale and the default drift ceiling at
 5 m. Read from ``budget.json``; runs without one raise :class:`~vinecli.report.figure_base.NoData`.
 """
@@ -27,6 +27,7 @@ BUDGET_COLOURS = {
     "airborne_out": ("airborne, out", "#c62828"),
     "evaporated": ("evaporated", "#90caf9"),
 }
+DRIFT_FLOOR_PCT = 1e-3  # the drift axis' floor, % of applied: below it the run put nothing on the ground there
 #: distance m -> drift % of applied, late vines, 90th percentile of one application (Rautmann et al. 2001)
 RAUTMANN_VINES_LATE = {3.0: 8.02, 5.0: 3.62, 10.0: 1.23, 15.0: 0.65, 20.0: 0.42, 30.0: 0.22, 50.0: 0.10}
 
@@ -101,15 +102,24 @@ def _bars(ax: Any, doc: dict[str, Any]) -> None:
 
 
 def _drift(ax: Any, doc: dict[str, Any]) -> None:
+    """The run's drift curve against the reference values, both axes logarithmic (a regulator reads 3-50 m where
+    the values are hundredths of the 1 m one); points with no drift sit on the axis' floor, marked "0"."""
+    from matplotlib.ticker import FuncFormatter, NullLocator
+
     from vinecli.missions.budget_metrics import DEFAULT_DRIFT_5M_MAX_PCT
 
     pts = [(p["distance_m"], p["percent_of_applied"]) for p in doc.get("drift_curve") or []
            if p.get("percent_of_applied") is not None and math.isfinite(p["percent_of_applied"])]
     if pts:
         d, v = np.array(pts).T
-        ax.plot(d, v, marker="o", color="#c62828", lw=2, label="this run")
+        wet = v >= DRIFT_FLOOR_PCT
+        ax.plot(d[wet], v[wet], marker="o", color="#c62828", lw=2, label="this run")
+        if (~wet).any():  # none on the ground there: on the axis' floor, not lost below a log axis
+            ax.plot(d[~wet], np.full((~wet).sum(), DRIFT_FLOOR_PCT), marker="o", mfc="white", color="#c62828",
+                    ls="", ms=6, clip_on=False, label=f"this run: none (< {DRIFT_FLOOR_PCT:g} %)")
         for di, vi in zip(d, v, strict=True):
-            ax.annotate(f"{vi:.2g}", (di, vi), xytext=(0, 6), textcoords="offset points", ha="center", fontsize=8)
+            ax.annotate(f"{vi:.2g}" if vi >= DRIFT_FLOOR_PCT else "0", (di, max(vi, DRIFT_FLOOR_PCT)), xytext=(0, 6),
+                        textcoords="offset points", ha="center", fontsize=8)
     rd, rv = np.array(list(RAUTMANN_VINES_LATE.items())).T
     ax.plot(rd, rv, ls="--", color="#616161", lw=1.2, label="vines, full leaf: basic drift\n(Rautmann 2001, air-blast)")
     ax.plot([5.0], [DEFAULT_DRIFT_5M_MAX_PCT], marker="v", color="k", ls="", ms=8, label="ceiling at 5 m (check)")
@@ -117,12 +127,19 @@ def _drift(ax: Any, doc: dict[str, Any]) -> None:
     ticks = [1, 3, 5, 10, 15, 20, 30, 50]
     ax.set_xticks(ticks, [str(t) for t in ticks])
     ax.set_xlim(0.8, 60)
-    ax.set_ylim(bottom=0)
+    ax.set_yscale("log")
+    top = max([100.0, *(p[1] for p in pts)])
+    ax.set_ylim(DRIFT_FLOOR_PCT, 1.5 * top)
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _pos: f"{y:g}"))
     ax.set_xlabel("distance downwind of the last row, m (log)")
-    ax.set_ylabel("drift on the ground, % of applied")
+    ax.set_ylabel("drift on the ground, % of applied (log)")
     dr = doc.get("drift") or {}
-    ax.set_title("calm: both sides averaged" if dr.get("calm") else "downwind side", fontsize=9, loc="left")
-    ax.grid(alpha=0.3, which="both")
+    # at a fixed height: matplotlib otherwise lays out the axes to place it (a quarter of the figure's time)
+    ax.set_title("calm: both sides averaged" if dr.get("calm") else "downwind side", fontsize=9, loc="left", y=1.0,
+                 pad=4)
+    ax.xaxis.set_minor_locator(NullLocator())  # labelled majors only: log axes' minor ticks cost as much again
+    ax.yaxis.set_minor_locator(NullLocator())
+    ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper right")
 
 

@@ -79,9 +79,10 @@ def _mark_bands(cb: Any, nominal: Any, bands: dict[str, Any]) -> None:
              top: (f"{top:.3g}", 0.0, "-")}
     marks = {v: m for v, m in marks.items() if v <= top}
     cb.set_ticks(list(marks), labels=[m[0] for m in marks.values()], fontsize=7)
+    line = cb.ax.axvline if cb.orientation == "horizontal" else cb.ax.axhline
     for v, (_lab, lw, ls) in marks.items():
         if lw > 0:
-            cb.ax.axhline(v, color="k", lw=lw, ls=ls)
+            line(v, color="k", lw=lw, ls=ls)
 
 
 def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], faults: list[Any]) -> list[str]:
@@ -114,13 +115,60 @@ def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], fau
     return lines
 
 
-def fig23_deposition(data: Any) -> bytes:
-    """Application rate map (L/ha) over the terrain with the rows, the flown path and the fence."""
+#: fig. 23's map: the height of a tall field's map, the width of a wide one (inches); the side panel's width
+MAP_TALL_IN, MAP_WIDE_IN, SIDE_IN = 6.8, 10.0, 4.6
+
+
+def _fig23_view(rate: np.ndarray, ext: tuple[float, float, float, float], cell: float, vmax: float,
+                targets: list[Any]) -> tuple[float, float, float, float]:
+    """The box fig. 23 shows: the wet area and the targeted rows with 2 m around, inside the grid."""
+    wet = np.argwhere(np.nan_to_num(rate) > 0.02 * vmax)
+    pts = [np.column_stack([ext[0] + (wet[:, 1] + 0.5) * cell, ext[2] + (wet[:, 0] + 0.5) * cell])] if wet.size else []
+    pts += [np.asarray(r, float) for r in targets]
+    if not pts:
+        return ext
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0) - 2.0, allp.max(axis=0) + 2.0
+    return max(lo[0], ext[0]), min(hi[0], ext[1]), max(lo[1], ext[2]), min(hi[1], ext[3])
+
+
+def _fig23_layout(aspect: float) -> tuple[Any, Any, Any, tuple[float, float], bool]:
+    """(figure, map axes, colour-bar axes, where the key figures go (figure fraction), side layout) for a field of
+    ``aspect`` = height / width: a tall or square field gets its map at full height with the colour bar, the key
+    figures and the legend beside it; a wide one its map at full width with them below."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.colors import LightSource
     from matplotlib.figure import Figure
 
-    from vinecli.report.figure_base import C_FAIL, DPI, SIZES, png_bytes, set_title
+    from vinecli.report.figure_base import DPI
+
+    side = aspect >= 0.8
+    if side:
+        hm = MAP_TALL_IN if aspect >= MAP_TALL_IN / 7.5 else 7.5 * aspect
+        wm = hm / aspect
+        w, h = 0.9 + wm + 0.4 + SIDE_IN, hm + 1.2
+        fig = Figure(figsize=(max(w, 8.0), h), dpi=DPI)
+        w = max(w, 8.0)
+        ax = fig.add_axes((0.9 / w, 0.7 / h, wm / w, hm / h))
+        cax = fig.add_axes(((0.9 + wm + 0.45) / w, 0.7 / h + 0.42 * hm / h, 0.18 / w, 0.55 * hm / h))
+        text = ((0.9 + wm + 1.75) / w, (0.7 + hm) / h)
+    else:
+        wm = MAP_WIDE_IN
+        hm = max(wm * aspect, 2.0)
+        w, h = wm + 1.4, hm + 1.1 + 2.9
+        fig = Figure(figsize=(w, h), dpi=DPI)
+        ax = fig.add_axes((0.9 / w, 3.5 / h, wm / w, hm / h))
+        cax = fig.add_axes((0.9 / w, 2.55 / h, 0.45 * wm / w, 0.16 / h))
+        text = ((0.9 + 0.55 * wm) / w, 2.95 / h)
+    FigureCanvasAgg(fig)
+    return fig, ax, cax, text, side
+
+
+def fig23_deposition(data: Any) -> bytes:
+    """Application rate map (L/ha) over the terrain with the rows, the flown path and the fence; the figure takes
+    the field's shape (:func:`_fig23_layout`)."""
+    from matplotlib.colors import LightSource
+
+    from vinecli.report.figure_base import C_FAIL, png_bytes, set_title
 
     doc, rate = load_deposition(getattr(data, "run_dir", None))
     g = doc["grid"]
@@ -128,28 +176,26 @@ def fig23_deposition(data: Any) -> bytes:
     ext = (x0, x0 + nx * cell, y0, y0 + ny * cell)
     m = doc.get("metrics") or {}
     nominal = m.get("nominal_rate_lpha")
-    fig = Figure(figsize=SIZES["fig23"], dpi=DPI)
-    FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.07, 0.07, 0.50, 0.85))
-    cax = fig.add_axes((0.66, 0.40, 0.018, 0.50))  # moved next to the map once its aspect is applied
+    cmap, norm = dose_scale(nominal, rate)
+    vmax = float(norm.vmax)
+    targets = [r["polyline_enu"] for r in doc.get("rows", [])]
+    view = _fig23_view(rate, ext, cell, vmax, targets)
+    fig, ax, cax, (xt, yt), side = _fig23_layout((view[3] - view[2]) / max(view[1] - view[0], 1e-9))
     pv = data.preview
     if pv is not None and pv["x"].size > 1 and pv["y"].size > 1:
         pext = (pv["x"][0], pv["x"][-1], pv["y"][0], pv["y"][-1])
         dx, dy = abs(pv["x"][1] - pv["x"][0]), abs(pv["y"][1] - pv["y"][0])
         shade = LightSource(azdeg=315, altdeg=45).hillshade(pv["z"], vert_exag=3.0, dx=dx, dy=dy)
         ax.imshow(shade, extent=pext, origin="lower", cmap="gray", alpha=0.5, aspect="equal", zorder=0)
-    cmap, norm = dose_scale(nominal, rate)
-    vmax = float(norm.vmax)
     shown = np.where(rate > 0.02 * vmax, rate, np.nan)  # dry cells stay transparent over the terrain
     im = ax.imshow(shown, extent=ext, origin="lower", cmap=cmap, norm=norm, alpha=0.9, aspect="equal",
                    zorder=1, interpolation="nearest")
-    cb = fig.colorbar(im, cax=cax, extend="max" if float(np.nanmax(rate, initial=0)) > vmax else "neither")
+    cb = fig.colorbar(im, cax=cax, orientation="vertical" if side else "horizontal",
+                      extend="max" if float(np.nanmax(rate, initial=0)) > vmax else "neither")
     cb.set_label("application rate, L/ha")
     _mark_bands(cb, nominal, doc.get("dose_bands") or {})
     summary_world = (data.summary or {}).get("world") or {}
-    all_rows = summary_world.get("rows_enu") or []
-    targets = [r["polyline_enu"] for r in doc.get("rows", [])]
-    for i, r in enumerate(all_rows):
+    for i, r in enumerate(summary_world.get("rows_enu") or []):
         r = np.asarray(r, float)
         if r.ndim == 2 and len(r) >= 2:
             ax.plot(r[:, 0], r[:, 1], color="#66bb6a", lw=0.6, alpha=0.8, zorder=2, label="vine rows" if i == 0 else None)
@@ -182,29 +228,19 @@ def fig23_deposition(data: Any) -> bytes:
     if len(fence) >= 3:
         f = np.asarray(list(fence) + [fence[0]], float)
         ax.plot(f[:, 0], f[:, 1], color=C_FAIL, ls="--", lw=1.2, zorder=5, label="geofence")
-    # view: the wet area, the targeted rows and the path, with a margin
-    wet = np.argwhere(np.nan_to_num(rate) > 0.02 * vmax)
-    pts = []
-    if wet.size:
-        pts.append(np.column_stack([x0 + (wet[:, 1] + 0.5) * cell, y0 + (wet[:, 0] + 0.5) * cell]))
-    pts += [np.asarray(r, float) for r in targets]
-    if pts:
-        allp = np.vstack(pts)
-        lo, hi = allp.min(axis=0) - 2.0, allp.max(axis=0) + 2.0
-        ax.set_xlim(max(lo[0], ext[0]), min(hi[0], ext[1]))
-        ax.set_ylim(max(lo[1], ext[2]), min(hi[1], ext[3]))
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
     ax.set_xlabel("east x, m (ENU)")
     ax.set_ylabel("north y, m (ENU)")
-    ax.apply_aspect()
+    fig.text(xt, yt, "\n".join(_fig23_key_figures(doc, nominal, m, faults)), fontsize=8.5, family="monospace",
+             va="top")
     pos = ax.get_position()
-    cax.set_position((pos.x1 + 0.07, pos.y0 + 0.35 * pos.height, 0.018, 0.6 * pos.height))
-    xt = min(pos.x1 + 0.22, 0.78)  # beside the colour bar and its tick labels
-    fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="lower left", bbox_to_anchor=(xt, pos.y0),
-               frameon=False)
-    lines = _fig23_key_figures(doc, nominal, m, faults)
-    fig.text(xt, pos.y1, "\n".join(lines), fontsize=8.5, family="monospace", va="top")
+    h_in = fig.get_size_inches()[1]
+    anchor = (xt, yt - 2.55 / h_in) if side else (pos.x0, 2.4 / h_in)  # under the key figures / under the map
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="upper left", bbox_to_anchor=anchor, frameon=False,
+               ncol=1 if side else 2)
     set_title(fig, data, "Fig. 23  Spray deposition, L/ha")
-    return png_bytes(fig)
+    return png_bytes(fig, colour_scale=True)
 
 
 def _row_rates(r: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -314,4 +350,4 @@ def fig24_row_coverage(data: Any) -> bytes:
     axb.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     axb.grid(alpha=0.3, axis="y")
     set_title(fig, data, "Fig. 24  Dose along the targeted rows")
-    return png_bytes(fig)
+    return png_bytes(fig, colour_scale=len(rows) > _CURVES_MAX)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["fig26_dose_maps", "fig27_dose_quality", "load_as_applied"]
+__all__ = ["ERROR_RANGE_PCT", "fig26_dose_maps", "fig27_dose_quality", "load_as_applied", "strip_half_width"]
 
 ERROR_RANGE_PCT = 30.0
 
@@ -39,10 +39,15 @@ def _num(v: Any) -> float:
     return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else math.nan
 
 
+def strip_half_width(doc: dict[str, Any]) -> float:
+    """Half the row spacing, m: each segment is painted on its row's strip of ground, this far either side."""
+    return 0.5 * float((doc.get("summary") or {}).get("spacing_m") or _spacing(doc))
+
+
 def _strips(doc: dict[str, Any]) -> list[np.ndarray]:
     from vinecli.gis.canopy_out import segment_strip
 
-    half = 0.5 * float((doc.get("summary") or {}).get("spacing_m") or _spacing(doc))
+    half = strip_half_width(doc)
     return [np.asarray(segment_strip(tuple(g["start_enu"]), tuple(g["end_enu"]), half)) for g in doc["segments"]]
 
 
@@ -94,8 +99,9 @@ def fig26_dose_maps(data: Any) -> bytes:
         fig.colorbar(pc, ax=ax, shrink=0.8)
     axes[0, 0].set_ylabel("north, m")
     s = doc.get("summary") or {}
-    set_title(fig, data, f"dose maps: {s.get('dose') or (s.get('prescription') or {}).get('kind', 'prescription')}")
-    return png_bytes(fig)
+    set_title(fig, data, "Fig. 26  Dose maps: "
+              f"{s.get('dose') or (s.get('prescription') or {}).get('kind', 'prescription')}")
+    return png_bytes(fig, colour_scale=True)  # four colour scales: a palette would band them
 
 
 def _errors(doc: dict[str, Any], key: str) -> np.ndarray:
@@ -158,5 +164,5 @@ def fig27_dose_quality(data: Any) -> bytes:
     ax.set_title(f"saving against the uniform rate: {_num(p.get('saving_l')):.3g} L "
                  f"({_num(p.get('saving_pct')):.1f} %)", fontsize=8)
     ax.tick_params(axis="x", labelsize=7)
-    set_title(fig, data, "as applied: errors, transitions, product")
+    set_title(fig, data, "Fig. 27  As applied: errors, transitions, product")
     return png_bytes(fig)

@@ -1,7 +1,8 @@
 """``report.html``: one self-contained HTML overview (+ per-run pages for large batches).
 
-Jinja2 renders ``templates/report.html.j2``; figures are embedded as base64 PNG data URIs,
-CSS is inline, there are no scripts and no network references. Small batches (at most
+Jinja2 renders ``templates/report.html.j2``; figures are embedded as base64 PNG data URIs, each run's field map
+as Leaflet layers (:mod:`vinecli.report.fieldmap`: Leaflet and the map script inline once per page that has a
+map), CSS is inline; nothing is fetched (unless a basemap is asked for). Small batches (at most
 ``inline_limit`` runs) get every run's section in ``report.html``; larger ones get a paginated
 overview (``report.html`` + ``pages/overview-N.html``, errored/failing runs first, a per-mission
 summary) and one page per run in ``runs/<run id>.html``.
@@ -23,6 +24,7 @@ from vinecli.report.baseline import Comparison
 from vinecli.report.loader import Run
 from vinecli.report.markdown import run_order
 from vinecli.report.plots import FIGURES, check_spans
+from vinecli.report.render import RunDrawing
 from vinecli.report.text import format_value, printable
 from vinecli.report.vehicle_fit import vehicle_fit_text
 from vinecli.runs.failsafes import describe_failsafe
@@ -80,25 +82,40 @@ def _world(run: Run) -> str:
     return str(w.get("name", "-")) if isinstance(w, dict) else str(w or "-")
 
 
-def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison: Comparison | None,
-             figure_note: str, anchor: str) -> dict[str, Any]:
+def _map_html(drawing: RunDrawing | None, anchor: str, basemap: str | None) -> Any:
+    from markupsafe import Markup
+
+    from vinecli.report.fieldmap.map_page import map_block
+
+    if drawing is None or drawing.map is None:
+        return None
+    return Markup(map_block(drawing.map, anchor, basemap=basemap))  # noqa: S704 - built escaped (fieldmap.map_page)
+
+
+def _section(run: Run, drawing: RunDrawing | None, comparison: Comparison | None,
+             figure_note: str, anchor: str, basemap: str | None = None) -> dict[str, Any]:
     s = run.summary
     regs = comparison.for_case(run.case) if comparison else []
+    located = set((drawing.map or {}).get("located") or []) if drawing is not None else set()
     checks = [{
         "name": c.get("name"), "description": c.get("description") or "", "quantity": str(c.get("quantity", "")),
         "reduce": c.get("reduce") or "", "window": format_value(c.get("window")) if c.get("window") else "whole run / default",
         "value": format_value(c.get("value")), "op": c.get("op"), "bound": format_value(c.get("bound")), "passed": bool(c.get("passed")),
-        "message": c.get("message") or "",
+        "message": c.get("message") or "", "located": c.get("name") in located,
     } for c in run.checks]
-    figures = []
+    figures, left_out = [], []
+    figs = drawing.figures if drawing is not None else {}
     for fid, (caption, _fn) in FIGURES.items():
-        f = (figs or {}).get(fid)
+        f = figs.get(fid)
         if f is None:
             continue
+        if not f.get("png") and not f.get("chart"):
+            left_out.append(f"{fid[3:]} ({f.get('note') or 'nothing to show'})")
+            continue
         spans = ", ".join(c["name"] for c in check_spans(fid, run.checks))
-        figures.append({"id": fid, "label": f"Figure {fid[3:]}", "caption": caption, "note": f.get("note", ""),
+        figures.append({"id": fid, "label": f"Figure {fid[3:]}", "caption": caption, "spans": spans,
                         "b64": base64.b64encode(f["png"]).decode("ascii") if f.get("png") else None,
-                        "spans": spans})
+                        "chart": _chart_html(f["chart"]) if f.get("chart") else None})
     metrics = sorted((k, format_value(v)) for k, v in run.metrics().items())
     return {
         "anchor": anchor, "case": run.case, "run_id": run.run_id, "mission": run.mission,
@@ -111,8 +128,45 @@ def _section(run: Run, figs: Mapping[str, Mapping[str, Any]] | None, comparison:
                                            "position": format_value(f.get("position_enu"))} for f in run.failsafes],
         "result": _result(run, bool(regs)), "checks": checks, "n_passed": sum(c["passed"] for c in checks),
         "regressions": [{**g.to_dict(), "baseline": format_value(g.baseline), "current": format_value(g.current)} for g in regs],
-        "metrics": metrics, "figures": figures, "figure_note": figure_note,
+        "metrics": metrics, "figures": figures, "figure_note": figure_note, "left_out": left_out,
+        "map": _map_html(drawing, anchor, basemap), "map_note": drawing.map_note if drawing is not None else "",
     }
+
+
+def _chart_html(chart: Mapping[str, Any]) -> Any:
+    from markupsafe import Markup
+
+    from vinecli.report.chart_page import chart_block
+
+    return Markup(chart_block(chart))  # noqa: S704 - built escaped (chart_page)
+
+
+def _assets(sections: Sequence[Mapping[str, Any]], shared: Mapping[str, str] | None = None) -> Any:
+    """Leaflet and the map script for a page with a map (and the images its maps share), uPlot and the chart
+    script for a page with a time-series figure, else nothing."""
+    from markupsafe import Markup
+
+    from vinecli.report.chart_page import chart_assets
+    from vinecli.report.fieldmap.map_page import head_assets, shared_block
+
+    maps = any(s.get("map") for s in sections)
+    charts = any(f.get("chart") for s in sections for f in s.get("figures", ()))
+    return Markup((head_assets() + shared_block(dict(shared or {})) if maps else "")  # noqa: S704 - vinecli's
+                  + (chart_assets() if charts else ""))
+
+
+def _share_maps(drawings: list[RunDrawing | None]) -> tuple[list[RunDrawing | None], dict[str, str]]:
+    """The drawings of one page with the raster strings their maps repeat written once (fieldmap.map_page)."""
+    from dataclasses import replace
+
+    from vinecli.report.fieldmap.map_page import share_repeats
+
+    have = [i for i, d in enumerate(drawings) if d is not None and d.map is not None]
+    maps, shared = share_repeats([drawings[i].map for i in have])  # type: ignore[union-attr]
+    out = list(drawings)
+    for i, m in zip(have, maps, strict=True):
+        out[i] = replace(drawings[i], map=m)  # type: ignore[arg-type]
+    return out, shared
 
 
 def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
@@ -133,14 +187,15 @@ def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
 
 
 # parameters: the runs and their figures, then keyword-only page options with their defaults
-def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping[str, Mapping[str, Any]]],
+def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, RunDrawing],
                comparison: Comparison | None = None, *, title: str = "vinecli report", runs_dir: str = "",
                pipeline: str | None = None, inline_limit: int = 20, page_size: int = 100,
                figure_notes: Mapping[str, str] | None = None, figure_policy: str = "",
-               autopilots: Sequence[Mapping[str, Any]] = ()) -> Path:
+               autopilots: Sequence[Mapping[str, Any]] = (), basemap: str | None = None) -> Path:
     """Write ``report.html`` (and ``pages/``, ``runs/`` for large batches) into ``out_dir``; returns report.html.
 
-    ``figures``: case -> fig id -> ``{"png", "note", "caption"}``; ``figure_notes``: case -> why it has no figures;
+    ``figures``: case -> its :class:`~vinecli.report.render.RunDrawing` (figures and map); ``figure_notes``: case ->
+    why it has no figures; ``basemap``: a tile URL template under the maps (none: offline);
     ``autopilots``: comparisons of autopilots (:func:`vinecli.report.autopilots.html_blocks`), on the first page.
     """
     env = _env()
@@ -165,8 +220,8 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping
     if not inline:
         (out_dir / "runs").mkdir(exist_ok=True)
         for r in ordered:
-            sec = _section(r, figures.get(r.case), comparison, notes.get(r.case, ""), pages_of[r.case])
-            html = tpl.render(page="run", root="../", sections=[sec], **common)
+            sec = _section(r, figures.get(r.case), comparison, notes.get(r.case, ""), pages_of[r.case], basemap)
+            html = tpl.render(page="run", root="../", sections=[sec], map_assets=_assets([sec]), **common)
             contained_path(out_dir, "runs", f"{pages_of[r.case]}.html").write_text(html, encoding="utf-8")
     if n_pages > 1:
         (out_dir / "pages").mkdir(exist_ok=True)
@@ -191,13 +246,15 @@ def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping
         pages = [{"num": j, "current": j == k,
                   "href": f"{root}report.html" if j == 1 else f"{root}pages/overview-{j}.html"} for j in
                  range(1, n_pages + 1)]
-        sections = ([_section(r, figures.get(r.case), comparison, notes.get(r.case, ""), pages_of[r.case])
-                     for r in ordered] if inline else [])
+        shown = ordered if inline else []
+        drawings, shared = _share_maps([figures.get(r.case) for r in shown])
+        sections = [_section(r, d, comparison, notes.get(r.case, ""), pages_of[r.case], basemap)
+                    for r, d in zip(shown, drawings, strict=True)]
         html = tpl.render(page="overview", root=root, page_num=k, pages=pages, rows=rows, sections=sections,
                           missions=_missions(runs),
                           regressions=[{**g.to_dict(), "baseline": format_value(g.baseline), "current": format_value(g.current)}
                                        for g in regs[:200]],
                           regressions_more=max(0, len(regs) - 200), figure_policy=figure_policy,
-                          autopilots=autopilots if k == 1 else [], **common)
+                          autopilots=autopilots if k == 1 else [], map_assets=_assets(sections, shared), **common)
         here.write_text(html, encoding="utf-8")
     return report

@@ -1,7 +1,10 @@
-"""Figure 16: the flown path over the terrain (top view with hillshade, contours, vine rows, wind arrows,
-geofence; and a 3D view)."""
+"""Figure 16: the flown path over the terrain, from above: hillshade, contours, vine rows and hedges, wind arrows,
+geofence, the path coloured by its height above the terrain (the field map beside the figures is the same view
+to zoom into)."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 
@@ -10,7 +13,6 @@ from vinecli.report.budget_plots import draw_hedges
 from vinecli.report.figure_base import (
     C_FAIL,
     DPI,
-    SIZES,
     PlotData,
     png_bytes,
     set_title,
@@ -19,7 +21,8 @@ from vinecli.report.figure_marks import need
 
 
 def fig16_path(data: PlotData) -> bytes:
-    """Flown path over the terrain: top view (hillshade + contours, vine rows, wind arrows, geofence) and 3D view."""
+    """Flown path over the terrain, top view (hillshade + contours, vine rows, wind arrows, geofence), the path
+    coloured by its height above the terrain and thinned to what the figure's pixels show."""
     need(data, "pos_enu_x_m", "pos_enu_y_m", "pos_enu_z_m", what="position")
     from matplotlib.collections import LineCollection
     from matplotlib.colors import LightSource
@@ -34,20 +37,18 @@ def fig16_path(data: PlotData) -> bytes:
         pts.append(np.asarray(fence, float))
     allp = np.vstack(pts)
     lo, hi = np.nanmin(allp, axis=0) - 4.0, np.nanmax(allp, axis=0) + 4.0
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=SIZES["fig16"], dpi=DPI)
-    FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.05, 0.15, 0.47, 0.74))
-    ax3 = fig.add_axes((0.56, 0.04, 0.42, 0.86), projection="3d")
+    plo, phi = np.nanmin(np.column_stack([x, y]), axis=0), np.nanmax(np.column_stack([x, y]), axis=0)
+    margin = max(8.0, 0.15 * float(np.max(phi - plo)))
+    vlo, vhi = np.maximum(plo - margin, lo), np.minimum(phi + margin, hi)
+    fig, ax, cax, w_px = _layout(float(vhi[0] - vlo[0]), float(vhi[1] - vlo[1]))
     pv = data.preview
     if pv is not None:
         ext = (pv["x"][0], pv["x"][-1], pv["y"][0], pv["y"][-1])
         dx = abs(pv["x"][1] - pv["x"][0]) if pv["x"].size > 1 else 1.0
         dy = abs(pv["y"][1] - pv["y"][0]) if pv["y"].size > 1 else 1.0
         shade = LightSource(azdeg=315, altdeg=45).hillshade(pv["z"], vert_exag=3.0, dx=dx, dy=dy)
-        ax.imshow(shade, extent=ext, origin="lower", cmap="gray", alpha=0.55, aspect="equal", zorder=0)
+        ax.imshow(shade, extent=ext, origin="lower", cmap="gray", alpha=0.55, aspect="equal", zorder=0,
+                  interpolation="bilinear")  # the preview's cells (0.2-0.5 m) would show as blocks zoomed in
         from scipy.ndimage import gaussian_filter
 
         # contours of the smoothed surface (a DSM's canopy would otherwise turn them into noise)
@@ -63,11 +64,12 @@ def fig16_path(data: PlotData) -> bytes:
         f = np.asarray(fence + fence[:1], float)
         ax.plot(f[:, 0], f[:, 1], color=C_FAIL, ls="--", lw=1.2, zorder=2, label="geofence")
     agl = c["height_agl_m"] if data.has("height_agl_m") else z - np.nanmin(z)
-    seg = np.stack([np.column_stack([x[:-1], y[:-1]]), np.column_stack([x[1:], y[1:]])], axis=1)
+    k = _thinned(x, y, agl, 0.5 * float(vhi[0] - vlo[0]) / w_px)
+    seg = np.stack([np.column_stack([x[k][:-1], y[k][:-1]]), np.column_stack([x[k][1:], y[k][1:]])], axis=1)
     lc = LineCollection(seg, cmap="plasma", linewidths=2.6, zorder=6)
-    lc.set_array(agl[:-1])
+    lc.set_array(agl[k][:-1])
     ax.add_collection(lc)
-    fig.colorbar(lc, ax=ax, fraction=0.05, pad=0.02, label="path height above terrain, m")
+    fig.colorbar(lc, cax=cax, label="path height above terrain, m")
     bps = [s["breakpoint_enu"] for s in data.summary.get("sorties") or [] if s.get("breakpoint_enu")]
     if bps:  # where each sortie of a refill job stopped spraying (and the next one resumed)
         b = np.asarray(bps, float)
@@ -101,36 +103,48 @@ def fig16_path(data: PlotData) -> bytes:
             ax.quiverkey(q, 0.97, 1.03, 3.0, "wind 3 m/s", labelpos="W", fontproperties={"size": 7})
         else:
             ax.text(0.02, 0.97, "no horizontal wind", transform=ax.transAxes, fontsize=7, va="top")
-    # top view: zoomed on the flown path (the 3D view keeps the whole field for context)
-    plo, phi = np.nanmin(np.column_stack([x, y]), axis=0), np.nanmax(np.column_stack([x, y]), axis=0)
-    margin = max(8.0, 0.15 * float(np.max(phi - plo)))
-    vlo, vhi = np.maximum(plo - margin, lo), np.minimum(phi + margin, hi)
+    # zoomed on the flown path
     ax.set_xlim(vlo[0], vhi[0])
     ax.set_ylim(vlo[1], vhi[1])
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("east x, m (ENU)")
     ax.set_ylabel("north y, m (ENU)")
-    ax.set_title("top view", fontsize=9, loc="left")
     fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="lower left", bbox_to_anchor=(0.01, 0.0), ncol=4,
                frameon=False)
-    # 3D view: terrain surface (downsampled) and the path
-    if pv is not None:
-        sx = max(1, pv["x"].size // 40)
-        sy = max(1, pv["y"].size // 40)
-        xx, yy = np.meshgrid(pv["x"][::sx], pv["y"][::sy])
-        zz = pv["z"][::sy, ::sx]
-        keep = (xx >= lo[0]) & (xx <= hi[0]) & (yy >= lo[1]) & (yy <= hi[1])
-        zz = np.where(keep, zz, np.nan)
-        ax3.plot_surface(xx, yy, zz, cmap="terrain", alpha=0.45, linewidth=0, antialiased=False, rstride=1, cstride=1)
-    ax3.computed_zorder = False  # draw the path over the terrain surface
-    ax3.plot(x, y, z, color="#d62728", lw=1.8, zorder=10, label="path (CoM)")
-    ax3.set_xlabel("east x, m")
-    ax3.set_ylabel("north y, m")
-    ax3.set_zlabel("up z, m (ENU)")
-    ax3.set_xlim(lo[0], hi[0])
-    ax3.set_ylim(lo[1], hi[1])
-    ax3.view_init(elev=28, azim=-60)
-    ax3.set_title("3D view", fontsize=9)
-    ax3.tick_params(labelsize=7)
     set_title(fig, data, "Fig. 16  Flown path over the terrain")
-    return png_bytes(fig)
+    return png_bytes(fig, colour_scale=True)
+
+
+#: fig. 16's map: its height (inches) unless the view is wide, its width at most
+MAP_H_IN, MAP_MAX_W_IN = 4.8, 9.0
+
+
+def _layout(w_m: float, h_m: float) -> tuple[Any, Any, Any, float]:
+    """(figure, map axes, colour-bar axes, the map's width in pixels) for a view of ``w_m`` x ``h_m`` metres: the
+    figure takes the view's shape."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    wm = min(max(MAP_H_IN * w_m / max(h_m, 1e-9), 3.0), MAP_MAX_W_IN)
+    hm = min(MAP_H_IN, wm * h_m / max(w_m, 1e-9)) if wm >= MAP_MAX_W_IN else MAP_H_IN
+    w, h = wm + 2.4, hm + 1.6
+    fig = Figure(figsize=(max(w, 6.0), h), dpi=DPI)
+    w = max(w, 6.0)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.9 / w, 0.95 / h, wm / w, hm / h))
+    cax = fig.add_axes(((1.1 + wm) / w, 0.95 / h, 0.15 / w, hm / h))
+    return fig, ax, cax, wm * DPI
+
+
+def _thinned(x: np.ndarray, y: np.ndarray, h: np.ndarray, tol: float) -> np.ndarray:
+    """Indices of the samples to draw: the first, every one at least ``tol`` (m, half a pixel) from the last kept in
+    the plane or 5 cm in height from it, and the last."""
+    keep = [0]
+    lx, ly, lh = x[0], y[0], h[0]
+    for i in range(1, x.size - 1):
+        if abs(x[i] - lx) >= tol or abs(y[i] - ly) >= tol or abs(h[i] - lh) >= 0.05:
+            keep.append(i)
+            lx, ly, lh = x[i], y[i], h[i]
+    if x.size > 1:
+        keep.append(x.size - 1)
+    return np.asarray(keep, dtype=int)

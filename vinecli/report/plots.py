@@ -1,11 +1,12 @@
-"""The figures of one run, as PNG bytes: the thesis §5 figures (16-21), the battery / sorties figure (22) and
-the deposition figures (23, 24), registered in :data:`FIGURES` (id -> caption, function).
+"""The figures of one run: the thesis §5 figures (16-21), the battery / sorties figure (22), the deposition figures
+(23, 24) and the spray budget (25), registered in :data:`FIGURES` (id -> caption, function).
 
-matplotlib object API only (:class:`matplotlib.figure.Figure` + ``FigureCanvasAgg``, no pyplot
-state). Each ``figNN_*`` function takes a :class:`PlotData` and returns PNG bytes, or raises
-:class:`NoData` with a note when the run has nothing to show (e.g. no tank). World frame ENU
-(x east, y north, z up), body FLU, SI units; check windows are shaded (green passed, red failed)
-on the figures whose quantities they test (:mod:`~vinecli.report.figure_marks`). The figures by family:
+Each ``figNN_*`` function takes a :class:`PlotData` and returns bytes, or raises :class:`NoData` with a note when
+the run has nothing to show (e.g. no tank). The time series (:data:`CHARTS`: 17-22) are chart JSON the browser
+draws, zoomable (:mod:`~vinecli.report.chart`); the maps and charts of the field (16, 23-25) are PNG images drawn
+with matplotlib's object API (:class:`matplotlib.figure.Figure` + ``FigureCanvasAgg``, no pyplot state). World
+frame ENU (x east, y north, z up), body FLU, SI units; check windows are shaded (green passed, red failed) on the
+figures whose quantities they test (:mod:`~vinecli.report.figure_marks`). The figures by family:
 :mod:`~vinecli.report.path_plots` (16), :mod:`~vinecli.report.tank_plots` (17-19),
 :mod:`~vinecli.report.flight_plots` (20-22), :mod:`~vinecli.report.deposition_plots` (23, 24).
 """
@@ -44,6 +45,8 @@ FIGURES: dict[str, tuple[str, Callable[[PlotData], bytes]]] = {
 FIGURES["fig23"] = ("Spray deposition (L/ha) over the terrain with the rows, the flown path and the fence",
                     fig23_deposition)
 FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and the share covered", fig24_row_coverage)
+#: the figures drawn in the browser from chart JSON (the others are PNG images)
+CHARTS = frozenset({"fig17", "fig18", "fig19", "fig20", "fig21", "fig22"})
 FIGURES["fig25"] = ("Where the spray went: canopy, ground in and off the field, airborne, evaporated (per row) "
                     "and the drift curve downwind", fig25_budget)
 FIGURES["fig26"] = ("Segment rates: the prescription, the rate the pump applied and the error, side by side",
@@ -64,23 +67,29 @@ def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) ->
                     preview=run.preview(), run_dir=Path(run_dir), gravity=STANDARD_GRAVITY if g is None else g)
 
 
-def render_figures(run_dir: str, only: Sequence[str] | None = None) -> dict[str, dict[str, Any]]:
-    """All figures of one run: ``{fig id: {"png": bytes | None, "note": str, "caption": str}}``.
+def figure_entry(fid: str, data: bytes | None, note: str, caption: str) -> dict[str, Any]:
+    """A drawn figure as the report holds it: ``{"png": bytes | None, "chart": dict | None, "note", "caption"}``."""
+    import json
 
-    Top-level and picklable: the report maps it over a process pool.
-    """
+    chart = json.loads(data) if data is not None and fid in CHARTS else None
+    return {"png": None if fid in CHARTS else data, "chart": chart, "note": note, "caption": caption}
+
+
+def render_figures(run_dir: str, only: Sequence[str] | None = None) -> dict[str, dict[str, Any]]:
+    """All figures of one run: ``{fig id: {"png": bytes | None, "chart": dict | None, "note": str, "caption": str}}``
+    (:func:`figure_entry`)."""
     data = load_plot_data(run_dir)
     out: dict[str, dict[str, Any]] = {}
     for fid, (caption, fn) in FIGURES.items():
         if only is not None and fid not in only:
             continue
         try:
-            out[fid] = {"png": fn(data), "note": "", "caption": caption}
+            out[fid] = figure_entry(fid, fn(data), "", caption)
         except NoData as exc:
-            out[fid] = {"png": None, "note": str(exc), "caption": caption}
+            out[fid] = figure_entry(fid, None, str(exc), caption)
         except (ValueError, IndexError, KeyError, FloatingPointError) as exc:  # data too degenerate to plot
             log.warning("%s: %s not drawn: %s", run_dir, fid, exc)
-            out[fid] = {"png": None, "note": f"not drawn: {type(exc).__name__}: {exc}", "caption": caption}
+            out[fid] = figure_entry(fid, None, f"not drawn: {type(exc).__name__}: {exc}", caption)
     return out
 
 
@@ -96,5 +105,5 @@ def expected_size(fid: str) -> tuple[int, int]:
     return int(round(w * DPI)), int(round(h * DPI))
 
 
-__all__ = ["FIGURES", "NoData", "PlotData", "check_spans", "expected_size", "load_plot_data", "png_size",
-           "render_figures"]
+__all__ = ["CHARTS", "FIGURES", "NoData", "PlotData", "check_spans", "expected_size", "figure_entry", "load_plot_data",
+           "png_size", "render_figures"]
