@@ -5,7 +5,10 @@ Terrain (world ENU, m):
 * ``flat``: a static plane at ``flat_z``;
 * ``heightmap``: ``GEOM_HEIGHTFIELD`` from the world's height grid (refused above 2^21 samples,
   where PyBullet breaks silently; the AABB is checked after loading, terrain-notes.md §4);
-* ``tiles``: one static body per OBJ/STL tile with ``GEOM_FORCE_CONCAVE_TRIMESH`` and mass 0.
+* ``tiles``: the OBJ/STL tiles merged into ONE static concave mesh (``GEOM_FORCE_CONCAVE_TRIMESH``, mass 0;
+  more only where PyBullet's size limit per mesh needs it), triangle for triangle the tiles' own
+  (:mod:`vinecli.world.terrain_mesh`): same ray heights and contacts as one body per tile, bit for bit, without
+  a static body per tile paired and updated every step.
 
 Terrain bodies are created with ``useMaximalCoordinates=True`` (plain static collision objects):
 as fixed-base multibodies every tile costs time on every step even when nothing touches it
@@ -90,7 +93,7 @@ class Engine:
         elif terrain.kind == "heightmap":
             bodies = [self._heightfield(terrain)]
         elif terrain.kind == "tiles":
-            bodies = [self._mesh_tile(f, terrain.offset) for f in terrain.files if f.suffix.lower() in (".obj", ".stl")]
+            bodies = self._mesh_tiles([f for f in terrain.files if f.suffix.lower() in (".obj", ".stl")], terrain.offset)
             if not bodies:
                 raise TerrainError("tiles terrain has no OBJ/STL files")
         else:
@@ -141,6 +144,33 @@ class Engine:
                 f"PyBullet heightfield has a wrong bounding box {lo}..{hi} for bounds {g.bounds}, z {zmin}..{zmax}"
             )
         return body
+
+    def _mesh_tiles(self, files: list[Path], offset: Vec3) -> list[int]:
+        """The tiles as few merged concave meshes (module doc); a file the reader does not take, or one too large
+        for a merged mesh, as a body of its own loaded by PyBullet."""
+        from vinecli.world.terrain_mesh import fits, merge_meshes, read_mesh
+
+        meshes = []
+        bodies = []
+        for f in files:
+            mesh = read_mesh(f)
+            if mesh is not None and fits(mesh):
+                meshes.append(mesh)
+            else:
+                bodies.append(self._mesh_tile(f, offset))
+        c, p = self.client, self.p
+        for m in merge_meshes(meshes):
+            shape = c.createCollisionShape(p.GEOM_MESH, vertices=m.vertices.tolist(), indices=m.faces.ravel().tolist(),
+                                           flags=p.GEOM_FORCE_CONCAVE_TRIMESH)
+            if shape < 0:
+                raise TerrainError(f"PyBullet could not take the terrain mesh of {len(m.faces)} triangles")
+            body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=list(offset),
+                                     useMaximalCoordinates=True)
+            # a mesh made from vertices gets a 1 mm collision margin, one loaded from a file none: the tiles' 0
+            # (measured: contact distances 1 mm apart otherwise)
+            c.changeDynamics(body, -1, collisionMargin=0.0)
+            bodies.append(body)
+        return bodies
 
     def _mesh_tile(self, path: Path, offset: Vec3 = (0.0, 0.0, 0.0)) -> int:
         c, p = self.client, self.p
