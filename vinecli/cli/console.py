@@ -12,17 +12,18 @@ import functools
 import logging
 import sys
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import typer
 from rich.console import Console, ConsoleOptions, ConsoleRenderable, RenderHook
-from rich.logging import RichHandler
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.segment import Segment
 from rich.table import Table
 from rich.text import Text
 
 from vinecli.errors import VinecliError
+
+if TYPE_CHECKING:
+    from rich.progress import Progress
 
 
 class _ShowControls(RenderHook):
@@ -67,14 +68,29 @@ class _State:
 STATE = _State()
 
 
+class _RichLogHandler(logging.Handler):
+    """Rich's log handler, made at the first record that reaches it (``rich.logging`` loads Rich's traceback
+    and syntax machinery: a command that logs nothing does not pay for it)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._rich: logging.Handler | None = None
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if self._rich is None:
+            from rich.logging import RichHandler
+
+            self._rich = RichHandler(console=err_console, show_time=False, show_path=False, markup=False)
+        self._rich.handle(record)
+
+
 def setup_logging(verbosity: int, debug: bool) -> None:
     """Route stdlib logging to Rich on stderr; WARNING by default, -v INFO, -vv DEBUG."""
     STATE.debug = debug
     level = logging.DEBUG if (debug or verbosity >= 2) else logging.INFO if verbosity == 1 else logging.WARNING
     root = logging.getLogger("vinecli")
     root.handlers.clear()
-    handler = RichHandler(console=err_console, show_time=False, show_path=False, markup=False)
-    root.addHandler(handler)
+    root.addHandler(_RichLogHandler())
     root.setLevel(level)
     root.propagate = False
 
@@ -132,6 +148,8 @@ def safe(text: Any) -> str:
 def progress(*, transient: bool | None = None) -> Progress:
     """A Rich progress bar of items done (n/total) on stderr, hidden when stderr is not a terminal and not forced.
     ``transient``: remove the bar when done (default: when stderr is not a tty)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),
@@ -147,6 +165,8 @@ def progress(*, transient: bool | None = None) -> Progress:
 def sim_progress() -> Progress:
     """A Rich progress bar of simulated time (its ``info`` field shows sim time and speed) on stderr; removed
     when done, hidden when stderr is not a terminal and not forced."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),
