@@ -1,5 +1,5 @@
-"""A batch worker keeps its world's terrain loaded from one case to the next
-(:func:`vinecli.world.engine.reuse_terrain_engines`): the runs must be bit-identical to runs on fresh
+"""A batch worker keeps its world's terrain loaded from one case to the next, and the vehicle body parked between
+runs (:func:`vinecli.world.engine.reuse_terrain_engines`): the runs must be bit-identical to runs on fresh
 engines, whatever ran before on the kept engine, and the engine must really be kept (and dropped
 when the terrain changes or a run fails)."""
 
@@ -46,9 +46,11 @@ def test_runs_on_a_kept_engine_are_bit_identical(bumpy_worlds: dict[str, Path], 
     E.reuse_terrain_engines()
     first = _fly(world, HOVER, 4)
     kept = reuse.engine
-    assert kept is not None and kept.vehicle == -1 and kept.terrain_bodies  # terrain kept, vehicle removed
+    assert kept is not None and kept.vehicle >= 0 and kept.terrain_bodies  # terrain and vehicle kept
+    body = kept.vehicle
+    assert kept.client.getBasePositionAndOrientation(body)[0][2] == E.PARK_Z  # parked far above the terrain
     again = [_fly(world, FLIGHT, 3), _fly(world, HOVER, 4), _fly(world, FLIGHT, 3)]
-    assert reuse.engine is kept  # the same PyBullet client served every run
+    assert reuse.engine is kept and kept.vehicle == body  # the same PyBullet client and vehicle body served every run
     assert _same(first, fresh_hover) and _same(again[1], fresh_hover)
     assert _same(again[0], fresh_flight) and _same(again[2], fresh_flight)
 

@@ -24,6 +24,7 @@ the vehicle base so fast impacts on thin triangle meshes cannot pass through.
 from __future__ import annotations
 
 import atexit
+import hashlib
 import logging
 import math
 import threading
@@ -43,6 +44,8 @@ log = logging.getLogger(__name__)
 
 #: PyBullet's heightfield silently breaks above this many samples (terrain-notes.md §4)
 HEIGHTFIELD_MAX_SAMPLES = 2**21
+#: height (m ENU) a kept vehicle waits at between runs (:meth:`Engine.park_vehicle`)
+PARK_Z = 1.0e5
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,8 @@ class Engine:
         self.terrain_bodies: list[int] = []
         self.vehicle: int = -1
         self.n_links = 0
+        self._vehicle_key: tuple[str, str, float] | None = None  # (URDF path, its sha256, CCD radius) of the vehicle
+        self._parked: tuple[str, str, float] | None = None  # the vehicle's key while it is parked
         # bound methods: avoid attribute look-ups in the loop
         self.step = c.stepSimulation
         self._closed = False
@@ -183,7 +188,14 @@ class Engine:
 
     # ------------------------------------------------------------------ vehicle
     def load_vehicle(self, urdf: Path, pos: Vec3, quat: QuatXYZW, *, ccd_radius: float = 0.02) -> int:
-        """Load the vehicle URDF at ``pos`` (CoM, m ENU) with attitude ``quat`` (FLU -> ENU)."""
+        """Load the vehicle URDF at ``pos`` (CoM, m ENU) with attitude ``quat`` (FLU -> ENU); a vehicle of the same
+        URDF parked by :meth:`park_vehicle` is taken out again instead (moved there at rest)."""
+        key = (str(urdf), hashlib.sha256(urdf.read_bytes()).hexdigest(), ccd_radius)
+        if self.vehicle >= 0 and self._parked == key:
+            self._parked = None
+            self.reset_vehicle(pos, quat, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+            return self.vehicle
+        self.remove_vehicle()
         c, p = self.client, self.p
         try:
             body = c.loadURDF(str(urdf), basePosition=list(pos), baseOrientation=list(quat),
@@ -196,6 +208,7 @@ class Engine:
             c.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, lateralFriction=1.0,
                              restitution=0.0, rollingFriction=0.001, spinningFriction=0.001)
         c.changeDynamics(body, -1, ccdSweptSphereRadius=ccd_radius)
+        self._vehicle_key = key
         return body
 
     def remove_vehicle(self) -> None:
@@ -204,6 +217,17 @@ class Engine:
             self.client.removeBody(self.vehicle)
             self.vehicle = -1
             self.n_links = 0
+            self._parked = None
+
+    def park_vehicle(self) -> None:
+        """Keep the vehicle body for the next run on this engine (:meth:`load_vehicle` of the same URDF takes it out
+        again): at rest far above the terrain, out of every ray, its contacts with the ground dropped."""
+        if self.vehicle >= 0:
+            c = self.client
+            c.resetBasePositionAndOrientation(self.vehicle, [0.0, 0.0, PARK_Z], [0.0, 0.0, 0.0, 1.0])
+            c.resetBaseVelocity(self.vehicle, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+            c.performCollisionDetection()  # the broadphase drops its pairs with the terrain, and their contact points
+            self._parked = self._vehicle_key
 
     def reset_vehicle(self, pos: Vec3, quat: QuatXYZW, vel: Vec3, omega_world: Vec3) -> None:
         """Teleport the vehicle (m ENU, FLU -> ENU) and set its velocities (m/s, rad/s world)."""
@@ -358,7 +382,7 @@ def terrain_engine(terrain: TerrainInfo, *, rate_hz: float, gravity: float) -> I
     except BaseException:
         _KEPT.drop()
         raise
-    engine.remove_vehicle()
+    engine.park_vehicle()
 
 
 def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
