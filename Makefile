@@ -52,8 +52,10 @@ sysdeps:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing >/dev/null; \
 	fi
 
+# on every core (pytest-xdist); tests/conftest.py keeps a module's shared fixtures and the firmware tests each on
+# one worker, and builds the shared worlds once for all workers
 test: $(STAMP) $(NATIVE)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 # after a deliberate change of what runs produce: fly the golden runs on both kernels, rewrite
 # tests/golden/goldens.json and print what moved (commit it on its own, saying what moved and by how much)
