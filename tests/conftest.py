@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from repo_paths import REPO, SHARED_DATA, TEST_DATA, shared_files  # noqa: F401 (re-exported)
@@ -51,23 +53,25 @@ def sample_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Pa
     return built_once(tmp_path_factory, "vineyard-sample", _build_world(repo / "worlds" / "vineyard-sample.yaml"))
 
 
-#: fixtures that start a real firmware (tests/px4/real_px4.py, tests/ardupilot/real_ardupilot.py)
-FIRMWARE_FIXTURES = {"px4_bin", "real_px4", "ardupilot_bin"}
+def _xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """Under pytest-xdist (``make test``: ``-n auto``): the tests of a module run on one worker (its module-scoped
+    fixtures are made once, not once per worker) and the real-firmware tests (tests/xdist_scopes.py) one after
+    the other on one worker, first, as on a machine of their own; the workers take the next module as they
+    finish one."""
+    from xdist.scheduler import LoadScopeScheduling
+    from xdist_scopes import FIRMWARE, scope_of
+
+    class ModuleScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return scope_of(Path(str(config.rootpath)), nodeid)
+
+        def _assign_work_unit(self, node: Any) -> None:
+            if FIRMWARE in self.workqueue:  # the longest chain starts first
+                self.workqueue.move_to_end(FIRMWARE, last=False)
+            super()._assign_work_unit(node)
+
+    return ModuleScheduling(config, log)
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Under pytest-xdist (``--dist loadgroup``): the tests of a module that shares a module- or class-scoped
-    fixture run on one worker (the fixture is made once, not once per worker); every other test goes wherever a
-    worker is free. The firmware tests (real PX4 and ArduPilot SITL, some beside a CPU hog) run one after the
-    other on one worker, as on a machine of their own."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is not None:
-            continue
-        if (item.get_closest_marker("px4") or item.get_closest_marker("ardupilot")
-                or FIRMWARE_FIXTURES & set(getattr(item, "fixturenames", ()))):
-            item.add_marker(pytest.mark.xdist_group("firmware"))
-            continue
-        info = getattr(item, "_fixtureinfo", None)
-        defs = info.name2fixturedefs.values() if info is not None else ()
-        if any(d[-1].scope in ("module", "class") for d in defs if d):
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::", 1)[0]))
+if importlib.util.find_spec("xdist") is not None:  # a hook only pytest-xdist knows
+    pytest_xdist_make_scheduler = _xdist_make_scheduler
