@@ -53,6 +53,8 @@ KERNEL: tuple[str, ...] = (
     "physics/wind.py",
     "physics/dryden.py",
     "physics/rangefinder.py",
+    "physics/pump.py",
+    "physics/atmosphere.py",
     "autopilot/estimate.py",
     "autopilot/estimator.py",
     "autopilot/land_detector.py",

@@ -64,3 +64,24 @@ def test_another_terrain_or_a_failed_run_drops_the_engine(bumpy_worlds: dict[str
     with pytest.raises(RuntimeError), E.terrain_engine(heightmap.terrain, rate_hz=250.0, gravity=9.80665):
         raise RuntimeError("a run failed")
     assert reuse.engine is None
+
+
+def test_a_kept_world_is_read_once_and_again_when_its_files_change(bumpy_worlds: dict[str, Path], tmp_path: Path,
+                                                                    reuse: Any) -> None:
+    import shutil
+
+    import vinecli.world.model as M
+
+    d = tmp_path / "w"
+    shutil.copytree(bumpy_worlds["heightmap"], d)
+    a, b = load_world(d), load_world(d)
+    assert a is not b and a == b and a.terrain.grid is b.terrain.grid  # a copy of the world read once
+    b.name = "changed"
+    assert load_world(d).name == a.name  # a copy's own fields are its own
+    grid = next(d.rglob("grid.npz"))
+    grid.touch()  # the world's files changed: read again
+    c = load_world(d)
+    assert c.terrain.grid is not a.terrain.grid and c.terrain.grid is not None
+    assert np.array_equal(c.terrain.grid.z, a.terrain.grid.z)
+    E.reuse_terrain_engines(False)
+    assert load_world(d).terrain.grid is not load_world(d).terrain.grid and M._KEPT_WORLD.world is None  # noqa: SLF001

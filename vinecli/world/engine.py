@@ -36,7 +36,7 @@ from pathlib import Path
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import RuntimeFailure, TerrainError
 from vinecli.frames import QuatXYZW, Vec3, quat_rotate
-from vinecli.world.model import TerrainInfo
+from vinecli.world.model import TerrainInfo, keep_loaded_worlds
 
 __all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine", "SettleResult", "rest_pose"]
 
@@ -334,11 +334,14 @@ _DROP_AT_EXIT = False  # _KEPT.drop registered with atexit (the main thread's ke
 
 
 def reuse_terrain_engines(enabled: bool = True) -> None:
-    """Keep the engine of the last terrain in this thread across runs (batch workers: a case on the same
-    world skips connecting PyBullet and loading its tiles). Runs stay bit-identical to fresh engines: the
-    engine is created with ``deterministicOverlappingPairs`` and only the vehicle body is removed between
-    runs (checked against fresh engines in tests/sim/test_engine_reuse.py)."""
+    """Keep what a batch worker's cases on one world share, in this thread across runs: the engine of the last
+    terrain (a case skips connecting PyBullet and loading its terrain), its vehicle body (parked between runs,
+    :meth:`Engine.park_vehicle`) and the loaded world (:func:`vinecli.world.model.keep_loaded_worlds`). Runs stay
+    bit-identical to fresh engines: the engine is created with ``deterministicOverlappingPairs`` and the vehicle
+    is reset to the spawn at rest with its contacts dropped (checked against fresh engines in
+    tests/sim/test_engine_reuse.py)."""
     global _DROP_AT_EXIT
+    keep_loaded_worlds(enabled)
     _KEPT.enabled = enabled
     if not enabled:
         _KEPT.drop()
