@@ -11,7 +11,11 @@ same Python environment, the checkout first on ``sys.path``), interleaved round 
   and ``vinecli run mission`` of each mission;
 * **whole process** per mission: ``vinecli run mission`` of the CI missions (takeoff, gust, overload, spray),
   wall s, and simulated s / wall s;
-* **terrain load**: the sample world's terrain into a new PyBullet engine (each checkout's own ``load_terrain``).
+* **terrain load**: the sample world's terrain into a new PyBullet engine (each checkout's own ``load_terrain``);
+* with ``--count``, the same in instructions, counted by Valgrind (callgrind), which a loaded machine cannot move:
+  the help commands' whole processes, each mission's imports (a fresh interpreter importing, in order, the
+  top-level modules the mission's process imported) and the terrain load (a process loading it, less one that
+  stops before).
 
 Bytecode is cached as Python does by default (a ``PYTHONDONTWRITEBYTECODE`` of the caller's environment is
 dropped; one warm-up round writes the caches). Ratios this / baseline < 1 are faster.
@@ -50,13 +54,45 @@ from vinecli.world import load_world
 from vinecli.world.engine import Engine
 w = load_world(Path(sys.argv[2]))
 best = 1e9
-for _ in range(3):
+for _ in range(int(sys.argv[3])):
     with Engine(rate_hz=w.physics_rate_hz, gravity=w.gravity) as e:
         t = time.perf_counter()
         e.load_terrain(w.terrain)
         best = min(best, time.perf_counter() - t)
 print(best)
 """
+
+
+def instructions(args: list[str], checkout: Path) -> float:
+    """Instructions executed by ``python args`` in ``checkout`` (callgrind, the whole process)."""
+    res = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, *args],
+                         cwd=checkout, env=_env(checkout), capture_output=True, text=True)
+    m = re.search(r"Collected : (\d+)", res.stderr)
+    if m is None:
+        raise SystemExit(f"valgrind {' '.join(args[:3])}: {res.stderr[-1000:]}")
+    return float(m.group(1))
+
+
+def imported_modules(checkout: Path, args: list[str]) -> list[str]:
+    """The top-level modules ``vinecli args`` imports, in order (``-X importtime``)."""
+    res = subprocess.run([sys.executable, "-X", "importtime", "-m", "vinecli", *args], cwd=checkout,
+                         env=_env(checkout), capture_output=True, text=True)
+    return [m.group(2).strip() for line in res.stderr.splitlines()
+            if (m := _IMPORT_LINE.match(line)) and not m.group(2).startswith(" ")]
+
+
+def counts(checkout: Path, cmds: dict[str, list[str]], world: Path) -> dict[str, float]:
+    """Instructions (see the module doc) per help command, per mission's imports, and of the terrain load."""
+    out: dict[str, float] = {}
+    for name, args in cmds.items():
+        if name.startswith("run mission "):
+            mods = [m for m in imported_modules(checkout, args) if m != "__main__"]
+            out[f"{name} (imports)"] = instructions(["-c", "import " + ", ".join(mods)], checkout)
+        else:
+            out[name] = instructions(["-m", "vinecli", *args], checkout)
+    load = instructions(["-c", TERRAIN_LOAD, str(checkout), str(world), "1"], checkout)
+    out["terrain load"] = load - instructions(["-c", TERRAIN_LOAD, str(checkout), str(world), "0"], checkout)
+    return out
 
 
 def _env(checkout: Path) -> dict[str, str]:
@@ -101,6 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baseline", type=Path, help="another checkout to compare with (same Python environment)")
     ap.add_argument("--rounds", type=int, default=5, help="interleaved rounds (best of)")
     ap.add_argument("--missions", nargs="+", default=list(MISSIONS), help="missions of pipelines/missions/")
+    ap.add_argument("--count", action="store_true", help="also count instructions with Valgrind (slow)")
     ap.add_argument("--json", type=Path, help="write the figures as JSON")
     args = ap.parse_args(argv)
     checkouts = {"this": REPO}
@@ -121,10 +158,11 @@ def main(argv: list[str] | None = None) -> int:
                     if rnd:
                         old = best[k].get(name, [float("inf"), float("inf")])
                         best[k][name] = [min(old[0], wall), min(old[1], imports)]
-        loads = {k: min(float(subprocess.run([sys.executable, "-c", TERRAIN_LOAD, str(c), str(worlds[k])],
+        loads = {k: min(float(subprocess.run([sys.executable, "-c", TERRAIN_LOAD, str(c), str(worlds[k]), "3"],
                                                  env=_env(c), capture_output=True, text=True, check=True).stdout)
                             for _ in range(args.rounds)) for k, c in checkouts.items()}
         sims = {m: sim_time(tmp / "runs-this", m) for m in args.missions}
+        counted = {k: counts(c, cmds[k], worlds[k]) for k, c in checkouts.items()} if args.count else {}
     res["commands"] = {}
     print(f"best of {args.rounds} interleaved rounds; wall s of the whole process, s of its imports"
           + (" (this / baseline)" if "baseline" in checkouts else ""))
@@ -148,6 +186,14 @@ def main(argv: list[str] | None = None) -> int:
     if "baseline" in checkouts:
         line += f"  | baseline {loads['baseline']:6.3f} s: {loads['this'] / loads['baseline']:.2f}x"
     print(line)
+    if counted:
+        res["instructions"] = counted
+        print("instructions (callgrind)" + (": this / baseline" if "baseline" in checkouts else ""))
+        for name, n in counted["this"].items():
+            line = f"{name:40s} {n / 1e6:9.1f} M"
+            if "baseline" in checkouts:
+                line += f"  | baseline {counted['baseline'][name] / 1e6:9.1f} M: {n / counted['baseline'][name]:.2f}x"
+            print(line)
     if args.json:
         args.json.write_text(json.dumps(res, indent=2))
     return 0
