@@ -5,15 +5,19 @@ from __future__ import annotations
 import importlib.util
 import math
 import os
+import socket
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from repo_paths import REPO, SHARED_DATA, TEST_DATA, shared_files  # noqa: F401 (re-exported)
 from shared_builds import built_once
 
 import vinecli  # noqa: F401 - first: pins numpy's CPU dispatch before numpy loads (vinecli/__init__.py)
+
+if TYPE_CHECKING:
+    from vinecli.world import World
 
 # Headless, single-threaded numerics: deterministic and no oversubscription on 2 cores.
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -124,3 +128,21 @@ def _xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
 
 if importlib.util.find_spec("xdist") is not None:  # a hook only pytest-xdist knows
     pytest_xdist_make_scheduler = _xdist_make_scheduler
+
+
+@pytest.fixture
+def ports() -> dict[str, int]:
+    """Distinct free ports: sim (TCP), api (UDP, vinecli side), px4 (UDP, PX4 side)."""
+    from loopback_world import free_port
+
+    out: dict[str, int] = {}
+    while len(set(out.values())) < 3:
+        out = {"sim": free_port(), "api": free_port(socket.SOCK_DGRAM), "px4": free_port(socket.SOCK_DGRAM)}
+    return out
+
+
+@pytest.fixture
+def world(tmp_path: Path) -> World:
+    from loopback_world import flat_world
+
+    return flat_world(tmp_path)

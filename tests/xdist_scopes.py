@@ -19,7 +19,7 @@ from pathlib import Path
 __all__ = ["FIRMWARE", "FIRMWARE_FIXTURES", "scope_of"]
 
 FIRMWARE = "real firmware"
-#: fixtures that start a real firmware (tests/px4/real_px4.py, tests/ardupilot/real_ardupilot.py)
+#: fixtures that start a real firmware (tests/sitl/px4/real_px4.py, tests/sitl/ardupilot/real_ardupilot.py)
 FIRMWARE_FIXTURES = frozenset({"px4_bin", "real_px4", "ardupilot_bin"})
 _MARKS = ("mark.px4", "mark.ardupilot")
 

@@ -20,8 +20,8 @@ LIMIT_MB = 1536.0
 DEPOSIT_AT = """
 import json, sys
 import numpy as np
-from vinecli.physics.deposition import EMIT_COLUMNS, SprayEmitter
-from vinecli.sim.deposition import deposit
+from vinecli.spray.deposition import EMIT_COLUMNS, SprayEmitter
+from vinecli.sim.spray_deposit import deposit
 from vinecli.world import load_world
 h = float(sys.argv[1])
 world = load_world(sys.argv[2])
@@ -113,9 +113,9 @@ canopy: {bbch: 75}
 BUDGET_AT = """
 import json, tracemalloc
 from pathlib import Path
-from vinecli.physics.deposition import SprayEmitter, SprayerGeometry
+from vinecli.spray.deposition import SprayEmitter, SprayerGeometry
 from vinecli.runs.budget_out import evaluate_budget, write_budget
-from vinecli.sim.deposition import deposit
+from vinecli.sim.spray_deposit import deposit
 from vinecli.sim.memory import _budget_mb
 from vinecli.world import load_world
 h, n, out = HEIGHT, RECORDS, OUT

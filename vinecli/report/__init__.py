@@ -12,8 +12,8 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from vinecli.report.assemble import FORMATS, ReportResult, build_report
     from vinecli.report.baseline import DEFAULT_TOLERANCES, Tolerance
-    from vinecli.report.build import FORMATS, ReportResult, build_report
     from vinecli.report.loader import Run, load_runs
 
 __all__ = ["DEFAULT_TOLERANCES", "FORMATS", "ReportResult", "Run", "Tolerance", "build_report", "load_runs"]

@@ -3,8 +3,8 @@
 A run keeps its time series (``max_duration_s`` × ``record_rate_hz`` rows of every column, twice at the
 end: the recorder's chunks and the columns handed to the writer), the spray records and, after the
 flight, the transported parcels, the deposition grid and the padded disc convolution
-(:mod:`vinecli.physics.deposit_grid`, sized by :func:`~vinecli.physics.deposit_grid.grid_for` for the
-highest the mission flies over the whole terrain), and the spray budget (:mod:`vinecli.physics.budget`: its
+(:mod:`vinecli.spray.deposit_grid`, sized by :func:`~vinecli.spray.deposit_grid.grid_for` for the
+highest the mission flies over the whole terrain), and the spray budget (:mod:`vinecli.spray.budget`: its
 per-parcel arrays, the canopy points of every hedge a parcel's footprint reaches, the canopy maps over the
 hedges' cells of the grid, the release row of every emission group). :func:`check_run_memory` adds these upper bounds to
 what the process holds anyway and refuses (InputError, exit 2, the numbers in one line) a mission whose
@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.physics.canopy import hedge_window, row_spacing
-from vinecli.physics.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
-from vinecli.physics.deposition import DepositionConfig
 from vinecli.sim.recorder import timeseries_columns
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.spray.canopy import hedge_window, row_spacing
+from vinecli.spray.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
+from vinecli.spray.deposition import DepositionConfig
 from vinecli.world.model import World
 
 __all__ = ["RUN_MEMORY_LIMIT_MB", "MemoryEstimate", "check_run_memory", "estimate_run_memory"]

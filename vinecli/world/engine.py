@@ -339,7 +339,7 @@ def reuse_terrain_engines(enabled: bool = True) -> None:
     :meth:`Engine.park_vehicle`) and the loaded world (:func:`vinecli.world.model.keep_loaded_worlds`). Runs stay
     bit-identical to fresh engines: the engine is created with ``deterministicOverlappingPairs`` and the vehicle
     is reset to the spawn at rest with its contacts dropped (checked against fresh engines in
-    tests/sim/test_engine_reuse.py)."""
+    tests/world/test_engine_reuse.py)."""
     global _DROP_AT_EXIT
     keep_loaded_worlds(enabled)
     _KEPT.enabled = enabled

@@ -1,0 +1,305 @@
+"""Spray transport: where the emitted liquid lands (docs/deposition.md). Plain numpy, no PyBullet.
+
+The loop sums the emitted volume over up to 0.04 s of spraying steps and calls
+:meth:`SprayEmitter.emit` once per such group (one tuple append). :func:`transport` then moves everything in bulk, vectorised:
+
+1. steps are grouped into bins of ``group_s`` (volume summed, state volume-weighted);
+2. each group's volume is split over the nozzles (``flow_share``) and the equal-volume droplet size
+   classes: one parcel each, spread on landing over the disc of the full cone (radius h tan(θ/2),
+   :func:`~vinecli.spray.deposit_grid.rasterise_discs`);
+3. each parcel falls from its nozzle (world ENU from the body pose) to the terrain: fall time
+   through the rotor downwash (:mod:`vinecli.spray.downwash`, momentum theory from the
+   recorded rotor thrust and the airspeed), at terminal velocity (:mod:`vinecli.spray.droplets`);
+4. horizontally the cone centre follows the tilted nozzle axis; the parcel moves with the
+   wind at mid-fall height (wind of the release time incl. gusts and Dryden, shear law of the
+   world), relaxes from the vehicle's velocity with τ = v_t / g, and spreads by turbulent
+   diffusion σ = sqrt(2 K T) with a surface-layer eddy diffusivity ``K = κ u* z``;
+5. the landing height is the terrain under the landing point (two fixed-point passes).
+
+Volume is conserved exactly: every parcel lands somewhere (on or off the grid).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vinecli.constants import STANDARD_GRAVITY
+from vinecli.frames import quat_rotate_many
+from vinecli.specs.vehicle import VehicleSpec
+from vinecli.specs.wind import WindSpec
+from vinecli.spray.downwash import fall_time_s, induced_velocity
+from vinecli.spray.droplets import AIR_VISCOSITY, WATER_DENSITY, relaxation_time_s, size_classes_m, terminal_velocity
+
+__all__ = ["EMIT_COLUMNS", "DepositionConfig", "Parcels", "SprayEmitter", "SprayerGeometry", "transport"]
+
+#: one record: time s, CoM position m ENU, attitude quaternion xyzw (FLU -> ENU), velocity m/s ENU,
+#: wind m/s ENU at the CoM, total rotor thrust N, emitted volume L, and how long before ``t_s`` the
+#: volume left the nozzles on average, s (0 for one step; the loop sums up to 0.04 s per record)
+EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz", "thrust_n", "vol_l",
+                "lag_s")
+KARMAN = 0.41
+MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
+LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s
+
+
+@dataclass(frozen=True)
+class DepositionConfig:
+    """Numerical and model options (defaults used in every spray run)."""
+
+    cell_m: float = 0.1  # deposition grid cell, m
+    margin_m: float = 15.0  # grid extends this far beyond the sprayed path and the rows, m
+    max_cells: int = 6_000_000  # the cell doubles when the area needs more
+    max_fft_cells: int = 8_000_000  # ... or when the padded disc convolution (footprint) needs more
+    group_s: float = 0.04  # emission steps binned per transport group, s
+    downwash: bool = True
+    diffusion: bool = True
+    roughness_m: float = 0.1  # aerodynamic roughness of the crop for u*, m
+    outwash: bool = True  # drops the wake does not drive into the ground follow the outwash (spray/outwash.py)
+
+
+@dataclass(frozen=True)
+class SprayerGeometry:
+    """What transport needs of the vehicle: nozzles (body FLU), droplet classes, rotors."""
+
+    nozzles_flu: np.ndarray  # (n, 3) m
+    shares: np.ndarray  # (n,) sum 1
+    tan_half: np.ndarray  # (n,) tan(cone angle / 2)
+    diam_m: np.ndarray  # (c,) class diameters
+    fractions: np.ndarray  # (c,) volume fractions, sum 1
+    v_t: np.ndarray  # (c,) terminal velocities, m/s
+    n_rotors: int
+    rotor_radius_m: float
+    rotor_plane_z: float  # mean rotor hub z, m body FLU
+
+    @classmethod
+    def from_vehicle(cls, veh: VehicleSpec, air_density: float) -> SprayerGeometry:
+        sp = veh.sprayer
+        noz = np.array([n.position_m for n in sp.nozzles], dtype=np.float64)
+        shares = np.array([n.flow_share for n in sp.nozzles], dtype=np.float64)
+        d, frac = size_classes_m(sp.droplets.vmd_um, sp.droplets.gsd, sp.droplets.classes)
+        return cls(
+            nozzles_flu=noz, shares=shares / shares.sum(),
+            tan_half=np.tan(np.radians([n.cone_angle_deg for n in sp.nozzles]) / 2.0),
+            diam_m=d, fractions=frac, v_t=terminal_velocity(d, WATER_DENSITY, air_density, AIR_VISCOSITY),
+            n_rotors=veh.n_rotors, rotor_radius_m=0.5 * veh.motor.prop_diameter_m,
+            rotor_plane_z=float(np.mean([r.position_m[2] for r in veh.rotors])),
+        )
+
+
+class SprayEmitter:
+    """Records of the sprayer state (the loop's only cost); ``emit`` is a bound list append."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[float, ...]] = []
+        #: emit((t, px, py, pz, qx, qy, qz, qw, vx, vy, vz, wx, wy, wz, thrust_n, vol_l, lag_s)) -- see EMIT_COLUMNS
+        self.emit: Callable[[tuple[float, ...]], None] = self.rows.append
+
+    def array(self) -> np.ndarray:
+        """(N, 17) float64 records."""
+        n = len(EMIT_COLUMNS)
+        flat = np.fromiter(itertools.chain.from_iterable(self.rows), dtype=np.float64, count=len(self.rows) * n)
+        return flat.reshape(-1, n)
+
+    @property
+    def emitted_l(self) -> float:
+        return float(sum(r[15] for r in self.rows))
+
+
+@dataclass
+class Parcels:
+    """Landed parcels: centre x, y (m ENU), volume (L), size class, footprint radius (m); nozzle path (m ENU);
+    fall time (s) and velocity on landing (m/s; the spray budget's path through the canopy).
+
+    A parcel's volume is spread uniformly over the disc of its ``radius`` around (x, y) (the cone).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    vol: np.ndarray
+    cls: np.ndarray
+    path_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    emitted_l: float = 0.0
+    radius: np.ndarray = field(default_factory=lambda: np.zeros(0))  # cone footprint radius at landing, m
+    t_fall: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall time, s
+    vx_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # horizontal velocity on landing, m/s ENU
+    vy_land: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    vz_land: np.ndarray = field(default_factory=lambda: np.zeros(0))  # fall speed on landing (down positive), m/s
+    group: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # emission group (path_xy row)
+    primaries: int = 0  # the first ``primaries`` parcels: one per (group, nozzle, size class), in that order
+    sigma: np.ndarray = field(default_factory=lambda: np.zeros(0))  # σ of the turbulent-diffusion offset, m
+
+
+def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
+    """Volume-weighted means per time bin of the release time; (G, 17) with the summed volume in column 15.
+
+    The release positions are moved back along the velocity by each record's lag first.
+    """
+    rec = rec.copy()
+    rec[:, 1:4] -= rec[:, 8:11] * rec[:, 16:17]
+    rec[:, 0] -= rec[:, 16]
+    rec[:, 16] = 0.0
+    gid = np.floor(rec[:, 0] / group_s + 1e-9).astype(np.int64)  # records are in time order
+    inv = np.concatenate([[0], np.cumsum(gid[1:] != gid[:-1])])
+    vol = rec[:, 15]
+    vsum = np.bincount(inv, weights=vol)
+    wsum = np.where(vsum > 0, vsum, 1.0)
+    out = np.empty((vsum.size, rec.shape[1]))
+    for j in range(rec.shape[1]):
+        out[:, j] = np.bincount(inv, weights=rec[:, j] * vol) / wsum
+    out[:, 15] = vsum
+    q = out[:, 4:8]
+    out[:, 4:8] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    return out
+
+
+def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
+              wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
+              g: float = STANDARD_GRAVITY, expected: bool = False) -> Parcels:
+    """Landing points of everything in ``records`` ((N, 17), :data:`EMIT_COLUMNS`). Deterministic per seed.
+
+    ``expected``: no random diffusion offset (each parcel at the centre of its Gaussian, whose σ is in
+    ``Parcels.sigma``), for expected patterns (:mod:`vinecli.spray.swath`)."""
+    from vinecli.flight.wind import height_factor
+
+    rec = np.asarray(records, dtype=np.float64).reshape(-1, len(EMIT_COLUMNS))
+    rec = rec[rec[:, 15] > 0.0]
+    emitted = float(rec[:, 15].sum())
+    if rec.shape[0] == 0:
+        z = np.zeros(0)
+        return Parcels(z, z, z, z.astype(np.int64), np.zeros((0, 2)), 0.0, z, z)
+    grp = _groups(rec, config.group_s)
+    ng = grp.shape[0]
+    p, q, v, wnd = grp[:, 1:4], grp[:, 4:8], grp[:, 8:11], grp[:, 11:14]
+    thrust, vol = grp[:, 14], grp[:, 15]
+    nn, nc = geo.nozzles_flu.shape[0], geo.v_t.size
+
+    # nozzle positions and cone axes, world ENU: (G, n, 3)
+    pn = np.stack([p + quat_rotate_many(q, geo.nozzles_flu[i]) for i in range(nn)], axis=1)
+    axis = quat_rotate_many(q, np.array([0.0, 0.0, -1.0]))
+    az = np.minimum(axis[:, 2], -0.2)  # nozzles pointing near-horizontal: cap the lean at ~78 deg
+    lean = np.stack([axis[:, 0] / -az, axis[:, 1] / -az], axis=1)  # horizontal offset per metre of fall (G, 2)
+    zg0 = height(pn[..., 0], pn[..., 1])
+    h0 = np.maximum(pn[..., 2] - zg0, 0.0)  # (G, n)
+
+    # rotor downwash (momentum theory with the recorded thrust and the horizontal airspeed)
+    air_h = np.hypot(wnd[:, 0] - v[:, 0], wnd[:, 1] - v[:, 1])
+    if config.downwash:
+        v_i = induced_velocity(thrust / geo.n_rotors, air_density, geo.rotor_radius_m, air_h)
+    else:
+        v_i = np.zeros(ng)
+    zeta0 = np.maximum(geo.rotor_plane_z - geo.nozzles_flu[:, 2], 0.0)  # (n,)
+
+    # wind at mid-fall height (release-time wind incl. gusts/Dryden, scaled by the shear law)
+    z_mid = 0.5 * (pn[..., 2] + zg0)
+    ratio = height_factor(wind_spec, z_mid) / height_factor(wind_spec, p[:, 2])[:, None]  # (G, n)
+    ux, uy = wnd[:, 0, None] * ratio, wnd[:, 1, None] * ratio  # (G, n)
+
+    vt = geo.v_t
+    tau = relaxation_time_s(vt, g)
+    t_fall, s_end = fall_time_s(h0[..., None], zeta0[None, :, None], vt[None, None, :], v_i[:, None, None],
+                                wnd[:, 2, None, None], geo.rotor_radius_m)  # (G, n, c)
+
+    # eddy diffusivity K = κ u* z (neutral surface layer), u* from the log law at the release height
+    if config.diffusion:
+        zr = np.maximum(h0, 2.0 * config.roughness_m)
+        ustar = KARMAN * np.hypot(ux, uy) / np.log(zr / config.roughness_m)
+        kdiff = KARMAN * ustar * np.maximum(0.5 * h0, config.roughness_m)  # (G, n) m²/s
+    else:
+        kdiff = np.zeros_like(h0)
+
+    # parcels: one per (group, nozzle, size class); the cone spreads each over a disc of radius h tan(θ/2)
+    shape = (ng, nn, nc)
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0xDE905,)))
+    noise = rng.standard_normal((2, *shape)) if config.diffusion and not expected else np.zeros((2, *shape))
+    tau3 = tau[None, None, :]
+
+    def land(hh: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lag = tau3 * (1.0 - np.exp(-tt / tau3))
+        sig = np.sqrt(2.0 * kdiff[..., None] * tt)
+        xs = (pn[..., 0, None] + hh * lean[:, None, None, 0] + ux[..., None] * tt
+              + (v[:, 0, None, None] - ux[..., None]) * lag + sig * noise[0])
+        ys = (pn[..., 1, None] + hh * lean[:, None, None, 1] + uy[..., None] * tt
+              + (v[:, 1, None, None] - uy[..., None]) * lag + sig * noise[1])
+        return xs, ys
+
+    h3 = np.broadcast_to(h0[..., None], shape)
+    x, y = land(h3, t_fall)
+    # second pass: the terrain under the landing point sets the fall height
+    h1 = np.maximum(pn[..., 2, None] - height(x, y), 0.0)
+    t1 = np.maximum(t_fall + (h1 - h3) / s_end, 0.0)
+    x, y = land(h1, t1)
+
+    vp = vol[:, None, None] * geo.shares[None, :, None] * geo.fractions[None, None, :]
+    radius = h1 * geo.tan_half[None, :, None]
+    cls = np.broadcast_to(np.arange(nc)[None, None, :], shape)
+    relax = np.exp(-t1 / tau3)  # share of the vehicle's velocity (relative to the air) the drops still carry
+    vxl = ux[..., None] + (v[:, 0, None, None] - ux[..., None]) * relax
+    vyl = uy[..., None] + (v[:, 1, None, None] - uy[..., None]) * relax
+
+    def flat(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(a, shape)).ravel()
+
+    sig = np.sqrt(2.0 * kdiff[..., None] * t1)
+    out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
+                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig))
+    if config.downwash and config.outwash:
+        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
+                    config)
+    return out
+
+
+def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_spec: WindSpec,
+                height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray, z_release: np.ndarray,
+                config: DepositionConfig) -> None:
+    """Move the share of each parcel the wake does not drive into the ground to the outwash
+    (:mod:`vinecli.spray.outwash`): it is re-released near the ground and carried by the wind."""
+    from vinecli.flight.wind import height_factor
+    from vinecli.spray.outwash import impaction_share, lifted_parcels
+
+    jet = 2.0 * geo.rotor_radius_m * math.sqrt(geo.n_rotors)
+    share = 1.0 - impaction_share(geo.diam_m[out.cls], jet_speed, jet)
+    lifted = np.where(share >= MIN_LIFTED_SHARE, out.vol * share, 0.0)  # smaller shares stay with the parcel
+    src = np.flatnonzero(lifted > 0.0)
+    if src.size == 0:
+        return
+    out.vol = out.vol - lifted
+    # lifted parcels of the same nozzle and size class are merged over LIFT_BIN_S of release time
+    # (volume-weighted landing point, fall time, release conditions): the outwash plume is smooth
+    per_group = out.vol.size // max(int(out.group.max()) + 1, 1)
+    key = (out.group[src] * config.group_s // LIFT_BIN_S).astype(np.int64) * per_group + src % per_group
+    uk, inv = np.unique(key, return_inverse=True)
+    w = lifted[src]
+    wsum = np.bincount(inv, weights=w)
+
+    def merged(a: np.ndarray) -> np.ndarray:
+        return np.bincount(inv, weights=a[src] * w) / wsum
+
+    first = np.full(uk.size, src.size)
+    np.minimum.at(first, inv, np.arange(src.size))
+    rep = src[first]  # a parcel of each merged set: its size class and (first) emission group
+    mx, my, mt = merged(out.x), merged(out.y), merged(out.t_fall)
+    g = out.group[rep]
+    h_s = 0.5 * jet
+    ground = height(mx, my)
+    ratio = height_factor(wind_spec, ground + h_s) / height_factor(wind_spec, z_release[g])
+    wx, wy = wnd[g, 0] * ratio, wnd[g, 1] * ratio
+    ustar = KARMAN * np.hypot(wx, wy) / math.log(max(h_s, 2.0 * config.roughness_m) / config.roughness_m)
+    kdiff = KARMAN * ustar * max(0.5 * h_s, config.roughness_m) if config.diffusion else np.zeros(rep.size)
+    sec = lifted_parcels(mx, my, wsum, geo.v_t[out.cls[rep]], mt, wx, wy, np.broadcast_to(kdiff, rep.shape), jet)
+    k = rep[sec["src"]]
+    out.x = np.concatenate([out.x, sec["x"]])
+    out.y = np.concatenate([out.y, sec["y"]])
+    out.vol = np.concatenate([out.vol, sec["vol"]])
+    out.cls = np.concatenate([out.cls, out.cls[k]])
+    out.radius = np.concatenate([out.radius, np.full(k.size, h_s)])
+    out.t_fall = np.concatenate([out.t_fall, sec["t_fall"]])
+    out.vx_land = np.concatenate([out.vx_land, sec["vx"]])
+    out.vy_land = np.concatenate([out.vy_land, sec["vy"]])
+    out.vz_land = np.concatenate([out.vz_land, sec["vz"]])
+    out.group = np.concatenate([out.group, out.group[k]])
+    out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the outwash's spread is in its landing points
