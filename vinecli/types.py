@@ -86,6 +86,7 @@ class GnssSample:
     eph_m: float = 0.3
     epv_m: float = 0.5
 
+    # parameters: the dataclass's fields, written out (mypyc compiles a written __init__, not a generated one)
     def __init__(self, t_us: int, lat_deg: float, lon_deg: float, alt_m: float, vel_enu: Vec3, fix_type: int = 3,
                  satellites: int = 12, eph_m: float = 0.3, epv_m: float = 0.5) -> None:
         self.t_us = t_us
@@ -132,6 +133,7 @@ class Observation:
     battery_voltage_v: float = math.nan  # terminal voltage under the last step's load, V
     battery_current_a: float = math.nan  # pack current over the last step, A (a firmware's current sensor)
 
+    # parameters: the dataclass's fields, written out (mypyc compiles a written __init__, not a generated one)
     def __init__(self, t_us: int, truth: RigidState, imu: ImuSample, baro: BaroSample | None = None,
                  mag: MagSample | None = None, gnss: GnssSample | None = None, rangefinder: RangeSample | None = None,
                  tank_level_l: float = 0.0, battery_soc: float = math.nan, battery_voltage_v: float = math.nan,

@@ -1,4 +1,4 @@
-"""Issue 20 item 5: bounded memory. A spray height of 400 m built an 8.2 GB deposition grid (the disc kernel
+"""Bounded memory. A spray height of 400 m built an 8.2 GB deposition grid (the disc kernel
 of a ~340 m footprint at 0.1 m cells); now the grid keeps its padded convolution inside a cell budget
 (coarser cells), so the peak stays far below 1.5 GB at any height, and the volume balance still holds.
 

@@ -1,4 +1,4 @@
-"""Fixtures for the simulation tests: a loaded flat world (the built worlds are in tests/conftest.py)."""
+"""Fixtures of the simulation tests: the flat world loaded (the bumpy DSM's worlds are tests/conftest.py's)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,14 @@
 """Reports of runs for people and for CI (``vinecli report``).
 
-Public API: :func:`build_report` -> :class:`ReportResult`; :func:`load_runs`; :class:`Tolerance`
-and :data:`DEFAULT_TOLERANCES` for ``--baseline`` comparisons; the figure functions live in
-:mod:`vinecli.report.plots`. The names are imported on first use: the light modules of the package
-(:mod:`vinecli.report.text`, what the command line prints with) do not load the report machinery.
+Public API: :func:`build_report` (:mod:`~vinecli.report.assemble`) -> :class:`ReportResult`; :func:`load_runs`
+(:mod:`~vinecli.report.loader`); :class:`Tolerance` and :data:`DEFAULT_TOLERANCES` for ``--baseline`` comparisons
+(:mod:`~vinecli.report.baseline`). The formats: :mod:`~vinecli.report.html`, :mod:`~vinecli.report.markdown`,
+:mod:`~vinecli.report.junit`; the figures: :mod:`~vinecli.report.plots` and the ``*_plots`` modules. The names are
+imported on first use: the light modules of the package (:mod:`vinecli.report.text`, what the command line prints
+with) do not load the report machinery.
+
+Reads run directories and ``batch.json`` only through :mod:`vinecli.runs` (their file names and readers). May
+import every floor below it; never the batch (the batch imports the report for ``run compare``'s figure).
 """
 
 from __future__ import annotations
@@ -18,8 +23,8 @@ if TYPE_CHECKING:
 
 __all__ = ["DEFAULT_TOLERANCES", "FORMATS", "ReportResult", "Run", "Tolerance", "build_report", "load_runs"]
 
-_HOME = {"DEFAULT_TOLERANCES": "baseline", "Tolerance": "baseline", "FORMATS": "build", "ReportResult": "build",
-         "build_report": "build", "Run": "loader", "load_runs": "loader"}
+_HOME = {"DEFAULT_TOLERANCES": "baseline", "Tolerance": "baseline", "FORMATS": "assemble", "ReportResult": "assemble",
+         "build_report": "assemble", "Run": "loader", "load_runs": "loader"}
 
 
 def __getattr__(name: str) -> Any:

@@ -67,6 +67,7 @@ def spray_pattern(vehicle: VehicleSpec, height_agl_m: float, speed_mps: float, a
     return _pattern(vehicle.model_dump_json(), float(height_agl_m), float(speed_mps), float(air_density))
 
 
+# parameters: keyword-only options, each with its default (the world the phase flies in: fence, terrain, air, climb, no-spray zones); a caller names the ones it sets
 def phase_plan(phase: SprayPhase, vehicle: VehicleSpec, rows: Rows, start_xy: tuple[float, float], *,
                fence_enu: Sequence[tuple[float, float]] | None = None,
                terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225,

@@ -157,6 +157,8 @@ def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
     return out
 
 
+# parameters: the records and the sprayer, the terrain, wind and air of the run, its seed, then options with
+# their defaults
 def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
               wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
               g: float = STANDARD_GRAVITY, expected: bool = False) -> Parcels:

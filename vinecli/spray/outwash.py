@@ -102,6 +102,7 @@ def inverse_gaussian_quantiles(mu: np.ndarray, lam: np.ndarray) -> np.ndarray:
     return mu[:, None] * np.exp(tab[i] * (1.0 - w) + tab[i + 1] * w)
 
 
+# parameters: the formula's inputs (module doc): arrays of the lifted parcels, one value per parcel each
 def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.ndarray, t_fall: np.ndarray,
                    wind_x: np.ndarray, wind_y: np.ndarray, kdiff: np.ndarray, jet_diam_m: float,
                    ) -> dict[str, np.ndarray]:

@@ -39,7 +39,7 @@ CV_LIMIT = 0.10
 _DY = 0.01  # m, cross-track resolution of the pattern (finest; coarser for wide swaths, :func:`_resolution`)
 #: cross-track samples and lane spacings a pattern keeps at most: a pattern 80 m wide or more (a spray height
 #: above ~60 m, or a strong crosswind) and a swath over 20 m are sampled coarser, so the pattern of a 400 m spray
-#: height (460 m wide) takes seconds, not an hour (issue 20: every accepted height completes)
+#: height (460 m wide) takes seconds, not an hour: every height a spec accepts completes
 _SAMPLES = 8000
 _SPACINGS = 400
 

@@ -4,7 +4,7 @@ Terrain (world ENU, m):
 
 * ``flat``: a static plane at ``flat_z``;
 * ``heightmap``: ``GEOM_HEIGHTFIELD`` from the world's height grid (refused above 2^21 samples,
-  where PyBullet breaks silently; the AABB is checked after loading, terrain-notes.md §4);
+  where PyBullet breaks silently; the AABB is checked after loading, docs/terrain.md §4);
 * ``tiles``: the OBJ/STL tiles merged into ONE static concave mesh (``GEOM_FORCE_CONCAVE_TRIMESH``, mass 0;
   more only where PyBullet's size limit per mesh needs it), triangle for triangle the tiles' own
   (:mod:`vinecli.world.terrain_mesh`): same ray heights and contacts as one body per tile, bit for bit, without
@@ -42,7 +42,7 @@ __all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine", "SettleResult", "rest_pose"]
 
 log = logging.getLogger(__name__)
 
-#: PyBullet's heightfield silently breaks above this many samples (terrain-notes.md §4)
+#: PyBullet's heightfield silently breaks above this many samples (docs/terrain.md §4)
 HEIGHTFIELD_MAX_SAMPLES = 2**21
 #: height (m ENU) a kept vehicle waits at between runs (:meth:`Engine.park_vehicle`)
 PARK_Z = 1.0e5
@@ -388,6 +388,7 @@ def terrain_engine(terrain: TerrainInfo, *, rate_hz: float, gravity: float) -> I
     engine.park_vehicle()
 
 
+# parameters: keyword-only options, each with its default (the vehicle's box, gear, liquid and the engine's rate and gravity); a caller names the ones it sets
 def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
               collision_box_m: Vec3, landing_gear_height_m: float, liquid_kg: float = 0.0,
               mount_flu: Vec3 = (0.0, 0.0, 0.0), rate_hz: float = 250.0, gravity: float = STANDARD_GRAVITY) -> SettleResult:

@@ -7,7 +7,7 @@ two. The triangles are the tiles' own, vertex for vertex: :func:`read_mesh` pars
 terrain conversion writes it (``v x y z`` / ``f a b c`` lines, ``#`` comments) or a binary STL and rounds
 the coordinates to float32, as PyBullet's OBJ and STL loaders store them; any other file (normals, texture
 coordinates, polygons, ASCII STL...) returns None and is loaded by PyBullet from the file. The ray heights
-and contacts of the merged mesh are those of the tiles, bit for bit (tests/sim/test_terrain_mesh.py).
+and contacts of the merged mesh are those of the tiles, bit for bit (tests/world/test_terrain_mesh.py).
 """
 
 from __future__ import annotations
