@@ -4,7 +4,6 @@ and for the MAVLink and firmware tests free loopback ports and a flat world made
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 import socket
@@ -128,8 +127,16 @@ def _xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     return ModuleScheduling(config, log)
 
 
-if importlib.util.find_spec("xdist") is not None:  # a hook only pytest-xdist knows
-    pytest_xdist_make_scheduler = _xdist_make_scheduler
+class _ModuleScheduler:
+    """The plugin holding :func:`_xdist_make_scheduler`: a hook only pytest-xdist knows, so registered only when
+    the xdist plugin is loaded (not with ``-p no:xdist``, nor without pytest-xdist)."""
+
+    pytest_xdist_make_scheduler = staticmethod(_xdist_make_scheduler)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if config.pluginmanager.hasplugin("xdist"):
+        config.pluginmanager.register(_ModuleScheduler(), "vinecli-module-scheduler")
 
 
 @pytest.fixture
