@@ -1,8 +1,10 @@
 """What a batch worker pays per case besides the loop, against another checkout in the same run.
 
-A worker process runs the same mission ``--cases`` times in a row (``run_mission``, as ``vinecli.batch.case.run_one``
-does), with what a worker keeps between cases (``reuse_terrain_engines()``: the engine and its terrain; on this
-branch also the parked vehicle and the loaded world) and without it (a fresh engine, terrain and world per case).
+A worker process runs the same mission ``--cases`` times in a row (``run_mission`` of a ``RunRequest``, as
+``vinecli.batch.case.run_one`` does), with what a worker keeps between cases (``reuse_terrain_engines()``: the
+engine and its terrain; on this branch also the parked vehicle and the loaded world; the mission handed in read
+once, a ``MissionFile``, as this branch's batch hands it) and without it (a fresh engine, terrain and world per
+case, the mission file read per case).
 Per case: the whole ``run_mission`` wall time minus the loop's (``summary.json`` ``timing.loop_wall_s``) is the
 overhead: reading the mission, loading the world, the set-up, the engine, the checks and writing the run directory.
 The first case of each process is not counted (imports, bytecode); the median of the rest is. Each configuration
@@ -30,14 +32,17 @@ CHILD = r"""
 import json, sys, time
 from pathlib import Path
 sys.path.insert(0, sys.argv[1])
+from vinecli.missions.spec_io import read_mission
 from vinecli.runs.mission import run_mission
+from vinecli.runs.request import RunRequest
 from vinecli.world.engine import reuse_terrain_engines
 world, mission, n, keep, runs = Path(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4]), sys.argv[5] == "1", Path(sys.argv[6])
 reuse_terrain_engines(keep)
 out = []
+given = read_mission(mission) if keep else mission
 for i in range(n):
     t = time.perf_counter()
-    s = run_mission(mission, world, runs, seed=0, run_id=f"c{i}", overwrite=True)
+    s = run_mission(RunRequest(given, world, runs, seed=0, run_id=f"c{i}", overwrite=True))
     wall = time.perf_counter() - t
     loop = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]["loop_wall_s"]
     out.append([wall, loop])
