@@ -61,7 +61,9 @@ def main() -> None:
         if args.baseline is not None:
             base_world = _baseline_world(args.baseline.resolve(), (ci_path.parent / ci.world).resolve(),
                                          tmp / "_worlds-baseline")
-            base_pipe = _pipeline(tmp / "bench-baseline.yaml", base_world, missions, repeat)
+            # its own copies of the missions (a checkout's specs may refer only to its own folders)
+            base_missions = [str(args.baseline.resolve() / Path(m).relative_to(REPO)) for m in missions]
+            base_pipe = _pipeline(tmp / "bench-baseline.yaml", base_world, base_missions, repeat)
         walls: dict[int, list[float]] = {j: [] for j in args.workers}
         base_walls: dict[int, list[float]] = {j: [] for j in args.workers}
         cases: dict[int, list[dict]] = {}
