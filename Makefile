@@ -54,8 +54,10 @@ sysdeps:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing >/dev/null; \
 	fi
 
+# on every core (pytest-xdist); tests/conftest.py runs each module on one worker and the firmware tests one after
+# the other on one (tests/xdist_scopes.py); the worlds several modules need are built once for all workers
 test: $(STAMP) $(NATIVE)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 # after a deliberate change of what runs produce: fly the golden runs on both kernels, rewrite
 # tests/golden/goldens.json and print what moved (commit it on its own, saying what moved and by how much)

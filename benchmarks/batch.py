@@ -13,7 +13,11 @@ script prints that bound (longest-first packing of the 1-worker case times). Wit
 three ~4.5 s job cases leave one worker with two of them (bound ~1.76x); the default ``--repeat 4``
 pairs them up.
 
-    .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--workers 1 2] [--json out.json]
+With ``--baseline OTHER_CHECKOUT`` each configuration also runs another checkout's vinecli (same Python
+environment, that checkout first on ``PYTHONPATH``, its world built by its own code), interleaved trial by trial,
+and the script prints this / baseline cases per minute.
+
+    .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--workers 1 2] [--baseline DIR] [--json out.json]
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=4, help="replicates (seeds) of each mission per configuration")
     ap.add_argument("--trials", type=int, default=3, help="alternating runs of each configuration (median)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--baseline", type=Path, default=None, help="another checkout, run interleaved (ratios)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results as JSON")
     args = ap.parse_args()
     repeat, trials = (1, 1) if args.quick else (args.repeat, args.trials)
@@ -51,17 +56,27 @@ def main() -> None:
         assert ci.world is not None
         world = build_world_once((ci_path.parent / ci.world).resolve(), tmp / "_worlds")
         missions = [str((ci_path.parent / e.mission).resolve()) for e in ci.missions]
-        pipe = tmp / "bench.yaml"
-        pipe.write_text(json.dumps({
-            "name": "bench-ci", "world": str(world), "seed": 0, "timeout_s": 900,
-            "missions": [{"mission": m, "seeds": repeat} for m in missions],
-        }))
+        pipe = _pipeline(tmp / "bench.yaml", world, missions, repeat)
+        base_pipe = None
+        if args.baseline is not None:
+            base_world = _baseline_world(args.baseline.resolve(), (ci_path.parent / ci.world).resolve(),
+                                         tmp / "_worlds-baseline")
+            # its own copies of the missions (a checkout's specs may refer only to its own folders)
+            base_missions = [str(args.baseline.resolve() / Path(m).relative_to(REPO)) for m in missions]
+            base_pipe = _pipeline(tmp / "bench-baseline.yaml", base_world, base_missions, repeat)
         walls: dict[int, list[float]] = {j: [] for j in args.workers}
+        base_walls: dict[int, list[float]] = {j: [] for j in args.workers}
         cases: dict[int, list[dict]] = {}
         for trial in range(trials):  # alternate the configurations: slow drifts of the machine hit both
             for workers in args.workers:
                 walls[workers].append(_run_batch(pipe, tmp / f"runs-j{workers}-t{trial}", workers))
                 cases[workers] = json.loads((tmp / f"runs-j{workers}-t{trial}" / "batch.json").read_text())["cases"]
+                if base_pipe is not None:
+                    out = tmp / f"runs-base-j{workers}-t{trial}"
+                    base_walls[workers].append(_run_batch(base_pipe, out, workers, checkout=args.baseline.resolve()))
+                    bad = [c["case"] for c in json.loads((out / "batch.json").read_text())["cases"] if not c["passed"]]
+                    if bad:
+                        print(f"baseline, workers={workers}: not passed: {', '.join(bad)}")
         results: dict[str, object] = {"repeat": repeat, "trials": trials, "cases": len(missions) * repeat,
                                       "configs": {}}
         for workers in args.workers:
@@ -76,6 +91,19 @@ def main() -> None:
             print(f"workers={workers}: {len(cases[workers])} cases in {wall:.1f} s (median of "
                   f"{', '.join(f'{w:.1f}' for w in walls[workers])}) -> {per_min:.1f} cases/min"
                   + (f"  (not passed: {', '.join(bad)})" if bad else ""))
+        if base_pipe is not None:
+            results["baseline"] = str(args.baseline)
+            for workers in args.workers:
+                ratios = [b / a for a, b in zip(walls[workers], base_walls[workers], strict=True)]
+                base_wall = statistics.median(base_walls[workers])
+                results["configs"][str(workers)].update(  # type: ignore[index]
+                    baseline_wall_s_trials=[round(w, 2) for w in base_walls[workers]],
+                    baseline_cases_per_min=round(len(cases[workers]) / base_wall * 60.0, 1),
+                    cases_per_min_vs_baseline=round(statistics.median(ratios), 2))
+                print(f"workers={workers}: baseline {base_wall:.1f} s (median of "
+                      f"{', '.join(f'{w:.1f}' for w in base_walls[workers])}) -> "
+                      f"{len(cases[workers]) / base_wall * 60.0:.1f} cases/min; this / baseline cases/min "
+                      f"{statistics.median(ratios):.2f}x (trials {', '.join(f'{r:.2f}' for r in ratios)})")
         if 1 in walls and 2 in walls:
             ratios = [a / b for a, b in zip(walls[1], walls[2], strict=True)]
             bound = _packing_bound([c["wall_time_s"] for c in cases[1]], 2)
@@ -94,15 +122,41 @@ def main() -> None:
             args.json.write_text(json.dumps(results, indent=2) + "\n")
 
 
-def _run_batch(pipe: Path, out: Path, workers: int) -> float:
-    """Wall seconds of ``vinecli run batch PIPE --out OUT --workers JOBS`` in a fresh process: each configuration
-    pays the same start-up (the interpreter, the fork server's imports), as a user's command does."""
+def _pipeline(path: Path, world: Path, missions: list[str], repeat: int) -> Path:
+    """The benchmark's pipeline: each mission ``repeat`` times (seeds 0..repeat-1) in the built ``world``."""
+    path.write_text(json.dumps({
+        "name": "bench-ci", "world": str(world), "seed": 0, "timeout_s": 900,
+        "missions": [{"mission": m, "seeds": repeat} for m in missions],
+    }))
+    return path
+
+
+def _env(checkout: Path | None) -> dict[str, str]:
     # Python's default: compiled bytecode cached in __pycache__ (a PYTHONDONTWRITEBYTECODE=1 in the caller's
     # environment would make every process compile the modules it lacks a .pyc for)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    if checkout is not None:
+        env["PYTHONPATH"] = str(checkout)
+    return env
+
+
+def _baseline_world(checkout: Path, world_spec: Path, out: Path) -> Path:
+    """The world ``world_spec`` built by ``checkout``'s own code."""
+    code = ("import sys; from pathlib import Path; from vinecli.batch.run import build_world_once; "
+            "print(build_world_once(Path(sys.argv[1]), Path(sys.argv[2])))")
+    res = subprocess.run([sys.executable, "-c", code, str(world_spec), str(out)],
+                         cwd=checkout, env=_env(checkout), check=True, capture_output=True, text=True)
+    return Path(res.stdout.strip().splitlines()[-1])
+
+
+def _run_batch(pipe: Path, out: Path, workers: int, checkout: Path | None = None) -> float:
+    """Wall seconds of ``vinecli run batch PIPE --out OUT --workers JOBS`` in a fresh process (``checkout``'s vinecli
+    when given): each configuration pays the same start-up (the interpreter, the fork server's imports), as a
+    user's command does."""
     t0 = time.perf_counter()
-    subprocess.run([str(Path(sys.executable).with_name("vinecli")), "run", "batch", str(pipe), "--out", str(out),
-                    "--workers", str(workers)], check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    subprocess.run([sys.executable, "-m", "vinecli", "run", "batch", str(pipe), "--out", str(out),
+                    "--workers", str(workers)], check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env=_env(checkout), cwd=checkout)
     return time.perf_counter() - t0
 
 

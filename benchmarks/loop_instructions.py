@@ -11,7 +11,7 @@ processes per checkout and mission:
   250 Hz step, and the instructions inside PyBullet's calls;
 * **floor**: PyBullet's own work per step of ``loop_parts.py``'s floor (``loop_parts.floor_us``:
   ``stepSimulation`` + pose and velocity reads + one force + one torque on the same world and body, floating,
-  gravity off), 3 x 2000 steps.
+  gravity off), 3 x 2000 steps; and the same over a bare plane (what the world's terrain adds to the floor).
 
 Each is given in instructions and in estimated cycles from callgrind's simulated caches (iai-callgrind's
 formula: L1 hits + 5 x last-level hits + 35 x memory accesses), so code that touches more memory shows. It
@@ -53,14 +53,14 @@ import json, sys
 from pathlib import Path
 sys.path.insert(0, sys.argv[1])
 
-def floor(world_dir, steps):
+def floor(world_dir, steps, plane):
     import importlib.util
     import vinecli  # the checkout's package first: loop_parts puts its own repository on sys.path
     from vinecli.world import load_world
     spec = importlib.util.spec_from_file_location("loop_parts", sys.argv[5])
     loop_parts = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(loop_parts)
-    loop_parts.floor_us(load_world(world_dir), steps)
+    loop_parts.floor_us(load_world(world_dir), steps, plane=plane)
 
 def mission(world_dir, mission_path, runs):
     from vinecli import native
@@ -74,8 +74,8 @@ def mission(world_dir, mission_path, runs):
     print(json.dumps({"kernel": native.state, "status": s.status, "sim_time_s": s.sim_time_s}))
 
 if __name__ == "__main__":
-    if sys.argv[2] == "floor":
-        floor(Path(sys.argv[3]), int(sys.argv[4]))  # loop_parts.floor_us: FLOOR_REPEATS x steps
+    if sys.argv[2] in ("floor", "plane"):  # loop_parts.floor_us: FLOOR_REPEATS x steps, the world's or a plane
+        floor(Path(sys.argv[3]), int(sys.argv[4]), sys.argv[2] == "plane")
     else:
         mission(Path(sys.argv[3]), Path(sys.argv[4]), Path(sys.argv[5]))
 """
@@ -117,6 +117,20 @@ def counts(out: Path) -> dict[str, float]:
     return {"instructions": c["Ir"], "cycles": (accesses - l1_miss) + 5.0 * (l1_miss - ram) + 35.0 * ram}
 
 
+def string_ops(out: Path) -> float:
+    """Instructions in libc's memcpy/memmove/memset (self cost), from callgrind. Callgrind counts a ``rep movsb``
+    once per byte: PyBullet's state reads copy a ~30 kB status block each (~32,000 "instructions" a call, a few
+    hundred cycles on the CPU), so the figures are also given without them."""
+    text = subprocess.run(["callgrind_annotate", "--inclusive=no", "--show=Ir", "--threshold=100", str(out)],
+                          check=True, capture_output=True, text=True).stdout
+    total = 0.0
+    for line in text.splitlines():
+        m = re.match(r"\s*([\d,]+)\s+\([^)]*\)\s+\S*:__(memcpy|memmove|memset)\w*", line)
+        if m:
+            total += int(m.group(1).replace(",", ""))
+    return total
+
+
 def pybullet_inclusive(out: Path) -> float:
     """Instructions inside PyBullet's Python-facing C functions (``pybullet_*``, inclusive), from callgrind."""
     text = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--show=Ir", "--threshold=100", str(out)],
@@ -139,13 +153,21 @@ def measure(checkout: Path, missions: list[str], tmp: Path) -> dict[str, Any]:
                     f"build_world(Path({str(checkout / 'worlds' / 'vineyard-sample.yaml')!r}), Path({str(world)!r}))"],
                    check=True, capture_output=True)
     sym = loop_symbol(checkout)
-    fout = tmp / f"floor-{checkout.name}.out"
-    callgrind([str(child), str(checkout), "floor", str(world), str(FLOOR_STEPS),
-               str(REPO / "benchmarks" / "loop_parts.py")], [f"pybullet_{c}" for c in FLOOR_CALLS], fout)
-    floor = {k: v / (FLOOR_REPEATS * FLOOR_STEPS) for k, v in counts(fout).items()}
-    res: dict[str, Any] = {"checkout": str(checkout), "loop_symbol": sym, "floor_per_step": floor, "missions": {}}
+    floors = {}
+    for kind in ("floor", "plane"):
+        fout = tmp / f"{kind}-{checkout.name}.out"
+        callgrind([str(child), str(checkout), kind, str(world), str(FLOOR_STEPS),
+                   str(REPO / "benchmarks" / "loop_parts.py")], [f"pybullet_{c}" for c in FLOOR_CALLS], fout)
+        c = counts(fout)
+        c["instructions_without_memcpy"] = c["instructions"] - string_ops(fout)
+        floors[kind] = {k: v / (FLOOR_REPEATS * FLOOR_STEPS) for k, v in c.items()}
+    floor, plane = floors["floor"], floors["plane"]
+    res: dict[str, Any] = {"checkout": str(checkout), "loop_symbol": sym, "floor_per_step": floor,
+                           "plane_floor_per_step": plane, "missions": {}}
     print(f"{checkout}: floor {floor['instructions']:,.0f} instructions = {floor['cycles']:,.0f} estimated cycles "
-          f"per step (PyBullet's own, {FLOOR_REPEATS} x {FLOOR_STEPS} steps)", flush=True)
+          f"per step (PyBullet's own, {FLOOR_REPEATS} x {FLOOR_STEPS} steps); over a bare plane "
+          f"{plane['instructions']:,.0f} = {plane['cycles']:,.0f}: the world's floor {floor['cycles'] / plane['cycles']:.2f}x "
+          f"a plane's (estimated cycles)", flush=True)
     for name in missions:
         mout = tmp / f"loop-{checkout.name}-{name}.out"
         stdout = callgrind([str(child), str(checkout), "mission", str(world),
@@ -154,7 +176,9 @@ def measure(checkout: Path, missions: list[str], tmp: Path) -> dict[str, Any]:
         if run["kernel"] != "compiled":
             raise SystemExit(f"{checkout}: the kernel ran {run['kernel']}, not compiled (make native there)")
         steps = run["sim_time_s"] * 250.0
-        loop = {k: v / steps for k, v in counts(mout).items()}
+        c = counts(mout)
+        c["instructions_without_memcpy"] = c["instructions"] - string_ops(mout)
+        loop = {k: v / steps for k, v in c.items()}
         pyb = pybullet_inclusive(mout) / steps
         row = {"status": run["status"], "sim_time_s": run["sim_time_s"], "loop_per_step": loop,
                "pybullet_instructions_per_step": pyb,
@@ -162,8 +186,9 @@ def measure(checkout: Path, missions: list[str], tmp: Path) -> dict[str, Any]:
         res["missions"][name] = row
         print(f"  {name:8s} {run['sim_time_s']:6.1f} s sim, {run['status']}: loop {loop['instructions']:,.0f} "
               f"instructions/step = {row['loop_over_floor']['instructions']:.2f}x floor, estimated cycles "
-              f"{row['loop_over_floor']['cycles']:.2f}x floor (instructions inside PyBullet's calls {pyb:,.0f}, "
-              f"vinecli's own {loop['instructions'] - pyb:,.0f})", flush=True)
+              f"{row['loop_over_floor']['cycles']:.2f}x floor, without memcpy "
+              f"{row['loop_over_floor']['instructions_without_memcpy']:.2f}x (instructions inside PyBullet's calls "
+              f"{pyb:,.0f}, vinecli's own {loop['instructions'] - pyb:,.0f})", flush=True)
     return res
 
 
@@ -184,9 +209,10 @@ def main(argv: list[str] | None = None) -> int:
                 own = [m["loop_per_step"]["instructions"] - m["pybullet_instructions_per_step"] for m in (a, b)]
                 print(f"{name}: this / baseline: loop instructions "
                       f"{a['loop_per_step']['instructions'] / b['loop_per_step']['instructions']:.2f}x, estimated "
-                      f"cycles {a['loop_per_step']['cycles'] / b['loop_per_step']['cycles']:.2f}x; loop / floor "
-                      f"{a['loop_over_floor']['cycles']:.2f} vs {b['loop_over_floor']['cycles']:.2f} (cycles); "
-                      f"vinecli's own instructions {own[0] / own[1]:.2f}x")
+                      f"cycles {a['loop_per_step']['cycles'] / b['loop_per_step']['cycles']:.2f}x, without memcpy "
+                      f"{a['loop_per_step']['instructions_without_memcpy'] / b['loop_per_step']['instructions_without_memcpy']:.2f}x;"
+                      f" loop / floor {a['loop_over_floor']['cycles']:.2f} vs {b['loop_over_floor']['cycles']:.2f} "
+                      f"(cycles); vinecli's own instructions {own[0] / own[1]:.2f}x")
     if args.json:
         args.json.write_text(json.dumps(res, indent=2))
     return 0

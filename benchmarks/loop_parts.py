@@ -68,16 +68,19 @@ PYBULLET_CALLS = ("stepSimulation", "getBasePositionAndOrientation", "getBaseVel
 FLOOR_REPEATS = 3
 
 
-def floor_us(world: Any, steps: int, *, on_ground: bool = False) -> float:
+def floor_us(world: Any, steps: int, *, on_ground: bool = False, plane: bool = False) -> float:
     """CPU µs per step of the PyBullet floor (step + state reads + one force + one torque): floating with
     gravity off, or (``on_ground``) resting on the terrain at the spawn under gravity, where PyBullet also
-    solves the skids' contacts with the mesh every step."""
+    solves the skids' contacts with the mesh every step. ``plane``: over a bare plane at the spawn's terrain
+    height instead of the world's terrain (what the terrain itself costs the floor)."""
     from vinecli.world.engine import Engine
+    from vinecli.world.model import TerrainInfo
 
     x, y = world.spawn_enu[0], world.spawn_enu[1]
-    z = world.terrain_height(x, y) + (0.3 if on_ground else 3.0)
+    ground = world.terrain_height(x, y)
+    z = ground + (0.3 if on_ground else 3.0)
     with Engine(rate_hz=world.physics_rate_hz, gravity=world.gravity if on_ground else 0.0) as eng:
-        eng.load_terrain(world.terrain)
+        eng.load_terrain(TerrainInfo("flat", flat_z=ground) if plane else world.terrain)
         body = eng.load_vehicle(world.urdf, (x, y, z), (0.0, 0.0, 0.0, 1.0))
         p = eng.client
         step, pose, vel = p.stepSimulation, p.getBasePositionAndOrientation, p.getBaseVelocity
@@ -237,10 +240,13 @@ def main(argv: list[str] | None = None) -> int:
         world = load_world(world_dir)
         floor = floor_us(world, 5000)
         floor_ground = floor_us(world, 5000, on_ground=True)
+        floor_plane = floor_us(world, 5000, plane=True)
         res["floor_cpu_us_per_step"] = floor
         res["floor_on_ground_cpu_us_per_step"] = floor_ground
+        res["floor_plane_cpu_us_per_step"] = floor_plane
         print(f"PyBullet floor (step + pose/velocity reads + 1 force + 1 torque), same world and body: "
-              f"{floor:.1f} µs/step CPU in the air, {floor_ground:.1f} resting on the terrain (contacts solved)")
+              f"{floor:.1f} µs/step CPU in the air, {floor_ground:.1f} resting on the terrain (contacts solved); "
+              f"over a bare plane {floor_plane:.1f} (the world's floor {floor / floor_plane:.2f}x it)")
         deps_s, load_s = dependencies_import_s(), terrain_load_s(world)
         res.update(dependencies_import_s=deps_s, terrain_load_s=load_s)
         print(f"start-up no run can avoid: a bare interpreter importing {RUN_DEPENDENCIES} {deps_s:.2f} s wall, "

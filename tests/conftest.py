@@ -7,11 +7,13 @@ from __future__ import annotations
 import math
 import os
 import socket
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from repo_paths import REPO, SHARED_DATA, TEST_DATA, shared_files  # noqa: F401 (re-exported)
+from shared_builds import built_once
 
 import vinecli  # noqa: F401 - first: pins numpy's CPU dispatch before numpy loads (vinecli/__init__.py)
 
@@ -37,25 +39,28 @@ def test_data() -> Path:
     return TEST_DATA
 
 
+def _build_world(spec: Path) -> Callable[[Path], object]:
+    def build(out: Path) -> object:
+        from vinecli.world import build_world
+
+        return build_world(spec, out)
+    return build
+
+
 @pytest.fixture(scope="session")
 def flat_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
-    """worlds/flat.yaml built once per session (read-only: tests write their runs elsewhere)."""
-    from vinecli.world import build_world
-
-    return build_world(repo / "worlds" / "flat.yaml", tmp_path_factory.mktemp("w") / "flat")
+    """worlds/flat.yaml built once per session, for every xdist worker (read-only: tests write their runs elsewhere)."""
+    return built_once(tmp_path_factory, "flat", _build_world(repo / "worlds" / "flat.yaml"))
 
 
 @pytest.fixture(scope="session")
 def sample_world_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
-    """worlds/vineyard-sample.yaml (the CI missions' world) built once per session (read-only)."""
-    from vinecli.world import build_world
+    """worlds/vineyard-sample.yaml (the CI missions' world) built once per session, for every xdist worker
+    (read-only)."""
+    return built_once(tmp_path_factory, "vineyard-sample", _build_world(repo / "worlds" / "vineyard-sample.yaml"))
 
-    return build_world(repo / "worlds" / "vineyard-sample.yaml", tmp_path_factory.mktemp("w") / "vineyard-sample")
 
-
-@pytest.fixture(scope="session")
-def bumpy_dsm(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A synthetic DSM GeoTIFF (UTM 32N, 0.1 m pixels, 24 m × 24 m) with rows of 0.4 m ridges on a slope."""
+def _write_bumpy_dsm(folder: Path) -> Path:
     import numpy as np
     import rasterio
     from rasterio.transform import from_origin
@@ -64,7 +69,8 @@ def bumpy_dsm(tmp_path_factory: pytest.TempPathFactory) -> Path:
     x = np.arange(n) * 0.1
     X, Y = np.meshgrid(x, x)
     z = 400.0 + 0.02 * X + 0.01 * Y + 0.2 * (1 + np.sin(2 * math.pi * X / 2.5))
-    path = tmp_path_factory.mktemp("dsm") / "bumpy.tif"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "bumpy.tif"
     with rasterio.open(path, "w", driver="GTiff", width=n, height=n, count=1, dtype="float32", crs="EPSG:32632",
                        transform=from_origin(465000.0, 5250000.0, 0.1, 0.1), nodata=-9999.0) as ds:
         z = z.astype(np.float32)
@@ -74,19 +80,64 @@ def bumpy_dsm(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def bumpy_dsm(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A synthetic DSM GeoTIFF (UTM 32N, 0.1 m pixels, 24 m × 24 m) with rows of 0.4 m ridges on a slope."""
+    return built_once(tmp_path_factory, "bumpy-dsm", _write_bumpy_dsm) / "bumpy.tif"
+
+
+def _build_bumpy_worlds(dsm: Path) -> Callable[[Path], object]:
+    def build(folder: Path) -> object:
+        from sim_helpers import world_yaml
+
+        from vinecli.world import build_world
+
+        for fmt, extra in (("tiles", {"max_error_m": 0.02, "tile_px": 64}), ("heightmap", {"size": 129})):
+            tmp = folder / fmt
+            tmp.mkdir(parents=True, exist_ok=True)
+            spec = world_yaml(tmp, {"type": "dsm", "path": str(dsm), "format": fmt, **extra},
+                              spawn={"x_m": 1.0, "y_m": -2.0})
+            build_world(spec, tmp / "world")
+        return folder
+    return build
+
+
+@pytest.fixture(scope="session")
 def bumpy_worlds(tmp_path_factory: pytest.TempPathFactory, bumpy_dsm: Path) -> dict[str, Path]:
-    """The bumpy DSM built as mesh tiles and as a 129² heightmap."""
-    from sim_helpers import world_yaml
+    """The bumpy DSM built as mesh tiles and as a 129² heightmap, once per session for every xdist worker."""
+    folder = built_once(tmp_path_factory, "bumpy-worlds", _build_bumpy_worlds(bumpy_dsm))
+    return {fmt: folder / fmt / "world" for fmt in ("tiles", "heightmap")}
 
-    from vinecli.world import build_world
 
-    out = {}
-    for fmt, extra in (("tiles", {"max_error_m": 0.02, "tile_px": 64}), ("heightmap", {"size": 129})):
-        tmp = tmp_path_factory.mktemp(fmt)
-        spec = world_yaml(tmp, {"type": "dsm", "path": str(bumpy_dsm), "format": fmt, **extra},
-                          spawn={"x_m": 1.0, "y_m": -2.0})
-        out[fmt] = build_world(spec, tmp / "world")
-    return out
+def _xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """Under pytest-xdist (``make test``: ``-n auto``): the tests of a module run on one worker (its module-scoped
+    fixtures are made once, not once per worker) and the real-firmware tests (tests/xdist_scopes.py) one after
+    the other on one worker, first, as on a machine of their own; the workers take the next module as they
+    finish one."""
+    from xdist.scheduler import LoadScopeScheduling
+    from xdist_scopes import FIRMWARE, scope_of
+
+    class ModuleScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return scope_of(Path(str(config.rootpath)), nodeid)
+
+        def _assign_work_unit(self, node: Any) -> None:
+            if FIRMWARE in self.workqueue:  # the longest chain starts first
+                self.workqueue.move_to_end(FIRMWARE, last=False)
+            super()._assign_work_unit(node)
+
+    return ModuleScheduling(config, log)
+
+
+class _ModuleScheduler:
+    """The plugin holding :func:`_xdist_make_scheduler`: a hook only pytest-xdist knows, so registered only when
+    the xdist plugin is loaded (not with ``-p no:xdist``, nor without pytest-xdist)."""
+
+    pytest_xdist_make_scheduler = staticmethod(_xdist_make_scheduler)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if config.pluginmanager.hasplugin("xdist"):
+        config.pluginmanager.register(_ModuleScheduler(), "vinecli-module-scheduler")
 
 
 @pytest.fixture

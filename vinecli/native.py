@@ -54,6 +54,8 @@ KERNEL: tuple[str, ...] = (
     "flight/wind.py",
     "flight/dryden.py",
     "flight/rangefinder.py",
+    "flight/pump.py",
+    "flight/atmosphere.py",
     "autopilot/estimate.py",
     "autopilot/estimator.py",
     "autopilot/land_detector.py",

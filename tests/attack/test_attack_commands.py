@@ -185,7 +185,8 @@ def _comm(pid: int) -> str:
         return ""
 
 
-@pytest.mark.parametrize("firmware", ["ardupilot", "px4"])
+@pytest.mark.parametrize("firmware", [pytest.param("ardupilot", marks=pytest.mark.ardupilot),
+                                      pytest.param("px4", marks=pytest.mark.px4)])
 def test_kill_9_of_a_batch_flying_firmware_leaves_no_process(request: pytest.FixtureRequest, firmware: str,
                                                              flat_world_dir: Path, tmp_path: Path) -> None:
     binary = request.getfixturevalue(f"{firmware}_bin")

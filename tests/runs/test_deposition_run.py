@@ -125,13 +125,12 @@ def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Pat
     assert off.deposition is None
 
 
-def test_deposition_map_of_a_dsm_world_is_in_the_dsm_crs(tmp_path: Path) -> None:
+def test_deposition_map_of_a_dsm_world_is_in_the_dsm_crs(tmp_path: Path, sample_world_dir: Path) -> None:
     from pyproj import Transformer
 
-    from vinecli.world import build_world, load_world
+    from vinecli.world import load_world
 
-    world = tmp_path / "sample"
-    build_world(REPO / "worlds" / "vineyard-sample.yaml", world)
+    world = sample_world_dir
     m = tmp_path / "short.yaml"
     m.write_text(SPRAY.format(name="short", fence="", maxdur=60.0).replace(
         "[[[0.0, 2.0], [0.0, 14.0]], [[3.6, 14.0], [3.6, 2.0]]]", "[[[-3.0, -10.0], [-3.0, 0.0]]]"))

@@ -24,8 +24,8 @@ from vinecli.world.model import rest_position
 
 
 @pytest.fixture(scope="module")
-def sample_dir(tmp_path_factory: pytest.TempPathFactory, repo: Path) -> Path:
-    return build_world(repo / "worlds" / "vineyard-sample.yaml", tmp_path_factory.mktemp("vs") / "vineyard-sample")
+def sample_dir(sample_world_dir: Path) -> Path:
+    return sample_world_dir  # the session's build (tests/conftest.py)
 
 
 def test_sample_spawn_is_flat_and_inside_the_geofence(sample_dir: Path) -> None:

@@ -1,5 +1,5 @@
-"""A batch worker keeps its world's terrain loaded from one case to the next
-(:func:`vinecli.world.engine.reuse_terrain_engines`): the runs must be bit-identical to runs on fresh
+"""A batch worker keeps its world's terrain loaded from one case to the next, and the vehicle body parked between
+runs (:func:`vinecli.world.engine.reuse_terrain_engines`): the runs must be bit-identical to runs on fresh
 engines, whatever ran before on the kept engine, and the engine must really be kept (and dropped
 when the terrain changes or a run fails)."""
 
@@ -46,9 +46,11 @@ def test_runs_on_a_kept_engine_are_bit_identical(bumpy_worlds: dict[str, Path], 
     E.reuse_terrain_engines()
     first = _fly(world, HOVER, 4)
     kept = reuse.engine
-    assert kept is not None and kept.vehicle == -1 and kept.terrain_bodies  # terrain kept, vehicle removed
+    assert kept is not None and kept.vehicle >= 0 and kept.terrain_bodies  # terrain and vehicle kept
+    body = kept.vehicle
+    assert kept.client.getBasePositionAndOrientation(body)[0][2] == E.PARK_Z  # parked far above the terrain
     again = [_fly(world, FLIGHT, 3), _fly(world, HOVER, 4), _fly(world, FLIGHT, 3)]
-    assert reuse.engine is kept  # the same PyBullet client served every run
+    assert reuse.engine is kept and kept.vehicle == body  # the same PyBullet client and vehicle body served every run
     assert _same(first, fresh_hover) and _same(again[1], fresh_hover)
     assert _same(again[0], fresh_flight) and _same(again[2], fresh_flight)
 
@@ -62,3 +64,24 @@ def test_another_terrain_or_a_failed_run_drops_the_engine(bumpy_worlds: dict[str
     with pytest.raises(RuntimeError), E.terrain_engine(heightmap.terrain, rate_hz=250.0, gravity=9.80665):
         raise RuntimeError("a run failed")
     assert reuse.engine is None
+
+
+def test_a_kept_world_is_read_once_and_again_when_its_files_change(bumpy_worlds: dict[str, Path], tmp_path: Path,
+                                                                    reuse: Any) -> None:
+    import shutil
+
+    import vinecli.world.model as M
+
+    d = tmp_path / "w"
+    shutil.copytree(bumpy_worlds["heightmap"], d)
+    a, b = load_world(d), load_world(d)
+    assert a is not b and a == b and a.terrain.grid is b.terrain.grid  # a copy of the world read once
+    b.name = "changed"
+    assert load_world(d).name == a.name  # a copy's own fields are its own
+    grid = next(d.rglob("grid.npz"))
+    grid.touch()  # the world's files changed: read again
+    c = load_world(d)
+    assert c.terrain.grid is not a.terrain.grid and c.terrain.grid is not None
+    assert np.array_equal(c.terrain.grid.z, a.terrain.grid.z)
+    E.reuse_terrain_engines(False)
+    assert load_world(d).terrain.grid is not load_world(d).terrain.grid and M._KEPT_WORLD.world is None  # noqa: SLF001

@@ -312,9 +312,9 @@ class Estimator(StateEstimate):
                 iy += k * r21
                 iz += k * r22
         if dt > 0.0:
-            gb[0] += ix * dt
-            gb[1] += iy * dt
-            gb[2] += iz * dt
+            gb[0] = gb[0] + (ix * dt)
+            gb[1] = gb[1] + (iy * dt)
+            gb[2] = gb[2] + (iz * dt)
         if dt > 0.0:
             ox, oy, oz = gx + ex, gy + ey, gz + ez
             h = 0.5 * dt
@@ -340,12 +340,12 @@ class Estimator(StateEstimate):
         self.acc = (awx, awy, awz)
         if dt > 0.0:
             hd2 = 0.5 * dt * dt
-            p[0] += v[0] * dt + awx * hd2
-            p[1] += v[1] * dt + awy * hd2
-            p[2] += v[2] * dt + awz * hd2
-            v[0] += awx * dt
-            v[1] += awy * dt
-            v[2] += awz * dt
+            p[0] = p[0] + (v[0] * dt + awx * hd2)
+            p[1] = p[1] + (v[1] * dt + awy * hd2)
+            p[2] = p[2] + (v[2] * dt + awz * hd2)
+            v[0] = v[0] + (awx * dt)
+            v[1] = v[1] + (awy * dt)
+            v[2] = v[2] + (awz * dt)
 
     def _fuse_gnss(self, gn: GnssSample) -> None:
         """A GNSS sample: quality gate while not ready, the low-passed GNSS acceleration, then position and
@@ -363,7 +363,7 @@ class Estimator(StateEstimate):
             al = tg / (self.acc_ref_tau + tg)
             ar = self._a_ref
             for i in (0, 1, 2):
-                ar[i] += al * ((gn.vel_enu[i] - gp[1][i]) / tg - ar[i])
+                ar[i] = ar[i] + (al * ((gn.vel_enu[i] - gp[1][i]) / tg - ar[i]))
         self._gnss_prev = (gn.t_us, gn.vel_enu)
         e_m, n_m, _ = self.origin.geodetic_to_enu_fast(gn.lat_deg, gn.lon_deg, gn.alt_m)  # the world's frame
         gv = gn.vel_enu
@@ -379,14 +379,14 @@ class Estimator(StateEstimate):
             for i, pm, vm in ((0, e_m, gv[0]), (1, n_m, gv[1])):
                 rp = pm - p[i]
                 rv = vm - v[i]
-                p[i] += kg[0][0] * rp + kg[0][1] * rv
-                v[i] += kg[1][0] * rp + kg[1][1] * rv
-                b[i] += kg[2][0] * rp + kg[2][1] * rv
+                p[i] = p[i] + (kg[0][0] * rp + kg[0][1] * rv)
+                v[i] = v[i] + (kg[1][0] * rp + kg[1][1] * rv)
+                b[i] = b[i] + (kg[2][0] * rp + kg[2][1] * rv)
             kg = self.k_gnss_vz
             rv = gv[2] - v[2]
-            p[2] += kg[0][0] * rv
-            v[2] += kg[1][0] * rv
-            b[2] += kg[2][0] * rv
+            p[2] = p[2] + (kg[0][0] * rv)
+            v[2] = v[2] + (kg[1][0] * rv)
+            b[2] = b[2] + (kg[2][0] * rv)
 
     def _fuse_baro(self, ba: BaroSample) -> None:
         """A barometer sample: altitude fused with its fixed gains (the first sample initialises)."""
@@ -398,6 +398,6 @@ class Estimator(StateEstimate):
         else:
             kg = self.k_baro
             r = zm - p[2]
-            p[2] += kg[0][0] * r
-            v[2] += kg[1][0] * r
-            b[2] += kg[2][0] * r
+            p[2] = p[2] + (kg[0][0] * r)
+            v[2] = v[2] + (kg[1][0] * r)
+            b[2] = b[2] + (kg[2][0] * r)

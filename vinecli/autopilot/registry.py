@@ -7,6 +7,7 @@ without installed metadata (an editable checkout before reinstalling).
 
 from __future__ import annotations
 
+import functools
 import importlib
 import logging
 from importlib.metadata import entry_points
@@ -27,7 +28,10 @@ BUILTIN: dict[str, str] = {
 }
 
 
+@functools.cache
 def _targets() -> dict[str, str]:
+    """Every backend's target (read-only); the installed packages' entry points are scanned once per process
+    (~130 packages' metadata: a batch worker would scan them for every case)."""
     found = dict(BUILTIN)
     for ep in entry_points(group=GROUP):
         found[ep.name] = ep.value

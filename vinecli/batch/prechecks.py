@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vinecli.batch.pipeline import Case
 from vinecli.errors import InputError, OutputError
@@ -23,22 +23,27 @@ from vinecli.inputs import current_inputs, note_input
 from vinecli.output_guard import contained_path, replaceable_problem
 from vinecli.runs.batch_json import read_batch_json
 
+if TYPE_CHECKING:
+    from vinecli.specs.vehicle import VehicleSpec
+
 __all__ = ["check_case_targets", "check_cases_memory", "note_case_inputs"]
 
 
-def note_case_inputs(cases: Sequence[Case], pipeline: Path) -> None:
-    """Read what the cases name (vehicles, worlds), so each is an input of the batch."""
+def note_case_inputs(cases: Sequence[Case], pipeline: Path) -> dict[str, VehicleSpec]:
+    """Read what the cases name (vehicles, worlds), so each is an input of the batch. Returns the vehicles the
+    missions name, loaded (by the name or path a mission gives)."""
     from vinecli.missions.spec_io import resolve_vehicle
     from vinecli.world.build import world_spec_inputs
 
-    for v in dict.fromkeys(str(c.mission["vehicle"]) for c in cases if c.mission.get("vehicle")):
-        resolve_vehicle(v, path=pipeline)
+    vehicles = {v: resolve_vehicle(v, path=pipeline)
+                for v in dict.fromkeys(str(c.mission["vehicle"]) for c in cases if c.mission.get("vehicle"))}
     for ref in dict.fromkeys(c.world for c in cases):
         p = Path(ref)
         if p.suffix in (".yaml", ".yml") and p.is_file():
             world_spec_inputs(p)
         else:
             note_input(p, "world")
+    return vehicles
 
 
 def _refuse(target: Path, pipeline: Path, *, what: str) -> None:
@@ -83,9 +88,10 @@ def _is_batch_json(path: Path) -> bool:
         return False
 
 
-def check_cases_memory(cases: Sequence[Case], worlds: Mapping[str, str], pipeline: Path) -> None:
-    """InputError (exit 2) for the first case that cannot fit (``worlds``: world reference -> built dir)."""
-    from vinecli.missions.spec_io import resolve_vehicle
+def check_cases_memory(cases: Sequence[Case], worlds: Mapping[str, str], vehicles: Mapping[str, VehicleSpec],
+                       pipeline: Path) -> None:
+    """InputError (exit 2) for the first case that cannot fit (``worlds``: world reference -> built dir;
+    ``vehicles``: what :func:`note_case_inputs` loaded)."""
     from vinecli.sim.memory import check_run_memory
     from vinecli.specs.mission import MissionSpec
     from vinecli.world import load_world
@@ -102,7 +108,7 @@ def check_cases_memory(cases: Sequence[Case], worlds: Mapping[str, str], pipelin
         if world is None:
             continue
         mission = MissionSpec.model_validate(c.mission)
-        vehicle = resolve_vehicle(mission.vehicle, path=pipeline) if mission.vehicle else world.vehicle
+        vehicle = vehicles[mission.vehicle] if mission.vehicle else world.vehicle
         try:
             check_run_memory(mission, vehicle, world)
         except InputError as exc:

@@ -46,6 +46,7 @@ from vinecli.batch.prechecks import check_case_targets, check_cases_memory, note
 from vinecli.errors import InputError, SpecError
 from vinecli.inputs import reading_inputs
 from vinecli.locks import output_lock
+from vinecli.missions.spec_io import MissionFile
 from vinecli.outputs import contained_path, jsonable, output_folder, remove_stale_temps, write_text_atomic
 from vinecli.runs import rundir
 from vinecli.runs.batch_json import BATCH_JSON
@@ -53,6 +54,7 @@ from vinecli.runs.request import RunRequest
 from vinecli.sitl.options import PX4_DEFAULTS, AutopilotOptions, firmware_binary
 from vinecli.specs.limits import MAX_DURATION_S
 from vinecli.specs.mission import MissionSpec
+from vinecli.specs.vehicle import VehicleSpec
 from vinecli.stop_signals import StopRequested, StopSignals
 
 log = logging.getLogger(__name__)
@@ -155,13 +157,13 @@ def run_batch(
                 label = "PX4" if name == "px4" else "ArduPilot"
                 option = f"--{name}-bin" if given is not None else f"{name}_bin"
                 ap_opts[name] = AutopilotOptions(**{f"{name}_bin": firmware_binary(pb, option, label)})
-        note_case_inputs(cases, ppath)
+        vehicles = note_case_inputs(cases, ppath)
         check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR, resume=resume)
         with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
             remove_stale_temps(runs_dir)
             try:
                 batch = _Batch(spec, ppath, cases, runs_dir, resume, timeout_s if timeout_s is not None else spec.timeout_s,
-                               grace_s, mcap, ap_opts)
+                               grace_s, mcap, ap_opts, vehicles)
                 pool = _Pool(run_case, workers, executor, scheduler, dask_processes, max_tasks_per_child)
                 return _run(batch, pool, progress)
             finally:  # what workers killed by a second signal left half-written
@@ -182,11 +184,15 @@ class _Batch:
     grace_s: float | None  # past the limit, s, before the parent stops a worker (None: max(30 s, limit / 4))
     mcap: bool
     autopilot_options: dict[str, AutopilotOptions]  # per autopilot name
+    vehicles: dict[str, VehicleSpec]  # the vehicles the missions name, loaded once (by the name or path given)
 
     def request(self, case: Case, world_dir: str) -> RunRequest:
-        """The run of ``case`` in the built world ``world_dir``."""
+        """The run of ``case`` in the built world ``world_dir``: its mission validated and its vehicle loaded here,
+        once, so a worker reads and validates no spec."""
         options = self.autopilot_options.get(str(case.mission.get("autopilot")), PX4_DEFAULTS)
-        return RunRequest(MissionSpec.model_validate(case.mission), world_dir, str(self.runs_dir), seed=case.seed,
+        spec = MissionSpec.model_validate(case.mission)
+        mission = MissionFile(spec, None, self.vehicles[spec.vehicle] if spec.vehicle is not None else None)
+        return RunRequest(mission, world_dir, str(self.runs_dir), seed=case.seed,
                           run_id=case.name, case=case.name, mcap=self.mcap, wall_timeout_s=self.timeout_s,
                           overwrite=True, protect=(case.mission_path,), autopilot_options=options)
 
@@ -225,7 +231,7 @@ def _run(batch: _Batch, pool: _Pool, progress: ProgressFn | None) -> BatchResult
         except StopRequested:
             log.warning("%s: batch stopped while preparing the worlds", stop.name)
         if stop.signum is None:
-            check_cases_memory(batch.cases, worlds, batch.ppath)
+            check_cases_memory(batch.cases, worlds, batch.vehicles, batch.ppath)
         requests = [batch.request(c, worlds.get(c.world, c.world)) for c in batch.cases]
 
         def execute(todo: Sequence[RunRequest], record: Callable[[CaseResult], None]) -> None:
@@ -353,7 +359,8 @@ def _execute(todo: Sequence[RunRequest], pool: _Pool, hard_limit: float | None, 
 
 def _expected_cost(s: RunRequest) -> float:
     """Simulated seconds a case may take (its mission's ``max_duration_s``), to schedule long cases first."""
-    return float(s.mission.max_duration_s) if isinstance(s.mission, MissionSpec) else 0.0
+    mission = s.mission.spec if isinstance(s.mission, MissionFile) else s.mission
+    return float(mission.max_duration_s) if isinstance(mission, MissionSpec) else 0.0
 
 
 def _drain(inflight: dict[Future[CaseResult], tuple[RunRequest, float, bool]], flag: Any,

@@ -15,18 +15,19 @@ import signal
 import sys
 import warnings
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import typer
 from rich.console import Console, ConsoleOptions, ConsoleRenderable, RenderHook
-from rich.logging import RichHandler
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.segment import Segment
 from rich.table import Table
 from rich.text import Text
 
 from vinecli.errors import VinecliError
 from vinecli.stop_signals import signal_name
+
+if TYPE_CHECKING:
+    from rich.progress import Progress
 
 
 class _ShowControls(RenderHook):
@@ -71,6 +72,22 @@ class _State:
 STATE = _State()
 
 
+class _RichLogHandler(logging.Handler):
+    """Rich's log handler, made at the first record that reaches it (``rich.logging`` loads Rich's traceback
+    and syntax machinery: a command that logs nothing does not pay for it)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._rich: logging.Handler | None = None
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if self._rich is None:
+            from rich.logging import RichHandler
+
+            self._rich = RichHandler(console=err_console, show_time=False, show_path=False, markup=False)
+        self._rich.handle(record)
+
+
 class HeldWarnings(logging.Handler):
     """Warnings wait for the command's ending (:meth:`hold`): shown when it succeeds or fails at run time
     (:meth:`show_held`), dropped when it refuses bad input (:meth:`drop_held`), whose one error line says it all.
@@ -100,7 +117,7 @@ class HeldWarnings(logging.Handler):
         self.held = None
 
 
-HELD = HeldWarnings(RichHandler(console=err_console, show_time=False, show_path=False, markup=False))
+HELD = HeldWarnings(_RichLogHandler())
 
 
 def setup_logging(verbosity: int, debug: bool) -> None:
@@ -212,6 +229,8 @@ def safe(text: Any) -> str:
 def progress(*, transient: bool | None = None) -> Progress:
     """A Rich progress bar of items done (n/total) on stderr, hidden when stderr is not a terminal and not forced.
     ``transient``: remove the bar when done (default: when stderr is not a tty)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),
@@ -227,6 +246,8 @@ def progress(*, transient: bool | None = None) -> Progress:
 def sim_progress() -> Progress:
     """A Rich progress bar of simulated time (its ``info`` field shows sim time and speed) on stderr; removed
     when done, hidden when stderr is not a terminal and not forced."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),

@@ -118,12 +118,12 @@ class Mixer:
             return
         n = self.n
         for i in range(n):
-            sp[i] += k * vec[i]
+            sp[i] = sp[i] + (k * vec[i])
         k = 0.5 * self._gain(vec, sp, t_max)
         if reduce_only and k > 0.0:
             return
         for i in range(n):
-            sp[i] += k * vec[i]
+            sp[i] = sp[i] + (k * vec[i])
 
     def _yaw_share(self, sp: Sequence[float], yaw: Sequence[float], t_max: float) -> float:
         """Largest k in [0, 1] with t_min <= sp + k yaw <= t_max for every rotor."""
@@ -175,7 +175,7 @@ class Mixer:
                     k_a = -1.0
         if k_a >= 0.0:
             for i in range(n):
-                sp[i] += k_a * yaw[i]
+                sp[i] = sp[i] + (k_a * yaw[i])
         for i in range(n):
             s = sp[i]
             sp[i] = t_min if s < t_min else (t_max if s > t_max else s)

@@ -237,7 +237,7 @@ class Cascade:
         estimate): shift the vertical velocity integrator so that the thrust stays the same (PX4
         ``PositionControl::updateHoverThrust``)."""
         az = self.acc_sp[2]
-        self.vel_int[2] += (az + G) * mass_old / mass_new - G - az
+        self.vel_int[2] = self.vel_int[2] + ((az + G) * mass_old / mass_new - G - az)
 
     def ground_contact(self) -> None:
         """On the ground while flying (PX4 "flying but ground contact"): minimum collective thrust, level
@@ -274,9 +274,9 @@ class Cascade:
         af = self._acc_f
         if pv is not None and dt > 0.0:
             a = dt / (self.vel_d_tau + dt)
-            af[0] += a * ((vel[0] - pv[0]) / dt - af[0])
-            af[1] += a * ((vel[1] - pv[1]) / dt - af[1])
-            af[2] += a * ((vel[2] - pv[2]) / dt - af[2])
+            af[0] = af[0] + (a * ((vel[0] - pv[0]) / dt - af[0]))
+            af[1] = af[1] + (a * ((vel[1] - pv[1]) / dt - af[1]))
+            af[2] = af[2] + (a * ((vel[2] - pv[2]) / dt - af[2]))
         self._prev_vel = vel
         vi = self.vel_int
         aff = self.acc_ff
@@ -307,13 +307,13 @@ class Cascade:
         self.acc_sp = (fx / m, fy / m, fz / m - G)
         # integrators with anti-windup
         if not ((sat_z > 0 and ez > 0.0) or (sat_z < 0 and ez < 0.0)):
-            vi[2] += c.vel_i_z * ez * dt
+            vi[2] = vi[2] + (c.vel_i_z * ez * dt)
         if fh_req > fh_max and c.vel_p_xy > 0.0:
             arw = 2.0 / c.vel_p_xy
             ex -= arw * (ax - fx / m)
             ey -= arw * (ay - fy / m)
-        vi[0] += c.vel_i_xy * ex * dt
-        vi[1] += c.vel_i_xy * ey * dt
+        vi[0] = vi[0] + (c.vel_i_xy * ex * dt)
+        vi[1] = vi[1] + (c.vel_i_xy * ey * dt)
         lim = c.vel_i_limit
         for i in (0, 1):
             if vi[i] > lim:

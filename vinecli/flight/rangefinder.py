@@ -17,21 +17,31 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import TypeAlias
 
 import numpy as np
 
+from vinecli.flight.sensors import Normals
 from vinecli.frames import QuatXYZW, Vec3, quat_from_euler, quat_rotate
 from vinecli.specs.vehicle import RangefinderSpec
+from vinecli.terrain.grid import TerrainGrid
 from vinecli.types import RangeSample
 
-__all__ = ["Rangefinder", "make_rangefinder", "ray_terrain_distance"]
+__all__ = ["HeightSource", "Rangefinder", "make_rangefinder", "ray_terrain_distance"]
+
+#: the terrain heights a ray meets, ENU m: a world's height grid (called natively, compiled) or any z = h(x, y)
+HeightSource: TypeAlias = TerrainGrid | Callable[[float, float], float]
 
 _NAN = float("nan")
 #: the rangefinder's noise stream: child 5 of the run's seed sequence (make_sensors spawns 0-3, the depth camera 7)
 _SEED_CHILD = 5
 
 
-def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float, float], float], max_slope: float,
+def _h(height: HeightSource, x: float, y: float) -> float:
+    return height.height(x, y) if isinstance(height, TerrainGrid) else height(x, y)
+
+
+def ray_terrain_distance(origin: Vec3, direction: Vec3, height: HeightSource, max_slope: float,
                          max_range: float, tol: float = 1e-4) -> float:
     """Distance (m) along the unit ``direction`` from ``origin`` (ENU m) to the first crossing of the
     terrain ``z = height(x, y)`` with slopes at most ``max_slope``; NaN when there is none within
@@ -46,7 +56,7 @@ def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float,
     if rate <= 0.0:
         return _NAN  # pointing up, or level over level ground: never meets it
     s = 0.0
-    c = oz - height(ox, oy)
+    c = oz - _h(height, ox, oy)
     if c < 0.0:
         return _NAN
     s_prev = c_prev = _NAN
@@ -60,12 +70,12 @@ def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float,
         s += step
         if s > max_range:
             return _NAN
-        c = oz + s * uz - height(ox + s * ux, oy + s * uy)
+        c = oz + s * uz - _h(height, ox + s * ux, oy + s * uy)
         if c < 0.0:  # passed the crossing (a secant step, or terrain steeper than max_slope): bisect
             lo, hi = s_prev, s
             for _ in range(40):
                 mid = 0.5 * (lo + hi)
-                if oz + mid * uz - height(ox + mid * ux, oy + mid * uy) > 0.0:
+                if oz + mid * uz - _h(height, ox + mid * ux, oy + mid * uy) > 0.0:
                     lo = mid
                 else:
                     hi = mid
@@ -78,14 +88,14 @@ def ray_terrain_distance(origin: Vec3, direction: Vec3, height: Callable[[float,
 class Rangefinder:
     """One distance sensor (see the module docstring)."""
 
-    def __init__(self, spec: RangefinderSpec, height: Callable[[float, float], float], max_slope: float,
+    def __init__(self, spec: RangefinderSpec, height: HeightSource, max_slope: float,
                  rng: np.random.Generator) -> None:
         self.spec = spec
         self.height = height
         self.max_slope = max_slope
         self.period_us = max(1, round(1e6 / spec.rate_hz))
         self._last_k = -1
-        self._rng = rng
+        self._normals = Normals(rng)  # drawn in blocks: the same stream as one draw per reading
         r, p, y = spec.mount.rpy_deg
         q = quat_from_euler(math.radians(r), math.radians(p), math.radians(y))
         self.axis_flu: Vec3 = quat_rotate(q, (0.0, 0.0, -1.0))
@@ -111,7 +121,7 @@ class Rangefinder:
         self._last_k = k
         d = self.true_distance(pos, quat)
         if d == d and self.noise > 0.0:
-            d += self.noise * float(self._rng.standard_normal())
+            d += self.noise * self._normals.take(1)[0]
         if not (self.min_range <= d <= self.max_range):  # NaN: no return
             s = RangeSample(t_us, _NAN, False)
         else:
@@ -120,7 +130,7 @@ class Rangefinder:
         return s
 
 
-def make_rangefinder(spec: RangefinderSpec | None, height: Callable[[float, float], float], max_slope: float,
+def make_rangefinder(spec: RangefinderSpec | None, height: HeightSource, max_slope: float,
                      seed: int) -> Rangefinder | None:
     """The vehicle's rangefinder over terrain ``height`` (ENU m) with its own noise stream, or None."""
     if spec is None:

@@ -33,12 +33,12 @@ from vinecli.geo import GeoOrigin
 from vinecli.specs.vehicle import BaroSpec, GnssSpec, ImuSpec, MagSpec, MountSpec, SensorsSpec
 from vinecli.types import BaroSample, GnssSample, ImuSample, MagSample, RigidState
 
-__all__ = ["Baro", "Gnss", "Imu", "Mag", "SensorSuite", "make_sensors"]
+__all__ = ["Baro", "Gnss", "Imu", "Mag", "Normals", "SensorSuite", "make_sensors"]
 
 G0 = STANDARD_GRAVITY
 
 
-class _Normals:
+class Normals:
     """Standard normal draws from a Generator, fetched in blocks (one numpy call per block)."""
 
     def __init__(self, rng: np.random.Generator, block: int = 4096) -> None:
@@ -95,7 +95,7 @@ class Imu:
         self.spec = spec
         self.g = float(g)
         self._rate = _Rate(spec.rate_hz)
-        self._n = _Normals(rng)
+        self._n = Normals(rng)
         self._r: Vec3 | None = None if spec.mount.position_m == (0.0, 0.0, 0.0) else tuple(spec.mount.position_m)  # type: ignore[assignment]
         self._qm = _mount_quat(spec.mount)
         self.accel_bias: list[float] = [0.0, 0.0, 0.0]
@@ -143,12 +143,12 @@ class Imu:
         ab, gb = self.accel_bias, self.gyro_bias
         if self._walk:
             kab, kgb = self._accel_walk * sq, self._gyro_walk * sq
-            ab[0] += kab * n[j + 6]
-            ab[1] += kab * n[j + 7]
-            ab[2] += kab * n[j + 8]
-            gb[0] += kgb * n[j + 9]
-            gb[1] += kgb * n[j + 10]
-            gb[2] += kgb * n[j + 11]
+            ab[0] = ab[0] + (kab * n[j + 6])
+            ab[1] = ab[1] + (kab * n[j + 7])
+            ab[2] = ab[2] + (kab * n[j + 8])
+            gb[0] = gb[0] + (kgb * n[j + 9])
+            gb[1] = gb[1] + (kgb * n[j + 10])
+            gb[2] = gb[2] + (kgb * n[j + 11])
         sa = self._accel_density / sq
         sg = self._gyro_density / sq
         acc = (fx + ab[0] + sa * n[j], fy + ab[1] + sa * n[j + 1], fz + ab[2] + sa * n[j + 2])
@@ -170,7 +170,7 @@ class Baro:
         self.spec = spec
         self.origin_alt = float(origin_alt)
         self._rate = _Rate(spec.rate_hz)
-        self._n = _Normals(rng)
+        self._n = Normals(rng)
         self.drift_pa = 0.0
         self._drift, self._noise, self._q = spec.drift_pa_per_sqrt_s, spec.noise_pa, spec.quantization_pa
 
@@ -196,7 +196,7 @@ class Mag:
         self.field_ned: Vec3 = earth_field_ned(origin, year)  # true north
         self.field_enu: Vec3 = true_enu_to_grid(ned_to_enu(self.field_ned), origin.convergence_rad)  # the world's
         self._rate = _Rate(spec.rate_hz)
-        self._n = _Normals(rng)
+        self._n = Normals(rng)
         self._qm = _mount_quat(spec.mount)
         self._noise = spec.noise_gauss
 
@@ -219,7 +219,7 @@ class Gnss:
         self.spec = spec
         self.origin = origin
         self._rate = _Rate(spec.rate_hz)
-        self._n = _Normals(rng)
+        self._n = Normals(rng)
         p = spec.mount.position_m
         self._r: Vec3 | None = None if p == (0.0, 0.0, 0.0) else tuple(p)  # type: ignore[assignment]
         self.eph_m = max(spec.horizontal_noise_m, 0.01)

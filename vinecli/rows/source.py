@@ -172,7 +172,7 @@ def terrain_frame(t: dict[str, Any], terrain_dir: Path) -> RowFrame | None:
         return None
     scale = (1.0, 1.0)
     if crs is not None:
-        from rasterio.crs import CRS
+        from pyproj import CRS  # (rasterio's CRS gives the same scale: loading a world does not load GDAL)
 
         scale = crs_scale(CRS.from_user_input(crs), geo.get("lat"))
     return RowFrame(crs, (float(centre[0]), float(centre[1])), scale, (float(off[0]), float(off[1])))

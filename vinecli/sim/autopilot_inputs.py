@@ -51,5 +51,5 @@ def autopilot_context(run: PreparedRun, home: Vec3, dt_us: int, seed: int,
 def world_rangefinder(world: World, run: PreparedRun, seed: int) -> Rangefinder | None:
     """The vehicle's rangefinder over the world's terrain (its own noise stream), or None."""
     grid = world.terrain.grid
-    return make_rangefinder(run.vehicle.sensors.rangefinder, grid.height if grid is not None else world.terrain.height,
+    return make_rangefinder(run.vehicle.sensors.rangefinder, grid if grid is not None else world.terrain.height,
                             grid.max_slope() if grid is not None else 0.0, seed)

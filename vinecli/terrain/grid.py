@@ -27,6 +27,15 @@ class TerrainGrid:
     dx: float
     dy: float
     _flat: array = field(init=False, repr=False)
+    # typed (ints, not numpy's Any): compiled, height() is plain C arithmetic
+    nx: int = field(init=False, repr=False, compare=False)
+    ny: int = field(init=False, repr=False, compare=False)
+    _ix_max: int = field(init=False, repr=False, compare=False)
+    _iy_max: int = field(init=False, repr=False, compare=False)
+    # (index, z00, z01, z10, z11) of the cell height() read last: the loop, the autopilot and the rangefinder ask
+    # about the same few cells step after step, and reading ``_flat`` boxes each value (one tuple: threads sharing
+    # the grid read a consistent cell)
+    _cell: tuple[int, float, float, float, float] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.z = np.ascontiguousarray(self.z, dtype=np.float64)
@@ -34,10 +43,11 @@ class TerrainGrid:
             raise ValueError("height grid must be 2-D with at least 2×2 samples")
         if not np.isfinite(self.z).all():
             raise ValueError("height grid contains NaN/inf")
-        self.ny, self.nx = self.z.shape
+        self.ny, self.nx = int(self.z.shape[0]), int(self.z.shape[1])
         self._flat = array("d", self.z.ravel().tobytes())
         self._ix_max = self.nx - 1
         self._iy_max = self.ny - 1
+        self._cell = (-1, 0.0, 0.0, 0.0, 0.0)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -69,12 +79,13 @@ class TerrainGrid:
             iy = self._iy_max - 1
         tx = fx - ix
         ty = fy - iy
-        z = self._flat
         i = iy * self.nx + ix
-        z00 = z[i]
-        z01 = z[i + 1]
-        z10 = z[i + self.nx]
-        z11 = z[i + self.nx + 1]
+        cell = self._cell
+        if cell[0] != i:
+            z = self._flat
+            cell = (i, z[i], z[i + 1], z[i + self.nx], z[i + self.nx + 1])
+            self._cell = cell
+        _, z00, z01, z10, z11 = cell
         return (z00 + (z01 - z00) * tx) * (1.0 - ty) + (z10 + (z11 - z10) * tx) * ty
 
     def heights(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

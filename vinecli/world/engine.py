@@ -5,7 +5,10 @@ Terrain (world ENU, m):
 * ``flat``: a static plane at ``flat_z``;
 * ``heightmap``: ``GEOM_HEIGHTFIELD`` from the world's height grid (refused above 2^21 samples,
   where PyBullet breaks silently; the AABB is checked after loading, docs/terrain.md §4);
-* ``tiles``: one static body per OBJ/STL tile with ``GEOM_FORCE_CONCAVE_TRIMESH`` and mass 0.
+* ``tiles``: the OBJ/STL tiles merged into ONE static concave mesh (``GEOM_FORCE_CONCAVE_TRIMESH``, mass 0;
+  more only where PyBullet's size limit per mesh needs it), triangle for triangle the tiles' own
+  (:mod:`vinecli.world.terrain_mesh`): same ray heights and contacts as one body per tile, bit for bit, without
+  a static body per tile paired and updated every step.
 
 Terrain bodies are created with ``useMaximalCoordinates=True`` (plain static collision objects):
 as fixed-base multibodies every tile costs time on every step even when nothing touches it
@@ -21,6 +24,7 @@ the vehicle base so fast impacts on thin triangle meshes cannot pass through.
 from __future__ import annotations
 
 import atexit
+import hashlib
 import logging
 import math
 import threading
@@ -32,7 +36,7 @@ from pathlib import Path
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import RuntimeFailure, TerrainError
 from vinecli.frames import QuatXYZW, Vec3, quat_rotate
-from vinecli.world.model import TerrainInfo
+from vinecli.world.model import TerrainInfo, keep_loaded_worlds
 
 __all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine", "SettleResult", "rest_pose"]
 
@@ -40,6 +44,8 @@ log = logging.getLogger(__name__)
 
 #: PyBullet's heightfield silently breaks above this many samples (docs/terrain.md §4)
 HEIGHTFIELD_MAX_SAMPLES = 2**21
+#: height (m ENU) a kept vehicle waits at between runs (:meth:`Engine.park_vehicle`)
+PARK_Z = 1.0e5
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,8 @@ class Engine:
         self.terrain_bodies: list[int] = []
         self.vehicle: int = -1
         self.n_links = 0
+        self._vehicle_key: tuple[str, str, float] | None = None  # (URDF path, its sha256, CCD radius) of the vehicle
+        self._parked: tuple[str, str, float] | None = None  # the vehicle's key while it is parked
         # bound methods: avoid attribute look-ups in the loop
         self.step = c.stepSimulation
         self._closed = False
@@ -90,7 +98,7 @@ class Engine:
         elif terrain.kind == "heightmap":
             bodies = [self._heightfield(terrain)]
         elif terrain.kind == "tiles":
-            bodies = [self._mesh_tile(f, terrain.offset) for f in terrain.files if f.suffix.lower() in (".obj", ".stl")]
+            bodies = self._mesh_tiles([f for f in terrain.files if f.suffix.lower() in (".obj", ".stl")], terrain.offset)
             if not bodies:
                 raise TerrainError("tiles terrain has no OBJ/STL files")
         else:
@@ -142,6 +150,33 @@ class Engine:
             )
         return body
 
+    def _mesh_tiles(self, files: list[Path], offset: Vec3) -> list[int]:
+        """The tiles as few merged concave meshes (module doc); a file the reader does not take, or one too large
+        for a merged mesh, as a body of its own loaded by PyBullet."""
+        from vinecli.world.terrain_mesh import fits, merge_meshes, read_mesh
+
+        meshes = []
+        bodies = []
+        for f in files:
+            mesh = read_mesh(f)
+            if mesh is not None and fits(mesh):
+                meshes.append(mesh)
+            else:
+                bodies.append(self._mesh_tile(f, offset))
+        c, p = self.client, self.p
+        for m in merge_meshes(meshes):
+            shape = c.createCollisionShape(p.GEOM_MESH, vertices=m.vertices.tolist(), indices=m.faces.ravel().tolist(),
+                                           flags=p.GEOM_FORCE_CONCAVE_TRIMESH)
+            if shape < 0:
+                raise TerrainError(f"PyBullet could not take the terrain mesh of {len(m.faces)} triangles")
+            body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, basePosition=list(offset),
+                                     useMaximalCoordinates=True)
+            # a mesh made from vertices gets a 1 mm collision margin, one loaded from a file none: the tiles' 0
+            # (measured: contact distances 1 mm apart otherwise)
+            c.changeDynamics(body, -1, collisionMargin=0.0)
+            bodies.append(body)
+        return bodies
+
     def _mesh_tile(self, path: Path, offset: Vec3 = (0.0, 0.0, 0.0)) -> int:
         c, p = self.client, self.p
         shape = c.createCollisionShape(p.GEOM_MESH, fileName=str(path), flags=p.GEOM_FORCE_CONCAVE_TRIMESH,
@@ -153,7 +188,14 @@ class Engine:
 
     # ------------------------------------------------------------------ vehicle
     def load_vehicle(self, urdf: Path, pos: Vec3, quat: QuatXYZW, *, ccd_radius: float = 0.02) -> int:
-        """Load the vehicle URDF at ``pos`` (CoM, m ENU) with attitude ``quat`` (FLU -> ENU)."""
+        """Load the vehicle URDF at ``pos`` (CoM, m ENU) with attitude ``quat`` (FLU -> ENU); a vehicle of the same
+        URDF parked by :meth:`park_vehicle` is taken out again instead (moved there at rest)."""
+        key = (str(urdf), hashlib.sha256(urdf.read_bytes()).hexdigest(), ccd_radius)
+        if self.vehicle >= 0 and self._parked == key:
+            self._parked = None
+            self.reset_vehicle(pos, quat, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+            return self.vehicle
+        self.remove_vehicle()
         c, p = self.client, self.p
         try:
             body = c.loadURDF(str(urdf), basePosition=list(pos), baseOrientation=list(quat),
@@ -166,6 +208,7 @@ class Engine:
             c.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, lateralFriction=1.0,
                              restitution=0.0, rollingFriction=0.001, spinningFriction=0.001)
         c.changeDynamics(body, -1, ccdSweptSphereRadius=ccd_radius)
+        self._vehicle_key = key
         return body
 
     def remove_vehicle(self) -> None:
@@ -174,6 +217,17 @@ class Engine:
             self.client.removeBody(self.vehicle)
             self.vehicle = -1
             self.n_links = 0
+            self._parked = None
+
+    def park_vehicle(self) -> None:
+        """Keep the vehicle body for the next run on this engine (:meth:`load_vehicle` of the same URDF takes it out
+        again): at rest far above the terrain, out of every ray, its contacts with the ground dropped."""
+        if self.vehicle >= 0:
+            c = self.client
+            c.resetBasePositionAndOrientation(self.vehicle, [0.0, 0.0, PARK_Z], [0.0, 0.0, 0.0, 1.0])
+            c.resetBaseVelocity(self.vehicle, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+            c.performCollisionDetection()  # the broadphase drops its pairs with the terrain, and their contact points
+            self._parked = self._vehicle_key
 
     def reset_vehicle(self, pos: Vec3, quat: QuatXYZW, vel: Vec3, omega_world: Vec3) -> None:
         """Teleport the vehicle (m ENU, FLU -> ENU) and set its velocities (m/s, rad/s world)."""
@@ -280,11 +334,14 @@ _DROP_AT_EXIT = False  # _KEPT.drop registered with atexit (the main thread's ke
 
 
 def reuse_terrain_engines(enabled: bool = True) -> None:
-    """Keep the engine of the last terrain in this thread across runs (batch workers: a case on the same
-    world skips connecting PyBullet and loading its tiles). Runs stay bit-identical to fresh engines: the
-    engine is created with ``deterministicOverlappingPairs`` and only the vehicle body is removed between
-    runs (checked against fresh engines in tests/world/test_engine_reuse.py)."""
+    """Keep what a batch worker's cases on one world share, in this thread across runs: the engine of the last
+    terrain (a case skips connecting PyBullet and loading its terrain), its vehicle body (parked between runs,
+    :meth:`Engine.park_vehicle`) and the loaded world (:func:`vinecli.world.model.keep_loaded_worlds`). Runs stay
+    bit-identical to fresh engines: the engine is created with ``deterministicOverlappingPairs`` and the vehicle
+    is reset to the spawn at rest with its contacts dropped (checked against fresh engines in
+    tests/world/test_engine_reuse.py)."""
     global _DROP_AT_EXIT
+    keep_loaded_worlds(enabled)
     _KEPT.enabled = enabled
     if not enabled:
         _KEPT.drop()
@@ -328,7 +385,7 @@ def terrain_engine(terrain: TerrainInfo, *, rate_hz: float, gravity: float) -> I
     except BaseException:
         _KEPT.drop()
         raise
-    engine.remove_vehicle()
+    engine.park_vehicle()
 
 
 # parameters: keyword-only options, each with its default (the vehicle's box, gear, liquid and the engine's rate and gravity); a caller names the ones it sets

@@ -38,6 +38,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
+import threading
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,14 +53,14 @@ from vinecli.errors import InputError, SpecError
 from vinecli.frames import Vec3
 from vinecli.geo import GeoOrigin
 from vinecli.gis.georef import world_geo_origin
-from vinecli.inputs import note_input, read_input_json
+from vinecli.inputs import note_input, read_input_text
 from vinecli.specs import format_validation_error
 from vinecli.specs.mission import GeofenceSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
 from vinecli.terrain.grid import TerrainGrid
 
-__all__ = ["SCHEMA", "TerrainInfo", "World", "load_world", "rest_position"]
+__all__ = ["SCHEMA", "TerrainInfo", "World", "keep_loaded_worlds", "load_world", "rest_position"]
 
 SCHEMA = "vinecli.world/1"
 
@@ -138,23 +141,66 @@ class World:
         return {"x": x, "y": y, "z": np.full((33, 33), self.terrain.flat_z, np.float32)}
 
 
+class _KeptWorld(threading.local):
+    """The last world :func:`load_world` read in this thread, while :func:`keep_loaded_worlds` is on."""
+
+    def __init__(self) -> None:
+        self.enabled = False
+        self.key: tuple[object, ...] | None = None
+        self.world: World | None = None
+
+
+_KEPT_WORLD = _KeptWorld()
+
+
+def keep_loaded_worlds(enabled: bool = True) -> None:
+    """Keep the last world :func:`load_world` read in this thread, and hand out copies of it while its files are
+    unchanged: a batch worker's next case on the same world skips validating its vehicle and wind, reading its
+    height grid and its georeference. A copy: a World's own fields may be replaced; what they hold (the height
+    grid, the frozen specs, the row lists) is shared and read only, as runs use it."""
+    _KEPT_WORLD.enabled = enabled
+    if not enabled:
+        _KEPT_WORLD.key, _KEPT_WORLD.world = None, None
+
+
+def _files_key(root: Path, text: str) -> tuple[object, ...]:
+    """What makes a world the same one: its folder, world.json's text and the size and mtime of every other file
+    in it (a rebuilt or edited world reads again)."""
+    stats = tuple((str(p), st.st_size, st.st_mtime_ns) for p in sorted(root.rglob("*"))
+                  if p.name != "world.json" and p.is_file() and (st := p.stat()))
+    return (str(root.resolve()), text, stats)
+
+
 def load_world(dir: Path | str) -> World:  # noqa: A002 - the contract's name
-    """Read ``DIR/world.json`` (written by :func:`vinecli.world.build_world`)."""
+    """Read ``DIR/world.json`` (written by :func:`vinecli.world.build_world`); with :func:`keep_loaded_worlds` on,
+    a copy of the world this thread read last when its files are unchanged."""
     root = Path(dir)
     wj = root / "world.json"
     if not wj.exists():
         raise SpecError("not a built world (no world.json; run `vinecli world build`)", path=root)
     note_input(root, "world")
     try:
-        d = read_input_json(wj, "world.json")
+        text = read_input_text(wj, "world.json")
+        d = json.loads(text)
     except InputError as exc:
         raise SpecError(exc.problem, path=wj) from None
+    except json.JSONDecodeError as exc:
+        raise SpecError(f"cannot read world.json: {exc}", path=wj) from None
+    except RecursionError:
+        raise SpecError("world.json is nested too deeply to be a world (invalid JSON)", path=wj) from None
     if not isinstance(d, dict):
         raise SpecError(f"corrupt world.json: expected a mapping, got {type(d).__name__}", path=wj)
     if d.get("schema") != SCHEMA:
         raise SpecError(f"unsupported world schema {d.get('schema')!r} (expected {SCHEMA})", path=wj)
+    key = _files_key(root, text) if _KEPT_WORLD.enabled else None
+    if key is not None and key == _KEPT_WORLD.key and _KEPT_WORLD.world is not None:
+        return dataclasses.replace(_KEPT_WORLD.world)
     try:
-        return _parse_world(root, wj, d)
+        world = _parse_world(root, wj, d)
+        if key is not None:
+            _KEPT_WORLD.key, _KEPT_WORLD.world = key, world
+            return dataclasses.replace(world)
+        return world
     except ValidationError as exc:
         raise SpecError(format_validation_error(exc), path=wj) from None
     except KeyError as exc:
