@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import select
 import socket
+import time
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from vinecli.errors import AutopilotError
+from vinecli.sitl.delivery import PeerReceipt
 
 #: most socket reads (of up to 64 kB) one :meth:`PolledTcpLink.poll` makes
 POLL_READS = 64
@@ -34,6 +36,9 @@ class PolledTcpLink:
         self.sock: socket.socket | None = None
         self.closed_by_peer = False
         self.rx_count = 0
+        self.tx_bytes = 0  # bytes handed to the kernel since connecting
+        self._confirmed = 0  # of which the firmware's socket is known to hold
+        self.receipt = PeerReceipt()
 
     @property
     def connected(self) -> bool:
@@ -91,6 +96,7 @@ class PolledTcpLink:
         try:
             s.setblocking(True)
             s.sendall(buf)
+            self.tx_bytes += len(buf)
         except OSError as exc:
             self.closed_by_peer = True
             raise AutopilotError(f"{self.name}: MAVLink link on TCP {self.host}:{self.port} lost "
@@ -99,7 +105,29 @@ class PolledTcpLink:
             if self.sock is not None:
                 s.setblocking(False)
 
+    def wait_received(self, timeout_s: float) -> bool | None:
+        """Wait (up to ``timeout_s`` of wall time) until the firmware's socket holds every byte sent
+        (:mod:`vinecli.sitl.delivery`). True at once if it does, False if it had to wait, None if the kernel
+        cannot say or the bytes did not arrive in time (the caller counts that: no guarantee for the frame)."""
+        s = self.sock
+        if s is None or self.closed_by_peer or self._confirmed >= self.tx_bytes:
+            return True
+        deadline = time.monotonic() + timeout_s
+        waited = False
+        while True:
+            got = self.receipt.received(s)
+            if got is None:
+                return None
+            if got >= self.tx_bytes:
+                self._confirmed = got
+                return not waited
+            if time.monotonic() >= deadline:
+                return None
+            waited = True
+            time.sleep(0.0002)  # the kernel's softirq thread needs the CPU this process would spin on
+
     def close(self) -> None:
+        self.receipt.close()
         if self.sock is not None:
             self.sock.close()
             self.sock = None

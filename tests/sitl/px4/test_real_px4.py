@@ -228,11 +228,18 @@ def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
     missions = {"takeoff": "missions/takeoff.yaml", "gust": "missions/gust.yaml", "spray-rows": "missions/px4/spray-rows.yaml"}
     fig: dict[str, dict[str, dict[str, float | None]]] = {}
     for case, rel in missions.items():
-        seed = json.loads((out / case / "summary.json").read_text())["seed"]
+        flown = json.loads((out / case / "summary.json").read_text())
+        # the figures of a run PX4 did not finish are None: say why instead of comparing None (TypeError)
+        assert flown["status"] == "completed", (case, flown["status"], flown.get("status_message"))
+        seed = flown["seed"]
         s = run_mission(RunRequest(pipeline_dir / rel, world, tmp_path, seed=seed, autopilot="builtin", run_id=case))
         assert s.passed, (case, s.status, s.failed_checks)
         fig[case] = {"builtin": behaviour_figures(tmp_path / case), "px4": behaviour_figures(out / case)}
     print(json.dumps(fig, indent=1))  # shown on failure
+    wanted = {"takeoff": ("takeoff_time_s", "landing_time_s"), "gust": ("hover_error_max_m",), "spray-rows": ("spray_path_p95_m",)}
+    missing = [(case, who, name) for case, names in wanted.items() for who in ("builtin", "px4") for name in names
+               if fig[case][who][name] is None]
+    assert missing == [], missing  # each figure applies to its mission (behaviour_figures: None = does not apply)
     for who in ("builtin", "px4"):
         takeoff = fig["takeoff"][who]
         assert 2.0 < takeoff["takeoff_time_s"] < 12.0  # 8 m at a 2 m/s climb, with the approach

@@ -4,7 +4,11 @@ Per physics step (:meth:`ArdupilotSitlAutopilot.step`, ArduPilot waits for each 
 
 1. answer ArduPilot's pending servo frame with the state this step reached (:mod:`.json_link`): gyro
    and specific force from vinecli's rigid body (body FRD; ArduPilot adds its own IMU noise), position
-   and velocity NED from its home, attitude quaternion;
+   and velocity NED from its home, attitude quaternion; first, every MAVLink byte sent so far must be
+   in ArduPilot's socket (:mod:`vinecli.sitl.delivery`: ArduPilot reads its port right after the answer,
+   and on a loaded machine the kernel can deliver the answer before earlier TCP bytes);
+   ``ardupilot_delivery_waits`` counts answers that waited for that, ``ardupilot_undelivered`` the ones
+   sent without it (bytes still undelivered after ``DELIVERY_WAIT_S``; 0 on a run that repeats);
 2. receive ArduPilot's next servo frame: its outputs for the step that starts now;
 3. with ArduPilot blocked again, read and answer its MAVLink (:class:`.client.ArdupilotClient`) and feed
    it the battery vinecli simulates (SIM_BATT_VOLTAGE and the current sensor's offset, every 0.1 s);
@@ -46,6 +50,8 @@ from vinecli.types import ActuatorCommand, Event, Observation, RigidState
 log = logging.getLogger(__name__)
 
 BATTERY_PERIOD_US = 100_000
+#: wall seconds an answer waits for the kernel to deliver the MAVLink bytes sent before it (milliseconds under load)
+DELIVERY_WAIT_S = 2.0
 #: parameters vinecli sets while flying (the battery), not in the parameter file
 LIVE_PARAMS = ("SIM_BATT_VOLTAGE", "BATT_AMP_OFFSET")
 KEEP = ("logs/*.BIN", "ardupilot.log", "vinecli.parm")
@@ -114,6 +120,8 @@ class ArdupilotSitlAutopilot:
         self.steps = 0
         self.stalls = 0
         self.resends = 0
+        self.delivery_waits = 0  # answers that waited for the kernel to deliver MAVLink bytes to ArduPilot
+        self.undelivered = 0  # answers sent with MAVLink bytes still undelivered after DELIVERY_WAIT_S
         self.boot_s = 0.0
         self._last_count: int | None = None
         self._frame: ServoFrame | None = None
@@ -212,7 +220,20 @@ class ArdupilotSitlAutopilot:
         q = xyzw_to_wxyz(attitude_grid_to_ned_frd(tr.quat, gamma))
         self._line = state_line(timestamp_s(self.answers, self.dt_us), flu_to_frd(tr.omega_body), sf, p,
                                 grid_to_ned(tr.vel, gamma), q)
+        self._deliver_mavlink()
         self.json.answer(self._line)
+
+    def _deliver_mavlink(self) -> None:
+        """Before ArduPilot's clock moves: every MAVLink byte sent is in its socket (:mod:`vinecli.sitl.delivery`),
+        so it reads them at its next port read on every run, however late the kernel delivered them."""
+        link = self.client.link if self.client is not None else None
+        if link is None or not link.connected:
+            return
+        done = link.wait_received(DELIVERY_WAIT_S)
+        if done is False:
+            self.delivery_waits += 1
+        elif done is None and link.receipt.available:
+            self.undelivered += 1
 
     def _next_frame(self) -> ServoFrame:
         """ArduPilot's next servo frame (its resends skipped); AutopilotError if it died, hung or sends no servo
@@ -308,6 +329,8 @@ class ArdupilotSitlAutopilot:
         ex["ardupilot_stalls"] = float(getattr(self, "stalls", 0))
         ex["ardupilot_lockstep_steps"] = float(getattr(self, "steps", 0))
         ex["ardupilot_resends"] = float(getattr(self, "resends", 0))
+        ex["ardupilot_delivery_waits"] = float(getattr(self, "delivery_waits", 0))
+        ex["ardupilot_undelivered"] = float(getattr(self, "undelivered", 0))
         ex["ardupilot_boot_s"] = float(getattr(self, "boot_s", 0.0))
         if self.client is not None:
             ex["ardupilot_armed"] = 1.0 if self.client.state.armed else 0.0

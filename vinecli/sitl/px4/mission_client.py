@@ -62,6 +62,8 @@ PARAM_SETTLE_US = 2_000_000
 #: PX4 on the ground and disarmed before the mission's end for this long (simulated; its MISSION_CURRENT and
 #: HEARTBEAT come at 1 Hz) ends the run as aborted: it will not fly on
 EARLY_LANDING_GRACE_US = 3_000_000
+#: wall seconds a wait for PX4's answer lasts at most when the simulation does not move (its limit is simulated time)
+WAIT_WALL_S = 15.0
 
 
 def battery_params(v: VehicleSpec, mass_kg: float) -> dict[str, float | int]:
@@ -288,11 +290,15 @@ class Px4MissionClient:
                 self._event("phase", f"phase {pi} (item {seq})", {"index": pi, "seq": seq})
 
     def _wait(self, types: set[str], timeout: float, cond: Any = None) -> Any:
-        deadline = time.monotonic() + timeout
+        """The first matching message within ``timeout`` s of PX4's clock (the simulation's: on a loaded machine
+        PX4 answers in simulated time, seconds of wall time later), or None; :data:`WAIT_WALL_S` of wall time
+        without it ends the wait too (a simulation that does not move)."""
+        sim_deadline = self.sim_time_us + int(timeout * 1e6)
+        wall_deadline = time.monotonic() + max(timeout, WAIT_WALL_S)
         while not self._stop.is_set():
             self._tick()
-            left = deadline - time.monotonic()
-            if left <= 0:
+            left = wall_deadline - time.monotonic()
+            if left <= 0 or self.sim_time_us >= sim_deadline:
                 return None
             m = self.link.recv(min(left, 0.1))
             if m is None:
