@@ -7,9 +7,10 @@ TaskData (a ``TASKDATA.XML`` or its folder: treatment-zone polygons, grids of ty
 band unit, when set, must be one of them).
 
 Every map is checked against the field before it is used (InputError, exit 2, one line naming the file): the
-file must read; the rate column must exist and hold numbers; rates must be 0 (no spray) or within
-[:data:`MIN_RATE_LPHA`, :data:`MAX_RATE_LPHA`]; the map must overlap the rows; rows outside the map need a
-default rate. The map is read, never written.
+file must read; at most :data:`~vinecli.gis.zone_index.MAX_ZONES` zones (counted before reading them); the rate
+column must exist and hold numbers; rates must be 0 (no spray) or within [:data:`MIN_RATE_LPHA`,
+:data:`MAX_RATE_LPHA`]; zones with different rates must not overlap (:mod:`vinecli.gis.zone_index`); the
+map must overlap the rows; rows outside the map need a default rate. The map is read, never written.
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ def read_prescription(path: Path | str, georef: Georef, rows: Sequence[Polyline]
         m.default_lpha = default_lpha
     if default_lpha is not None:
         check_rate(default_lpha, "default rate", path)
+    m.check_zones()
     _check_field(m, rows)
     return m
 
@@ -57,6 +59,7 @@ def _read_zones(path: Path, georef: Georef, column: str | None, layer: str | Non
     if not column:
         raise InputError("zones need a rate column (--rate-column / prescription.column)", path=path)
     f = to_lpha(units, path)
+    _check_zone_count(path, layer)
     feats = read_features(path, georef, expect="polygons", layer=layer)
     if column not in feats[0].properties:
         cols = ", ".join(sorted(feats[0].properties)) or "none"
@@ -72,9 +75,25 @@ def _read_zones(path: Path, georef: Georef, column: str | None, layer: str | Non
         if not math.isfinite(rate):
             raise InputError(f"{where}: {v!r} is not a number", path=path)
         rate = check_rate(rate * f, where, path)
-        zones += [(ring, rate, str(ft.properties.get("name", ft.fid)), holes)
+        name = f"feature {ft.fid}" + (f" {ft.properties['name']}" if ft.properties.get("name") else "")
+        zones += [(ring, rate, name, holes)
                   for ring, holes in zip(ft.parts, ft.holes, strict=True)]
     return RateMap(path, "zones", georef, zones=zones, notes=[f"{len(feats)} zones, column {column!r} in {units}"])
+
+
+def _check_zone_count(path: Path, layer: str | None) -> None:
+    """InputError when the layer has more than MAX_ZONES features (GDAL's count, before reading them)."""
+    import pyogrio
+
+    from vinecli.gis.zone_index import MAX_ZONES
+
+    try:
+        n = int(pyogrio.read_info(str(path), layer=layer)["features"])
+    except (pyogrio.errors.DataSourceError, pyogrio.errors.DataLayerError):
+        return  # read_features names what is wrong with the file
+    if n > MAX_ZONES:
+        raise InputError(f"{n:,} zones, more than {MAX_ZONES:,}: a map this fine is a grid (send it as a rate "
+                         "GeoTIFF or an ISO-XML grid)", path=path)
 
 
 def _read_raster(path: Path, georef: Georef, units: str) -> RateMap:
