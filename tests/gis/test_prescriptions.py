@@ -134,6 +134,8 @@ def _bad(kind: str, d: Path, g: Georef) -> tuple[Path, list[str], str]:
         return _hostile_zones(kind, d, g), ["--rate-column", "rate"], {
             "nested zone": "zones 'feature 2' and 'feature 4' overlap by ", "too many zones": "100,001 zones",
             "overlapping zones": "zones 'feature 1' and 'feature 2' overlap by "}[kind]
+    if kind == "raster NaN cells (nodata -1)":
+        return _nan_raster(d / "nan.tif", g, nodata=-1.0), [], "1 cells are not a number"
     raise AssertionError(kind)
 
 
@@ -163,9 +165,22 @@ def _hostile_zones(kind: str, d: Path, g: Georef) -> Path:
     return path
 
 
+def _nan_raster(path: Path, g: Georef, nodata: float) -> Path:
+    """The rate raster with its first cell NaN and its band's nodata ``nodata``."""
+    import rasterio
+
+    write_rate_raster(path, g)
+    with rasterio.open(path, "r+") as ds:
+        z = ds.read(1)
+        z[0, 0] = np.nan
+        ds.nodata = nodata
+        ds.write(z, 1)
+    return path
+
+
 BAD = ["no overlap", "missing column", "non-numeric", "negative", "absurd", "absurd raster", "broken xml",
        "unknown units (ddi)", "unknown units (option)", "isoxml rate in the wrong unit", "no default outside",
-       "nested zone", "overlapping zones", "too many zones"]
+       "nested zone", "overlapping zones", "too many zones", "raster NaN cells (nodata -1)"]
 
 
 @pytest.mark.parametrize("kind", BAD)

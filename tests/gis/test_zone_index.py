@@ -1,6 +1,7 @@
 """vinecli.gis.zone_index and the hostile maps a prescription may still be: the STRtree gives the zone the old
 per-zone scan gave (shapely.contains_xy, the first zone wins, holes excluded); zones with the same rate may overlap,
-slivers under the tolerance pass, a nested zone with another rate is refused."""
+slivers under the tolerance pass, a nested zone with another rate is refused; a rate raster's NaN cells are nodata
+exactly where GDAL's mask says so."""
 
 from __future__ import annotations
 
@@ -11,8 +12,13 @@ import pytest
 import shapely
 from shapely.geometry import Polygon
 
+from tests.canopy_fixtures import write_truth_dsm
+from tests.prescription_fixtures import write_rate_raster, zone_rate
 from vinecli.errors import InputError
+from vinecli.gis.georef import Georef
+from vinecli.gis.prescription import read_prescription
 from vinecli.gis.zone_index import OVERLAP_TOLERANCE_M2, ZoneIndex
+from vinecli.rows.dsm_canopy import DsmCanopy, measure_dsm_canopy
 
 
 def _square(x: float, y: float, side: float) -> list[tuple[float, float]]:
@@ -56,3 +62,39 @@ def test_overlaps_refused_only_with_different_rates_above_the_tolerance() -> Non
 def test_a_zone_in_the_hole_of_another_does_not_overlap_it() -> None:
     outer, hole, island = _square(0, 0, 30), _square(10, 10, 10), _square(12, 12, 6)
     ZoneIndex([outer, island], [[hole], []]).check_overlaps([100.0, 300.0], ["outer", "island"], Path("z.gpkg"))
+
+
+@pytest.fixture(scope="module")
+def field(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, DsmCanopy, Georef]:
+    d = tmp_path_factory.mktemp("field")
+    c = measure_dsm_canopy(write_truth_dsm(d / "vineyard.tif"), base_m=0.5)
+    return d / "vineyard.tif", c, Georef(c.rows.frame, c.rows.origin)
+
+
+@pytest.mark.parametrize("nodata", [float("nan"), -1.0, None])
+def test_nan_cells_follow_gdals_mask(nodata: float | None, field: tuple, tmp_path: Path) -> None:
+    """A Web Mercator rate raster with a block of NaN cells over row ground: with the band's nodata NaN, GDAL's
+    mask (rasterio read_masks) calls them nodata and they take the default rate; with nodata -1 or none GDAL
+    calls them data, and a NaN rate is refused naming the file and the count."""
+    import rasterio
+
+    _, c, g = field
+    path = write_rate_raster(tmp_path / "r.tif", g)
+    with rasterio.open(path, "r+") as ds:
+        z = ds.read(1)
+        z[: z.shape[0] // 4] = np.nan  # the northern quarter
+        ds.nodata = nodata
+        ds.write(z, 1)
+    with rasterio.open(path) as ds:
+        gdal_nodata = ds.read_masks(1) == 0
+    nan_cells = int(np.isnan(z).sum())
+    if nodata is None or not np.isnan(nodata):
+        assert not gdal_nodata.any()
+        with pytest.raises(InputError, match=f"{nan_cells} cells are not a number") as err:
+            read_prescription(path, g, c.rows.detection.rows, default_lpha=90.0)
+        assert "r.tif" in str(err.value)
+        return
+    assert (gdal_nodata == np.isnan(z)).all()
+    m = read_prescription(path, g, c.rows.detection.rows, default_lpha=90.0)
+    ys = np.array([-12.0, 0.0, 14.5])
+    assert m.rates(np.full(3, 1.25), ys).tolist() == [zone_rate(-12.0), zone_rate(0.0), 90.0]

@@ -9,7 +9,8 @@ band unit, when set, must be one of them).
 Every map is checked against the field before it is used (InputError, exit 2, one line naming the file): the
 file must read; at most :data:`~vinecli.gis.zone_index.MAX_ZONES` zones (counted before reading them); the rate
 column must exist and hold numbers; rates must be 0 (no spray) or within [:data:`MIN_RATE_LPHA`,
-:data:`MAX_RATE_LPHA`]; zones with different rates must not overlap (:mod:`vinecli.gis.zone_index`); the
+:data:`MAX_RATE_LPHA`]; zones with different rates must not overlap (:mod:`vinecli.gis.zone_index`); a raster
+cell GDAL's mask counts as data must be a number (NaN cells are nodata only when the band's nodata is NaN); the
 map must overlap the rows; rows outside the map need a default rate. The map is read, never written.
 """
 
@@ -104,10 +105,17 @@ def _read_raster(path: Path, georef: Georef, units: str) -> RateMap:
             if ds.crs is None:
                 raise InputError("rate raster has no CRS", path=path)
             band_units = (ds.units or (None,))[0]
-            values = ds.read(1, masked=True).astype(np.float64).filled(np.nan)
-            to_pixel, crs = ~ds.transform, ds.crs
+            values = ds.read(1).astype(np.float64)
+            data = ds.read_masks(1) > 0  # GDAL's mask band: nodata, alpha or a mask file
+            to_pixel, crs, nodata = ~ds.transform, ds.crs, ds.nodata
     except rasterio.errors.RasterioError as exc:
         raise InputError(f"cannot read rate raster: {exc}", path=path) from None
+    odd = data & ~np.isfinite(values)
+    if odd.any():
+        said = "not set" if nodata is None else f"{nodata:g}"
+        raise InputError(f"band 1: {odd.sum()} cells are not a number (NaN or infinite) and not nodata (the band's "
+                         f"nodata is {said}): set its nodata to NaN or fill them", path=path)
+    values[~data] = np.nan
     f = to_lpha(band_units or units, path)
     values = values * f
     finite = values[np.isfinite(values)]
