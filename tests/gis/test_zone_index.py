@@ -71,26 +71,27 @@ def field(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, DsmCanopy, Ge
     return d / "vineyard.tif", c, Georef(c.rows.frame, c.rows.origin)
 
 
-@pytest.mark.parametrize("nodata", [float("nan"), -1.0, None])
-def test_nan_cells_follow_gdals_mask(nodata: float | None, field: tuple, tmp_path: Path) -> None:
-    """A Web Mercator rate raster with a block of NaN cells over row ground: with the band's nodata NaN, GDAL's
-    mask (rasterio read_masks) calls them nodata and they take the default rate; with nodata -1 or none GDAL
-    calls them data, and a NaN rate is refused naming the file and the count."""
+@pytest.mark.parametrize(("fill", "nodata"), [(np.nan, np.nan), (np.nan, -1.0), (np.nan, None), (np.inf, np.nan)])
+def test_nan_cells_follow_gdals_mask(fill: float, nodata: float | None, field: tuple, tmp_path: Path) -> None:
+    """A Web Mercator rate raster with a block of NaN (or infinite) cells over row ground: with the band's nodata
+    NaN, GDAL's mask (rasterio read_masks) calls NaN cells nodata and they take the default rate; GDAL calls them
+    data with nodata -1 or none, and infinite cells always: a rate that is not a number is refused naming the
+    file and the count."""
     import rasterio
 
     _, c, g = field
     path = write_rate_raster(tmp_path / "r.tif", g)
     with rasterio.open(path, "r+") as ds:
         z = ds.read(1)
-        z[: z.shape[0] // 4] = np.nan  # the northern quarter
+        z[: z.shape[0] // 4] = fill  # the northern quarter
         ds.nodata = nodata
         ds.write(z, 1)
     with rasterio.open(path) as ds:
         gdal_nodata = ds.read_masks(1) == 0
-    nan_cells = int(np.isnan(z).sum())
-    if nodata is None or not np.isnan(nodata):
+    odd = int((~np.isfinite(z)).sum())
+    if not (nodata is not None and np.isnan(nodata) and np.isnan(fill)):
         assert not gdal_nodata.any()
-        with pytest.raises(InputError, match=f"{nan_cells} cells are not a number") as err:
+        with pytest.raises(InputError, match=f"{odd} cells are not a number") as err:
             read_prescription(path, g, c.rows.detection.rows, default_lpha=90.0)
         assert "r.tif" in str(err.value)
         return
