@@ -30,7 +30,13 @@ class ZoneIndex:
         import shapely
         from shapely.geometry import Polygon
 
-        self.polygons = np.array([Polygon(r, h) for r, h in zip(rings, holes, strict=True)], dtype=object)
+        sizes = [len(r) for r in rings]
+        coords = np.concatenate([np.asarray(r, dtype=np.float64).reshape(-1, 2) for r in rings]) if rings else \
+            np.empty((0, 2))
+        shells = shapely.linearrings(coords, indices=np.repeat(np.arange(len(rings)), sizes))  # closed by shapely
+        self.polygons = np.asarray(shapely.polygons(shells), dtype=object)
+        for k in (k for k, h in enumerate(holes) if h):
+            self.polygons[k] = Polygon(rings[k], holes[k])
         self.tree = shapely.STRtree(self.polygons)
 
     def first_zone(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
