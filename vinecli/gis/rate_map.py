@@ -49,8 +49,9 @@ def check_rate(rate: float, where: str, path: Path) -> float:
 @dataclass
 class RateMap:
     """A prescription in local metres. Zones: ``zones`` [(ring, rate L/ha, name, holes)] (the first containing a
-    point wins, not in its holes; zones with different rates do not overlap: :meth:`check_zones`); a grid: ``grid`` values (ny, nx) L/ha (NaN: none) with ``to_pixel`` (CRS x, y -> col, row, float) in
-    ``grid_crs``. ``default_lpha``: the rate where the map prescribes nothing (None: none given)."""
+    point wins, not in its holes; zones with different rates do not overlap: :meth:`check_zones`); a grid:
+    ``grid`` values (ny, nx) L/ha (NaN: none) with ``to_pixel`` (CRS x, y -> col, row, float) in ``grid_crs``.
+    ``default_lpha``: the rate where the map prescribes nothing (None: none given)."""
 
     path: Path
     kind: str
