@@ -7,9 +7,11 @@ the tests (4 rows, 32 m). Measured in this process, interleaved, median of ``--r
 * ``scan``: the zone under each of the rows' points every 5 cm as ``RateMap.mapped`` found it before (a Polygon
   and ``shapely.contains_xy`` per zone, the first zone winning), against ``tree``: ``ZoneIndex.first_zone``
   (built once per map, its build counted); the two must agree point for point;
-* ``read``: ``read_prescription`` whole (count check, read, reprojection, overlap check, the field check);
+* ``read``: what ``plan rows --prescription`` does with the map: ``read_prescription`` (count check, read,
+  reprojection, overlap check, the field check) and ``segment_rates`` over the measured canopy segments (the map
+  asked once per segment);
 * with ``--baseline-tree DIR`` (a checkout of the code before, e.g. ``git worktree add /tmp/before main``), the same
-  ``read_prescription`` in a subprocess importing DIR's vinecli: the end-to-end ratio;
+  in a subprocess importing DIR's vinecli: the end-to-end ratio;
 * the refusal of a map above ``MAX_ZONES`` (from the layer's feature count, before reading).
 
     .venv/bin/python benchmarks/prescription_zones.py [--zones 2000 20000 100000] [--repeats 3]
@@ -35,14 +37,14 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.append(str(REPO))  # tests' fixtures; after PYTHONPATH (a baseline tree's vinecli)
 
 
-def field(work: Path) -> tuple[Any, Any]:
-    """(georef, rows) of the known-truth vineyard written under ``work``."""
+def field(work: Path) -> tuple[Any, Any, Any]:
+    """(georef, rows, canopy segments) of the known-truth vineyard written under ``work``."""
     from tests.canopy_fixtures import write_truth_dsm
     from vinecli.gis.georef import Georef
     from vinecli.rows.dsm_canopy import measure_dsm_canopy
 
     c = measure_dsm_canopy(write_truth_dsm(work / "vineyard.tif"), base_m=0.5)
-    return Georef(c.rows.frame, c.rows.origin), c.rows.detection.rows
+    return Georef(c.rows.frame, c.rows.origin), c.rows.detection.rows, c.segments
 
 
 def write_grid(path: Path, georef: Any, n: int) -> Path:
@@ -84,12 +86,15 @@ def scan(zones: list, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def read_seconds(path: Path, work: Path) -> float:
-    """Seconds of one ``read_prescription`` of ``path`` over the field (default rate 100 L/ha)."""
+    """Seconds of one ``read_prescription`` of ``path`` over the field (default rate 100 L/ha) and its
+    ``segment_rates``."""
     from vinecli.gis.prescription import read_prescription
+    from vinecli.rows.segment_rates import segment_rates
 
-    georef, rows = field(work)
+    georef, rows, segments = field(work)
     t0 = time.perf_counter()
-    read_prescription(path, georef, rows, column="rate", default_lpha=100.0)
+    m = read_prescription(path, georef, rows, column="rate", default_lpha=100.0)
+    segment_rates(segments, rate_map=m.rates, prescription=m.summary(), rows=rows)
     return time.perf_counter() - t0
 
 
@@ -113,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     out: dict[str, Any] = {"zones": {}}
     with tempfile.TemporaryDirectory(prefix="vinecli-rx-") as tmp:
         work = Path(tmp)
-        georef, rows = field(work)
+        georef, rows, _ = field(work)
         x, y = stations(rows)
         for n in args.zones:
             path = write_grid(work / f"grid{n}.gpkg", georef, n)
@@ -139,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
                  "read_s": statistics.median(t_read)}
             r["scan_over_tree"] = r["scan_s"] / r["tree_s"]
             line = (f"{n:>7,} zones, {x.size:,} points: scan {r['scan_s']:.3f} s, STRtree {r['tree_s']:.4f} s "
-                    f"({r['scan_over_tree']:.0f}x); read_prescription {r['read_s']:.2f} s")
+                    f"({r['scan_over_tree']:.0f}x); read + segment rates {r['read_s']:.2f} s")
             if t_base:
                 r["baseline_read_s"] = statistics.median(t_base)
                 line += f", baseline tree {r['baseline_read_s']:.2f} s ({r['baseline_read_s'] / r['read_s']:.1f}x)"
