@@ -13,7 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tests.canopy_fixtures import write_truth_dsm
-from tests.prescription_fixtures import write_rate_raster, write_taskdata, write_zones, zone_rate
+from tests.prescription_fixtures import _rings, write_rate_raster, write_taskdata, write_zones, zone_rate
 from vinecli.cli.app import app
 from vinecli.gis.georef import Georef
 from vinecli.gis.prescription import read_prescription
@@ -130,11 +130,57 @@ def _bad(kind: str, d: Path, g: Georef) -> tuple[Path, list[str], str]:
         pyogrio.raw.write(d / "two.gpkg", geoms[:2], [f[:2] for f in fields], list(meta["fields"]), driver="GPKG",
                           crs=meta["crs"], geometry_type="Polygon")
         return d / "two.gpkg", ["--rate-column", "rate"], "give a default rate"
+    if kind in ("nested zone", "overlapping zones", "too many zones"):
+        return _hostile_zones(kind, d, g), ["--rate-column", "rate"], {
+            "nested zone": "zones 'feature 2' and 'feature 4' overlap by ", "too many zones": "100,001 zones",
+            "overlapping zones": "zones 'feature 1' and 'feature 2' overlap by "}[kind]
+    if kind == "raster NaN cells (nodata -1)":
+        return _nan_raster(d / "nan.tif", g, nodata=-1.0), [], "1 cells are not a number"
     raise AssertionError(kind)
 
 
+def _hostile_zones(kind: str, d: Path, g: Georef) -> Path:
+    """Zones in Web Mercator: the three plus a 400 L/ha zone nested in the middle one; the first grown over the
+    second (to its far edge); or a grid of 100,001 tiny squares over the field."""
+    import pyogrio.raw
+    import shapely
+    from shapely.geometry import Polygon
+
+    r = [Polygon(x) for x in _rings(g, "EPSG:3857")]
+    if kind == "nested zone":
+        geoms, rates = [*r, r[1].buffer(-2.0)], [150.0, 200.0, 250.0, 400.0]
+    elif kind == "overlapping zones":
+        geoms, rates = [r[0].union(r[1]).envelope, r[1], r[2]], [150.0, 200.0, 250.0]
+    else:
+        x0, y0, x1, y1 = r[0].union(r[2]).bounds
+        n = 100_001
+        k = np.arange(n)
+        side = (x1 - x0) / 400
+        geoms = list(shapely.box(x0 + k % 400 * side, y0 + k // 400 * side, x0 + (k % 400 + 1) * side,
+                                 y0 + (k // 400 + 1) * side))
+        rates = [180.0] * n
+    path = d / f"{kind.replace(' ', '-')}.gpkg"
+    pyogrio.raw.write(path, np.array(shapely.to_wkb(geoms), dtype=object), [np.array(rates)], ["rate"],
+                      driver="GPKG", crs="EPSG:3857", geometry_type="Polygon")
+    return path
+
+
+def _nan_raster(path: Path, g: Georef, nodata: float) -> Path:
+    """The rate raster with its first cell NaN and its band's nodata ``nodata``."""
+    import rasterio
+
+    write_rate_raster(path, g)
+    with rasterio.open(path, "r+") as ds:
+        z = ds.read(1)
+        z[0, 0] = np.nan
+        ds.nodata = nodata
+        ds.write(z, 1)
+    return path
+
+
 BAD = ["no overlap", "missing column", "non-numeric", "negative", "absurd", "absurd raster", "broken xml",
-       "unknown units (ddi)", "unknown units (option)", "isoxml rate in the wrong unit", "no default outside"]
+       "unknown units (ddi)", "unknown units (option)", "isoxml rate in the wrong unit", "no default outside",
+       "nested zone", "overlapping zones", "too many zones", "raster NaN cells (nodata -1)"]
 
 
 @pytest.mark.parametrize("kind", BAD)
@@ -187,3 +233,26 @@ def test_a_zone_with_a_hole(field: tuple, tmp_path: Path) -> None:
     m = read_prescription(path, g, c.rows.detection.rows, column="rate", default_lpha=50.0)
     y = np.array([-10.0, -3.0, 0.0, 3.0, 10.0])
     assert m.rates(np.zeros(5), y).tolist() == [120.0, 50.0, 300.0, 50.0, 120.0]
+
+
+def test_overlap_named_with_its_area(field: tuple, tmp_path: Path) -> None:
+    """The refusal of a nested zone states the overlap in local m²: the inner zone's area by the shoelace formula
+    over its corners brought into the field's frame (to the 0.1 m² printed)."""
+    import re
+
+    import pyogrio.raw
+
+    from vinecli.errors import InputError
+
+    _, c, g = field
+    path = _hostile_zones("nested zone", tmp_path, g)
+    with pytest.raises(InputError) as err:
+        read_prescription(path, g, c.rows.detection.rows, column="rate")
+    said = float(re.search(r"overlap by ([0-9.]+) m²", str(err.value)).group(1))
+    inner = pyogrio.raw.read(path)[2][3]
+    from shapely import wkb
+
+    xy = np.array(g.from_crs(list(wkb.loads(bytes(inner)).exterior.coords)[:-1], "EPSG:3857"))
+    shoelace = 0.5 * abs(np.dot(xy[:, 0], np.roll(xy[:, 1], 1)) - np.dot(xy[:, 1], np.roll(xy[:, 0], 1)))
+    assert said == pytest.approx(shoelace, abs=0.051)
+    assert "200 and 400 L/ha" in str(err.value)

@@ -7,9 +7,11 @@ TaskData (a ``TASKDATA.XML`` or its folder: treatment-zone polygons, grids of ty
 band unit, when set, must be one of them).
 
 Every map is checked against the field before it is used (InputError, exit 2, one line naming the file): the
-file must read; the rate column must exist and hold numbers; rates must be 0 (no spray) or within
-[:data:`MIN_RATE_LPHA`, :data:`MAX_RATE_LPHA`]; the map must overlap the rows; rows outside the map need a
-default rate. The map is read, never written.
+file must read; at most :data:`~vinecli.gis.zone_index.MAX_ZONES` zones (counted before reading them); the rate
+column must exist and hold numbers; rates must be 0 (no spray) or within [:data:`MIN_RATE_LPHA`,
+:data:`MAX_RATE_LPHA`]; zones with different rates must not overlap (:mod:`vinecli.gis.zone_index`); a raster
+cell GDAL's mask counts as data must be a number (NaN cells are nodata only when the band's nodata is NaN); the
+map must overlap the rows; rows outside the map need a default rate. The map is read, never written.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ def read_prescription(path: Path | str, georef: Georef, rows: Sequence[Polyline]
         m.default_lpha = default_lpha
     if default_lpha is not None:
         check_rate(default_lpha, "default rate", path)
+    m.check_zones()
     _check_field(m, rows)
     return m
 
@@ -57,6 +60,7 @@ def _read_zones(path: Path, georef: Georef, column: str | None, layer: str | Non
     if not column:
         raise InputError("zones need a rate column (--rate-column / prescription.column)", path=path)
     f = to_lpha(units, path)
+    _check_zone_count(path, layer)
     feats = read_features(path, georef, expect="polygons", layer=layer)
     if column not in feats[0].properties:
         cols = ", ".join(sorted(feats[0].properties)) or "none"
@@ -72,9 +76,25 @@ def _read_zones(path: Path, georef: Georef, column: str | None, layer: str | Non
         if not math.isfinite(rate):
             raise InputError(f"{where}: {v!r} is not a number", path=path)
         rate = check_rate(rate * f, where, path)
-        zones += [(ring, rate, str(ft.properties.get("name", ft.fid)), holes)
+        name = f"feature {ft.fid}" + (f" {ft.properties['name']}" if ft.properties.get("name") else "")
+        zones += [(ring, rate, name, holes)
                   for ring, holes in zip(ft.parts, ft.holes, strict=True)]
     return RateMap(path, "zones", georef, zones=zones, notes=[f"{len(feats)} zones, column {column!r} in {units}"])
+
+
+def _check_zone_count(path: Path, layer: str | None) -> None:
+    """InputError when the layer has more than MAX_ZONES features (GDAL's count, before reading them)."""
+    import pyogrio
+
+    from vinecli.gis.zone_index import MAX_ZONES
+
+    try:
+        n = int(pyogrio.read_info(str(path), layer=layer)["features"])
+    except (pyogrio.errors.DataSourceError, pyogrio.errors.DataLayerError):
+        return  # read_features names what is wrong with the file
+    if n > MAX_ZONES:
+        raise InputError(f"{n:,} zones, more than {MAX_ZONES:,}: a map this fine is a grid (send it as a rate "
+                         "GeoTIFF or an ISO-XML grid)", path=path)
 
 
 def _read_raster(path: Path, georef: Georef, units: str) -> RateMap:
@@ -85,10 +105,17 @@ def _read_raster(path: Path, georef: Georef, units: str) -> RateMap:
             if ds.crs is None:
                 raise InputError("rate raster has no CRS", path=path)
             band_units = (ds.units or (None,))[0]
-            values = ds.read(1, masked=True).astype(np.float64).filled(np.nan)
-            to_pixel, crs = ~ds.transform, ds.crs
+            values = ds.read(1).astype(np.float64)
+            data = ds.read_masks(1) > 0  # GDAL's mask band: nodata, alpha or a mask file
+            to_pixel, crs, nodata = ~ds.transform, ds.crs, ds.nodata
     except rasterio.errors.RasterioError as exc:
         raise InputError(f"cannot read rate raster: {exc}", path=path) from None
+    odd = data & ~np.isfinite(values)
+    if odd.any():
+        said = "not set" if nodata is None else f"{nodata:g}"
+        raise InputError(f"band 1: {odd.sum()} cells are not a number (NaN or infinite) and not nodata (the band's "
+                         f"nodata is {said}): set its nodata to NaN or fill them", path=path)
+    values[~data] = np.nan
     f = to_lpha(band_units or units, path)
     values = values * f
     finite = values[np.isfinite(values)]

@@ -12,6 +12,7 @@ import numpy as np
 
 from vinecli.errors import InputError
 from vinecli.gis.georef import Georef
+from vinecli.gis.zone_index import ZoneIndex
 
 __all__ = ["MAX_RATE_LPHA", "MIN_RATE_LPHA", "UNITS_LPHA", "RateMap", "check_rate", "to_lpha"]
 
@@ -48,8 +49,9 @@ def check_rate(rate: float, where: str, path: Path) -> float:
 @dataclass
 class RateMap:
     """A prescription in local metres. Zones: ``zones`` [(ring, rate L/ha, name, holes)] (the first containing a
-    point wins; not in its holes); a grid: ``grid`` values (ny, nx) L/ha (NaN: none) with ``to_pixel`` (CRS x, y -> col, row, float) in
-    ``grid_crs``. ``default_lpha``: the rate where the map prescribes nothing (None: none given)."""
+    point wins, not in its holes; zones with different rates do not overlap: :meth:`check_zones`); a grid:
+    ``grid`` values (ny, nx) L/ha (NaN: none) with ``to_pixel`` (CRS x, y -> col, row, float) in ``grid_crs``.
+    ``default_lpha``: the rate where the map prescribes nothing (None: none given)."""
 
     path: Path
     kind: str
@@ -61,17 +63,27 @@ class RateMap:
     to_pixel: Any = None
     grid_crs: Any = None
     notes: list[str] = field(default_factory=list)
+    _index: ZoneIndex | None = field(default=None, init=False, repr=False, compare=False)
+
+    def zone_index(self) -> ZoneIndex:
+        """The zones' STRtree (built once)."""
+        if self._index is None:
+            self._index = ZoneIndex([z[0] for z in self.zones], [z[3] for z in self.zones])
+        return self._index
+
+    def check_zones(self) -> None:
+        """InputError when two zones with different rates overlap (:meth:`ZoneIndex.check_overlaps`)."""
+        if self.zones:
+            self.zone_index().check_overlaps([z[1] for z in self.zones], [z[2] for z in self.zones], self.path)
 
     def mapped(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """The map's own rate at local points, L/ha; NaN where it prescribes nothing."""
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         out = np.full(x.shape, np.nan)
         if self.zones:
-            import shapely
-            from shapely.geometry import Polygon
-
-            for ring, rate, _, holes in reversed(self.zones):  # the first zone containing a point wins
-                out[shapely.contains_xy(Polygon(ring, holes), x, y)] = rate
+            zone = self.zone_index().first_zone(x, y)
+            rates = np.array([z[1] for z in self.zones])
+            out[zone >= 0] = rates[zone[zone >= 0]]
         if self.grid is not None:
             pts = self.georef.to_crs(list(zip(x.tolist(), y.tolist(), strict=True)), self.grid_crs) if x.size else []
             cr = np.array([self.to_pixel * p for p in pts]).reshape(-1, 2)
