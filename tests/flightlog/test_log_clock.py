@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from tests.flightlog.synthetic_log import synthetic_log
-from tests.identify.ulog_edit import cut, restarted, shifted
+from tests.identify.ulog_edit import cut, restarted, shifted, shifted_topic
 from tests.repo_paths import SHARED_DATA
 from tests.safety.memguard import run_child
 from vinecli.errors import InputError
@@ -70,6 +70,19 @@ def test_a_damaged_clock_is_fitted_on_its_longest_stretch_with_a_note(whole: byt
     assert code == 0, err[-2000:]
     assert any(note in n and "longest continuous stretch" in n for n in fit["notes"]), fit["notes"]
     assert fit["log"]["duration_s"] < 40.0  # one half of the 60 s flight, never a span of days
+    assert took < 120 and rss < 1500, (took, rss)
+
+
+@pytest.mark.parametrize("delta_us", [10**12, 10**16])
+def test_one_stream_s_clock_jumping_alone_is_dropped_with_a_note(whole: bytes, tmp_path: Path, delta_us: int) -> None:
+    """The IMU's clock is whole but the battery's alone jumps halfway: the fit used to take the jumped samples
+    silently (its figure of merit moved 7.5 -> 6.7 / 17.4); now they are dropped and a note names the stream."""
+    (tmp_path / "bad.ulg").write_bytes(shifted_topic(whole, "battery_status", 0.5, delta_us))
+    code, took, rss, err, fit = _fit(tmp_path / "bad.ulg", tmp_path / "fit")
+    assert code == 0, err[-2000:]
+    note = next((n for n in fit["notes"] if "battery_status" in n), None)
+    assert note is not None and "jumps away from the IMU's" in note, fit["notes"]
+    assert fit["log"]["duration_s"] > 55.0  # the IMU's whole flight is kept
     assert took < 120 and rss < 1500, (took, rss)
 
 

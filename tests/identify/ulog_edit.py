@@ -32,6 +32,28 @@ def retime(data: bytes, frac: float, fn) -> bytes:  # noqa: ANN001 - fn(timestam
     return bytes(out)
 
 
+def topic_ids(data: bytes, topic: str) -> set[int]:
+    """The msg_ids a topic's data messages carry (its ``A`` subscriptions: ``uint8 multi_id, uint16 msg_id, name``)."""
+    ids, i = set(), HEADER
+    while i + 3 <= len(data):
+        size, kind = struct.unpack_from("<HB", data, i)
+        if kind == ord("A") and data[i + 6:i + 3 + size].decode(errors="replace") == topic:
+            ids.add(struct.unpack_from("<H", data, i + 4)[0])
+        i += 3 + size
+    return ids
+
+
+def shifted_topic(data: bytes, topic: str, frac: float, delta_us: int) -> bytes:
+    """Only ``topic``'s clock jumps forward by ``delta_us`` from ``frac`` of its data messages on."""
+    ids = topic_ids(data, topic)
+    offs = [o for o in data_offsets(data) if struct.unpack_from("<H", data, o - 2)[0] in ids]
+    out = bytearray(data)
+    for off in offs[int(len(offs) * frac):]:
+        (ts,) = struct.unpack_from("<Q", out, off)
+        struct.pack_into("<Q", out, off, ts + delta_us)
+    return bytes(out)
+
+
 def shifted(data: bytes, frac: float, delta_us: int) -> bytes:
     """The clock jumps forward by ``delta_us`` at ``frac`` of the data messages."""
     return retime(data, frac, lambda ts: ts + delta_us)

@@ -6,7 +6,8 @@ at 50 Hz would take 580 million steps), a clock that restarts at 0 halfway (two 
 that stopped for minutes. :func:`continuous_stretch` cuts the reference stream (the IMU, logged fastest) where
 its time, in file order, goes back by more than :data:`RESET_S` or forward by more than :data:`JUMP_S`, and
 keeps the longest stretch; :meth:`Stretch.take` then picks each stream's samples of that stretch (same restart
-count, same time span). The readers say so in a note. Sorting and de-duplicating small out-of-order steps is
+count, same time span). When the IMU's clock is whole but another stream's alone jumps or restarts,
+:meth:`Stretch.strays` finds that stream's samples that left it. The readers say so in a note. Sorting and de-duplicating small out-of-order steps is
 :func:`vinecli.flightlog.arrays.sorted_stream`'s job, after this.
 """
 
@@ -19,7 +20,7 @@ import numpy as np
 from vinecli.errors import InputError
 from vinecli.specs.limits import MAX_LOG_SPAN_S
 
-__all__ = ["JUMP_S", "RESET_S", "Stretch", "continuous_stretch"]
+__all__ = ["JUMP_S", "RESET_S", "Stretch", "continuous_stretch", "strays_note"]
 
 #: a forward step of the clock longer than this is a jump, not a logging gap (gaps of seconds are gaps), s
 JUMP_S = 60.0
@@ -52,6 +53,19 @@ class Stretch:
         if before.size:
             keep[before[np.argmax(t[before])]] = True
         return keep
+
+
+    def strays(self, t: np.ndarray) -> np.ndarray:
+        """Which samples of another stream (raw times ``t``, s, in file order) left this stretch's clock: after a
+        restart of their own, or later than :data:`JUMP_S` past its end (a stream whose clock alone jumped)."""
+        t = np.asarray(t, dtype=float)
+        return (epochs(t) != self.epoch) | (t > self.t1 + JUMP_S)
+
+
+def strays_note(lost: dict[str, tuple[int, int]]) -> str:
+    """The note for streams whose clock alone jumped: ``lost`` maps a stream's name to (samples dropped, of)."""
+    which = ", ".join(f"{name} ({n} of {of} samples)" for name, (n, of) in lost.items())
+    return f"the clock of {which} jumps away from the IMU's: those samples are not used"
 
 
 def epochs(t: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ from vinecli.flightlog.arrays import (
     require,
     sorted_stream,
 )
-from vinecli.flightlog.clock import continuous_stretch
+from vinecli.flightlog.clock import continuous_stretch, strays_note
 from vinecli.flightlog.flight_log import (
     Attitude,
     BatteryLog,
@@ -74,6 +74,12 @@ def read_dataflash(path: str, sha256: str) -> FlightLog:
             rows = {k: [r for r, keep in zip(v, (stretch.take_state if k == "EV" else stretch.take)(_times(v)),
                                              strict=True) if keep] for k, v in rows.items()}
             clock_note = stretch.note
+        else:  # the IMU's clock is whole: drop what another message's clock jump moved, and say so
+            strays = {k: stretch.strays(_times(v)) for k, v in rows.items() if v}
+            lost = {k: (int(m.sum()), int(m.size)) for k, m in strays.items() if m.any()}
+            rows = {k: [r for r, out in zip(v, strays[k], strict=True) if not out] if k in lost else v
+                    for k, v in rows.items()}
+            clock_note = strays_note(lost) if lost else ""
     t_all = [_times(rows[k]) for k in ("RCOU", "IMU") if rows.get(k)]
     require(bool(t_all) and all(len(t) for t in t_all), path, "no motor outputs (RCOU) or IMU in the log")
     t0 = min(float(t[0]) for t in t_all)

@@ -26,7 +26,7 @@ from vinecli.flightlog.arrays import (
     require,
     sorted_stream,
 )
-from vinecli.flightlog.clock import Stretch, continuous_stretch
+from vinecli.flightlog.clock import Stretch, continuous_stretch, strays_note
 from vinecli.flightlog.flight_log import (
     Attitude,
     BatteryLog,
@@ -70,10 +70,13 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
         taken = {k: _take(d, stretch, k[0] in STATE_TOPICS) for k, d in topics.items()}
         topics = {k: d for k, d in taken.items() if len(d["timestamp"])}  # none left: as if not logged
         t0 = int(stretch.t0 * 1e6)
+    clock_note = stretch.note if stretch is not None else ""
+    if stretch is not None and not stretch.note:  # the IMU's clock is whole: drop what another stream's jump moved
+        topics, clock_note = _without_strays(topics, stretch)
     params = {str(k): float(v) for k, v in ulog.initial_parameters.items()}
     config, chans = _config(params, topics, path, ulog.file_corruption)
-    if stretch is not None and stretch.note:
-        config = replace(config, notes=(*config.notes, stretch.note))
+    if clock_note:
+        config = replace(config, notes=(*config.notes, clock_note))
 
     def secs(d: dict[str, np.ndarray]) -> np.ndarray:
         ts = d["timestamp"].astype(np.int64)  # a state published before logging started has timestamp 0
@@ -118,6 +121,21 @@ def read_ulog(path: str, sha256: str) -> FlightLog:
 
 #: topics that are step functions (a state holds until the next sample): the stretch keeps the sample before it
 STATE_TOPICS = frozenset({"actuator_armed", "vehicle_status", "vehicle_land_detected"})
+
+
+def _without_strays(topics: dict[tuple[str, int], dict[str, np.ndarray]],
+                    stretch: Stretch) -> tuple[dict[tuple[str, int], dict[str, np.ndarray]], str]:
+    """``topics`` without the samples whose clock alone left the IMU's (:meth:`Stretch.strays`), and the note
+    saying which ('' when none did)."""
+    out, lost = {}, {}
+    for k, d in topics.items():
+        stray = stretch.strays(d["timestamp"] * 1e-6)
+        if stray.any():
+            lost[k[0] if k[1] == 0 else f"{k[0]}[{k[1]}]"] = (int(stray.sum()), int(stray.size))
+            d = {f: v[~stray] for f, v in d.items()}
+        if len(d["timestamp"]):
+            out[k] = d
+    return out, strays_note(lost) if lost else ""
 
 
 def _take(d: dict[str, np.ndarray], stretch: Stretch, state: bool) -> dict[str, np.ndarray]:
