@@ -7,6 +7,8 @@ from __future__ import annotations
 import asyncio
 import math
 import socket
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import pytest
 from loopback_world import free_port
@@ -88,12 +90,19 @@ async def fly_with_mavsdk(port: int, origin) -> dict[str, object]:
     return out
 
 
+def _run_in_own_loop(make: Any) -> Any:
+    """``asyncio.run`` of the coroutine ``make()`` gives, in a thread of its own: a test that ran before in this
+    thread (pytest-playwright's sync API) may leave an event loop running here, where ``asyncio.run`` refuses."""
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        return pool.submit(lambda: asyncio.run(make())).result()
+
+
 def test_mavsdk_flies_a_spray_mission(world):
     port = free_port(socket.SOCK_DGRAM)
     ap = MavlinkControlledAutopilot(url=f"udp:127.0.0.1:{port}", local_port=free_port(socket.SOCK_DGRAM))
     sim = SimThread(world, RUN, ap).start()
     try:
-        out = asyncio.run(asyncio.wait_for(fly_with_mavsdk(port, world.origin), 150))
+        out = _run_in_own_loop(lambda: asyncio.wait_for(fly_with_mavsdk(port, world.origin), 150))
     finally:
         sim.stop()
     res = sim.join(30)
