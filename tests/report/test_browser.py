@@ -196,18 +196,20 @@ def test_hovering_a_deposition_cell_reads_its_rate(report: dict[str, Any], open_
     with rasterio.open(run / doc["geotiff"]["file"]) as ds:
         rate = np.flipud(ds.read(1).astype(float))  # row 0 south
     g = doc["grid"]
-    # a wet cell in an even stretch (its 7 x 7 neighbours within 2 %): its rate is what the cursor must read
+    # a wet cell on the crest of a swath (rows run north: its 7 neighbours along within 2 %; across, a swath 0.6 m
+    # wide at half height changes 3 % a cell): its rate is what the cursor must read, not a neighbour's
     from scipy.ndimage import maximum_filter, minimum_filter
 
-    hi, lo = maximum_filter(rate, 7), minimum_filter(rate, 7)
-    ok = (rate > 0.5 * np.nanmax(rate)) & (hi - lo < 0.02 * rate)
+    hi, lo = maximum_filter(rate, (7, 1)), minimum_filter(rate, (7, 1))
+    crest = rate >= maximum_filter(rate, (1, 3))
+    ok = (rate > 0.5 * np.nanmax(rate)) & (hi - lo < 0.02 * rate) & crest
     i, j = np.argwhere(ok)[len(np.argwhere(ok)) // 2]
     (lon, lat), = load_context(run).georef.to_lonlat([(g["x0_m"] + (j + 0.5) * g["cell_m"],
                                                         g["y0_m"] + (i + 0.5) * g["cell_m"])])
     page = open_page(report["html"], 1400)
     page.locator("#map-spray").scroll_into_view_if_needed()
     xy = page.evaluate("""([lat, lon]) => { const m = document.getElementById('map-spray').fieldmap.map;
-        m.setView([lat, lon], 21, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
+        m.setView([lat, lon], 23, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
         const r = m.getContainer().getBoundingClientRect(); return [r.left + p.x, r.top + p.y]; }""", [lat, lon])
     page.mouse.move(*xy)
     text = page.locator("#map-spray .fm-readout").text_content()
@@ -293,7 +295,7 @@ def _hover(page: Any, case: str, x: float, y: float, run_dir: Path) -> None:
     (lon, lat), = load_context(run_dir).georef.to_lonlat([(x, y)])
     page.locator(f"#map-{case}").scroll_into_view_if_needed()
     xy = page.evaluate("""([id, lat, lon]) => { const m = document.getElementById(id).fieldmap.map;
-        m.setView([lat, lon], 21, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
+        m.setView([lat, lon], 23, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
         const r = m.getContainer().getBoundingClientRect(); return [r.left + p.x, r.top + p.y]; }""",
                        [f"map-{case}", lat, lon])
     page.mouse.move(xy[0] - 3, xy[1])

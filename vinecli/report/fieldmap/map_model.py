@@ -26,7 +26,8 @@ class Raster:
     corner (``x0_m``, ``y0_m``). ``values`` (ny, nx), NaN where empty: what hovering shows, as "``label`` value
     ``unit``" with ``digits`` decimals (and the share of ``ref``, e.g. the asked rate, when given).
     ``smooth``: bilinear resampling (terrain) instead of nearest (cells). ``values_px``: the hover grid's long side
-    (pixels; coarser than the image: hover values cost more bytes than colours)."""
+    (pixels; mostly coarser than the image: hover values cost more bytes than colours; finer for a
+    deposition, whose cells the cursor must read one by one)."""
 
     rgba: np.ndarray
     x0_m: float

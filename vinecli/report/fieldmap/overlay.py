@@ -133,7 +133,7 @@ def overlay(r: Any, georef: Georef, max_px: int = 640) -> dict[str, Any]:
     lon, lat = _from_merc(np.array(mx), np.array(my))
     out["bounds"] = [[float(lat[0]), float(lon[0])], [float(lat[1]), float(lon[1])]]
     if r.values is not None:
-        g = min(1.0, r.values_px / max(w, h))
+        g = r.values_px / max(w, h)
         vw, vh = max(2, int(math.ceil(w * g))), max(2, int(math.ceil(h * g)))
         vi, vj = _cell_indices(georef, mx, my, vw, vh, x0, y0, cell)
         out["values"] = {"w": vw, "h": vh, **_encode_values(_sample(r.values, vi, vj, False, math.nan), r.digits)}

@@ -19,6 +19,9 @@ WET_SHARE = 0.02  # cells below this share of the scale's top stay transparent (
 #: sample potato field) read as the hillshade shows them
 HOVER_PX_TERRAIN = 320
 OVERLAY_PX = 640  # the overlays' long side (fieldmap.overlay)
+#: the deposition's hover grid, long side: twice the overlay's, so the cursor reads the cell under it, not a
+#: neighbour (a swath 0.6 m wide at half height changes 3 % a 0.1 m cell; 256 px over a 54 m map read 0.2 m steps)
+HOVER_PX_DEPOSITION = 2 * OVERLAY_PX
 
 
 def _hex(rgba: Any) -> str:
@@ -134,7 +137,7 @@ def deposition_layer(ctx: MapContext) -> MapLayer | None:
     dosed = bool((ctx.as_applied or {}).get("segments"))  # segment rates: no one asked rate, no dose bands
     r = Raster(_rgba(cmap, norm, rate, 0.85, shown), g["x0_m"], g["y0_m"], g["cell_m"],
                values=np.where(np.isfinite(rate), rate, np.nan), label="deposition", unit="L/ha", digits=1,
-               ref=None if dosed else asked, ref_label="asked")
+               ref=None if dosed else asked, ref_label="asked", values_px=HOVER_PX_DEPOSITION)
     bands = doc.get("dose_bands") or {}
     marks = {0.0: "0", top: f"{top:.3g}"}
     if dosed and asked is not None:
