@@ -295,7 +295,7 @@ def _hover(page: Any, case: str, x: float, y: float, run_dir: Path) -> None:
     (lon, lat), = load_context(run_dir).georef.to_lonlat([(x, y)])
     page.locator(f"#map-{case}").scroll_into_view_if_needed()
     xy = page.evaluate("""([id, lat, lon]) => { const m = document.getElementById(id).fieldmap.map;
-        m.setView([lat, lon], 23, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
+        m.setView([lat, lon], 21, {animate: false}); const p = m.latLngToContainerPoint([lat, lon]);
         const r = m.getContainer().getBoundingClientRect(); return [r.left + p.x, r.top + p.y]; }""",
                        [f"map-{case}", lat, lon])
     page.mouse.move(xy[0] - 3, xy[1])
