@@ -76,7 +76,7 @@ class ArdupilotSitlAutopilot:
             raise InputError(f"ardupilot autopilot: unknown option(s) {', '.join(sorted(opts))}")
         if ardupilot_bin is None:
             raise InputError("--autopilot ardupilot needs --ardupilot-bin PATH (an ArduCopter SITL binary, e.g. "
-                             "bin/arducopter of ../shared/ardupilot's tarball)")
+                             "bin/arducopter of an ArduCopter SITL build; docs/firmware-protocols.md)")
         if instance is not None and not 0 <= instance <= 99:
             raise InputError(f"ardupilot autopilot: instance {instance} out of range 0..99")
         if not (frame_timeout_s > 0 and boot_timeout_s > 0):
