@@ -15,9 +15,12 @@ pairs them up.
 
 With ``--baseline OTHER_CHECKOUT`` each configuration also runs another checkout's vinecli (same Python
 environment, that checkout first on ``PYTHONPATH``, its world built by its own code), interleaved trial by trial,
-and the script prints this / baseline cases per minute.
+and the script prints this / baseline cases per minute. With ``--executor both`` each worker count runs on the
+local process pool and on a Dask ``LocalCluster`` (``--executor dask``), interleaved, and the script prints
+dask / local and Dask's extra worker time per case.
 
-    .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--workers 1 2] [--baseline DIR] [--json out.json]
+    .venv/bin/python benchmarks/batch.py [--quick] [--repeat N] [--workers 1 2] [--baseline DIR]
+        [--executor local|dask|both] [--json out.json]
 """
 
 from __future__ import annotations
@@ -46,7 +49,12 @@ def main() -> None:
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--baseline", type=Path, default=None, help="another checkout, run interleaved (ratios)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results as JSON")
+    ap.add_argument("--executor", choices=["local", "dask", "both"], default="local",
+                    help="the batch's executor; 'both' runs each configuration on the local pool and on a Dask "
+                         "LocalCluster, interleaved, and prints dask / local")
     args = ap.parse_args()
+    if args.executor == "both":
+        return _compare_executors(args)
     repeat, trials = (1, 1) if args.quick else (args.repeat, args.trials)
 
     ci_path = REPO / "pipelines" / "ci.yaml"
@@ -149,13 +157,60 @@ def _baseline_world(checkout: Path, world_spec: Path, out: Path) -> Path:
     return Path(res.stdout.strip().splitlines()[-1])
 
 
-def _run_batch(pipe: Path, out: Path, workers: int, checkout: Path | None = None) -> float:
+def _compare_executors(args: argparse.Namespace) -> None:
+    """Each worker count on the local process pool and on a Dask LocalCluster, alternating trial by trial
+    (same built world, same cases): wall time of the whole command, cases per minute, dask / local."""
+    from vinecli.batch.pipeline import load_pipeline
+    from vinecli.batch.run import build_world_once
+
+    repeat, trials = (1, 1) if args.quick else (args.repeat, args.trials)
+    ci_path = REPO / "pipelines" / "ci.yaml"
+    ci = load_pipeline(ci_path)
+    assert ci.world is not None
+    with tempfile.TemporaryDirectory(prefix="vinecli-bench-") as tmp_s:
+        tmp = Path(tmp_s)
+        world = build_world_once((ci_path.parent / ci.world).resolve(), tmp / "_worlds")
+        missions = [str((ci_path.parent / e.mission).resolve()) for e in ci.missions]
+        pipe = _pipeline(tmp / "bench.yaml", world, missions, repeat)
+        walls: dict[tuple[str, int], list[float]] = {}
+        for trial in range(trials):
+            for workers in args.workers:
+                for executor in ("local", "dask"):
+                    out = tmp / f"runs-{executor}-j{workers}-t{trial}"
+                    walls.setdefault((executor, workers), []).append(_run_batch(pipe, out, workers,
+                                                                                executor=executor))
+                    doc = json.loads((out / "batch.json").read_text())
+                    bad = [c["case"] for c in doc["cases"] if not c["passed"]]
+                    print(f"trial {trial} {executor} workers={workers}: {len(doc['cases'])} cases in "
+                          f"{walls[executor, workers][-1]:.1f} s" + (f" (not passed: {', '.join(bad)})" if bad else ""))
+        results: dict[str, object] = {"repeat": repeat, "trials": trials, "cases": len(missions) * repeat}
+        for workers in args.workers:
+            local, dask = walls["local", workers], walls["dask", workers]
+            ratios = [d / lo for lo, d in zip(local, dask, strict=True)]
+            n = len(missions) * repeat
+            results[f"workers_{workers}"] = {
+                "local_wall_s": [round(w, 2) for w in local], "dask_wall_s": [round(w, 2) for w in dask],
+                "local_cases_per_min": round(n / statistics.median(local) * 60.0, 2),
+                "dask_cases_per_min": round(n / statistics.median(dask) * 60.0, 2),
+                "dask_over_local_wall": round(statistics.median(ratios), 3),
+                "dask_extra_s_per_case": round((statistics.median(dask) - statistics.median(local)) * workers / n, 3)}
+            print(f"workers={workers}: local {n / statistics.median(local) * 60.0:.2f} cases/min, dask "
+                  f"{n / statistics.median(dask) * 60.0:.2f} cases/min; dask / local wall "
+                  f"{statistics.median(ratios):.3f}x (trials {', '.join(f'{r:.3f}' for r in ratios)}); dask's "
+                  f"extra per case {(statistics.median(dask) - statistics.median(local)) * workers / n:+.3f} s "
+                  "of a worker's time")
+        if args.json:
+            args.json.write_text(json.dumps(results, indent=2) + "\n")
+
+
+def _run_batch(pipe: Path, out: Path, workers: int, checkout: Path | None = None, *,
+               executor: str = "local") -> float:
     """Wall seconds of ``vinecli run batch PIPE --out OUT --workers JOBS`` in a fresh process (``checkout``'s vinecli
     when given): each configuration pays the same start-up (the interpreter, the fork server's imports), as a
     user's command does."""
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "vinecli", "run", "batch", str(pipe), "--out", str(out),
-                    "--workers", str(workers)], check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                    "--workers", str(workers), "--executor", executor], check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                    env=_env(checkout), cwd=checkout)
     return time.perf_counter() - t0
 
