@@ -19,7 +19,7 @@ import numpy as np
 
 from vinecli.gis.georef import Georef
 
-__all__ = ["overlay", "png_data_uri"]
+__all__ = ["overlay", "png_data_uri", "resize_bilinear"]
 
 R_EARTH = 6378137.0  # m, the Web-Mercator sphere (EPSG:3857)
 LATTICE = 17
@@ -88,6 +88,15 @@ def _sample(a: np.ndarray, ci: np.ndarray, cj: np.ndarray, smooth: bool, fill: f
     out = np.full(ci.shape + extra, fill, dtype=float)
     out[inside] = a[ri[inside], rj[inside]]
     return out
+
+
+def resize_bilinear(a: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``a`` (ny, nx) resampled to ``shape`` bilinearly, corner cells on corner cells: scipy.ndimage's
+    ``zoom(a, (shape[0] / ny, shape[1] / nx), order=1)`` for that output shape, in numpy."""
+    ny, nx = a.shape
+    ci = np.arange(shape[0]) * ((ny - 1) / max(shape[0] - 1, 1))
+    cj = np.arange(shape[1]) * ((nx - 1) / max(shape[1] - 1, 1))
+    return _sample(a, *np.meshgrid(ci, cj, indexing="ij"), smooth=True, fill=math.nan)
 
 
 def _palette_image(rgba: np.ndarray) -> Any:
