@@ -24,6 +24,9 @@ __all__ = ["overlay", "png_data_uri", "resize_bilinear"]
 R_EARTH = 6378137.0  # m, the Web-Mercator sphere (EPSG:3857)
 LATTICE = 17
 NO_VALUE = 65535
+#: zlib level of the overlays' PNGs: 3 deflates the 9 overlays of the 5 CI maps in 0.05 s, not 0.15 s (level 6),
+#: for 3 % more bytes (569 kB, not 554 kB)
+OVERLAY_PNG_LEVEL = 3
 
 
 def _to_merc(lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,7 +129,7 @@ def png_data_uri(rgba: np.ndarray) -> str:
     else:
         img = _palette_image(rgba) or img.quantize(colors=256, method=Image.Quantize.FASTOCTREE)
     buf = io.BytesIO()
-    img.save(buf, format="PNG", compress_level=6)
+    img.save(buf, format="PNG", compress_level=OVERLAY_PNG_LEVEL)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
