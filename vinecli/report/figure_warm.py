@@ -1,7 +1,8 @@
-"""Imported by the report's fork server (:data:`vinecli.report.render.PRELOAD`) before it forks the processes that
-draw the PNG figures: draws one small figure with what those figures use (a hillshade image, labelled contours, a
-line collection on a colour bar, markers, a legend, monospace text, a 256-colour PNG), so that matplotlib's lazily
-loaded modules, fonts and glyph caches are loaded once, in the server, and every worker starts warm (the first
+"""Imported by the report's process (or its fork server, off Linux) with :data:`vinecli.report.render.PRELOAD`
+before it forks the processes that draw the PNG figures: draws one small figure with what those figures use (a
+hillshade image, labelled contours, a line collection on a colour bar, markers, a legend, monospace text, a
+256-colour PNG), so that matplotlib's lazily loaded modules, fonts and glyph caches are loaded once, before the
+fork, and every worker starts warm (the first
 figure of a cold process costs about 0.5 s more than the next). Importing it anywhere else only costs that time."""
 
 from __future__ import annotations

@@ -3,9 +3,10 @@ field map (:mod:`~vinecli.report.fieldmap`), taken from the cache (:mod:`~vinecl
 there, else drawn one item (a figure or a map) per task and cached.
 
 The time-series figures are chart JSON (:mod:`~vinecli.report.chart`, cheap): this process computes them. The PNG
-figures and the maps go to a :class:`FigurePool`, started before the runs are read so that its processes import
-matplotlib and the drawing code while this process loads the runs: a fork server preloads those modules once and
-forks the workers from it (spawned processes where there is no fork server).
+figures and the maps go to a :class:`FigurePool`, started as soon as the runs are read and found not all cached:
+on Linux this process imports the drawing code (:data:`PRELOAD`, with a warm-up figure) and forks the workers, which
+start warm and draw while it computes the charts; elsewhere a fork server preloads those modules once and forks the
+workers from it (spawned processes where there is no fork server).
 """
 
 from __future__ import annotations
