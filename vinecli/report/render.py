@@ -88,7 +88,8 @@ def _pool_context() -> tuple[Any, bool]:
     thread: this process imports :data:`PRELOAD` (0.5 s; what it has imported already, numpy, pyarrow, the run
     loader, a fork server would import again) and the workers forked from it start warm (each importing for
     itself costs 0.65 s of CPU a worker, in parallel: no sooner done on two cores, more CPU on a shared machine).
-    Elsewhere a fork server that imports :data:`PRELOAD` once, or spawned processes."""
+    Elsewhere a fork server that imports :data:`PRELOAD` once, or spawned processes. (Threads outside Python's
+    count, pyarrow's jemalloc and thread pools, reinitialise themselves in a forked child.)"""
     import multiprocessing as mp
     import sys
     import threading
