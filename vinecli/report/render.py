@@ -33,10 +33,9 @@ COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
 #: fewer PNG items than this are drawn in this process (starting workers would cost more)
 POOL_MIN_TASKS = 4
 #: what the pool's processes import once, before they are forked (in this process or in a fork server)
-PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "rasterio",
-           "pyproj", "pyarrow.parquet", "pyarrow.dataset", "shapely.geometry", "vinecli.report.loader", "vinecli.report.plots",
-           "vinecli.report.fieldmap.run_map",
-           "vinecli.report.figure_warm"]  # the last draws a small figure: fonts and caches loaded once
+PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "rasterio", "pyproj",
+           "pyarrow.parquet", "pyarrow.dataset", "shapely.geometry", "vinecli.report.loader", "vinecli.report.plots",
+           "vinecli.report.fieldmap.run_map", "vinecli.report.figure_warm"]  # the last draws a small figure: fonts and caches loaded once
 
 
 @dataclass
@@ -85,7 +84,7 @@ def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
 
 def _pool_context() -> tuple[Any, bool]:
     """(multiprocessing context, whether it forks this process). Fork on Linux when this process runs no other
-    thread: this process imports :data:`PRELOAD` (0.5 s; what it has imported already, numpy, pyarrow, the run
+    thread: this process imports :data:`PRELOAD` (0.6 s of CPU; what it has imported already, numpy, pyarrow, the run
     loader, a fork server would import again) and the workers forked from it start warm (each importing for
     itself costs 0.65 s of CPU a worker, in parallel: no sooner done on two cores, more CPU on a shared machine).
     Elsewhere a fork server that imports :data:`PRELOAD` once, or spawned processes. (Threads outside Python's
