@@ -32,10 +32,11 @@ NOTE = ".note"  # an item that had nothing to show: its note, cached beside the 
 COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
 #: fewer PNG items than this are drawn in this process (starting workers would cost more)
 POOL_MIN_TASKS = 4
-#: what the pool's processes import once, before they are forked (in this process or in a fork server)
+#: what the pool's processes import once, before they are forked (in this process or in a fork server); the last
+#: draws a small figure: fonts and caches loaded once
 PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "rasterio", "pyproj",
            "pyarrow.parquet", "pyarrow.dataset", "shapely.geometry", "vinecli.report.loader", "vinecli.report.plots",
-           "vinecli.report.fieldmap.run_map", "vinecli.report.figure_warm"]  # the last draws a small figure: fonts and caches loaded once
+           "vinecli.report.fieldmap.run_map", "vinecli.report.figure_warm"]
 
 
 @dataclass
