@@ -4,8 +4,8 @@ there, else drawn one item (a figure or a map) per task and cached.
 
 The time-series figures are chart JSON (:mod:`~vinecli.report.chart`, cheap): this process computes them. The PNG
 figures and the maps go to a :class:`FigurePool`, started as soon as the runs are read and found not all cached:
-on Linux this process imports the drawing code (:data:`PRELOAD`, with a warm-up figure) and forks the workers, which
-start warm and draw while it computes the charts; elsewhere a fork server preloads those modules once and forks the
+on Linux this process imports the drawing code (:data:`PRELOAD`) and forks the workers, which start with it
+imported and draw while it computes the charts; elsewhere a fork server preloads those modules once and forks the
 workers from it (spawned processes where there is no fork server).
 """
 
@@ -32,11 +32,12 @@ NOTE = ".note"  # an item that had nothing to show: its note, cached beside the 
 COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
 #: fewer PNG items than this are drawn in this process (starting workers would cost more)
 POOL_MIN_TASKS = 4
-#: what the pool's processes import once, before they are forked (in this process or in a fork server); the last
-#: draws a small figure: fonts and caches loaded once
+#: what the pool's processes import once, before they are forked (in this process or in a fork server). No warm-up
+#: figure: drawing one cost 0.2 s before the fork and saved the workers 0.01 s (their first figures' fonts and
+#: caches load as fast as it did)
 PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "rasterio", "pyproj",
            "pyarrow.parquet", "pyarrow.dataset", "shapely.geometry", "vinecli.report.loader", "vinecli.report.plots",
-           "vinecli.report.fieldmap.run_map", "vinecli.report.figure_warm"]
+           "vinecli.report.fieldmap.run_map"]
 
 
 @dataclass
@@ -85,7 +86,7 @@ def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
 
 def _pool_context() -> tuple[Any, bool]:
     """(multiprocessing context, whether it forks this process). Fork on Linux when this process runs no other
-    thread: this process imports :data:`PRELOAD` (0.6 s of CPU; what it has imported already, numpy, pyarrow, the run
+    thread: this process imports :data:`PRELOAD` (0.4-0.6 s of CPU; what it has imported already, numpy, pyarrow, the run
     loader, a fork server would import again) and the workers forked from it start warm (each importing for
     itself costs 0.65 s of CPU a worker, in parallel: no sooner done on two cores, more CPU on a shared machine).
     Elsewhere a fork server that imports :data:`PRELOAD` once, or spawned processes. (Threads outside Python's
