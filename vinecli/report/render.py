@@ -108,11 +108,15 @@ def _pool_context() -> tuple[Any, bool]:
     return mp.get_context("spawn"), False
 
 
-def _forked_worker_init() -> None:
-    """A forked worker leaves the stop signals to the report's process (which ends the pool): SIGINT ignored,
-    SIGTERM ends it, not the CLI's handler it inherited."""
+def _forked_worker_init(report_pid: int) -> None:
+    """A forked worker dies with the report's process (``kill -9`` included: it holds the writing end of its own
+    task queue, so no end of file would ever tell it) and leaves the stop signals to it (which ends the pool):
+    SIGINT ignored, SIGTERM ends it, not the CLI's handler it inherited."""
     import signal
 
+    from vinecli.lifeline import die_with_parent
+
+    die_with_parent(report_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
@@ -127,8 +131,11 @@ class FigurePool:
 
         self.workers = workers
         ctx, forks = _pool_context()
+        import os
+
         self._ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                       initializer=_forked_worker_init if forks else None)
+                                       initializer=_forked_worker_init if forks else None,
+                                       initargs=(os.getpid(),) if forks else ())
         self._started: threading.Thread | None = None
         if forks:
             self._start()  # forks every worker now, from this thread (no other thread runs yet)
