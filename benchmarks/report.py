@@ -74,10 +74,12 @@ def _reap_orphans() -> None:
 
 def ci_comparison(runs: Path, baseline_src: Path, repeats: int) -> None:
     """The CI runs' report by ``baseline_src`` and by this checkout (empty cache, then cached), interleaved."""
+    import os
     import statistics
     import tempfile
 
     _become_subreaper()
+    load0 = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="vinecli-bench-report-ci-") as tmp:
         root = Path(tmp)
         res: dict[str, list[dict[str, float]]] = {"baseline": [], "this, no cache": [], "this, cached": []}
@@ -88,7 +90,9 @@ def ci_comparison(runs: Path, baseline_src: Path, repeats: int) -> None:
             res["this, no cache"].append(_report_once(REPO, runs, root / "this", cache))
             res["this, cached"].append(_report_once(REPO, runs, root / "this", cache))
         base = {m: statistics.median(r[m] for r in res["baseline"]) for m in ("wall_s", "cpu_s")}
-        print(f"report of {runs} ({repeats} interleaved repeats, medians; baseline {baseline_src})")
+        load1 = os.getloadavg()
+        print(f"report of {runs} ({repeats} interleaved repeats, medians; baseline {baseline_src}); load average "
+              f"(1 min) {load0[0]:.2f} before, {load1[0]:.2f} after, on {os.cpu_count()} CPUs")
         for label, rows in res.items():
             med = {m: statistics.median(r[m] for r in rows) for m in rows[0]}
             print(f"  {label:15s} wall {med['wall_s']:6.2f} s ({base['wall_s'] / med['wall_s']:5.2f}x faster)  "

@@ -4,7 +4,9 @@ the matplotlib object-API figure, title and PNG helpers (no pyplot state). SI un
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +35,14 @@ class PlotData:
     summary: dict[str, Any] = field(default_factory=dict)
     preview: dict[str, np.ndarray] | None = None
     run_dir: Path | None = None  # for the per-run files (deposition.json / .tif)
-    gravity: float = STANDARD_GRAVITY  # m/s², the run's world's (standard gravity when that world is gone)
+    gravity_read: Callable[[], float | None] | None = None  # the run's world's gravity, read when a figure asks
+
+    @cached_property
+    def gravity(self) -> float:
+        """m/s², the run's world's (standard gravity when that world is gone), read on first use: one figure
+        needs it, and reading the world costs a cold report 0.1 s a run."""
+        g = self.gravity_read() if self.gravity_read is not None else None
+        return STANDARD_GRAVITY if g is None else g
 
     def has(self, *names: str) -> bool:
         return all(n in self.cols and np.isfinite(self.cols[n]).any() for n in names)

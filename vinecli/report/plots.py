@@ -56,15 +56,15 @@ FIGURES["fig27"] = ("As applied: error histogram, transition distances against t
 
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:
-    """Read what the figures need from a (validated) run directory."""
-    from vinecli.constants import STANDARD_GRAVITY
+    """Read what the figures need from a (validated) run directory (its world's gravity when a figure asks)."""
+    from functools import partial
+
     from vinecli.report.loader import load_run
     from vinecli.runs.rundir import world_gravity
 
     run = load_run(Path(run_dir))
-    g = world_gravity(run.summary)
     return PlotData(cols=run.read_columns(columns or columns_needed()), events=run.events(), summary=run.summary,
-                    preview=run.preview(), run_dir=Path(run_dir), gravity=STANDARD_GRAVITY if g is None else g)
+                    preview=run.preview(), run_dir=Path(run_dir), gravity_read=partial(world_gravity, run.summary))
 
 
 def figure_entry(fid: str, data: bytes | None, note: str, caption: str) -> dict[str, Any]:

@@ -3,9 +3,10 @@ field map (:mod:`~vinecli.report.fieldmap`), taken from the cache (:mod:`~vinecl
 there, else drawn one item (a figure or a map) per task and cached.
 
 The time-series figures are chart JSON (:mod:`~vinecli.report.chart`, cheap): this process computes them. The PNG
-figures and the maps go to a :class:`FigurePool`, started before the runs are read so that its processes import
-matplotlib and the drawing code while this process loads the runs: a fork server preloads those modules once and
-forks the workers from it (spawned processes where there is no fork server).
+figures and the maps go to a :class:`FigurePool`, started as soon as the runs are read and found not all cached:
+on Linux this process imports the drawing code (:data:`PRELOAD`) and forks the workers, which start with it
+imported and draw while it computes the charts; elsewhere a fork server preloads those modules once and forks the
+workers from it (spawned processes where there is no fork server).
 """
 
 from __future__ import annotations
@@ -31,10 +32,12 @@ NOTE = ".note"  # an item that had nothing to show: its note, cached beside the 
 COSTLY = (MAP, "fig16", "fig23", "fig25", "fig24")
 #: fewer PNG items than this are drawn in this process (starting workers would cost more)
 POOL_MIN_TASKS = 4
-#: what the pool's fork server imports once for all its workers
-PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "scipy.ndimage", "rasterio",
-           "vinecli.report.loader", "vinecli.report.plots", "vinecli.report.fieldmap.run_map",
-           "vinecli.report.figure_warm"]  # the last draws a small figure: fonts and caches loaded once
+#: what the pool's processes import once, before they are forked (in this process or in a fork server). No warm-up
+#: figure: drawing one cost 0.2 s before the fork and saved the workers 0.01 s (their first figures' fonts and
+#: caches load as fast as it did)
+PRELOAD = ["matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.colors", "rasterio", "pyproj",
+           "pyarrow.parquet", "pyarrow.dataset", "shapely.geometry", "vinecli.report.loader", "vinecli.report.plots",
+           "vinecli.report.fieldmap.run_map"]
 
 
 @dataclass
@@ -81,38 +84,79 @@ def draw_item(run_dir: str, item: str) -> tuple[str, str, bytes | None, str]:
         return run_dir, item, None, f"not drawn: {type(exc).__name__}: {exc}"
 
 
-def _pool_context() -> Any:
+def _pool_context() -> tuple[Any, bool]:
+    """(multiprocessing context, whether it forks this process). Fork on Linux when this process runs no other
+    thread: this process imports :data:`PRELOAD` (0.4-0.6 s of CPU; what it has imported already, numpy, pyarrow, the run
+    loader, a fork server would import again) and the workers forked from it start warm (each importing for
+    itself costs 0.65 s of CPU a worker, in parallel: no sooner done on two cores, more CPU on a shared machine).
+    Elsewhere a fork server that imports :data:`PRELOAD` once, or spawned processes. (Threads outside Python's
+    count, pyarrow's jemalloc and thread pools, reinitialise themselves in a forked child.)"""
     import multiprocessing as mp
+    import sys
+    import threading
 
+    if sys.platform == "linux" and threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
+        from importlib import import_module
+
+        for name in PRELOAD:
+            import_module(name)
+        return mp.get_context("fork"), True
     if "forkserver" in mp.get_all_start_methods():
         ctx = mp.get_context("forkserver")
         ctx.set_forkserver_preload(PRELOAD)  # no effect when this process already runs a fork server
-        return ctx
-    return mp.get_context("spawn")
+        return ctx, False
+    return mp.get_context("spawn"), False
+
+
+def _forked_worker_init(report_pid: int) -> None:
+    """A forked worker dies with the report's process (``kill -9`` included: it holds the writing end of its own
+    task queue, so no end of file would ever tell it) and leaves the stop signals to it (which ends the pool):
+    SIGINT ignored, SIGTERM ends it, not the CLI's handler it inherited."""
+    import signal
+
+    from vinecli.lifeline import die_with_parent
+
+    die_with_parent(report_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 class FigurePool:
-    """``workers`` processes drawing PNG figures and maps, started by a thread of their own (a fork server answers
-    once its imports are done) so the caller goes on at once. A context manager: leaving it ends the processes."""
+    """``workers`` processes drawing PNG figures and maps. Forked ones start now (a few ms); a fork server or
+    spawned ones are started by a thread of their own (the server answers once its imports are done) so the
+    caller goes on at once. A context manager: leaving it ends the processes."""
 
     def __init__(self, workers: int) -> None:
         import threading
 
         self.workers = workers
-        self._ex = ProcessPoolExecutor(max_workers=workers, mp_context=_pool_context())
-        self._started = threading.Thread(target=self._start, name="vinecli-figure-pool", daemon=True)
-        self._started.start()
+        ctx, forks = _pool_context()
+        import os
+
+        self._ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                       initializer=_forked_worker_init if forks else None,
+                                       initargs=(os.getpid(),) if forks else ())
+        self._started: threading.Thread | None = None
+        if forks:
+            self._start()  # forks every worker now, from this thread (no other thread runs yet)
+        else:
+            self._started = threading.Thread(target=self._start, name="vinecli-figure-pool", daemon=True)
+            self._started.start()
 
     def _start(self) -> None:
         for _ in range(self.workers):
             self._ex.submit(int)  # a task per worker: each process starts now
 
+    def _wait_started(self) -> None:
+        if self._started is not None:
+            self._started.join()
+
     def submit(self, run_dir: str, item: str) -> Future[tuple[str, str, bytes | None, str]]:
-        self._started.join()
+        self._wait_started()
         return self._ex.submit(draw_item, run_dir, item)
 
     def close(self) -> None:
-        self._started.join()
+        self._wait_started()
         self._ex.shutdown(wait=True, cancel_futures=True)
 
     def __enter__(self) -> FigurePool:

@@ -88,10 +88,10 @@ def hillshade_layer(ctx: MapContext) -> MapLayer | None:
     x, y, z = ground
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     if abs(dx - dy) > 1e-3 * max(dx, dy):  # square cells for the overlay, of the mean size (0.1 %: under a pixel)
-        from scipy.ndimage import zoom
+        from vinecli.report.fieldmap.overlay import resize_bilinear
 
         c = float(np.sqrt(dx * dy))
-        z = zoom(z, (dy / c, dx / c), order=1)
+        z = resize_bilinear(z, (round(z.shape[0] * dy / c), round(z.shape[1] * dx / c)))
         x, y = x[0] + c * np.arange(z.shape[1]), y[0] + c * np.arange(z.shape[0])
         dx = dy = c
     shade = LightSource(azdeg=315, altdeg=45).hillshade(z, vert_exag=3.0, dx=dx, dy=dy)
