@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from vinecli.specs.mission import CheckSpec
+if TYPE_CHECKING:  # the run-folder readers (report) import the metrics without the mission specs (~0.1 s)
+    from vinecli.specs.mission import CheckSpec
 
 __all__ = ["BUDGET_METRICS", "DEFAULT_CANOPY_SHARE_MIN", "DEFAULT_DRIFT_5M_MAX_PCT", "budget_default_checks",
            "budget_metrics"]
@@ -61,6 +62,8 @@ def budget_metrics(budget: Any, canopy: Any, applied_lpha: float) -> dict[str, f
 def budget_default_checks(checks: Sequence[CheckSpec], metrics: dict[str, Any]) -> list[CheckSpec]:
     """The default budget checks that apply (see the module doc) and that ``checks`` (the mission's) do not
     override."""
+    from vinecli.specs.mission import CheckSpec
+
     used = {c.quantity for c in checks}
     out: list[CheckSpec] = []
     drift = metrics.get("budget_drift_5m_percent")

@@ -12,7 +12,24 @@ May import every floor below it (missions, the simulator, the firmware bridges);
 command line, which read what it writes.
 """
 
-from vinecli.runs.mission import RunSummary, recheck_run, run_mission
-from vinecli.runs.request import RunRequest
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from vinecli.runs.mission import RunSummary, recheck_run, run_mission
+    from vinecli.runs.request import RunRequest
 
 __all__ = ["RunRequest", "RunSummary", "recheck_run", "run_mission"]
+
+#: where each name lives: imported on first use, so a reader of run folders (the report, ``gis export``)
+#: that imports ``vinecli.runs.rundir`` does not import the mission runner and its specs (~0.3 s)
+_HOME = {"RunRequest": "vinecli.runs.request", "RunSummary": "vinecli.runs.mission",
+         "recheck_run": "vinecli.runs.mission", "run_mission": "vinecli.runs.mission"}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _HOME:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(_HOME[name]), name)

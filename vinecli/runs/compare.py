@@ -23,7 +23,7 @@ from vinecli.errors import VinecliError
 from vinecli.inputs import read_input_json
 from vinecli.runs import rundir
 from vinecli.runs.behaviour import behaviour_figures
-from vinecli.runs.mission import _num
+from vinecli.runs.rundir import finite_or_none
 
 HOT_FACTOR = 2.0  # a stretch of row dosed at more than twice the asked rate
 GAP_FACTOR = 0.5  # ... or at less than half of it (row_coverage_fraction's threshold)
@@ -46,13 +46,13 @@ def dose_figures(run_dir: Path) -> dict[str, Any]:
     if not path.is_file():
         return {"rows": [], "hot_spot_fraction": None, "gap_fraction": None}
     doc = read_input_json(path, "deposition.json")
-    nominal = _num((doc.get("metrics") or {}).get("nominal_rate_lpha"))
+    nominal = finite_or_none((doc.get("metrics") or {}).get("nominal_rate_lpha"))
     bands = doc.get("dose_bands") or {}
     judged = bool(bands) and all("faults" in r for r in doc.get("rows") or [])
     rows, hot, gap, total = [], 0.0, 0.0, 0.0
     for r in doc.get("rows") or []:
-        mean = _num(r.get("mean_rate_lpha"))
-        rows.append({"row": r.get("row"), "mean_rate_lpha": mean, "covered_fraction": _num(r.get("covered_fraction")),
+        mean = finite_or_none(r.get("mean_rate_lpha"))
+        rows.append({"row": r.get("row"), "mean_rate_lpha": mean, "covered_fraction": finite_or_none(r.get("covered_fraction")),
                      "rate_ratio": mean / nominal if mean is not None and nominal else None})
         if judged:  # the dose checks' own stretches
             planned = r.get("planned_m") or [0.0, r.get("length_m") or 0.0]
@@ -110,7 +110,7 @@ def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
     except VinecliError as exc:  # e.g. a run whose mission.yaml cannot be read any more: its other figures stand
         beh = {"error": str(exc)}
     dose = dose_figures(run_dir)
-    tracking = _num(m.get("cross_track_rms_m")) if dose["rows"] else None
+    tracking = finite_or_none(m.get("cross_track_rms_m")) if dose["rows"] else None
     if tracking is None:
         tracking = beh.get("hover_error_rms_m")
     fw = s.get("firmware") or {}
@@ -120,9 +120,9 @@ def autopilot_figures(run_dir: str | Path) -> dict[str, Any]:
         "status": s.get("status"), "passed": s.get("passed"),
         "tracking_error_m": tracking,
         "mission_time_s": (downs[-1] - ups[0]) if ups and downs and downs[-1] > ups[0] else None,
-        "sim_time_s": _num(s.get("sim_time_s")), "energy_wh": _num(m.get("energy_wh")),
-        "mean_rate_lpha_on_rows": _num(m.get("mean_rate_lpha_on_rows")),
-        "row_coverage_fraction": _num(m.get("row_coverage_fraction")),
+        "sim_time_s": finite_or_none(s.get("sim_time_s")), "energy_wh": finite_or_none(m.get("energy_wh")),
+        "mean_rate_lpha_on_rows": finite_or_none(m.get("mean_rate_lpha_on_rows")),
+        "row_coverage_fraction": finite_or_none(m.get("row_coverage_fraction")),
         "hot_spot_fraction": dose["hot_spot_fraction"], "gap_fraction": dose["gap_fraction"],
         "rows": dose["rows"], "nominal_rate_lpha": dose.get("nominal_rate_lpha"),
         "hot_factor": dose.get("hot_factor"), "gap_factor": dose.get("gap_factor"),

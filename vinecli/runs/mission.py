@@ -39,6 +39,7 @@ from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, co
 from vinecli.runs import rundir
 from vinecli.runs.as_applied_run import as_applied_for
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
+from vinecli.runs.rundir import finite_or_none
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 from vinecli.stop_signals import StopSignals, signal_name
 
@@ -347,8 +348,8 @@ def _world_doc(run: PreparedRun, world_dir: Path) -> dict[str, Any]:
 def _timing_doc(loop: dict[str, float], wall: float, rtf: float) -> dict[str, float | None]:
     """summary.json's ``timing``: machine-dependent, kept out of the (deterministic) metrics."""
     return {"wall_time_s": round(wall, 4), "real_time_factor": round(rtf, 3),
-            **{k: _num(v) for k, v in loop.items() if k != "real_time_factor"},
-            "loop_real_time_factor": _num(loop.get("real_time_factor"))}
+            **{k: finite_or_none(v) for k, v in loop.items() if k != "real_time_factor"},
+            "loop_real_time_factor": finite_or_none(loop.get("real_time_factor"))}
 
 
 def _write_run_dir(out: Path, run: PreparedRun, request: RunRequest, flown: _Flown, folder: _Folder) -> None:
@@ -388,7 +389,7 @@ def _write_run_dir(out: Path, run: PreparedRun, request: RunRequest, flown: _Flo
 def _summary_metrics(data: RunData) -> dict[str, float | None]:
     """The metrics summary.json records (NaN -> None): the simulator's and the deposition model's, the event
     times as the checks see them (first event, else the simulator metric) and :data:`SUMMARY_METRICS`."""
-    metrics: dict[str, float | None] = {k: _num(v) for k, v in data.metrics.items()}
+    metrics: dict[str, float | None] = {k: finite_or_none(v) for k, v in data.metrics.items()}
     for kind in ("liftoff", "tank_empty"):
         try:
             metrics[f"{kind}_s"] = data.event_time(kind)
@@ -397,7 +398,7 @@ def _summary_metrics(data: RunData) -> dict[str, float | None]:
     for name in SUMMARY_METRICS:
         if name not in metrics:
             try:
-                metrics[name] = _num(METRICS[name].fn(data, None))
+                metrics[name] = finite_or_none(METRICS[name].fn(data, None))
             except (KeyError, ValueError, IndexError):
                 metrics[name] = None
     return metrics
@@ -416,14 +417,6 @@ def _status_name(status: Any) -> str:
 
 def _status_message(status: Any) -> str:
     return str(getattr(status, "message", ""))
-
-
-def _num(v: Any) -> float | None:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
 
 
 def recheck_run(run_dir: str | Path, mission: str | Path | MissionSpec | None = None) -> tuple[dict[str, Any], list[Any]]:

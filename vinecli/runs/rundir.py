@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -146,3 +147,13 @@ def world_gravity(summary: Mapping[str, Any]) -> float | None:
         return float(load_world(Path(summary["world"]["dir"])).gravity)
     except (KeyError, TypeError, VinecliError):
         return None
+
+
+def finite_or_none(v: Any) -> float | None:
+    """``v`` as a finite float (a value read from a run's JSON), or None for a missing, non-numeric or
+    non-finite one."""
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
