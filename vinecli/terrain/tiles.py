@@ -282,9 +282,8 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
                 max_triangles=max_triangles, bounded=bounded, tile_px=tile_px, fmt=fmt, workers=n_workers,
                 max_gap=max(gaps, default=0.0), timings=manifest.timings, seconds=time.perf_counter() - t_start))
             write_json(tmp / "tiles.json", tiles_meta)
-            if cached is not None:
-                cached.store(tmp)
-                manifest.extra["tiles_cache"] = {"key": cached.key, "hit": False}
+            if cached is not None:  # what the manifest says of the cache: key, and no hit
+                manifest.extra["tiles_cache"] = cached.store(tmp)
     return load_tiles(out)
 
 

@@ -106,10 +106,12 @@ class TilesCache:
         log.info("terrain: tiles of %s taken from the conversion cache (%s)", dsm.name, self.entry)
         return True
 
-    def store(self, folder: Path) -> None:
-        """Keep ``folder``'s tiles and tiles.json (a conversion just written there) as the entry."""
+    def store(self, folder: Path) -> dict[str, Any]:
+        """Keep ``folder``'s tiles and tiles.json (a conversion just written there) as the entry; returns what the
+        conversion's manifest says of the cache (``tiles_cache``: the key, not a hit)."""
+        note = {"key": self.key, "hit": False}
         if self.entry.is_dir():
-            return
+            return note
         tmp = self.entry.parent / f".{self.key}.tmp-{os.getpid()}"
         try:
             self.entry.parent.mkdir(parents=True, exist_ok=True)
@@ -120,3 +122,4 @@ class TilesCache:
         except OSError as exc:  # another process stored it first, or the cache is not writable
             log.debug("terrain cache: cannot store %s: %s", self.entry, exc)
             shutil.rmtree(tmp, ignore_errors=True)
+        return note
