@@ -20,7 +20,7 @@ sys.path.insert(0, str(REPO / "tests"))
 from xdist_scopes import SCOPE_SECONDS, scope_of  # noqa: E402
 
 LINE = re.compile(r"^\s*([0-9.]+)s (setup|call|teardown)\s+(\S+)")
-WALL = re.compile(r"=+ (.*) in ([0-9.]+)s")
+WALL = re.compile(r"^=* ?(\d+ (?:passed|failed).*) in ([0-9.]+)s")
 
 
 def read_durations(path: Path) -> tuple[list[tuple[float, str, str]], str]:
