@@ -110,19 +110,25 @@ def bumpy_worlds(tmp_path_factory: pytest.TempPathFactory, bumpy_dsm: Path) -> d
 
 def _xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     """Under pytest-xdist (``make test``: ``-n auto``): the tests of a module run on one worker (its module-scoped
-    fixtures are made once, not once per worker) and the real-firmware tests (tests/xdist_scopes.py) one after
-    the other on one worker, first, as on a machine of their own; the workers take the next module as they
-    finish one."""
+    fixtures are made once, not once per worker) and each firmware's real-firmware tests (tests/xdist_scopes.py)
+    one after the other on one worker; the longest scopes start first (their seconds in a measured run,
+    tests/scope_seconds.json; a scope not measured counts a second per test), and the workers take the next
+    one as they finish one."""
     from xdist.scheduler import LoadScopeScheduling
-    from xdist_scopes import FIRMWARE, scope_of
+    from xdist_scopes import scope_of, scope_seconds
 
     class ModuleScheduling(LoadScopeScheduling):
+        ordered = False
+
         def _split_scope(self, nodeid: str) -> str:
             return scope_of(Path(str(config.rootpath)), nodeid)
 
         def _assign_work_unit(self, node: Any) -> None:
-            if FIRMWARE in self.workqueue:  # the longest chain starts first
-                self.workqueue.move_to_end(FIRMWARE, last=False)
+            if not self.ordered:  # the first call has the whole queue: longest first
+                seconds = scope_seconds()
+                for scope in sorted(self.workqueue, key=lambda s: seconds.get(s, len(self.workqueue[s]))):
+                    self.workqueue.move_to_end(scope, last=False)
+                self.ordered = True
             super()._assign_work_unit(node)
 
     return ModuleScheduling(config, log)

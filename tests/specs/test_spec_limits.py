@@ -117,6 +117,23 @@ def test_yaml_alias_bomb_is_refused(tmp_path: Path) -> None:
         load_pipeline(tmp_path / "p.yaml")
 
 
+@pytest.mark.parametrize("text", [
+    "a: 1", "a: [1, 2, {b: c}]\nd: {e: [f, g]}", "a: &x [1, 2, 3]\nb: [*x, *x]\nc: *x", "a: &s 1\nb: *s",
+    "- 1\n- [2, 3]\n- {a: &k {b: [1]}, c: *k}\n", BOMB])
+def test_values_counted_on_the_parser_events_are_the_values_loaded(text: str) -> None:
+    """A long file is counted on libyaml's events before it is loaded (``counted_size``): the same count as the loaded
+    data's ``expanded_size``, aliases expanded, and the same refusal past the limit."""
+    from vinecli.specs import YAML_LOADER, counted_size, expanded_size
+
+    assert counted_size(text, 10**9) == expanded_size(yaml.load(text, Loader=YAML_LOADER), 10**9)
+    n = counted_size(text, 10**9)
+    with pytest.raises(ValueError, match="more than") as counted:
+        counted_size(text, n - 1)
+    with pytest.raises(ValueError) as loaded:
+        expanded_size(yaml.load(text, Loader=YAML_LOADER), n - 1)
+    assert str(counted.value) == str(loaded.value)
+
+
 def test_recursive_alias_is_refused(tmp_path: Path) -> None:
     (tmp_path / "p.yaml").write_text("name: p\nloop: &x [1, *x]\n")
     with pytest.raises(SpecError, match="itself|recursive"):

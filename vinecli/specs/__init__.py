@@ -54,6 +54,8 @@ def read_yaml(path: Path) -> dict[str, Any]:
         raise SpecError(exc.problem.replace("spec file not found", "file not found"), path=path) from None
     note_input(path, "spec")
     try:
+        if len(text) > MAX_YAML_VALUES:  # only a file this long can hold more values without aliases
+            counted_size(text, MAX_YAML_VALUES)
         data = yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
@@ -62,6 +64,8 @@ def read_yaml(path: Path) -> dict[str, Any]:
         raise SpecError(f"invalid YAML{where}: {problem}", path=path) from None
     except RecursionError:
         raise SpecError("invalid YAML: nested too deeply", path=path) from None
+    except ValueError as exc:  # counted_size: too many values, refused before any is built
+        raise SpecError(str(exc), path=path) from None
     if data is None:
         raise SpecError("file is empty", path=path)
     if not isinstance(data, dict):
@@ -73,6 +77,53 @@ def read_yaml(path: Path) -> dict[str, Any]:
     except RecursionError:
         raise SpecError("invalid YAML: nested too deeply", path=path) from None
     return data
+
+
+def _too_many(limit: int, shared: bool) -> ValueError:
+    why = " (YAML aliases: an alias bomb?)" if shared else " (split it, or simplify what it lists)"
+    return ValueError(f"the file expands to more than {limit:,} values{why}")
+
+
+def counted_size(text: str, limit: int) -> int:
+    """:func:`expanded_size` of the YAML document ``text`` counted on the parser's events, before any value is built:
+    a file of millions of values is refused in a fraction of the time loading it takes (the constructor builds a
+    Python object per value). ValueError past ``limit``, yaml.YAMLError for invalid YAML."""
+    from yaml.events import AliasEvent, CollectionStartEvent, MappingEndEvent, ScalarEvent, SequenceEndEvent
+
+    open_sizes: list[int] = []  # the containers being read: their sizes so far
+    open_anchors: list[str | None] = []
+    anchored: dict[str, int] = {}  # an anchor's node size, counted again wherever an alias names it
+    containers: set[str] = set()  # the anchors of containers
+    total = 0
+    shared = False
+    for event in yaml.parse(text, Loader=YAML_LOADER):
+        if isinstance(event, CollectionStartEvent):
+            open_sizes.append(1)
+            open_anchors.append(event.anchor)
+            n = 1
+        elif isinstance(event, (SequenceEndEvent, MappingEndEvent)):
+            size, anchor = open_sizes.pop(), open_anchors.pop()
+            if anchor is not None:
+                anchored[anchor] = size
+                containers.add(anchor)
+            if open_sizes:
+                open_sizes[-1] += size
+            continue
+        elif isinstance(event, ScalarEvent):
+            n = 1
+            if event.anchor is not None:
+                anchored[event.anchor] = 1
+        elif isinstance(event, AliasEvent):
+            n = anchored.get(event.anchor or "", 1)
+            shared = shared or event.anchor in containers  # a container used again (a scalar is just a value)
+        else:
+            continue
+        if open_sizes and not isinstance(event, CollectionStartEvent):
+            open_sizes[-1] += n
+        total += n
+        if total > limit:
+            raise _too_many(limit, shared)
+    return total
 
 
 def expanded_size(data: Any, limit: int) -> int:
@@ -101,8 +152,7 @@ def expanded_size(data: Any, limit: int) -> int:
         for item in items:
             n += size(item)
             if n > limit:
-                why = " (YAML aliases: an alias bomb?)" if shared[0] else " (split it, or simplify what it lists)"
-                raise ValueError(f"the file expands to more than {limit:,} values{why}")
+                raise _too_many(limit, shared[0])
         active.discard(key)
         sizes[key] = n
         return n

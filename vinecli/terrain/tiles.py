@@ -46,6 +46,7 @@ from vinecli.terrain.raster import (
     read_heights,
     to_lonlat,
 )
+from vinecli.terrain.tiles_cache import TilesCache
 from vinecli.terrain.tin import Tin, finish_task, mesh_task, split_border
 
 log = logging.getLogger(__name__)
@@ -192,6 +193,9 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
     manifest = Manifest("terrain convert --to tiles", inputs=[dsm], parameters={
         "max_error": max_error, "max_triangles": max_triangles, "tile_px": tile_px, "format": fmt, "fill": fill,
         "z_unit": z_unit})
+    cached = TilesCache.for_conversion(dsm, manifest.parameters)
+    if cached is not None and (done := _from_cache(cached, dsm, out, manifest, overwrite)) is not None:
+        return done
     with manifest.stage("read"), gdal_env(), open_raster(dsm) as src:
         meta = inspect_dsm(src, z_unit=z_unit)
         n_tiles = (len(split_edges(meta.width - 1, tile_px)) - 1) * (len(split_edges(meta.height - 1, tile_px)) - 1)
@@ -278,6 +282,27 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
                 max_triangles=max_triangles, bounded=bounded, tile_px=tile_px, fmt=fmt, workers=n_workers,
                 max_gap=max(gaps, default=0.0), timings=manifest.timings, seconds=time.perf_counter() - t_start))
             write_json(tmp / "tiles.json", tiles_meta)
+            if cached is not None:  # what the manifest says of the cache: key, and no hit
+                manifest.extra["tiles_cache"] = cached.store(tmp)
+    return load_tiles(out)
+
+
+class _NotCached(Exception):
+    """The cache entry could not be copied: mesh instead."""
+
+
+def _from_cache(cached: TilesCache, dsm: Path, out: Path, manifest: Manifest, overwrite: bool) -> TileSet | None:
+    """The tiles of the cache entry ``cached`` written to ``out`` as a
+    conversion writes them; None (nothing written) without a readable entry."""
+    if not cached.entry.is_dir():
+        return None
+    try:
+        with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
+            if not cached.copy_into(tmp, dsm):
+                raise _NotCached
+            manifest.extra["tiles_cache"] = {"key": cached.key, "hit": True}
+    except _NotCached:
+        return None
     return load_tiles(out)
 
 

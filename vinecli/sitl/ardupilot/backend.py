@@ -20,7 +20,8 @@ at its spawn pose while ArduPilot boots, reads back its parameters, converges it
 pre-arm checks, and takes the mission. That time is the firmware's (``ardupilot_boot_s``): the run's
 clock starts at 0 when ArduPilot is ready, as a drone is powered up and waits for its GNSS before the
 operator starts the mission. Every wait is the lockstep or simulated time; wall-clock limits only
-detect a firmware that died or hung (no servo frame for ``frame_timeout_s``): an error, exit 3.
+detect a firmware that died or hung (no servo frame for ``frame_timeout_s``; 10 s when all it sends on the
+servo-frame port is something else): an error, exit 3.
 """
 
 from __future__ import annotations
@@ -53,6 +54,11 @@ BATTERY_PERIOD_US = 100_000
 #: wall seconds an answer waits for the kernel to deliver the MAVLink bytes sent before it (milliseconds under load)
 DELIVERY_WAIT_S = 2.0
 #: parameters vinecli sets while flying (the battery), not in the parameter file
+#: a firmware that has sent this many datagrams on the servo-frame port and not one servo frame is not ArduCopter on
+#: the JSON backend (a real one sends its first frame as it starts): it is named after GARBAGE_ONLY_WAIT_S wall
+#: seconds instead of the whole frame timeout
+GARBAGE_ONLY_DATAGRAMS = 100
+GARBAGE_ONLY_WAIT_S = 10.0
 LIVE_PARAMS = ("SIM_BATT_VOLTAGE", "BATT_AMP_OFFSET")
 KEEP = ("logs/*.BIN", "ardupilot.log", "vinecli.parm")
 
@@ -251,7 +257,8 @@ class ArdupilotSitlAutopilot:
                 if self._stopping or (stop is not None and stop()):
                     self._stopping = True  # the outputs held until the loop ends the run (within 0.1 s simulated)
                     return self._frame or ServoFrame(0, -1, (0,) * 16)
-                if waited >= self.frame_timeout_s:
+                garbage_only = self.json.frames == 0 and self.json.garbage >= GARBAGE_ONLY_DATAGRAMS
+                if waited >= self.frame_timeout_s or (garbage_only and waited >= GARBAGE_ONLY_WAIT_S):
                     junk = (f", {self.json.garbage} datagrams that are not servo frames (is it ArduCopter SITL on the "
                             "JSON backend?)" if self.json.garbage else "")
                     raise AutopilotError(f"ArduPilot sent no servo frame for {waited:.0f} s (hung{junk})" + self._log())
