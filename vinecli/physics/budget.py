@@ -26,6 +26,7 @@ from vinecli.physics.canopy import Canopy
 from vinecli.physics.drift import drift_curve, drift_frames, field_polygon, field_split
 from vinecli.physics.evaporation import evaporation_constant, remaining_fraction
 from vinecli.physics.interception import capture_fraction, impaction_efficiency, semicircle_cdf, stokes_number
+from vinecli.physics.wake import plume_radius_at
 
 __all__ = ["BudgetConfig", "SprayBudget", "spray_budget"]
 
@@ -129,6 +130,7 @@ def _row_coords(x: np.ndarray, y: np.ndarray, line: Polyline) -> tuple[np.ndarra
 
 def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarray, avail: np.ndarray,
                   vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, eff: np.ndarray, nodes: int,
+                  plume: tuple[np.ndarray, ...] | None = None, wake: tuple[np.ndarray, ...] | None = None,
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(captured L per parcel, captured L per row, canopy points (3, k): x, y, L on the hedges).
 
@@ -163,8 +165,14 @@ def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarr
         r = np.maximum(radius[near], 1e-3)
         along = semicircle_cdf((length - arc) / r) - semicircle_cdf(-arc / r)
         sec = np.sqrt(1.0 + (speed_h[near] / vz[near]) ** 2)
+        diverge = 0.0
+        if plume is not None:  # the plume narrows upwards: paths to the footprint's edge diverge from above
+            reach, wake_var, rel = (a[near] for a in plume)
+            r_top = plume_radius_at(reach, wake_var, radius[near], rel, h.top_m)
+            diverge = np.where(rel > h.top_m, (radius[near] - r_top) / max(h.top_m, 1e-3), 0.0)
         frac = capture_fraction(s, r, k, sec, eff[near], canopy.g_factor, h.width_m, h.base_m, h.top_m,
-                                h.lad_m2m3, prof, nodes)
+                                h.lad_m2m3, prof, nodes, diverge,
+                                None if wake is None else tuple(a[near] for a in wake))
         got = np.minimum(avail[near] * along * frac, avail[near] - captured[near])
         captured[near] += got
         per_row[h.row] += float(got.sum())
@@ -188,6 +196,9 @@ class _Merged:
     vy: np.ndarray
     vz: np.ndarray
     group: np.ndarray
+    reach: np.ndarray
+    wake_var: np.ndarray
+    release_h: np.ndarray
 
 
 def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
@@ -197,12 +208,14 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
     n = int(getattr(p, "primaries", 0))
     group = np.asarray(p.group, dtype=np.int64)  # type: ignore[attr-defined]
     vol = np.asarray(p.vol, dtype=np.float64)  # type: ignore[attr-defined]
-    names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land")
+    names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land", "reach", "wake_var", "release_h")
     arrays = [np.asarray(getattr(p, k), dtype=np.float64) for k in names]
+    if arrays[-1].size != group.size:  # parcels without the footprint's parts: the disc is the plume at every height
+        arrays[-3:] = [arrays[2], np.zeros(group.size), np.zeros(group.size)]
     cls = np.asarray(p.cls, dtype=np.int64)  # type: ignore[attr-defined]
     span = max(1, int(round(merge_s / group_s)))
     if n <= 0 or span <= 1 or group.size == 0:
-        return _Merged(*arrays[:2], vol, cls, *arrays[2:], group)
+        return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:])
     per_group = n // (int(group[:n].max()) + 1)
     idx = np.arange(n)
     key = (group[:n] // span) * per_group + idx % per_group
@@ -216,7 +229,7 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
         plain = np.bincount(inv, weights=a[:n]) / np.bincount(inv)
         out.append(np.concatenate([np.where(wsum > 0, m, plain), a[n:]]))
     return _Merged(out[0], out[1], np.concatenate([wsum, vol[n:]]), np.concatenate([cls[:n][first], cls[n:]]),
-                   out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]))
+                   out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]), *out[7:])
 
 
 def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: Canopy | None,
@@ -245,13 +258,18 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
         vz = np.maximum(p.vz, 1e-3)
         speed = np.sqrt(p.vx * p.vx + p.vy * p.vy + vz * vz)
         eff = impaction_efficiency(stokes_number(vt / g, speed, canopy.leaf_width_m))
-        captured, per_row, points = _interception(canopy, x, y, radius, landed, p.vx, p.vy, vz, eff, config.nodes)
+        wake = (vt / g, np.hypot(p.vx, p.vy), vt, np.maximum(vz - vt, 0.0), np.full(vt.size, canopy.leaf_width_m))
+        captured, per_row, points = _interception(canopy, x, y, radius, landed, p.vx, p.vy, vz, eff, config.nodes,
+                                                  (p.reach, p.wake_var, p.release_h), wake)
     ground = landed - captured
     cone = float(np.median(radius)) if radius.size else 0.5
     fieldg = field_polygon(rows, spacing_m, np.asarray(parcels.path_xy), cone)  # type: ignore[attr-defined]
     infield, offfield, beyond = field_split(fieldg, config.domain_m, x, y, radius, ground)
     frames, calm = drift_frames(rows, fieldg, wind_xy, config.central_share)
-    curve = drift_curve(frames, x, y, radius, ground, applied_lpha, config.drift_distances_m, config.drift_band_m)
+    # the drift curve is the sprayed product's (ISO 22866 trials measure a tracer, which does not evaporate with the
+    # water): each parcel's volume as emitted, less the canopy's share of it
+    product = vol * (1.0 - np.divide(captured, landed, out=np.zeros_like(landed), where=landed > 0))
+    curve = drift_curve(frames, x, y, radius, product, applied_lpha, config.drift_distances_m, config.drift_band_m)
     # the sum of the parts is the emitted volume: the parcels' volumes add up to it (transport), and each
     # parcel's volume is split exactly into evaporated + captured + in field + off field + beyond
     return SprayBudget(

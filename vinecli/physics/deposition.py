@@ -32,6 +32,7 @@ from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate_many
 from vinecli.physics.downwash import fall_time_s, induced_velocity
 from vinecli.physics.droplets import AIR_VISCOSITY, WATER_DENSITY, relaxation_time_s, size_classes_m, terminal_velocity
+from vinecli.physics.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
 
@@ -60,6 +61,10 @@ class DepositionConfig:
     diffusion: bool = True
     roughness_m: float = 0.1  # aerodynamic roughness of the crop for u*, m
     outwash: bool = True  # drops the wake does not drive into the ground follow the outwash (physics/outwash.py)
+    #: drag stops the drops' sideways motion (ballistic reach, physics/wake.py); False: they fly on along the cone
+    drag_reach: bool = True
+    #: Obukhov length of the surface layer the far-field drift crosses, m (inf: neutral; > 0 stable, < 0 unstable)
+    obukhov_m: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,7 @@ class SprayerGeometry:
     n_rotors: int
     rotor_radius_m: float
     rotor_plane_z: float  # mean rotor hub z, m body FLU
+    exit_speed_mps: float = 24.5  # liquid speed leaving the nozzles (Bernoulli at the rated pressure, 3 bar), m/s
 
     @classmethod
     def from_vehicle(cls, veh: VehicleSpec, air_density: float) -> SprayerGeometry:
@@ -88,6 +94,7 @@ class SprayerGeometry:
             diam_m=d, fractions=frac, v_t=terminal_velocity(d, WATER_DENSITY, air_density, AIR_VISCOSITY),
             n_rotors=veh.n_rotors, rotor_radius_m=0.5 * veh.motor.prop_diameter_m,
             rotor_plane_z=float(np.mean([r.position_m[2] for r in veh.rotors])),
+            exit_speed_mps=exit_speed_mps(sp.rated_pressure_bar),
         )
 
 
@@ -132,6 +139,12 @@ class Parcels:
     group: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # emission group (path_xy row)
     primaries: int = 0  # the first ``primaries`` parcels: one per (group, nozzle, size class), in that order
     sigma: np.ndarray = field(default_factory=lambda: np.zeros(0))  # σ of the turbulent-diffusion offset, m
+    #: the footprint's parts (physics/wake.py): ``radius² = reach² + wake_var``; the ballistic reach (m) is reached
+    #: just below the nozzle, the wake's spreading (variance term 4σ², m²) grows with the fall from ``release_h`` (m
+    #: above the ground): the plume is narrower higher up (0 / 0: parallel paths, the far-field drift's parcels)
+    reach: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    wake_var: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    release_h: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -235,7 +248,8 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     x, y = land(h1, t1)
 
     vp = vol[:, None, None] * geo.shares[None, :, None] * geo.fractions[None, None, :]
-    radius = h1 * geo.tan_half[None, :, None]
+    reach, wake_var = _footprint(geo, h1, t1, air_density, config)
+    radius = np.sqrt(reach * reach + wake_var)
     cls = np.broadcast_to(np.arange(nc)[None, None, :], shape)
     relax = np.exp(-t1 / tau3)  # share of the vehicle's velocity (relative to the air) the drops still carry
     vxl = ux[..., None] + (v[:, 0, None, None] - ux[..., None]) * relax
@@ -246,11 +260,27 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
 
     sig = np.sqrt(2.0 * kdiff[..., None] * t1)
     out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
-                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig))
+                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig),
+                  flat(reach), flat(wake_var), flat(h1))
     if config.downwash and config.outwash:
         _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
                     config)
     return out
+
+
+def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_density: float,
+               config: DepositionConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(G, n, c) footprint on the ground (:mod:`vinecli.physics.wake`): the ballistic reach of each nozzle's drop
+    classes (at most the cone at that height), m, and the wake's spreading as the disc's variance term 4σ², m²."""
+    cone = h * geo.tan_half[None, :, None]
+    if not config.drag_reach:
+        return cone, np.zeros_like(cone)
+    sideways = geo.exit_speed_mps * np.sin(np.arctan(geo.tan_half))  # (n,)
+    reach = ballistic_reach_m(np.broadcast_to(geo.diam_m[None, :], (sideways.size, geo.diam_m.size)),
+                              sideways[:, None], air_density)  # (n, c)
+    carried = h - geo.v_t[None, None, :] * t_fall  # the air's share of the fall
+    sigma = wake_spread_sigma_m(wake_half_width_m(geo.rotor_radius_m, geo.n_rotors), carried)
+    return np.minimum(cone, reach[None, :, :]), 4.0 * sigma * sigma
 
 
 def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_spec: WindSpec,
@@ -259,7 +289,6 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_
     """Move the share of each parcel the wake does not drive into the ground to the outwash
     (:mod:`vinecli.physics.outwash`): it is re-released near the ground and carried by the wind."""
     from vinecli.physics.outwash import impaction_share, lifted_parcels
-    from vinecli.physics.wind import height_factor
 
     jet = 2.0 * geo.rotor_radius_m * math.sqrt(geo.n_rotors)
     share = 1.0 - impaction_share(geo.diam_m[out.cls], jet_speed, jet)
@@ -284,22 +313,21 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_
     rep = src[first]  # a parcel of each merged set: its size class and (first) emission group
     mx, my, mt = merged(out.x), merged(out.y), merged(out.t_fall)
     g = out.group[rep]
-    h_s = 0.5 * jet
-    ground = height(mx, my)
-    ratio = height_factor(wind_spec, ground + h_s) / height_factor(wind_spec, z_release[g])
-    wx, wy = wnd[g, 0] * ratio, wnd[g, 1] * ratio
-    ustar = KARMAN * np.hypot(wx, wy) / math.log(max(h_s, 2.0 * config.roughness_m) / config.roughness_m)
-    kdiff = KARMAN * ustar * max(0.5 * h_s, config.roughness_m) if config.diffusion else np.zeros(rep.size)
-    sec = lifted_parcels(mx, my, wsum, geo.v_t[out.cls[rep]], mt, wx, wy, np.broadcast_to(kdiff, rep.shape), jet)
+    sec = lifted_parcels(mx, my, wsum, geo.v_t[out.cls[rep]], mt, wnd[g, 0], wnd[g, 1],
+                         np.maximum(z_release[g] - height(mx, my), 2.0 * config.roughness_m), config.roughness_m, jet,
+                         config.obukhov_m)
     k = rep[sec["src"]]
     out.x = np.concatenate([out.x, sec["x"]])
     out.y = np.concatenate([out.y, sec["y"]])
     out.vol = np.concatenate([out.vol, sec["vol"]])
     out.cls = np.concatenate([out.cls, out.cls[k]])
-    out.radius = np.concatenate([out.radius, np.full(k.size, h_s)])
+    out.radius = np.concatenate([out.radius, sec["radius"]])
     out.t_fall = np.concatenate([out.t_fall, sec["t_fall"]])
     out.vx_land = np.concatenate([out.vx_land, sec["vx"]])
     out.vy_land = np.concatenate([out.vy_land, sec["vy"]])
     out.vz_land = np.concatenate([out.vz_land, sec["vz"]])
     out.group = np.concatenate([out.group, out.group[k]])
     out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the outwash's spread is in its landing points
+    out.reach = np.concatenate([out.reach, sec["radius"]])
+    out.wake_var = np.concatenate([out.wake_var, np.zeros(k.size)])
+    out.release_h = np.concatenate([out.release_h, np.zeros(k.size)])

@@ -131,9 +131,12 @@ def reading(c: BigliaConfig, seed: int = 0) -> dict[str, float]:
     leaf_pts = np.array([(s, a, z) for a in along for z in (0.7, 1.3, 1.9) for s in (-0.2, 0.0, 0.2)])
     dish_pts = np.array([(s, a, 0.0) for a in along for s in (-1.25, -0.625, 0.0, 0.625, 1.25)])
     args = (p.x, p.y, landed, p.radius, p.vx_land, p.vy_land, p.vz_land, vt)
-    leaf = collector_deposit(*args, leaf_pts, canopy, width_m=0.12)
-    dish = collector_deposit(*args, dish_pts, canopy, width_m=None)
-    scale = STD_UL_PER_CM / (trial.flow_lps * 1e6 / (trial.speed_mps * 100.0))  # to 250 µL per cm travelled
+    plume = (p.reach, p.wake_var, p.release_h)
+    leaf = collector_deposit(*args, leaf_pts, canopy, width_m=0.12, plume=plume)
+    dish = collector_deposit(*args, dish_pts, canopy, width_m=None, plume=plume)
+    # to 250 µL per cm of the line: the 2-way configurations apply their dose in two passes at half the flow
+    # (Table 1: 1.2 L/min there and back = the 1-way's 2.4 L/min), so the dose per cm is both passes' together
+    scale = STD_UL_PER_CM / (len(trial.passes) * trial.flow_lps * 1e6 / (trial.speed_mps * 100.0))
     return {"canopy": 0.5 * float(leaf.mean()) * scale, "ground": float(dish.mean()) * scale,
             "canopy_top": 0.5 * float(leaf.reshape(3, 3, 3)[:, 2].mean()) * scale,
             "canopy_bottom": 0.5 * float(leaf.reshape(3, 3, 3)[:, 0].mean()) * scale,

@@ -184,9 +184,10 @@ def pattern_cv(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = T
 
 def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, crosswind_mps: float = 0.0,
                   air_density: float = 1.225, g: float = STANDARD_GRAVITY, cv_limit: float = CV_LIMIT,
-                  fill_fraction: float = 0.5) -> SwathPattern:
+                  fill_fraction: float = 0.5, config: DepositionConfig = DepositionConfig()) -> SwathPattern:
     """Patterns and effective swath of ``veh`` flying ``height_agl_m`` (skids above the ground) at ``speed_mps``
-    with a crosswind (m/s, blowing towards +y, the left of a pass along +x); tank ``fill_fraction`` full."""
+    with a crosswind (m/s, blowing towards +y, the left of a pass along +x); tank ``fill_fraction`` full.
+    ``config``: the transport's options (the runs' defaults; ``drag_reach=False`` for the geometric cone)."""
     geo = SprayerGeometry.from_vehicle(veh, air_density)
     wind = WindSpec(law=ConstantWind(velocity_enu=(0.0, crosswind_mps, 0.0)))
     nz = sum(n.position_m[2] for n in veh.sprayer.nozzles) / len(veh.sprayer.nozzles)
@@ -199,7 +200,7 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
     foot = along = 0.0
     for heading in (0.0, math.pi):
         rec, pitch = _pass_record(veh, height_agl_m, speed_mps, heading, crosswind_mps, air_density, g, fill_fraction)
-        p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, DepositionConfig(), g, expected=True)
+        p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, config, g, expected=True)
         k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol)
         profiles.append(k / (k.sum() * dy))
         if heading == 0.0:
