@@ -54,7 +54,17 @@ def test_drag_and_the_wake_narrow_the_pattern_within_the_cone() -> None:
 
 
 def test_effective_swath_of_an_elliptic_pattern_and_the_non_monotone_cv() -> None:
-    p = swath_pattern(one_nozzle(), 2.0, 2.0, config=DepositionConfig(drag_reach=False))
+    p = swath_pattern(one_nozzle(), 2.0, 2.0, config=DepositionConfig(drag_reach=False))  # the cone's ellipse
+    r = p.footprint_radius_m
+    # an elliptic pattern overlaps evenly near pi R / 2 and poorly at 2 R (edge to edge): a gap between passes
+    assert 1.45 * r <= p.effective_m <= 1.75 * r
+    assert p.cv_at_effective <= 0.10 and pattern_cv(p, 2.0 * r) > 0.2
+    assert pattern_cv(p, 1.25 * r) > 0.10  # narrower is not always better: the CV is not monotone
+    y, rel = overlapped(p, p.effective_m)
+    assert rel.mean() == pytest.approx(1.0) and np.std(rel) == pytest.approx(p.cv_at_effective)
+    assert p.effective_m < p.geometric_m  # narrower than the cone edge to edge
+
+
 def test_the_pattern_matches_the_full_model_raster_of_a_flown_pass() -> None:
     """The same transport, flown as a 20 m pass of records and rasterised as every run is: the cross-track
     profile of its middle (L/ha) equals 1e4 (q / v) k(y) of the expected pattern."""

@@ -37,7 +37,7 @@ __all__ = ["KARMAN", "SIGMA_W_USTAR", "SurfaceLayer", "landing_bands"]
 
 KARMAN = 0.41
 SIGMA_W_USTAR = 1.25  # σ_w / u*, neutral surface layer (Panofsky & Dutton 1984)
-ENSEMBLE = 384  # drops per ensemble
+ENSEMBLE = 768  # drops per ensemble
 #: probability bands of the landing distance each lifted parcel is split into (edges of the cumulative share)
 BAND_EDGES = np.concatenate([np.linspace(0.0, 0.9, 19), [0.925, 0.95, 0.97, 0.985, 0.995, 1.0]])
 MAX_STEPS = 6000

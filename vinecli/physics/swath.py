@@ -184,7 +184,7 @@ def pattern_cv(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = T
 
 def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, crosswind_mps: float = 0.0,
                   air_density: float = 1.225, g: float = STANDARD_GRAVITY, cv_limit: float = CV_LIMIT,
-                  fill_fraction: float = 0.5, config: DepositionConfig = DepositionConfig()) -> SwathPattern:
+                  fill_fraction: float = 0.5, config: DepositionConfig | None = None) -> SwathPattern:
     """Patterns and effective swath of ``veh`` flying ``height_agl_m`` (skids above the ground) at ``speed_mps``
     with a crosswind (m/s, blowing towards +y, the left of a pass along +x); tank ``fill_fraction`` full.
     ``config``: the transport's options (the runs' defaults; ``drag_reach=False`` for the geometric cone)."""
@@ -200,7 +200,8 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
     foot = along = 0.0
     for heading in (0.0, math.pi):
         rec, pitch = _pass_record(veh, height_agl_m, speed_mps, heading, crosswind_mps, air_density, g, fill_fraction)
-        p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, config, g, expected=True)
+        p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, config or DepositionConfig(), g,
+                      expected=True)
         k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol)
         profiles.append(k / (k.sum() * dy))
         if heading == 0.0:
