@@ -16,13 +16,14 @@ The five shares add up to the emitted volume by construction (``balance_error`` 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.physics.canopy import Canopy
+from vinecli.physics.downwash import wake_velocity
 from vinecli.physics.drift import drift_curve, drift_frames, field_polygon, field_split
 from vinecli.physics.evaporation import evaporation_constant, remaining_fraction
 from vinecli.physics.interception import capture_fraction, impaction_efficiency, semicircle_cdf, stokes_number
@@ -131,6 +132,7 @@ def _row_coords(x: np.ndarray, y: np.ndarray, line: Polyline) -> tuple[np.ndarra
 def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarray, avail: np.ndarray,
                   vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, eff: np.ndarray, nodes: int,
                   plume: tuple[np.ndarray, ...] | None = None, wake: tuple[np.ndarray, ...] | None = None,
+                  downwash: Callable[[float, np.ndarray], np.ndarray] | None = None,
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(captured L per parcel, captured L per row, canopy points (3, k): x, y, L on the hedges).
 
@@ -170,9 +172,12 @@ def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarr
             reach, wake_var, rel = (a[near] for a in plume)
             r_top = plume_radius_at(reach, wake_var, radius[near], rel, h.top_m)
             diverge = np.where(rel > h.top_m, (radius[near] - r_top) / max(h.top_m, 1e-3), 0.0)
+        wake_near = None
+        if wake is not None and downwash is not None:  # the wake entering this hedge's top
+            tau, v_h, v_t, leaf_w = (a[near] for a in wake)
+            wake_near = (tau, v_h, v_t, downwash(h.top_m, near), leaf_w)
         frac = capture_fraction(s, r, k, sec, eff[near], canopy.g_factor, h.width_m, h.base_m, h.top_m,
-                                h.lad_m2m3, prof, nodes, diverge,
-                                None if wake is None else tuple(a[near] for a in wake))
+                                h.lad_m2m3, prof, nodes, diverge, wake_near)
         got = np.minimum(avail[near] * along * frac, avail[near] - captured[near])
         captured[near] += got
         per_row[h.row] += float(got.sum())
@@ -199,6 +204,14 @@ class _Merged:
     reach: np.ndarray
     wake_var: np.ndarray
     release_h: np.ndarray
+    wake_vi: np.ndarray
+    wake_zeta0: np.ndarray
+    rotor_radius_m: float = 0.0
+
+    def downwash_at(self, z_m: float, index: np.ndarray) -> np.ndarray:
+        """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
+        zeta = self.wake_zeta0[index] + np.maximum(self.release_h[index] - z_m, 0.0)
+        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6))
 
 
 def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
@@ -208,14 +221,16 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
     n = int(getattr(p, "primaries", 0))
     group = np.asarray(p.group, dtype=np.int64)  # type: ignore[attr-defined]
     vol = np.asarray(p.vol, dtype=np.float64)  # type: ignore[attr-defined]
-    names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land", "reach", "wake_var", "release_h")
-    arrays = [np.asarray(getattr(p, k), dtype=np.float64) for k in names]
+    names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land", "reach", "wake_var", "release_h", "wake_vi",
+             "wake_zeta0")
+    arrays = [np.asarray(getattr(p, k, np.zeros(0)), dtype=np.float64) for k in names]
     if arrays[-1].size != group.size:  # parcels without the footprint's parts: the disc is the plume at every height
-        arrays[-3:] = [arrays[2], np.zeros(group.size), np.zeros(group.size)]
+        arrays[-5:] = [arrays[2]] + [np.zeros(group.size)] * 4
+    radius_m = float(getattr(p, "rotor_radius_m", 0.0))
     cls = np.asarray(p.cls, dtype=np.int64)  # type: ignore[attr-defined]
     span = max(1, int(round(merge_s / group_s)))
     if n <= 0 or span <= 1 or group.size == 0:
-        return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:])
+        return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:], radius_m)
     per_group = n // (int(group[:n].max()) + 1)
     idx = np.arange(n)
     key = (group[:n] // span) * per_group + idx % per_group
@@ -229,7 +244,8 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
         plain = np.bincount(inv, weights=a[:n]) / np.bincount(inv)
         out.append(np.concatenate([np.where(wsum > 0, m, plain), a[n:]]))
     return _Merged(out[0], out[1], np.concatenate([wsum, vol[n:]]), np.concatenate([cls[:n][first], cls[n:]]),
-                   out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]), *out[7:])
+                   out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]), *out[7:],
+                   radius_m)
 
 
 def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: Canopy | None,
@@ -258,9 +274,9 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
         vz = np.maximum(p.vz, 1e-3)
         speed = np.sqrt(p.vx * p.vx + p.vy * p.vy + vz * vz)
         eff = impaction_efficiency(stokes_number(vt / g, speed, canopy.leaf_width_m))
-        wake = (vt / g, np.hypot(p.vx, p.vy), vt, np.maximum(vz - vt, 0.0), np.full(vt.size, canopy.leaf_width_m))
+        wake = (vt / g, np.hypot(p.vx, p.vy), vt, np.full(vt.size, canopy.leaf_width_m))
         captured, per_row, points = _interception(canopy, x, y, radius, landed, p.vx, p.vy, vz, eff, config.nodes,
-                                                  (p.reach, p.wake_var, p.release_h), wake)
+                                                  (p.reach, p.wake_var, p.release_h), wake, p.downwash_at)
     ground = landed - captured
     cone = float(np.median(radius)) if radius.size else 0.5
     fieldg = field_polygon(rows, spacing_m, np.asarray(parcels.path_xy), cone)  # type: ignore[attr-defined]

@@ -29,21 +29,22 @@ UL_PER_CM2 = 100.0  # µL/cm² per L/m²
 def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.ndarray, vx: np.ndarray,
                       vy: np.ndarray, vz: np.ndarray, v_t: np.ndarray, points: np.ndarray, canopy: Canopy | None,
                       width_m: float | None = 0.12, g: float = STANDARD_GRAVITY,
-                      plume: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                      plume: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                      w_top: np.ndarray | None = None) -> np.ndarray:
     """Deposit (µL/cm²) on the upward face of a collector at each of ``points`` ((m, 3): x, y, z above the ground).
 
     Parcels: landing centre (m), volume reaching the ground or canopy (L), disc radius (m), velocity on
     landing (m/s, vz down positive), terminal velocity (m/s). ``width_m``: the collector's width for
     its impaction efficiency, None for a dish that catches everything. ``plume``: the footprint's parts
     (reach m, wake variance term m², release height m; :class:`~vinecli.physics.deposition.Parcels`): the plume
-    is then narrower at the collector's height, and the wake entering the foliage slows in it
-    (:mod:`vinecli.physics.wake`).
+    is then narrower at the collector's height; ``w_top``: the wake's speed entering the canopy (m/s), which the
+    foliage slows (:mod:`vinecli.physics.wake`).
     """
     vz = np.maximum(vz, 1e-3)
     r = np.maximum(radius, 1e-3)
     tau = v_t / g
     v_h = np.sqrt(vx * vx + vy * vy)
-    w_top = np.maximum(vz - v_t, 0.0) if plume is not None else np.zeros_like(vz)
+    w_top = np.zeros_like(vz) if w_top is None else np.asarray(w_top, dtype=np.float64)
     leaf_w = canopy.leaf_width_m if canopy is not None else 0.12
     out = np.zeros(len(points))
     for i, (px, py, pz) in enumerate(np.asarray(points, dtype=np.float64)):

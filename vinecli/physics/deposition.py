@@ -30,7 +30,7 @@ import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate_many
-from vinecli.physics.downwash import fall_time_s, induced_velocity
+from vinecli.physics.downwash import fall_time_s, induced_velocity, wake_velocity
 from vinecli.physics.droplets import AIR_VISCOSITY, WATER_DENSITY, relaxation_time_s, size_classes_m, terminal_velocity
 from vinecli.physics.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
 from vinecli.specs.vehicle import VehicleSpec
@@ -145,6 +145,16 @@ class Parcels:
     reach: np.ndarray = field(default_factory=lambda: np.zeros(0))
     wake_var: np.ndarray = field(default_factory=lambda: np.zeros(0))
     release_h: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the wake that carried the parcel: induced velocity at the rotors (m/s, 0: none) and the nozzles' depth below
+    #: them (m); with ``rotor_radius_m`` the downwash at any height (:func:`vinecli.physics.downwash.wake_velocity`)
+    wake_vi: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    wake_zeta0: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rotor_radius_m: float = 0.0
+
+    def downwash_at(self, z_m: float | np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
+        zeta = self.wake_zeta0[index] + np.maximum(self.release_h[index] - z_m, 0.0)
+        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6))
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -261,7 +271,8 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     sig = np.sqrt(2.0 * kdiff[..., None] * t1)
     out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
                   flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig),
-                  flat(reach), flat(wake_var), flat(h1))
+                  flat(reach), flat(wake_var), flat(h1), flat(v_i[:, None, None]), flat(zeta0[None, :, None]),
+                  geo.rotor_radius_m)
     if config.downwash and config.outwash:
         _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
                     config)
@@ -331,3 +342,5 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_
     out.reach = np.concatenate([out.reach, sec["radius"]])
     out.wake_var = np.concatenate([out.wake_var, np.zeros(k.size)])
     out.release_h = np.concatenate([out.release_h, np.zeros(k.size)])
+    out.wake_vi = np.concatenate([out.wake_vi, np.zeros(k.size)])
+    out.wake_zeta0 = np.concatenate([out.wake_zeta0, np.zeros(k.size)])

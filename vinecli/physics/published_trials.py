@@ -132,8 +132,9 @@ def reading(c: BigliaConfig, seed: int = 0) -> dict[str, float]:
     dish_pts = np.array([(s, a, 0.0) for a in along for s in (-1.25, -0.625, 0.0, 0.625, 1.25)])
     args = (p.x, p.y, landed, p.radius, p.vx_land, p.vy_land, p.vz_land, vt)
     plume = (p.reach, p.wake_var, p.release_h)
-    leaf = collector_deposit(*args, leaf_pts, canopy, width_m=0.12, plume=plume)
-    dish = collector_deposit(*args, dish_pts, canopy, width_m=None, plume=plume)
+    w_top = p.downwash_at(HEDGE[1])  # the wake entering the hedge's top
+    leaf = collector_deposit(*args, leaf_pts, canopy, width_m=0.12, plume=plume, w_top=w_top)
+    dish = collector_deposit(*args, dish_pts, canopy, width_m=None, plume=plume, w_top=w_top)
     # to 250 µL per cm of the line: the 2-way configurations apply their dose in two passes at half the flow
     # (Table 1: 1.2 L/min there and back = the 1-way's 2.4 L/min), so the dose per cm is both passes' together
     scale = STD_UL_PER_CM / (len(trial.passes) * trial.flow_lps * 1e6 / (trial.speed_mps * 100.0))
