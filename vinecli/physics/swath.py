@@ -79,6 +79,14 @@ class SwathPattern:
         return pattern_cv(self, spacing_m) <= self.cv_limit
 
     @property
+    def centre_m(self) -> float:
+        """Where the plume lands across the track on average, m (mean of both pass directions): 0 in calm air, the
+        crosswind's drift otherwise."""
+        f = float(np.dot(self.y_m, self.forward) / self.forward.sum()) if self.forward.sum() > 0 else 0.0
+        b = float(np.dot(self.y_m, self.backward) / self.backward.sum()) if self.backward.sum() > 0 else 0.0
+        return 0.5 * (f + b)
+
+    @property
     def cv_at_effective(self) -> float:
         """CV of the back-and-forth overlapped pattern at the effective swath."""
         return pattern_cv(self, self.effective_m)
