@@ -31,7 +31,14 @@ import numpy as np
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate_many
 from vinecli.physics.downwash import fall_time_s, induced_velocity, wake_velocity
-from vinecli.physics.droplets import AIR_VISCOSITY, WATER_DENSITY, relaxation_time_s, size_classes_m, terminal_velocity
+from vinecli.physics.droplets import (
+    AIR_DENSITY,
+    AIR_VISCOSITY,
+    WATER_DENSITY,
+    relaxation_time_s,
+    size_classes_m,
+    terminal_velocity,
+)
 from vinecli.physics.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
@@ -45,7 +52,8 @@ EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz
                 "lag_s")
 KARMAN = 0.41
 MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
-LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s
+LIFT_BIN_S = 1.0  # lifted parcels merged over this much release time, s (a few metres of flight: the far field's
+# landing bands are metres to tens of metres wide)
 
 
 @dataclass(frozen=True)
@@ -294,6 +302,18 @@ def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_dens
     return np.minimum(cone, reach[None, :, :]), 4.0 * sigma * sigma
 
 
+def _class_speed_range(geo: SprayerGeometry) -> np.ndarray:
+    """(c, 2) terminal velocities (m/s) at the edges of each size class: the geometric means of neighbouring
+    classes' diameters, the outer edges as far out as the nearest neighbour (one class: its own speed)."""
+    d = np.asarray(geo.diam_m, dtype=np.float64)
+    if d.size < 2:
+        return np.stack([geo.v_t, geo.v_t], axis=1)
+    inner = np.sqrt(d[:-1] * d[1:])
+    edges = np.concatenate([[d[0] * d[0] / inner[0]], inner, [d[-1] * d[-1] / inner[-1]]])
+    vt = terminal_velocity(edges, WATER_DENSITY, AIR_DENSITY, AIR_VISCOSITY)
+    return np.stack([vt[:-1], vt[1:]], axis=1)
+
+
 def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_spec: WindSpec,
                 height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray, z_release: np.ndarray,
                 config: DepositionConfig) -> None:
@@ -324,7 +344,7 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_
     rep = src[first]  # a parcel of each merged set: its size class and (first) emission group
     mx, my, mt = merged(out.x), merged(out.y), merged(out.t_fall)
     g = out.group[rep]
-    sec = lifted_parcels(mx, my, wsum, geo.v_t[out.cls[rep]], mt, wnd[g, 0], wnd[g, 1],
+    sec = lifted_parcels(mx, my, wsum, _class_speed_range(geo)[out.cls[rep]], mt, wnd[g, 0], wnd[g, 1],
                          np.maximum(z_release[g] - height(mx, my), 2.0 * config.roughness_m), config.roughness_m, jet,
                          config.obukhov_m)
     k = rep[sec["src"]]

@@ -31,9 +31,9 @@ SQRT_STK50 = 0.49  # Marple & Willeke 1976, round jets
 _WIDTH = 0.1 / np.log(9.0)  # logistic scale: 10 % -> 90 % over ±0.1 in √Stk
 #: where the share still airborne at the far-field model's reach is put (far beyond any drift domain), m downwind
 BEYOND_M = 1.0e4
-#: a band's parcel spreads over a disc this many times its half width: neighbouring bands overlap, so the deposit
-#: is smooth across band edges (a kernel estimate of the landing density; ripple ~30 % against ~100 % at 1)
-BAND_SMOOTHING = 3.0
+#: a piece's parcel spreads over a disc this many times its half width: neighbouring pieces overlap, so the
+#: deposit is smooth across piece edges (ripple about ±9 %; 1 would leave it falling to 0 between pieces)
+BAND_SMOOTHING = 4.0
 #: how far downwind the far-field model follows the drops, m (beyond: airborne out of the drift domain)
 REACH_M = 250.0
 
@@ -51,9 +51,11 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
                    jet_diam_m: float, obukhov_m: float = math.inf) -> dict[str, np.ndarray]:
     """The parcels the outwash re-releases (see the module doc), one per lifted parcel and landing band.
 
-    Inputs per lifted parcel: landing point (m ENU), lifted volume (L), terminal velocity (m/s), fall time so
-    far (s), wind (m/s ENU) at height ``z_wind_m`` (m above the ground). Returns ``x, y, vol, t_fall, vx, vy,
-    vz, radius, src`` (src: index of the parcel it came from; radius: the band's half width, m).
+    Inputs per lifted parcel: landing point (m ENU), lifted volume (L), terminal velocities (m/s, (n, 2): the
+    lowest and highest of its size class), fall time so far (s), wind (m/s ENU) at height ``z_wind_m`` (m above
+    the ground). Returns ``x, y, vol, t_fall, vx, vy,
+    vz, radius, src`` (src: index of the parcel it came from; radius: the disc each piece spreads over, m: its
+    smoothed width, at least the wall jet's half width ``W/2``).
     """
     speed = np.hypot(wind_x, wind_y)
     ex = np.where(speed > 0, wind_x / np.maximum(speed, 1e-12), 0.0)
@@ -61,7 +63,7 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
     cols: dict[str, list[np.ndarray]] = {k: [] for k in ("x", "y", "vol", "t_fall", "vx", "vy", "vz", "radius", "src")}
     for i in range(x.size):
         layer = SurfaceLayer.from_wind(float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
-        mass, dist, half, time = landing_bands(layer, float(v_t[i]), jet_diam_m, REACH_M)
+        mass, dist, half, time = landing_bands(layer, (float(v_t[i, 0]), float(v_t[i, 1])), jet_diam_m, REACH_M)
         d = 0.5 * jet_diam_m + np.where(np.isfinite(dist), dist, BEYOND_M)
         cols["x"].append(x[i] + ex[i] * d)
         cols["y"].append(y[i] + ey[i] * d)
@@ -69,7 +71,9 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
         cols["t_fall"].append(t_fall[i] + time)
         cols["vx"].append(np.full(mass.size, wind_x[i]))
         cols["vy"].append(np.full(mass.size, wind_y[i]))
-        cols["vz"].append(np.full(mass.size, v_t[i]))
-        cols["radius"].append(BAND_SMOOTHING * half)
+        # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
+        # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
+        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(layer.sigma_w(np.zeros(1))[0])))
+        cols["radius"].append(np.maximum(BAND_SMOOTHING * half, 0.5 * jet_diam_m))  # at least the wall jet's spread
         cols["src"].append(np.full(mass.size, i))
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}

@@ -38,9 +38,14 @@ __all__ = ["KARMAN", "SIGMA_W_USTAR", "SurfaceLayer", "landing_bands"]
 KARMAN = 0.41
 SIGMA_W_USTAR = 1.25  # σ_w / u*, neutral surface layer (Panofsky & Dutton 1984)
 ENSEMBLE = 768  # drops per ensemble
-#: probability bands of the landing distance each lifted parcel is split into (edges of the cumulative share)
-BAND_EDGES = np.concatenate([np.linspace(0.0, 0.9, 19), [0.925, 0.95, 0.97, 0.985, 0.995, 1.0]])
 MAX_STEPS = 6000
+#: the widest piece of a landing band one parcel stands for, m (:func:`_pieces`)
+PIECE_M = 2.0
+#: the landing density's bins: from X_MIN_M to the model's reach, evenly in log-distance; each drop's landing
+#: point spread over ±KERNEL_LOG in ln x (a kernel density estimate: the ensemble's sampling noise smoothed)
+X_MIN_M = 0.05
+LOG_BINS = 64
+KERNEL_LOG = 0.2
 
 
 @dataclass(frozen=True)
@@ -89,42 +94,62 @@ def _phi_h(zeta: np.ndarray) -> np.ndarray:
     return np.where(zeta < 0, 1.0 / np.sqrt(np.maximum(1.0 - 16.0 * zeta, 1.0)), 1.0 + 5.0 * np.maximum(zeta, 0.0))
 
 
-def landing_bands(layer: SurfaceLayer, v_t: float, release_top_m: float, x_max_m: float,
+def landing_bands(layer: SurfaceLayer, v_t: tuple[float, float], release_top_m: float, x_max_m: float,
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Where drops of terminal velocity ``v_t`` (m/s) released evenly between the ground and ``release_top_m`` land.
+    """Where drops with terminal velocities spread evenly in log between ``v_t`` = (lowest, highest) m/s (a size
+    class: one speed would give each class its own landing peak and the curve steps from class to class),
+    released evenly between the ground and ``release_top_m``, land.
 
-    Returns (mass, distance m, half width m, time s) of the bands of :data:`BAND_EDGES` of the drops that
-    land within ``x_max_m`` downwind, and a last entry for those still airborne there (distance inf).
+    Returns (mass, distance m, half width m, time s) of pieces of the landing density (a kernel estimate in
+    log-distance, :data:`KERNEL_LOG`; pieces at most :data:`PIECE_M` wide) of the drops that land within
+    ``x_max_m`` downwind, and a last entry for those still airborne there (distance inf).
     Rounded inputs key a per-process cache (u* to 1 %, v_t to 1 %, heights to 1 cm).
     """
     return _bands(round(layer.ustar, 4 if layer.ustar < 0.1 else 3), layer.z0, layer.obukhov_m,
-                  float(f"{v_t:.3g}"), round(release_top_m, 2), round(x_max_m))
+                  float(f"{v_t[0]:.3g}"), float(f"{v_t[1]:.3g}"), round(release_top_m, 2), round(x_max_m))
 
 
 @lru_cache(maxsize=512)
-def _bands(ustar: float, z0: float, obukhov_m: float, v_t: float, top: float,
+def _bands(ustar: float, z0: float, obukhov_m: float, vt_lo: float, vt_hi: float, top: float,
            x_max: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    x, t, landed = _ensemble(SurfaceLayer(ustar, z0, obukhov_m), v_t, top, x_max)
-    n = x.size
-    out_share = 1.0 - landed.sum() / n
+    x, t, landed = _ensemble(SurfaceLayer(ustar, z0, obukhov_m), (vt_lo, vt_hi), top, x_max)
+    out_share = 1.0 - landed.sum() / x.size
     xs, ts = x[landed], t[landed]
+    # the landing density: a kernel estimate in log-distance (each drop spread over ±KERNEL_LOG in ln x), binned
+    lx = np.log(np.maximum(xs, X_MIN_M))
+    edges = np.linspace(math.log(X_MIN_M), math.log(max(x_max, 2 * X_MIN_M)), LOG_BINS + 1)
+    cdf = _norm_cdf((edges[None, :] - lx[:, None]) / KERNEL_LOG)
+    share = np.diff(cdf, axis=1)
+    share /= np.maximum(share.sum(axis=1, keepdims=True), 1e-300)  # every landed drop keeps its mass
+    mass = share.sum(axis=0) / x.size
+    lo, hi = np.exp(edges[:-1]), np.exp(edges[1:])
+    lo[0] = 0.0
     order = np.argsort(xs)
-    xs, ts = xs[order], ts[order]
-    mass, dist, half, time = [], [], [], []
-    if xs.size:
-        q = BAND_EDGES * (xs.size - 1)
-        for lo, hi, m in zip(q[:-1], q[1:], np.diff(BAND_EDGES), strict=True):
-            a, b = int(math.floor(lo)), int(math.ceil(hi))
-            x_lo, x_hi = float(np.interp(lo, np.arange(xs.size), xs)), float(np.interp(hi, np.arange(xs.size), xs))
-            mass.append(m * (1.0 - out_share))
-            dist.append(0.5 * (x_lo + x_hi))
-            half.append(max(0.5 * (x_hi - x_lo), 0.25))
-            time.append(float(np.median(ts[a:b + 1])))
-    mass.append(out_share)
-    dist.append(math.inf)
-    half.append(0.25)
-    time.append(float(x_max / max(float(layer_wind_mean(ustar, z0, obukhov_m, top)), 1e-3)))
-    return np.array(mass), np.array(dist), np.array(half), np.array(time)
+    mid = 0.5 * (lo + hi)
+    time = np.interp(mid, xs[order], ts[order]) if xs.size else mid
+    keep = mass > 0.0
+    m, d, h, tt = _pieces(mass[keep], mid[keep], 0.5 * (hi - lo)[keep], time[keep])
+    tail = float(x_max / max(float(layer_wind_mean(ustar, z0, obukhov_m, top)), 1e-3))
+    return np.append(m, out_share), np.append(d, math.inf), np.append(h, PIECE_M / 2), np.append(tt, tail)
+
+
+def _norm_cdf(z: np.ndarray) -> np.ndarray:
+    """Standard normal CDF."""
+    from scipy.special import ndtr
+
+    return np.asarray(ndtr(z))
+
+
+def _pieces(mass: np.ndarray, dist: np.ndarray, half: np.ndarray, time: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bands wider than :data:`PIECE_M` cut into equal pieces at most that wide (mass shared evenly), so no parcel
+    spreads over more than a few metres (the deposition map keeps its cells; the far tail's bands span tens of m)."""
+    n = np.maximum(np.ceil(2.0 * half / PIECE_M), 1).astype(np.int64)
+    k = np.concatenate([np.arange(m) for m in n])
+    band = np.repeat(np.arange(n.size), n)
+    width = 2.0 * half[band] / n[band]
+    centre = dist[band] - half[band] + (k + 0.5) * width
+    return mass[band] / n[band], centre, 0.5 * width, time[band]
 
 
 def layer_wind_mean(ustar: float, z0: float, obukhov_m: float, top: float) -> float:
@@ -133,17 +158,20 @@ def layer_wind_mean(ustar: float, z0: float, obukhov_m: float, top: float) -> fl
     return float(SurfaceLayer(ustar, z0, obukhov_m).wind(z).mean())
 
 
-def _ensemble(layer: SurfaceLayer, v_t: float, top: float, x_max: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _ensemble(layer: SurfaceLayer, vt_range: tuple[float, float], top: float, x_max: float
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Landing distance (m), time (s) and whether each of :data:`ENSEMBLE` drops landed within ``x_max``."""
     n = ENSEMBLE
     rng = np.random.default_rng(np.random.SeedSequence(20241, spawn_key=(0x5A1,)))
     z_floor = layer.z0
     z = z_floor + (top - z_floor) * (np.arange(n) + 0.5) / n  # released evenly over the layer
+    lo, hi = max(min(vt_range), 1e-6), max(vt_range)
+    v_t = lo * (hi / lo) ** rng.permutation((np.arange(n) + 0.5) / n)  # the class's speeds, evenly in log
     x = np.zeros(n)
     t = np.zeros(n)
     live = np.ones(n, dtype=bool)
     if layer.ustar < 1e-3 or top <= z_floor:  # no turbulence: each drop settles straight down
-        fall = np.maximum(z - z_floor, 0.0) / max(v_t, 1e-6)
+        fall = np.maximum(z - z_floor, 0.0) / v_t
         xx = layer.wind(0.5 * (z + z_floor)) * fall
         return xx, fall, xx <= x_max
     sw = layer.sigma_w(z)
@@ -155,14 +183,15 @@ def _ensemble(layer: SurfaceLayer, v_t: float, top: float, x_max: float) -> tupl
         zi = z[idx]
         sw = layer.sigma_w(zi)
         tl = layer.diffusivity(zi) / (sw * sw)
-        tp = tl / np.sqrt(1.0 + (v_t / sw) ** 2)
-        dt = np.maximum(np.minimum(0.1 * tp, 0.2 * (zi - z_floor + 0.02) / (np.abs(w[idx]) + v_t + 1e-3)), 1e-3)
+        vt = v_t[idx]
+        tp = tl / np.sqrt(1.0 + (vt / sw) ** 2)
+        dt = np.maximum(np.minimum(0.1 * tp, 0.2 * (zi - z_floor + 0.02) / (np.abs(w[idx]) + vt + 1e-3)), 1e-3)
         dsw2 = _dsigma2_dz(layer, zi)
         wi = w[idx]
         wi = wi + (-wi / tp + 0.5 * (1.0 + wi * wi / (sw * sw)) * dsw2) * dt + np.sqrt(2.0 * sw * sw / tp * dt) * (
             rng.standard_normal(idx.size))
         w[idx] = wi
-        z[idx] = zi + (wi - v_t) * dt
+        z[idx] = zi + (wi - vt) * dt
         x[idx] += layer.wind(zi) * dt
         t[idx] += dt
         landed = z[idx] <= z_floor

@@ -126,10 +126,13 @@ def _pass_record(veh: VehicleSpec, height_agl_m: float, speed: float, heading: f
     """One emission record of a steady level pass along ``heading`` (rad from east), and its pitch (rad)."""
     fill = fill_fraction * (veh.tank.capacity_l if veh.tank is not None else 0.0)
     mass = veh.dry_mass() + veh.liquid_mass(fill)
-    air = speed  # crosswind adds to the airspeed only across the track; the drag balance is along it
-    pitch = math.atan2(_drag_n(veh, air, mass, rho, g), mass * g)
-    qx, qy, qz, qw = quat_from_euler(0.0, pitch, heading)
-    thrust = mass * g / math.cos(pitch)
+    # the drag balance: pitched into the airspeed along the track, rolled into the crosswind across it (the thrust
+    # tilts upwind, so the nozzles' cone leans downwind)
+    pitch = math.atan2(_drag_n(veh, speed, mass, rho, g), mass * g)
+    cross = crosswind * math.cos(heading)  # the wind along the body's +y (left) axis
+    roll = math.copysign(math.atan2(_drag_n(veh, abs(cross), mass, rho, g), mass * g), cross)
+    qx, qy, qz, qw = quat_from_euler(roll, pitch, heading)
+    thrust = mass * g / (math.cos(pitch) * math.cos(roll))
     z = height_agl_m + veh.frame.landing_gear_height_m
     vx, vy = speed * math.cos(heading), speed * math.sin(heading)
     rec = np.zeros(len(EMIT_COLUMNS))
