@@ -124,9 +124,9 @@ def _bands(ustar: float, z0: float, obukhov_m: float, vt_lo: float, vt_hi: float
     mass = share.sum(axis=0) / x.size
     lo, hi = np.exp(edges[:-1]), np.exp(edges[1:])
     lo[0] = 0.0
-    order = np.argsort(xs)
     mid = 0.5 * (lo + hi)
-    time = np.interp(mid, xs[order], ts[order]) if xs.size else mid
+    weight = share.sum(axis=0)
+    time = np.where(weight > 0, (share * ts[:, None]).sum(axis=0) / np.maximum(weight, 1e-300), 0.0)  # flight time
     keep = mass > 0.0
     m, d, h, tt = _pieces(mass[keep], mid[keep], 0.5 * (hi - lo)[keep], time[keep])
     tail = float(x_max / max(float(layer_wind_mean(ustar, z0, obukhov_m, top)), 1e-3))

@@ -158,8 +158,9 @@ def trial_comparison(ax: Any, rows: list[tuple[str, float, float]]) -> None:
     for yi, p, m in zip(y, paper, model, strict=True):
         ax.text(max(p, m) * 1.02, yi, f"{m / p:.2f}x" if p > 0 else "", va="center", fontsize=8)
     ax.set_yticks(y, [r[0] for r in rows])
+    ax.set_xlim(0, 1.2 * float(max(paper.max(), model.max())))
     ax.set_xlabel("deposit, µL/cm² (standardised)")
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3, axis="x")
 
 
