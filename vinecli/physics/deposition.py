@@ -5,8 +5,9 @@ The loop sums the emitted volume over up to 0.04 s of spraying steps and calls
 
 1. steps are grouped into bins of ``group_s`` (volume summed, state volume-weighted);
 2. each group's volume is split over the nozzles (``flow_share``) and the equal-volume droplet size
-   classes: one parcel each, spread on landing over the disc of the full cone (radius h tan(θ/2),
-   :func:`~vinecli.physics.deposit_grid.rasterise_discs`);
+   classes: one parcel each, spread on landing over a disc (:func:`~vinecli.physics.deposit_grid.rasterise_discs`):
+   the class's ballistic reach from the nozzle (at most the cone, h tan(θ/2)) spread by the rotor wake that
+   carries it down (:mod:`vinecli.physics.wake`);
 3. each parcel falls from its nozzle (world ENU from the body pose) to the terrain: fall time
    through the rotor downwash (:mod:`vinecli.physics.downwash`, momentum theory from the
    recorded rotor thrust and the airspeed), at terminal velocity (:mod:`vinecli.physics.droplets`);
@@ -282,8 +283,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
                   flat(reach), flat(wake_var), flat(h1), flat(v_i[:, None, None]), flat(zeta0[None, :, None]),
                   geo.rotor_radius_m)
     if config.downwash and config.outwash:
-        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
-                    config)
+        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, height, wnd, p[:, 2], config)
     return out
 
 
@@ -314,11 +314,12 @@ def _class_speed_range(geo: SprayerGeometry) -> np.ndarray:
     return np.stack([vt[:-1], vt[1:]], axis=1)
 
 
-def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_spec: WindSpec,
+def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry,
                 height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray, z_release: np.ndarray,
                 config: DepositionConfig) -> None:
     """Move the share of each parcel the wake does not drive into the ground to the outwash
-    (:mod:`vinecli.physics.outwash`): it is re-released near the ground and carried by the wind."""
+    (:mod:`vinecli.physics.outwash`): it leaves the wall jet and the surface layer carries it
+    (:mod:`vinecli.physics.surface_layer`)."""
     from vinecli.physics.outwash import impaction_share, lifted_parcels
 
     jet = 2.0 * geo.rotor_radius_m * math.sqrt(geo.n_rotors)
