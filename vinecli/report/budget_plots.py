@@ -117,7 +117,7 @@ def _drift(ax: Any, doc: dict[str, Any]) -> None:
     pts = [(p["distance_m"], p["percent_of_applied"]) for p in doc.get("drift_curve") or []
            if p.get("percent_of_applied") is not None and math.isfinite(p["percent_of_applied"])]
     positive = [v for _d, v in pts if v > 0] + [0.1]  # 0.1: the lowest basic drift value drawn
-    floor = max(1e-4, 0.3 * min(positive))  # % of applied: the log axis' bottom; a zero reading is drawn on it, open
+    floor = max(1e-9, 0.3 * min(positive))  # % of applied: the log axis' bottom; a zero reading is drawn on it, open
     if pts:
         d, v = np.array(pts).T
         ax.plot(d, np.maximum(v, floor), marker="o", color="#c62828", lw=2, label="this run", zorder=3)
