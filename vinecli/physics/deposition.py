@@ -53,8 +53,8 @@ EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz
                 "lag_s")
 KARMAN = 0.41
 MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
-LIFT_BIN_S = 1.0  # lifted parcels merged over this much release time, s (a few metres of flight: the far field's
-# landing bands are metres to tens of metres wide)
+LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s (about a metre of flight: their discs, at
+# least the wall jet's W/2, overlap along the track)
 
 
 @dataclass(frozen=True)

@@ -39,8 +39,6 @@ KARMAN = 0.41
 SIGMA_W_USTAR = 1.25  # σ_w / u*, neutral surface layer (Panofsky & Dutton 1984)
 ENSEMBLE = 768  # drops per ensemble
 MAX_STEPS = 6000
-#: the widest piece of a landing band one parcel stands for, m (:func:`_pieces`)
-PIECE_M = 2.0
 #: the landing density's bins: from X_MIN_M to the model's reach, evenly in log-distance; each drop's landing
 #: point spread over ±KERNEL_LOG in ln x (a kernel density estimate: the ensemble's sampling noise smoothed)
 X_MIN_M = 0.05
@@ -100,9 +98,9 @@ def landing_bands(layer: SurfaceLayer, v_t: tuple[float, float], release_top_m: 
     class: one speed would give each class its own landing peak and the curve steps from class to class),
     released evenly between the ground and ``release_top_m``, land.
 
-    Returns (mass, distance m, half width m, time s) of pieces of the landing density (a kernel estimate in
-    log-distance, :data:`KERNEL_LOG`; pieces at most :data:`PIECE_M` wide) of the drops that land within
-    ``x_max_m`` downwind, and a last entry for those still airborne there (distance inf).
+    Returns (mass, distance m, half width m, time s) of the bins of the landing density (a kernel estimate in
+    log-distance, :data:`KERNEL_LOG`, :data:`LOG_BINS` bins) of the drops that land within ``x_max_m``
+    downwind, and a last entry for those still airborne there (distance inf).
     Rounded inputs key a per-process cache (u* to 1 %, v_t to 1 %, heights to 1 cm).
     """
     return _bands(round(layer.ustar, 4 if layer.ustar < 0.1 else 3), layer.z0, layer.obukhov_m,
@@ -128,9 +126,9 @@ def _bands(ustar: float, z0: float, obukhov_m: float, vt_lo: float, vt_hi: float
     weight = share.sum(axis=0)
     time = np.where(weight > 0, (share * ts[:, None]).sum(axis=0) / np.maximum(weight, 1e-300), 0.0)  # flight time
     keep = mass > 0.0
-    m, d, h, tt = _pieces(mass[keep], mid[keep], 0.5 * (hi - lo)[keep], time[keep])
     tail = float(x_max / max(float(layer_wind_mean(ustar, z0, obukhov_m, top)), 1e-3))
-    return np.append(m, out_share), np.append(d, math.inf), np.append(h, PIECE_M / 2), np.append(tt, tail)
+    return (np.append(mass[keep], out_share), np.append(mid[keep], math.inf),
+            np.append(0.5 * (hi - lo)[keep], 0.0), np.append(time[keep], tail))
 
 
 def _norm_cdf(z: np.ndarray) -> np.ndarray:
@@ -138,18 +136,6 @@ def _norm_cdf(z: np.ndarray) -> np.ndarray:
     from scipy.special import ndtr
 
     return np.asarray(ndtr(z))
-
-
-def _pieces(mass: np.ndarray, dist: np.ndarray, half: np.ndarray, time: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Bands wider than :data:`PIECE_M` cut into equal pieces at most that wide (mass shared evenly), so no parcel
-    spreads over more than a few metres (the deposition map keeps its cells; the far tail's bands span tens of m)."""
-    n = np.maximum(np.ceil(2.0 * half / PIECE_M), 1).astype(np.int64)
-    k = np.concatenate([np.arange(m) for m in n])
-    band = np.repeat(np.arange(n.size), n)
-    width = 2.0 * half[band] / n[band]
-    centre = dist[band] - half[band] + (k + 0.5) * width
-    return mass[band] / n[band], centre, 0.5 * width, time[band]
 
 
 def layer_wind_mean(ustar: float, z0: float, obukhov_m: float, top: float) -> float:

@@ -18,7 +18,11 @@ from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
 from vinecli.world.model import World
 
-__all__ = ["DepositionResult", "deposit"]
+__all__ = ["FAR_MAP_RADIUS_M", "DepositionResult", "deposit"]
+
+#: the widest disc a far-field drift parcel is drawn on in deposition.tif, m (within the map's 15 m margin the
+#: far field's landing bins are at most ~2 m wide, their discs ~4 m)
+FAR_MAP_RADIUS_M = 4.0
 
 
 @dataclass
@@ -66,10 +70,14 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     wsum = float(vol.sum())
     wind_xy = ((float(vol @ records[:, 11]) / wsum, float(vol @ records[:, 12]) / wsum) if wsum > 0 else (0.0, 0.0))
     rows_xy = [tuple(p) for row in world.vine_rows_enu for p in row]
-    footprint = float(parcels.radius.max()) if parcels.radius.size else 0.0
+    footprint = float(parcels.radius[:parcels.primaries].max()) if parcels.primaries else 0.0
+    # the far field's parcels (physics/surface_layer.py) stand for landing bins up to tens of metres wide far
+    # downwind, mostly beyond the map: drawn on discs of at most the spray's own footprint or FAR_MAP_RADIUS_M (the
+    # map keeps its cells; what they carry is counted on or off the map all the same)
+    radius = np.minimum(parcels.radius, max(footprint, FAR_MAP_RADIUS_M))
     grid = grid_for(parcels.path_xy, rows_xy, tuple(ter.bounds), cfg.cell_m, cfg.margin_m, cfg.max_cells,
-                    footprint_m=footprint, max_fft_cells=cfg.max_fft_cells)
-    vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, parcels.radius)
+                    footprint_m=float(radius.max()) if radius.size else 0.0, max_fft_cells=cfg.max_fft_cells)
+    vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, radius)
     xc, yc = grid.centres()
     bx0, by0, bx1, by1 = ter.bounds
     valid = ((xc >= bx0) & (xc <= bx1))[None, :] & ((yc >= by0) & (yc <= by1))[:, None]
