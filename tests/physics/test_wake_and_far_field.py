@@ -128,3 +128,25 @@ def test_lifted_parcels_keep_their_volume_and_go_downwind() -> None:
     assert np.all(out["x"][landed] >= 0.5 * 1.3 - 1e-9) and np.allclose(out["y"], 0.0)
     assert np.all(out["radius"] >= 0.5 * 1.3 - 1e-12)  # at least the wall jet's spread
     assert np.all(out["t_fall"] > 0.4)
+
+
+def test_the_worlds_air_gives_the_stability() -> None:
+    from pydantic import ValidationError
+
+    from vinecli.specs.canopy import AirSpec
+
+    assert AirSpec(temperature_c=20, relative_humidity_pct=60).obukhov_length_m is None  # neutral
+    assert AirSpec(temperature_c=20, relative_humidity_pct=60, obukhov_length_m=-30).obukhov_length_m == -30
+    with pytest.raises(ValidationError, match="obukhov_length_m"):
+        AirSpec(temperature_c=20, relative_humidity_pct=60, obukhov_length_m=0.0)
+    # the same drops released into the same 2 m/s wind: unstable air lofts more of them out of the 250 m the model
+    # follows, stable air keeps them low (they settle nearer)
+    vt = float(terminal_velocity(60e-6)[0])
+    out, mean = [], []
+    for length in (-10.0, math.inf, 10.0):
+        m, x, _h, _t = landing_bands(SurfaceLayer.from_wind(2.0, 3.0, 0.1, length), (vt, vt), 1.3, 250.0)
+        landed = np.isfinite(x)
+        out.append(float(m[~landed].sum()))
+        mean.append(float(np.dot(m[landed], x[landed]) / m[landed].sum()))
+    assert out[0] > out[1] > out[2] >= 0.0
+    assert mean[2] < mean[1]

@@ -7,6 +7,8 @@ all of them after the loop and rasterises onto a grid over the sprayed path and 
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from dataclasses import dataclass
 
@@ -60,6 +62,8 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     """Transport everything ``emitter`` recorded and rasterise it over the world's terrain."""
     t0 = time.perf_counter()
     cfg = config or DepositionConfig()
+    if config is None and math.isfinite(getattr(world, "obukhov_m", math.inf)):  # the world's air: its stability
+        cfg = dataclasses.replace(cfg, obukhov_m=float(world.obukhov_m))
     ter = world.terrain
     gr = ter.grid
     height = gr.heights if gr is not None else flat_height(ter.flat_z)

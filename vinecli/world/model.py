@@ -30,13 +30,14 @@
      "canopy": {"source", "bbch", "profile", "g_factor", "leaf_width_m", "spacing_m", "lai", "notes",
                 "hedges": [{"row", "base_m", "top_m", "width_m", "lad_m2m3"}]} | null,
                                                          # each row's hedge (vinecli.physics.canopy, docs/budget.md)
-     "air": {"temperature_c", "relative_humidity_pct"} | null,   # drop evaporation
+     "air": {"temperature_c", "relative_humidity_pct", "obukhov_length_m"} | null,   # drop evaporation, stability
      "sdf": "world.sdf"}
 """
 
 from __future__ import annotations
 
 import json
+import math
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -103,6 +104,7 @@ class World:
     canopy_width_m: float = 0.6  # m, row band width for the spray metrics
     canopy: dict[str, Any] | None = None  # world.json "canopy": each row's hedge (canopy_model())
     air: tuple[float, float] | None = None  # temperature °C, relative humidity % (drop evaporation)
+    obukhov_m: float = math.inf  # Obukhov length of the surface layer (far-field drift), m; inf: neutral
     #: the grower's no-spray zones (world.json gis.no_spray_enu: rings grown by their buffer), ENU m
     no_spray_enu: list[list[tuple[float, float]]] = field(default_factory=list)
 
@@ -217,6 +219,7 @@ def _parse_world(root: Path, wj: Path, d: dict[str, Any]) -> World:
         canopy_width_m=float(d.get("canopy_width_m", 0.6)),
         canopy=d.get("canopy"),
         air=(float(d["air"]["temperature_c"]), float(d["air"]["relative_humidity_pct"])) if d.get("air") else None,
+        obukhov_m=float((d.get("air") or {}).get("obukhov_length_m") or math.inf),
         no_spray_enu=[[(float(p[0]), float(p[1])) for p in z] for z in (d.get("gis") or {}).get("no_spray_enu") or []],
     )
 
