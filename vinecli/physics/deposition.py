@@ -55,6 +55,10 @@ KARMAN = 0.41
 MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
 LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s (about a metre of flight: their discs, at
 # least the wall jet's W/2, overlap along the track)
+#: the far field's parcels a run holds at most (each lifted parcel becomes up to FAR_BINS): a long run in calm air
+#: at a great height, where the wake lifts most of the spray, merges its lifted parcels over longer windows
+MAX_FAR_PARCELS = 60_000
+FAR_BINS = 65  # landing bins per lifted parcel at most (physics/surface_layer.py LOG_BINS + the airborne share)
 
 
 @dataclass(frozen=True)
@@ -332,8 +336,13 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry,
     # lifted parcels of the same nozzle and size class are merged over LIFT_BIN_S of release time
     # (volume-weighted landing point, fall time, release conditions): the outwash plume is smooth
     per_group = out.vol.size // max(int(out.group.max()) + 1, 1)
-    key = (out.group[src] * config.group_s // LIFT_BIN_S).astype(np.int64) * per_group + src % per_group
-    uk, inv = np.unique(key, return_inverse=True)
+    bin_s = LIFT_BIN_S
+    for _ in range(12):  # a long run: merged over longer windows so the far field stays within MAX_FAR_PARCELS
+        key = (out.group[src] * config.group_s // bin_s).astype(np.int64) * per_group + src % per_group
+        uk, inv = np.unique(key, return_inverse=True)
+        if uk.size * FAR_BINS <= MAX_FAR_PARCELS:
+            break
+        bin_s *= 2.0
     w = lifted[src]
     wsum = np.bincount(inv, weights=w)
 

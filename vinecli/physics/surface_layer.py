@@ -44,6 +44,8 @@ MAX_STEPS = 6000
 X_MIN_M = 0.05
 LOG_BINS = 64
 KERNEL_LOG = 0.2
+#: bins holding less than this share of the landed drops are merged into the heaviest (no parcel for a kernel tail)
+NEGLIGIBLE = 1e-5
 
 
 @dataclass(frozen=True)
@@ -125,7 +127,9 @@ def _bands(ustar: float, z0: float, obukhov_m: float, vt_lo: float, vt_hi: float
     mid = 0.5 * (lo + hi)
     weight = share.sum(axis=0)
     time = np.where(weight > 0, (share * ts[:, None]).sum(axis=0) / np.maximum(weight, 1e-300), 0.0)  # flight time
-    keep = mass > 0.0
+    keep = mass > NEGLIGIBLE * mass.sum()  # the kernel's far tails: their mass goes to the heaviest bin
+    if mass.size:
+        mass[int(np.argmax(mass))] += float(mass[~keep].sum())
     tail = float(x_max / max(float(layer_wind_mean(ustar, z0, obukhov_m, top)), 1e-3))
     return (np.append(mass[keep], out_share), np.append(mid[keep], math.inf),
             np.append(0.5 * (hi - lo)[keep], 0.0), np.append(time[keep], tail))
