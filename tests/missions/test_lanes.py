@@ -68,12 +68,14 @@ def test_rows_a_swath_apart_get_a_pass_each_and_one_row_its_band(pattern) -> Non
 
 def test_rows_closer_than_the_plume_count_the_neighbours_overlap(pattern) -> None:  # noqa: ANN001
     # the x500-sprayer over the sample field's rows (0.92 m apart, more than its effective swath): a pass per row,
-    # but its plume reaches the neighbouring rows, so the flow is lowered until the rows' mean dose is the asked one
+    # but its plume reaches the neighbouring rows, so the flow is lowered until the edge rows (one neighbour) and the
+    # inner rows (two) are equally far from the asked rate
     across = [0.917 * i for i in range(16)]
     lay = layout_lanes(across, pattern, 0.6)
     assert lay.mode == "rows" and len(lay.across_m) == 16
     assert lay.flow_width_m < pattern.single_pass_width_m(0.6)
-    assert float(np.mean(lay.row_dose)) == pytest.approx(1.0, abs=0.02)
+    # (to the 1 % the band's sampling and the pattern's band mean agree, test above)
+    assert 1.0 - min(lay.row_dose) == pytest.approx(max(lay.row_dose) - 1.0, abs=0.01)
     assert lay.worst_row_error <= ROW_TARGET
 
 

@@ -6,8 +6,8 @@ cross-track pattern of one pass (:class:`~vinecli.physics.swath.SwathPattern`):
 
 * one row: one pass over it; the flow doses its band (``flow_width`` = the single-pass width);
 * rows at least an effective swath apart: one pass over each row, its flow dosing the band with the
-  neighbouring passes' overlap counted (the single-pass width over the rows' mean expected dose: the
-  wake-narrowed plume can still reach the next row); a row listed twice: a pass per listed row, flown in the
+  neighbouring passes' overlap counted (the single-pass width over the midrange of the rows' expected doses:
+  the wake-narrowed plume can still reach the next row); a row listed twice: a pass per listed row, flown in the
   order listed, ``listed``;
 * otherwise broadcast: n evenly spaced passes from ``first row + e`` to ``last row - e``, their
   spacing S at most the effective swath and within the CV limit of the overlapped pattern, with the
@@ -157,12 +157,13 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
 
 def _rows_layout(pattern: object, xs: np.ndarray, lanes: list[float], w1: float, band_m: float, spacing: float,
                  mode: str) -> LaneLayout:
-    """A pass over each row. Its flow doses the row's band at the asked rate with the neighbouring passes' overlap
-    counted: the single-pass width divided by the rows' mean expected dose (a plume wider than the row spacing
-    lays part of each pass on the neighbours; 1 for rows far apart)."""
+    """A pass over each row. Its flow doses the rows' bands at the asked rate with the neighbouring passes' overlap
+    counted: the single-pass width divided by the midrange of the rows' expected doses, so the edge rows (one
+    neighbour) and the inner rows (two) are equally far from the asked rate (a plume wider than the row spacing lays
+    part of each pass on the neighbours; 1 for rows far apart)."""
     doses = _row_doses(pattern, xs, lanes, w1, band_m)
     own = _row_doses(pattern, np.zeros(1), [0.0], w1, band_m)[0]  # a row's own pass alone
-    k = float(np.mean(doses)) / own if own > 0 else 1.0
+    k = 0.5 * (min(doses) + max(doses)) / own if own > 0 else 1.0
     return LaneLayout(lanes, w1 / k, spacing, [d / k for d in doses], mode)
 
 
