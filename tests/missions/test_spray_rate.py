@@ -42,7 +42,8 @@ def test_track_width_is_the_lane_spacing_or_the_single_pass_width_not_the_cone()
     assert close.flow_width_m <= pat.effective_m and pat.good(close.flow_width_m)
     assert len(close.order) < 16
     one = phase_plan(ph, v, _rows(0.3, n=1), (0.0, -1.0))
-    assert one.flow_width_m == pytest.approx(pat.single_pass_width_m(0.6))  # doses the row's canopy band
+    # doses the row's canopy band as flown (with the track error the layout counts: rows/lanes.py)
+    assert one.flow_width_m == pytest.approx(pat.single_pass_width_m(0.6), rel=0.05)
     wide = phase_plan(ph, v, _rows(pat.effective_m + 1.0), (0.0, -1.0))  # a pass over each row
     assert wide.layout is not None and wide.layout.mode == "rows" and len(wide.order) == 4
 

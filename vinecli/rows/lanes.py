@@ -158,12 +158,17 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
 def _rows_layout(pattern: object, xs: np.ndarray, lanes: list[float], w1: float, band_m: float, spacing: float,
                  mode: str) -> LaneLayout:
     """A pass over each row. Its flow doses the rows' bands at the asked rate with the neighbouring passes' overlap
-    counted: the single-pass width divided by the midrange of the rows' expected doses, so the edge rows (one
-    neighbour) and the inner rows (two) are equally far from the asked rate (a plume wider than the row spacing lays
-    part of each pass on the neighbours; 1 for rows far apart)."""
+    and the vehicle's cross-track error counted: the single-pass width divided by the midrange of the rows'
+    expected doses as flown (passes on their lines or TRACK_ERROR_M off them), so the edge rows (one neighbour) and
+    the inner rows (two) are equally far from the asked rate (a plume wider than the row spacing lays part of each
+    pass on the neighbours; a plume much wider than the track error: 1 for a lone row)."""
     doses = _row_doses(pattern, xs, lanes, w1, band_m)
     own = _row_doses(pattern, np.zeros(1), [0.0], w1, band_m)[0]  # a row's own pass alone
-    k = 0.5 * (min(doses) + max(doses)) / own if own > 0 else 1.0
+    # as flown: the passes TRACK_ERROR_M to either side as often as on their lines (a narrow plume loses part of
+    # the band to the estimate's cross-track error; the flow makes up for it)
+    flown = np.mean([_row_doses(pattern, xs, [c + d for c in lanes], w1, band_m)
+                     for d in (-TRACK_ERROR_M, 0.0, TRACK_ERROR_M)], axis=0)
+    k = 0.5 * (float(flown.min()) + float(flown.max())) / own if own > 0 else 1.0
     return LaneLayout(lanes, w1 / k, spacing, [d / k for d in doses], mode)
 
 
