@@ -13,8 +13,8 @@ between the ground and the height ``W`` (the recirculating ground vortex of a ro
 about a wake diameter up, as the ground vortex of a helicopter in ground effect reaches the rotor's height:
 Curtiss et al. 1984, J. Am. Helicopter Soc. 29(1)), and the surface layer carries them
 (:mod:`vinecli.physics.surface_layer`: wind profile, turbulence, settling). Each lifted parcel becomes one
-parcel per probability band of its landing distance (at the band's middle, spread over the band's
-width, overlapping its neighbours), plus one for the share still airborne beyond the drift domain.
+parcel per bin of its landing density (at the bin's middle, spread over a disc overlapping its neighbours),
+plus one for the share still airborne beyond the far-field model's reach.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ SQRT_STK50 = 0.49  # Marple & Willeke 1976, round jets
 _WIDTH = 0.1 / np.log(9.0)  # logistic scale: 10 % -> 90 % over ±0.1 in √Stk
 #: where the share still airborne at the far-field model's reach is put (far beyond any drift domain), m downwind
 BEYOND_M = 1.0e4
-#: a piece's parcel spreads over a disc this many times its half width: neighbouring pieces overlap, so the
-#: deposit is smooth across piece edges (ripple about ±9 %; 1 would leave it falling to 0 between pieces)
+#: a bin's parcel spreads over a disc this many times the bin's half width: neighbouring bins overlap, so the
+#: deposit is smooth across bin edges (ripple about ±9 %; 1 would leave it falling to 0 between bins)
 BAND_SMOOTHING = 4.0
 #: how far downwind the far-field model follows the drops, m (beyond: airborne out of the drift domain)
 REACH_M = 250.0
@@ -54,7 +54,7 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
     Inputs per lifted parcel: landing point (m ENU), lifted volume (L), terminal velocities (m/s, (n, 2): the
     lowest and highest of its size class), fall time so far (s), wind (m/s ENU) at height ``z_wind_m`` (m above
     the ground). Returns ``x, y, vol, t_fall, vx, vy,
-    vz, radius, src`` (src: index of the parcel it came from; radius: the disc each piece spreads over, m: its
+    vz, radius, src`` (src: index of the parcel it came from; radius: the disc each bin spreads over, m: its
     smoothed width, at least the wall jet's half width ``W/2``).
     """
     speed = np.hypot(wind_x, wind_y)
