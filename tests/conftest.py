@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 from repo_paths import REPO, SHARED_DATA, TEST_DATA, shared_files  # noqa: F401 (re-exported)
 
+import vinecli  # noqa: F401 - first: pins numpy's CPU dispatch before numpy loads (vinecli/__init__.py)
+
 # Headless, single-threaded numerics: deterministic and no oversubscription on 2 cores.
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
