@@ -42,7 +42,7 @@ from vinecli.physics.droplets import AIR_DENSITY, AIR_VISCOSITY, WATER_DENSITY
 __all__ = ["JET_EDDY_VISCOSITY", "LEAF_DRAG_COEFFICIENT", "ballistic_reach_m", "exit_speed_mps", "footprint_radius_m",
            "mean_speed_through_foliage", "plume_radius_at", "wake_half_width_m", "wake_spread_sigma_m"]
 
-JET_EDDY_VISCOSITY = 0.028  # ν_T / (U_c r_½) of the self-similar round jet (Pope 2000, §5.4.3)
+JET_EDDY_VISCOSITY = 0.028  # ν_T / (U_c r_½) of the self-similar round jet, 1/35 (Pope 2000, ch. 5)
 LEAF_DRAG_COEFFICIENT = 0.2  # C_d of leaves in canopy-flow models (Katul et al. 2004)
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 
