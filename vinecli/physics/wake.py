@@ -13,9 +13,9 @@ footprint a size class lands on is set by
    (300 µm: 0.93 m; a boom nozzle's 110° fan at 0.5 m spreads ~0.7 m each side: the same scale);
 2. **the wake's turbulent spreading** while it carries them: the vehicle's rotors make one wake that
    contracts to half the disc area below the rotors (momentum theory: radius ``R_w = R_eq / √2`` with
-   ``R_eq = R √n``, Leishman 2006 §2.3) and mixes like a round turbulent jet (Bauersfeld et al. 2024,
+   ``R_eq = R √n``, Leishman 2006, ch. 2) and mixes like a round turbulent jet (Bauersfeld et al. 2024,
    arXiv 2403.13321: the downwash of multirotors is a round jet a few diameters below them). A round
-   jet's eddy viscosity is ``ν_T = 0.028 U_c r_½`` (Pope 2000, *Turbulent Flows* §5.4.3); a drop the
+   jet's eddy viscosity is ``ν_T = 0.028 U_c r_½`` (its turbulent Reynolds number U_c r_½ / ν_T ≈ 35: Pope 2000, *Turbulent Flows*, ch. 5); a drop the
    wake carries a distance ``s`` (the air's share of its fall, ``h - v_t t``) spreads with variance
    ``σ² = 2 ν_T t = 0.056 r_½ s`` across each axis.
 
