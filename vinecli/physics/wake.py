@@ -16,8 +16,8 @@ footprint a size class lands on is set by
    ``R_eq = R √n``, Leishman 2006, ch. 2) and mixes like a round turbulent jet (Bauersfeld et al. 2024,
    arXiv 2403.13321: the downwash of multirotors is a round jet a few diameters below them). A round
    jet's eddy viscosity is ``ν_T = 0.028 U_c r_½`` (its turbulent Reynolds number U_c r_½ / ν_T ≈ 35:
-   Pope 2000, *Turbulent Flows*, ch. 5); a drop the wake carries a distance ``s`` (the air's share of its fall, ``h - v_t t``) spreads with variance
-   ``σ² = 2 ν_T t = 0.056 r_½ s`` across each axis.
+   Pope 2000, *Turbulent Flows*, ch. 5); a drop the wake carries a distance ``s`` (the air's share of its
+   fall, ``h - v_t t``) spreads with variance ``σ² = 2 ν_T t = 0.056 r_½ s`` across each axis.
 
 The class's footprint is the disc of the same variance as reach and spreading together: radius
 ``sqrt(r_b² + 4 σ²)`` (a uniform disc of radius r has variance r²/4 along an axis). The drops reach that
