@@ -12,6 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from vinecli.physics.budget import BudgetConfig
 from vinecli.physics.published_trials import BIGLIA_2022, CONFIGS, RAUTMANN_2001, drift_trial, reading
 from vinecli.physics.spray_trial import run_trial
 
@@ -67,7 +68,8 @@ def edge_pass(vmd: float, wind: float, seed: int = 0):
     base = drift_trial(True, wind, seed)
     veh = dataclasses.replace(base.vehicle, vmd_um=vmd)
     x = base.rows[-1][0][0]
-    return run_trial(dataclasses.replace(base, vehicle=veh, passes=[((x, -5.0), (x, 67.0))]))[0]
+    distances = BudgetConfig(drift_distances_m=(1.0, 3.0, 5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 50.0))
+    return run_trial(dataclasses.replace(base, vehicle=veh, passes=[((x, -5.0), (x, 67.0))], budget=distances))[0]
 
 
 @pytest.mark.parametrize("vmd", [150.0, 200.0])
@@ -75,10 +77,10 @@ def test_edge_row_drift_curve_in_a_2_mps_crosswind(vmd):
     b = edge_pass(vmd, 2.0)
     assert b.balance_error <= 1e-9
     curve = {p["distance_m"]: p["percent_of_applied"] for p in b.drift}
-    assert 0.02 <= curve[5.0] <= 5.0
+    assert 0.02 <= curve[5.0] <= 5.0 and 0.02 <= curve[7.5] <= 5.0
     assert curve[20.0] < 0.5
     assert curve[50.0] > 0.0
-    far = [curve[d] for d in (5.0, 10.0, 15.0, 20.0, 30.0, 50.0)]
+    far = [curve[d] for d in (5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 50.0)]
     assert all(a > b for a, b in zip(far[:-1], far[1:], strict=True)), far
     # the share that left the field (sedimenting + airborne out of the domain) and the airborne share are the
     # surface layer's: both positive
