@@ -86,7 +86,7 @@ def test_the_pattern_matches_the_full_model_raster_of_a_flown_pass() -> None:
     mid = (xc > -4.0) & (xc < 4.0)
     measured = vol[:, mid].mean(axis=1) / (grid.cell * grid.cell) * 1e4  # L/ha across the track
     expected = 1e4 * per_m * np.interp(yc, p.y_m, p.forward)
-    core = expected > 0.2 * expected.max()  # the pattern's body (its edge is sharper than the 0.1 m raster)
+    core = expected > 0.3 * expected.max()  # the pattern's body (its flanks are steeper than the 0.1 m raster draws)
     assert measured[core] == pytest.approx(expected[core], rel=0.03)
     assert measured.sum() == pytest.approx(expected.sum(), rel=0.01)
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.physics.canopy import Canopy
+from vinecli.physics.deposition import FAR_WALL_JET
 from vinecli.physics.downwash import wake_velocity
 from vinecli.physics.drift import drift_curve, drift_frames, field_polygon, field_split
 from vinecli.physics.evaporation import evaporation_constant, remaining_fraction
@@ -67,6 +68,9 @@ class SprayBudget:
     calm: bool
     last_rows: list[int | None] = field(default_factory=list)
     evaporation: bool = False
+    #: per parcel of the transport (its order): the share the canopy caught while it came down in a wake (the
+    #: primaries' whole catch; the wall jet's drops before the outwash lifted them; 0 for the others), 0..1
+    caught_in_wake: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def fractions(self) -> dict[str, float]:
@@ -206,12 +210,18 @@ class _Merged:
     release_h: np.ndarray
     wake_vi: np.ndarray
     wake_zeta0: np.ndarray
+    wake_bend: np.ndarray
     rotor_radius_m: float = 0.0
+    #: the wall jet's far-field parcels: the (merged) primary each stands for, -1 for all others
+    wall_source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    primaries: int = 0  # the first ``primaries`` parcels are the (merged) primaries
+    #: each original parcel's row here (the primaries merged, the far field's kept in order)
+    row_of: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def downwash_at(self, z_m: float, index: np.ndarray) -> np.ndarray:
         """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
         zeta = self.wake_zeta0[index] + np.maximum(self.release_h[index] - z_m, 0.0)
-        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6))
+        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6), bending=self.wake_bend[index])
 
 
 def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
@@ -222,15 +232,23 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
     group = np.asarray(p.group, dtype=np.int64)  # type: ignore[attr-defined]
     vol = np.asarray(p.vol, dtype=np.float64)  # type: ignore[attr-defined]
     names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land", "reach", "wake_var", "release_h", "wake_vi",
-             "wake_zeta0")
+             "wake_zeta0", "wake_bend")
     arrays = [np.asarray(getattr(p, k, np.zeros(0)), dtype=np.float64) for k in names]
-    if arrays[-1].size != group.size:  # parcels without the footprint's parts: the disc is the plume at every height
-        arrays[-5:] = [arrays[2]] + [np.zeros(group.size)] * 4
+    if arrays[-2].size != group.size:  # parcels without the footprint's parts: the disc is the plume at every height
+        arrays[-6:] = [arrays[2]] + [np.zeros(group.size)] * 5
+    if arrays[-1].size != group.size:  # a wake in still air
+        arrays[-1] = np.zeros(group.size)
     radius_m = float(getattr(p, "rotor_radius_m", 0.0))
     cls = np.asarray(p.cls, dtype=np.int64)  # type: ignore[attr-defined]
+    kind = np.asarray(getattr(p, "far_kind", np.zeros(0)), dtype=np.int64)
+    source = np.asarray(getattr(p, "source", np.zeros(0)), dtype=np.int64)
+    wall = np.full(group.size, -1, dtype=np.int64)
+    if kind.size == group.size and source.size == group.size:
+        wall = np.where((kind == FAR_WALL_JET) & (source >= 0), source, -1)
     span = max(1, int(round(merge_s / group_s)))
     if n <= 0 or span <= 1 or group.size == 0:
-        return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:], radius_m)
+        return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:], radius_m, wall, max(n, 0),
+                       np.arange(group.size))
     per_group = n // (int(group[:n].max()) + 1)
     idx = np.arange(n)
     key = (group[:n] // span) * per_group + idx % per_group
@@ -243,9 +261,38 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
         m = np.bincount(inv, weights=a[:n] * w) / safe
         plain = np.bincount(inv, weights=a[:n]) / np.bincount(inv)
         out.append(np.concatenate([np.where(wsum > 0, m, plain), a[n:]]))
+    # the far field's parcels keep their order after the merged primaries; their sources are merged with them
+    wall_far = wall[n:]
+    wall_far = np.where(wall_far >= 0, inv[np.clip(wall_far, 0, n - 1)], -1)
     return _Merged(out[0], out[1], np.concatenate([wsum, vol[n:]]), np.concatenate([cls[:n][first], cls[n:]]),
                    out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]), *out[7:],
-                   radius_m)
+                   radius_m, np.concatenate([np.full(uk.size, -1, dtype=np.int64), wall_far]), int(uk.size),
+                   np.concatenate([inv, uk.size + np.arange(group.size - n)]))
+
+
+def _canopy_first(p: _Merged, canopy: Canopy, landed: np.ndarray, vz: np.ndarray, eff: np.ndarray,
+                  wake: tuple[np.ndarray, ...], nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The canopy's catch (:func:`_interception`), in the order the drops meet it: the wall jet's drops came down in
+    their primary parcel's wake and crossed its hedges first (their primary carries them through the canopy, and
+    they keep the share of its catch), then the far field's parcels meet the hedges where they land. Also returns
+    each parcel's share caught on the way down in a wake (the primaries' whole catch)."""
+    n = p.primaries
+    first, rest = np.arange(n), np.arange(n, landed.size)
+
+    def run(sel: np.ndarray, avail: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _interception(canopy, p.x[sel], p.y[sel], p.radius[sel], avail, p.vx[sel], p.vy[sel], vz[sel],
+                             eff[sel], nodes, (p.reach[sel], p.wake_var[sel], p.release_h[sel]),
+                             tuple(a[sel] for a in wake), lambda z, i: p.downwash_at(z, sel[i]))
+
+    src = p.wall_source[rest]
+    carried = np.bincount(src[src >= 0], weights=landed[rest][src >= 0], minlength=n)[:n] if n else np.zeros(0)
+    c1, r1, pts1 = run(first, landed[first] + carried)
+    share = np.divide(c1, landed[first] + carried, out=np.zeros(n), where=(landed[first] + carried) > 0)
+    pre = np.where(src >= 0, landed[rest] * share[np.clip(src, 0, max(n - 1, 0))], 0.0) if n else np.zeros(rest.size)
+    c2, r2, pts2 = run(rest, landed[rest] - pre)
+    captured = np.concatenate([share * landed[first], pre + c2])
+    on_the_way = np.concatenate([share, np.divide(pre, landed[rest], out=np.zeros(rest.size), where=landed[rest] > 0)])
+    return captured, r1 + r2, np.concatenate([pts1, pts2], axis=1), on_the_way
 
 
 def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: Canopy | None,
@@ -268,6 +315,7 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
     else:
         landed = vol.copy()
     captured = np.zeros(vol.size)
+    on_the_way = np.zeros(vol.size)
     points = np.zeros((3, 0))
     per_row = np.zeros(len(canopy.rows) if canopy is not None else 0)
     if canopy is not None and canopy.has_foliage and vol.size:
@@ -275,8 +323,7 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
         speed = np.sqrt(p.vx * p.vx + p.vy * p.vy + vz * vz)
         eff = impaction_efficiency(stokes_number(vt / g, speed, canopy.leaf_width_m))
         wake = (vt / g, np.hypot(p.vx, p.vy), vt, np.full(vt.size, canopy.leaf_width_m))
-        captured, per_row, points = _interception(canopy, x, y, radius, landed, p.vx, p.vy, vz, eff, config.nodes,
-                                                  (p.reach, p.wake_var, p.release_h), wake, p.downwash_at)
+        captured, per_row, points, on_the_way = _canopy_first(p, canopy, landed, vz, eff, wake, config.nodes)
     ground = landed - captured
     cone = float(np.median(radius)) if radius.size else 0.5
     fieldg = field_polygon(rows, spacing_m, np.asarray(parcels.path_xy), cone)  # type: ignore[attr-defined]
@@ -294,4 +341,5 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
         evaporated_l=float((vol - landed).sum()), row_canopy_l=per_row, drift=curve,
         parts=np.stack([captured, infield, offfield, beyond, vol - landed]), group=p.group, canopy_points=points,
         downwind_normal=frames[0].normal if frames and not calm else None, calm=calm,
-        last_rows=[f.row for f in frames], evaporation=air is not None)
+        last_rows=[f.row for f in frames], evaporation=air is not None,
+        caught_in_wake=on_the_way[p.row_of] if p.row_of.size else np.zeros(0))

@@ -31,7 +31,7 @@ import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate_many
-from vinecli.physics.downwash import fall_time_s, induced_velocity, wake_velocity
+from vinecli.physics.downwash import crossflow_bending, fall_time_s, induced_velocity, wake_velocity
 from vinecli.physics.droplets import (
     AIR_DENSITY,
     AIR_VISCOSITY,
@@ -41,6 +41,7 @@ from vinecli.physics.droplets import (
     terminal_velocity,
 )
 from vinecli.physics.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
+from vinecli.physics.wake_escape import stripped_share, wake_edge_radius_m
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
 
@@ -59,6 +60,8 @@ LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s (about 
 #: at a great height, where the wake lifts most of the spray, merges its lifted parcels over longer windows
 MAX_FAR_PARCELS = 60_000
 FAR_BINS = 65  # landing bins per lifted parcel at most (physics/surface_layer.py LOG_BINS + the airborne share)
+STRIP_LAYER_M = 0.25  # the wake edge's release layer (the nozzles' height) in steps of this, m
+FAR_WALL_JET, FAR_STRIPPED = 1, 2  # Parcels.far_kind of the far field's parcels
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,9 @@ class DepositionConfig:
     drag_reach: bool = True
     #: Obukhov length of the surface layer the far-field drift crosses, m (inf: neutral; > 0 stable, < 0 unstable)
     obukhov_m: float = math.inf
+    #: the crop's zero-plane displacement, m (2/3 of the hedges' height in a vineyard; 0: bare ground): the far field's
+    #: wind profile starts there, and drops released below it settle among the plants (physics/outwash.py)
+    displacement_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -94,6 +100,7 @@ class SprayerGeometry:
     rotor_radius_m: float
     rotor_plane_z: float  # mean rotor hub z, m body FLU
     exit_speed_mps: float = 24.5  # liquid speed leaving the nozzles (Bernoulli at the rated pressure, 3 bar), m/s
+    arm_m: float = 0.0  # the rotor hubs' mean distance from the vehicle's axis, m (the wake's edge: physics/wake_escape.py)
 
     @classmethod
     def from_vehicle(cls, veh: VehicleSpec, air_density: float) -> SprayerGeometry:
@@ -108,6 +115,7 @@ class SprayerGeometry:
             n_rotors=veh.n_rotors, rotor_radius_m=0.5 * veh.motor.prop_diameter_m,
             rotor_plane_z=float(np.mean([r.position_m[2] for r in veh.rotors])),
             exit_speed_mps=exit_speed_mps(sp.rated_pressure_bar),
+            arm_m=float(np.mean([math.hypot(r.position_m[0], r.position_m[1]) for r in veh.rotors])),
         )
 
 
@@ -163,11 +171,18 @@ class Parcels:
     wake_vi: np.ndarray = field(default_factory=lambda: np.zeros(0))
     wake_zeta0: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rotor_radius_m: float = 0.0
+    #: how the crossflow bent the wake over: 1 / its momentum length (1/m, 0: still air; physics/downwash.py)
+    wake_bend: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: how each far-field parcel left the wake (FAR_WALL_JET, FAR_STRIPPED; 0 for the primaries) and the primary
+    #: parcel it stands for (-1 for the primaries): the wall jet's drops crossed that parcel's canopy on the way down
+    far_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+    source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def downwash_at(self, z_m: float | np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
         """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
         zeta = self.wake_zeta0[index] + np.maximum(self.release_h[index] - z_m, 0.0)
-        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6))
+        bend = self.wake_bend[index] if self.wake_bend.size == self.wake_vi.size else 0.0
+        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6), bending=bend)
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -228,6 +243,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
         v_i = induced_velocity(thrust / geo.n_rotors, air_density, geo.rotor_radius_m, air_h)
     else:
         v_i = np.zeros(ng)
+    bend = crossflow_bending(thrust, air_density, air_h)  # the wake in the crossflow of the airspeed (G,)
     zeta0 = np.maximum(geo.rotor_plane_z - geo.nozzles_flu[:, 2], 0.0)  # (n,)
 
     # wind at mid-fall height (release-time wind incl. gusts/Dryden, scaled by the shear law)
@@ -238,7 +254,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     vt = geo.v_t
     tau = relaxation_time_s(vt, g)
     t_fall, s_end = fall_time_s(h0[..., None], zeta0[None, :, None], vt[None, None, :], v_i[:, None, None],
-                                wnd[:, 2, None, None], geo.rotor_radius_m)  # (G, n, c)
+                                wnd[:, 2, None, None], geo.rotor_radius_m, bending=bend[:, None, None])  # (G, n, c)
 
     # eddy diffusivity K = κ u* z (neutral surface layer), u* from the log law at the release height
     if config.diffusion:
@@ -285,9 +301,23 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
                   flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig),
                   flat(reach), flat(wake_var), flat(h1), flat(v_i[:, None, None]), flat(zeta0[None, :, None]),
-                  geo.rotor_radius_m)
+                  geo.rotor_radius_m, flat(bend[:, None, None]), np.zeros(ng * nn * nc, dtype=np.int8),
+                  np.full(ng * nn * nc, -1, dtype=np.int64))
     if config.downwash and config.outwash:
-        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, height, wnd, p[:, 2], config)
+        # the crosswind strips the wake's edge (physics/wake_escape.py): the class's disc around its nozzle, moved by
+        # the drops' lag behind the air, beyond the wake's edge
+        lag = tau3 * (1.0 - relax)
+        off = ((pn[..., 0] - p[:, 0, None])[..., None] + (v[:, 0, None, None] - ux[..., None]) * lag,
+               (pn[..., 1] - p[:, 1, None])[..., None] + (v[:, 1, None, None] - uy[..., None]) * lag)
+        w_mid = wake_velocity(zeta0[None, :, None] + 0.5 * h1, v_i[:, None, None], geo.rotor_radius_m,
+                              bending=bend[:, None, None])
+        air_rel = ((ux - v[:, 0, None])[..., None], (uy - v[:, 1, None])[..., None])  # the air past the vehicle
+        strip = np.zeros(np.shape(radius))  # the cones alone (drag_reach off): no wake edge to strip
+        if config.drag_reach:
+            strip = stripped_share(radius, off, air_rel, (v[:, 0, None, None], v[:, 1, None, None]), t1,
+                                   wake_edge_radius_m(geo.arm_m, geo.rotor_radius_m), w_mid, tau3, h1)
+        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), flat(np.broadcast_to(strip, t1.shape)), geo,
+                    height, wnd, p[:, 2], config)
     return out
 
 
@@ -318,27 +348,50 @@ def _class_speed_range(geo: SprayerGeometry) -> np.ndarray:
     return np.stack([vt[:-1], vt[1:]], axis=1)
 
 
-def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry,
+def _add_lifted(out: Parcels, jet_speed: np.ndarray, stripped: np.ndarray, geo: SprayerGeometry,
                 height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray, z_release: np.ndarray,
                 config: DepositionConfig) -> None:
-    """Move the share of each parcel the wake does not drive into the ground to the outwash
-    (:mod:`vinecli.physics.outwash`): it leaves the wall jet and the surface layer carries it
-    (:mod:`vinecli.physics.surface_layer`)."""
-    from vinecli.physics.outwash import impaction_share, lifted_parcels
+    """Move what the wake does not drive into the ground to the far field (:mod:`vinecli.physics.surface_layer`):
+    the share of each parcel ``stripped`` at the wake's edge by the crossflow (:mod:`vinecli.physics.wake_escape`;
+    released between the ground and the nozzles, from the wake's edge) and, of the rest, the fine drops that follow
+    the wall jet (:mod:`vinecli.physics.outwash`; released up to the jet's diameter W, W/2 downwind)."""
+    from vinecli.physics.outwash import impaction_share
 
     jet = 2.0 * geo.rotor_radius_m * math.sqrt(geo.n_rotors)
+    n = out.vol.size
+    strip = np.where(stripped >= MIN_LIFTED_SHARE, out.vol * stripped, 0.0)
+    rest = out.vol - strip
     share = 1.0 - impaction_share(geo.diam_m[out.cls], jet_speed, jet)
-    lifted = np.where(share >= MIN_LIFTED_SHARE, out.vol * share, 0.0)  # smaller shares stay with the parcel
+    wall = np.where(share >= MIN_LIFTED_SHARE, rest * share, 0.0)  # smaller shares stay with the parcel
+    out.vol = rest - wall
+    edge = wake_edge_radius_m(geo.arm_m, geo.rotor_radius_m)
+    # the edge's release layer: the nozzles' height, in steps of STRIP_LAYER_M (the far field's ensembles are cached
+    # per layer)
+    layer = np.maximum(np.round(out.release_h[:n] / STRIP_LAYER_M), 1.0) * STRIP_LAYER_M
+    for kind, lifted, top, offset, t_left in (
+            (FAR_WALL_JET, wall, np.full(n, jet), np.full(n, 0.5 * jet), out.t_fall[:n]),
+            (FAR_STRIPPED, strip, layer, np.full(n, edge), 0.5 * out.t_fall[:n])):
+        _release(out, kind, lifted, top, offset, t_left, geo, height, wnd, z_release, config)
+
+
+def _release(out: Parcels, kind: int, lifted: np.ndarray, top: np.ndarray, offset: np.ndarray, t_left: np.ndarray,
+             geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray,
+             z_release: np.ndarray, config: DepositionConfig) -> None:
+    """Append the far field's parcels of ``lifted`` (L per primary parcel), released between the ground and ``top``
+    (m), ``offset`` (m) downwind of each parcel's landing point, ``t_left`` (s) after the release."""
+    from vinecli.physics.outwash import lifted_parcels
+
     src = np.flatnonzero(lifted > 0.0)
     if src.size == 0:
         return
-    out.vol = out.vol - lifted
-    # lifted parcels of the same nozzle and size class are merged over LIFT_BIN_S of release time
-    # (volume-weighted landing point, fall time, release conditions): the outwash plume is smooth
-    per_group = out.vol.size // max(int(out.group.max()) + 1, 1)
+    # lifted parcels of the same nozzle, size class and release layer are merged over LIFT_BIN_S of release time
+    # (volume-weighted landing point, fall time, release conditions): the far field's plume is smooth
+    per_group = out.group.size and (out.primaries // max(int(out.group[:out.primaries].max()) + 1, 1))
+    layer_key = np.unique(top[src], return_inverse=True)[1]
     bin_s = LIFT_BIN_S
     for _ in range(12):  # a long run: merged over longer windows so the far field stays within MAX_FAR_PARCELS
-        key = (out.group[src] * config.group_s // bin_s).astype(np.int64) * per_group + src % per_group
+        key = ((out.group[src] * config.group_s // bin_s).astype(np.int64) * per_group + src % per_group) * (
+            int(layer_key.max()) + 1) + layer_key
         uk, inv = np.unique(key, return_inverse=True)
         if uk.size * FAR_BINS <= MAX_FAR_PARCELS:
             break
@@ -351,12 +404,15 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry,
 
     first = np.full(uk.size, src.size)
     np.minimum.at(first, inv, np.arange(src.size))
-    rep = src[first]  # a parcel of each merged set: its size class and (first) emission group
-    mx, my, mt = merged(out.x), merged(out.y), merged(out.t_fall)
+    rep = src[first]  # a parcel of each merged set: its size class, (first) emission group and release layer
+    mx, my, mt = merged(out.x), merged(out.y), merged(t_left)
     g = out.group[rep]
+    # the drops leave the wake from under the whole footprint (the wall jet forms under it; the edge's drops were on
+    # its outer part): each landing bin spreads at least over the parcel's own disc
+    spread = np.maximum(offset[rep], merged(out.radius))
     sec = lifted_parcels(mx, my, wsum, _class_speed_range(geo)[out.cls[rep]], mt, wnd[g, 0], wnd[g, 1],
-                         np.maximum(z_release[g] - height(mx, my), 2.0 * config.roughness_m), config.roughness_m, jet,
-                         config.obukhov_m)
+                         np.maximum(z_release[g] - height(mx, my), 2.0 * config.roughness_m), config.roughness_m,
+                         top[rep], config.obukhov_m, offset[rep], config.displacement_m, spread)
     k = rep[sec["src"]]
     out.x = np.concatenate([out.x, sec["x"]])
     out.y = np.concatenate([out.y, sec["y"]])
@@ -368,9 +424,12 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry,
     out.vy_land = np.concatenate([out.vy_land, sec["vy"]])
     out.vz_land = np.concatenate([out.vz_land, sec["vz"]])
     out.group = np.concatenate([out.group, out.group[k]])
-    out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the outwash's spread is in its landing points
+    out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the far field's spread is in its landing points
     out.reach = np.concatenate([out.reach, sec["radius"]])
     out.wake_var = np.concatenate([out.wake_var, np.zeros(k.size)])
     out.release_h = np.concatenate([out.release_h, np.zeros(k.size)])
     out.wake_vi = np.concatenate([out.wake_vi, np.zeros(k.size)])
     out.wake_zeta0 = np.concatenate([out.wake_zeta0, np.zeros(k.size)])
+    out.wake_bend = np.concatenate([out.wake_bend, np.zeros(k.size)])
+    out.far_kind = np.concatenate([out.far_kind, np.full(k.size, kind, dtype=np.int8)])
+    out.source = np.concatenate([out.source, k.astype(np.int64)])

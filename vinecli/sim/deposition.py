@@ -64,6 +64,9 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     cfg = config or DepositionConfig()
     if config is None and math.isfinite(getattr(world, "obukhov_m", math.inf)):  # the world's air: its stability
         cfg = dataclasses.replace(cfg, obukhov_m=float(world.obukhov_m))
+    canopy = world.canopy_model() if config is None else None
+    if canopy is not None and canopy.has_foliage:  # the rows' hedges lift the far field's wind profile
+        cfg = dataclasses.replace(cfg, displacement_m=canopy.displacement_m)
     ter = world.terrain
     gr = ter.grid
     height = gr.heights if gr is not None else flat_height(ter.flat_z)
