@@ -32,8 +32,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
-    from vinecli.batch.runner import build_world_once
-    from vinecli.batch.spec import load_pipeline
+    from vinecli.batch.pipeline import load_pipeline
+    from vinecli.batch.run import build_world_once
 
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="smoke run: one repetition, one trial")

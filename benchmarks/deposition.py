@@ -94,7 +94,7 @@ def record_cost_us(spray_share: float, n: int = 200_000) -> float:
     import timeit
     from types import SimpleNamespace
 
-    from vinecli.physics.deposition import SprayEmitter
+    from vinecli.spray.deposition import SprayEmitter
 
     setup_ns = {"emit": SprayEmitter().emit, "tank": SimpleNamespace(flow_lps=0.01),
                 "motors": SimpleNamespace(thrust_total=32.0), "dt": 0.004,
@@ -128,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     # rows detected once here (worlds built now carry them; each run would otherwise detect them again)
     world = resolve_rows(load_world(build_world(REPO / "worlds" / "vineyard-sample.yaml", Path(tmp.name) / "world")))
     mission = load_mission(REPO / "pipelines" / "missions" / "spray.yaml")
-    from vinecli.physics.deposition import DepositionConfig
+    from vinecli.spray.deposition import DepositionConfig
 
     today = DepositionConfig(outwash=False)  # the transport before the spray budget
     _run(world, mission, True, budget=True)  # warm-up: imports, first-call caches

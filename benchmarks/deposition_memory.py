@@ -7,7 +7,7 @@ that process (``wait4``'s ``ru_maxrss``) is compared with the same flight along 
 sprayer (a waypoints phase: no deposition), run right after it: the difference is what the deposition
 model (records, transport, grid, writing deposition.tif) adds at that height. Issue 20 item 5: no accepted
 mission peaks above 1.5 GB; the deposition grid keeps its convolution inside a cell budget
-(:mod:`vinecli.physics.deposit_grid`), so the peak must not grow with the height.
+(:mod:`vinecli.spray.deposit_grid`), so the peak must not grow with the height.
 
 Usage::
 

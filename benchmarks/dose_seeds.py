@@ -44,7 +44,7 @@ _NEAR_BP_M = 3.0  # windows this close to a breakpoint along its row are the res
 def fly(missions: Sequence[str], n_seeds: int, workers: int, work: Path) -> Path:
     """Fly ``missions`` for seeds 0..n_seeds-1 under ``work``; the runs directory."""
     from vinecli.batch import run_batch
-    from vinecli.batch.runner import build_world_once
+    from vinecli.batch.run import build_world_once
 
     entries = []
     for name in missions:

@@ -34,8 +34,8 @@ HOG = "import time\nwhile True:\n    sum(i * i for i in range(10000))\n"
 
 def _pipeline(name: str, n_seeds: int, work: Path, first: int = 0) -> Path:
     """``pipelines/<name>.yaml`` with each mission replicated over seeds first..first+n-1 on a world built once."""
-    from vinecli.batch.runner import build_world_once
-    from vinecli.batch.spec import load_pipeline
+    from vinecli.batch.pipeline import load_pipeline
+    from vinecli.batch.run import build_world_once
 
     src = REPO / "pipelines" / f"{name}.yaml"
     spec = load_pipeline(src)

@@ -48,8 +48,8 @@ sys.path.insert(0, str(REPO))
 
 #: owner of a function, by the path of its source file (first match wins); C functions by name below
 PARTS: list[tuple[str, str]] = [
-    ("vinecli/physics/sensors", "sensors"),
-    ("vinecli/physics/", "physics models"),
+    ("vinecli/flight/sensors", "sensors"),
+    ("vinecli/flight/", "physics models"),
     ("vinecli/autopilot/estimator", "estimator"),
     ("vinecli/control/", "control + phases"),
     ("vinecli/autopilot/", "control + phases"),

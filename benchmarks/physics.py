@@ -23,13 +23,13 @@ def main() -> None:
     n = 20_000 if args.quick else 200_000
     repeat = 3 if args.quick else 7
 
+    from vinecli.flight.aero import wind_drag
+    from vinecli.flight.motor import MotorBank
+    from vinecli.flight.sensors import make_sensors
+    from vinecli.flight.tank import Tank
+    from vinecli.flight.wind import make_wind
     from vinecli.frames import quat_from_euler, quat_rotate_inv
     from vinecli.geo import GeoOrigin
-    from vinecli.physics.aero import wind_drag
-    from vinecli.physics.motor import MotorBank
-    from vinecli.physics.sensors import make_sensors
-    from vinecli.physics.tank import Tank
-    from vinecli.physics.wind import make_wind
     from vinecli.specs import load_spec
     from vinecli.specs.vehicle import VehicleSpec
     from vinecli.specs.wind import ConstantWind, DrydenWind, SinusoidWind, SumWind, WindSpec

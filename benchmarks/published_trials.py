@@ -4,7 +4,7 @@ Biglia et al. 2022 (Sci. Total Environ. 845:157292): the twelve configurations T
 height, speed, flow, weather of Tables 1, 2, A1; vineyard of §2.4) read by the paper's collectors,
 standardised to 250 µL per cm travelled; and an ISO 22866 drift trial against the basic drift values
 (Rautmann et al. 2001) that Herbst et al. 2023 and Bonds et al. 2024 compare drone drift with.
-tests/physics/test_published_trials.py asserts the agreement this prints.
+tests/spray/test_published_trials.py asserts the agreement this prints.
 
 Usage::
 
@@ -30,8 +30,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--png", type=Path, help="draw the Biglia comparison (paper vs model) to this PNG")
     args = ap.parse_args(argv)
 
-    from vinecli.physics.published_trials import BIGLIA_2022, CONFIGS, RAUTMANN_2001, drift_trial, reading
-    from vinecli.physics.spray_trial import run_trial
+    from vinecli.spray.published_trials import BIGLIA_2022, CONFIGS, RAUTMANN_2001, drift_trial, reading
+    from vinecli.spray.spray_trial import run_trial
 
     r = {c.name: reading(c) for c in CONFIGS}
     print("config  mode   nozzle  speed  canopy µL/cm²  ground µL/cm²  budget: canopy / in field / off / evap")
@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
                                                                                                    30.0, 50.0)))
         out.setdefault("edge_row", {})[str(vmd)] = c  # type: ignore[union-attr]
 
-    from vinecli.physics.swath import swath_pattern
+    from vinecli.spray.swath import swath_pattern
     from vinecli.vehicle import load_vehicle
 
     print("\nEffective swath (CV <= 10 %, back and forth), m      model   published")

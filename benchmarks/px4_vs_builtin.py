@@ -30,7 +30,7 @@ FIGURES = ("takeoff_time_s", "hover_error_max_m", "hover_error_rms_m", "spray_pa
 def run(pipeline: Path, out: Path, seed: int, autopilot: str, px4_bin: Path | None) -> dict[str, Any]:
     """One batch of the pipeline; per case: figures, passed, status, wall time, stalls."""
     from vinecli.batch import run_batch
-    from vinecli.batch.spec import load_pipeline
+    from vinecli.batch.pipeline import load_pipeline
     from vinecli.runs import rundir
     from vinecli.runs.behaviour import behaviour_figures
 
@@ -78,7 +78,7 @@ def main() -> None:
     tmp = Path(tempfile.mkdtemp(prefix="px4-vs-builtin-"))
     px4_bin = args.px4_bin
     if px4_bin is None:
-        from tests.px4.real_px4 import extract_px4, px4_tarballs
+        from tests.sitl.px4.real_px4 import extract_px4, px4_tarballs
 
         tars = px4_tarballs()
         if not tars:

@@ -2,7 +2,7 @@
 
 A synthetic terrain cloud (tests/pointcloud_synth.py: rolling hills, uniformly random x-y at
 1 point/m², sigma 2 cm noise, UTM-sized coordinates; 1,000,000 points, 20,000 with ``--quick``) is written
-as LAZ and run through :func:`vinecli.terrain.pointcloud.reconstruct_cloud` twice: ball pivoting
+as LAZ and run through :func:`vinecli.terrain.pointcloud.reconstruct.reconstruct_cloud` twice: ball pivoting
 (radii [2d, 4d, 8d], then hole filling) and ``delaunay25d``. Prints one row per method with the
 per-stage seconds, and the BPA / Delaunay time ratio. A small warm-up run first keeps import
 times (Open3D, SciPy) out of the numbers. Run the full size on a quiet machine only.
@@ -29,9 +29,9 @@ sys.path.insert(0, str(REPO / "tests"))
 
 def main() -> None:
     import numpy as np
-    from pointcloud_synth import random_terrain_cloud, read_obj, surface_at, terrain_cloud, write_las
 
-    from vinecli.terrain.pointcloud import ReconstructOptions, reconstruct_cloud
+    from tests.pointcloud_synth import random_terrain_cloud, read_obj, surface_at, terrain_cloud, write_las
+    from vinecli.terrain.pointcloud.reconstruct import ReconstructOptions, reconstruct_cloud
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="20,000 points: a smoke run")

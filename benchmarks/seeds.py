@@ -27,8 +27,8 @@ def sweep(pipeline: Path, n_seeds: int, workers: int, work: Path, only: Sequence
     """Run every mission of ``pipeline`` (or those named in ``only``) for seeds 0..n_seeds-1 under ``work``;
     failures per mission."""
     from vinecli.batch import run_batch
-    from vinecli.batch.runner import build_world_once
-    from vinecli.batch.spec import load_pipeline
+    from vinecli.batch.pipeline import load_pipeline
+    from vinecli.batch.run import build_world_once
 
     ci = load_pipeline(pipeline)
     assert ci.world is not None

@@ -1,6 +1,6 @@
 """Synthetic point clouds sampled from an analytic terrain, and writers for every cloud format.
 
-Used by tests/test_terrain_pointcloud.py, tests/test_cli_terrain_reconstruct.py and
+Used by tests/terrain/pointcloud/test_terrain_pointcloud.py, tests/cli/test_cli_terrain_reconstruct.py and
 benchmarks/reconstruct.py. The surface is z = f(x, y) in metres around a UTM-sized origin so
 the centring path is exercised.
 """

@@ -16,3 +16,6 @@ def shared_files(sub: str, pattern: str) -> list[Path]:
     """Files of ../shared/data/<sub> matching pattern, or [] when ../shared is absent (fresh clone)."""
     d = SHARED_DATA / sub
     return sorted(d.glob(pattern)) if d.is_dir() else []
+
+
+VEHICLES = REPO / "vehicles"

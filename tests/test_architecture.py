@@ -15,7 +15,7 @@ LAYERS: list[set[str]] = [
     {"constants", "errors", "frames", "geo", "inputs", "lifeline", "locks", "names", "native", "output_guard", "outputs",
      "spray_defaults", "types"},
     {"specs"},
-    {"physics", "control", "terrain", "vehicle", "mavlink", "flightlog"},
+    {"flight", "spray", "control", "terrain", "vehicle", "mavlink", "flightlog"},
     {"rows", "phase_items", "identify", "gis"},
     {"autopilot"},
     {"sitl"},

@@ -45,14 +45,14 @@ KERNEL: tuple[str, ...] = (
     "sim/spray_groups.py",
     "sim/recorder.py",
     "sim/perfect_estimator.py",
-    "physics/motor.py",
-    "physics/aero.py",
-    "physics/sensors.py",
-    "physics/tank.py",
-    "physics/battery.py",
-    "physics/wind.py",
-    "physics/dryden.py",
-    "physics/rangefinder.py",
+    "flight/motor.py",
+    "flight/aero.py",
+    "flight/sensors.py",
+    "flight/tank.py",
+    "flight/battery.py",
+    "flight/wind.py",
+    "flight/dryden.py",
+    "flight/rangefinder.py",
     "autopilot/estimate.py",
     "autopilot/estimator.py",
     "autopilot/land_detector.py",
@@ -60,10 +60,10 @@ KERNEL: tuple[str, ...] = (
     "autopilot/terrain.py",
     "autopilot/builtin.py",
     "autopilot/supervisor.py",
-    "autopilot/phase.py",
-    "autopilot/phases.py",
-    "autopilot/flight_phases.py",
-    "autopilot/spray_phase.py",
+    "autopilot/phases/phase.py",
+    "autopilot/phases/from_spec.py",
+    "autopilot/phases/flight.py",
+    "autopilot/phases/spray.py",
     "autopilot/geofence.py",
     "control/cascade.py",
     "control/pid.py",
@@ -76,7 +76,7 @@ KERNEL: tuple[str, ...] = (
 
 
 def module_name(rel: str) -> str:
-    """``physics/motor.py`` -> ``vinecli.physics.motor``."""
+    """``flight/motor.py`` -> ``vinecli.flight.motor``."""
     return "vinecli." + rel.removesuffix(".py").replace("/", ".")
 
 

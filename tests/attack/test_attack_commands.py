@@ -28,10 +28,10 @@ from attack_kit import SAMPLE_DSM, cli, error_line, fingerprint, kill_session, v
 from proc_tree import alive, descendants  # noqa: E402
 from repo_paths import REPO  # noqa: E402
 
-from tests.ardupilot.real_ardupilot import ardupilot_bin  # noqa: E402,F401 - fixture
+from tests.flightlog.synthetic_log import synthetic_log  # noqa: E402
 from tests.gis.test_gis_world import grower_world  # noqa: E402
-from tests.identify.synthetic_log import synthetic_log  # noqa: E402
-from tests.px4.real_px4 import px4_bin  # noqa: E402,F401 - fixture
+from tests.sitl.ardupilot.real_ardupilot import ardupilot_bin  # noqa: E402,F401 - fixture
+from tests.sitl.px4.real_px4 import px4_bin  # noqa: E402,F401 - fixture
 
 SPRAY = {"name": "m", "vehicle": "x500-sprayer", "max_duration_s": 60,
          "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
@@ -145,7 +145,7 @@ def test_every_command_aimed_at_its_inputs_is_refused(sandbox: Path) -> None:
 def test_a_link_planted_in_a_compare_folder_is_not_followed(tmp_path: Path) -> None:
     """``run compare`` writes comparison.json/png into a runs folder that may hold a user's link of that name:
     the file replaces the link, the link's target is never written."""
-    from vinecli.batch.compare import COMPARISON_PNG
+    from vinecli.batch.compare_autopilots import COMPARISON_PNG
     from vinecli.outputs import write_bytes_atomic
 
     target = tmp_path / "elsewhere.png"

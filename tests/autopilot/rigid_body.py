@@ -1,8 +1,8 @@
 """Pure-Python 6-DoF test double for closed-loop autopilot tests without PyBullet.
 
-A rigid body (diagonal inertia) driven by the real :class:`vinecli.physics.motor.MotorBank`
+A rigid body (diagonal inertia) driven by the real :class:`vinecli.flight.motor.MotorBank`
 (lag, thrust, reaction torque, rotor drag) and sampled by the real simulated sensors
-(:func:`vinecli.physics.sensors.make_sensors`), integrated with semi-implicit Euler at the
+(:func:`vinecli.flight.sensors.make_sensors`), integrated with semi-implicit Euler at the
 vehicle's physics rate (250 Hz). Flat ground at z = 0; the base rests at
 z = landing_gear_height. Ground contact: while on the ground and the net vertical force
 does not lift the body, it stays put (level, at rest). World ENU, body FLU, SI units.
@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.autopilot.terrain import TerrainDatabase
+from vinecli.flight.motor import MotorBank
+from vinecli.flight.rangefinder import make_rangefinder
+from vinecli.flight.sensors import make_sensors
 from vinecli.frames import Vec3, quat_from_euler, quat_rotate, quat_to_euler, tilt_angle
 from vinecli.geo import GeoOrigin
-from vinecli.physics.motor import MotorBank
-from vinecli.physics.rangefinder import make_rangefinder
-from vinecli.physics.sensors import make_sensors
 from vinecli.sim.perfect_estimator import PerfectEstimator
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec

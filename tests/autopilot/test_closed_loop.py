@@ -8,6 +8,7 @@ import math
 import statistics
 
 import pytest
+from repo_paths import VEHICLES
 
 from vinecli.autopilot.base import RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
@@ -15,7 +16,6 @@ from vinecli.specs import load_spec
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 
-from .conftest_paths import VEHICLES
 from .rigid_body import G, RigidBodyDouble, Trace
 
 VEHICLE_NAMES = ["x500", "x500-sprayer", "hex-sprayer"]

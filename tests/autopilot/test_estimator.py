@@ -7,15 +7,15 @@ import math
 from typing import Any
 
 import pytest
+from repo_paths import VEHICLES
 
 from vinecli.autopilot.estimator import Estimator, periodic_gains
+from vinecli.flight.sensors import make_sensors
 from vinecli.frames import quat_from_euler, quat_mul, quat_to_euler
-from vinecli.physics.sensors import make_sensors
 from vinecli.specs import load_spec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import ImuSample, Observation, RigidState
 
-from .conftest_paths import VEHICLES
 from .rigid_body import ORIGIN
 
 DT_US = 4000

@@ -5,6 +5,7 @@ event and switches the sprayer off for the rest of the run."""
 from __future__ import annotations
 
 import pytest
+from repo_paths import VEHICLES
 
 from vinecli.autopilot.base import RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
@@ -12,7 +13,6 @@ from vinecli.specs import load_spec
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 
-from .conftest_paths import VEHICLES
 from .rigid_body import RigidBodyDouble
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from repo_paths import VEHICLES
 
 from vinecli.autopilot.base import RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
@@ -20,7 +21,6 @@ from vinecli.specs import load_spec
 from vinecli.specs.mission import GeofenceSpec, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 
-from .conftest_paths import VEHICLES
 from .rigid_body import RigidBodyDouble
 
 SQUARE = GeofenceSpec(polygon_enu=[(-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0)], max_altitude_agl_m=10.0)

@@ -7,6 +7,7 @@ import math
 from collections.abc import Callable
 
 import pytest
+from repo_paths import VEHICLES
 
 from vinecli.autopilot.base import RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
@@ -16,7 +17,6 @@ from vinecli.specs import load_spec
 from vinecli.specs.mission import GeofenceSpec, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 
-from .conftest_paths import VEHICLES
 from .rigid_body import RigidBodyDouble, Trace
 
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from vinecli.autopilot.terrain import TerrainDatabase, TerrainSense
+from vinecli.flight.rangefinder import Rangefinder
 from vinecli.frames import quat_from_euler
-from vinecli.physics.rangefinder import Rangefinder
 from vinecli.specs.vehicle import MountSpec, RangefinderSpec
 from vinecli.terrain.grid import TerrainGrid
 from vinecli.types import RangeSample

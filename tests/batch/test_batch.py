@@ -7,11 +7,12 @@ import os
 from pathlib import Path
 
 import pytest
-from _batch_cases import case_light
 
 from vinecli.batch import run_batch
-from vinecli.batch.spec import derive_seed, expand_cases, load_pipeline
+from vinecli.batch.pipeline import derive_seed, expand_cases, load_pipeline
 from vinecli.errors import SpecError
+
+from ._batch_cases import case_light
 
 MISSION = """\
 name: {name}
@@ -210,7 +211,7 @@ def test_batch_counts_keep_interrupted_cases_apart() -> None:
     """passed / failed checks / could not run / interrupted are disjoint: an interrupted case (partial run, or
     never started) is neither a check failure nor an error, so the CLI can say which it was."""
     from vinecli.batch.case import CaseResult
-    from vinecli.batch.runner import BatchResult
+    from vinecli.batch.run import BatchResult
 
     cases = [CaseResult("a", "a", "completed", True), CaseResult("b", "b", "completed", False),
              CaseResult("c", "c", "error", False, "timeout: no result"),

@@ -15,7 +15,7 @@ SEEDS = (1, 2)
 
 
 def test_ci_missions_pass_for_a_handful_of_seeds(tmp_path: Path) -> None:
-    from vinecli.batch.spec import load_pipeline
+    from vinecli.batch.pipeline import load_pipeline
 
     ci = REPO / "pipelines" / "ci.yaml"
     missions = [str((ci.parent / e.mission).resolve()) for e in load_pipeline(ci).missions]  # the gate's missions

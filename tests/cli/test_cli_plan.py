@@ -83,7 +83,7 @@ def test_import_plan_bad_item_exits_2(flat_world_dir: Path, tmp_path: Path) -> N
 
 
 def test_plan_swath_prints_and_plots_the_effective_swath(tmp_path: Path) -> None:
-    from vinecli.physics.swath import swath_pattern
+    from vinecli.spray.swath import swath_pattern
     from vinecli.vehicle import load_vehicle
 
     out = tmp_path / "swath"

@@ -10,9 +10,10 @@ from pathlib import Path
 import pytest
 import yaml
 from shapely.geometry import Polygon
-from test_gis_world import FENCE_LOCAL, ROWS_LOCAL, grower_world, local, lonlat, utm, write_layer
 
 from vinecli.errors import VinecliError
+
+from .test_gis_world import FENCE_LOCAL, ROWS_LOCAL, grower_world, local, lonlat, utm, write_layer
 
 
 def _build_fails(tmp: Path, gis: dict, match: str) -> VinecliError:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tests.identify.synthetic_log import synthetic_log
+from tests.flightlog.synthetic_log import synthetic_log
 from vinecli.flightlog.ulog_write import write_ulog
 from vinecli.identify.fit import fit_flight_log
 

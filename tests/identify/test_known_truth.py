@@ -19,7 +19,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from tests.identify.synthetic_log import cut
+from tests.flightlog.synthetic_log import cut
 from vinecli.cli.app import app
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.flightlog.dataflash_write import write_dataflash

@@ -272,8 +272,8 @@ def _assemble(r: _Run, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, terrai
         c[f"sp_pos_enu_{ax}_m"] = sp[:, k]
     c["phase_index"] = phase
     c["armed"] = armed.astype(float)
-    # battery (physics/battery.py): shaft power k_m T w over 80 % + 10 W avionics from a 4S 74 Wh pack
-    from vinecli.physics.battery import ocv_chen_rincon_mora
+    # battery (flight/battery.py): shaft power k_m T w over 80 % + 10 W avionics from a 4S 74 Wh pack
+    from vinecli.flight.battery import ocv_chen_rincon_mora
 
     p_load = K_M * sum(c[f"rotor{i + 1}_thrust_n"] * rotors[:, i] for i in range(4)) / 0.8 + 10.0
     soc = np.clip(1.0 - np.cumsum(p_load) * dt / (74.0 * 3600.0), 0.0, 1.0)
@@ -533,16 +533,16 @@ def write_run(runs_dir: Path, mission: str, *, run_id: str | None = None, case: 
 
 
 def _write_deposition(out: Path, cols: dict[str, np.ndarray], rate_hz: float) -> dict[str, float]:
-    """deposition.tif/.json of the synthetic spray flight (vinecli.physics.deposition on its columns)."""
+    """deposition.tif/.json of the synthetic spray flight (vinecli.spray.deposition on its columns)."""
     from types import SimpleNamespace
 
     from vinecli.geo import GeoOrigin
-    from vinecli.physics.deposit_grid import grid_for, rasterise_discs
-    from vinecli.physics.deposition import DepositionConfig, SprayEmitter, SprayerGeometry, transport
     from vinecli.runs.deposition_out import evaluate_deposition, write_deposition
-    from vinecli.sim.deposition import DepositionResult
+    from vinecli.sim.spray_deposit import DepositionResult
     from vinecli.specs.mission import MissionSpec
     from vinecli.specs.wind import WindSpec
+    from vinecli.spray.deposit_grid import grid_for, rasterise_discs
+    from vinecli.spray.deposition import DepositionConfig, SprayEmitter, SprayerGeometry, transport
     from vinecli.vehicle import load_vehicle
 
     veh = load_vehicle("x500-sprayer")

@@ -4,7 +4,7 @@ bookkeeping and the rendering, not any autopilot: the runs are synthetic run dir
 tests/report/synth_runs.py (real deposition model), the second one a copy of the first filed under another
 autopilot name and firmware ("other", "Test 0.0"), so both columns hold the same figures by construction.
 The real three-way comparison (built-in, PX4 and ArduPilot flying pipelines/missions/spray-two-rows.yaml,
-the dose of each row judged) is tests/ardupilot/test_three_way.py, which needs ../shared."""
+the dose of each row judged) is tests/sitl/test_three_way.py, which needs ../shared."""
 
 from __future__ import annotations
 

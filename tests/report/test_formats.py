@@ -184,7 +184,7 @@ def test_large_batch_paginates_with_per_run_pages(ci_runs: Path, tmp_path: Path)
 
 
 def test_figures_render_in_a_process_pool(ci_runs: Path, tmp_path: Path) -> None:
-    from vinecli.report.build import render_all
+    from vinecli.report.assemble import render_all
     from vinecli.report.loader import load_runs
     from vinecli.report.plots import png_size
 

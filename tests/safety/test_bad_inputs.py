@@ -72,7 +72,7 @@ def test_mission_altitudes_of_tens_of_kilometres_exit_2(flat_world_dir: Path, tm
 def test_a_world_flown_tens_of_kilometres_up_has_a_real_atmosphere() -> None:
     """A vehicle that climbs for hours leaves the troposphere: the barometer model stays real and invertible
     (on main the pressure went complex above 44 km: exit 3 in the loop)."""
-    from vinecli.physics.atmosphere import altitude_at, pressure_at, temperature_at
+    from vinecli.flight.atmosphere import altitude_at, pressure_at, temperature_at
 
     for h in (0.0, 5000.0, 11000.0, 30000.0, 60000.0, 100000.0):
         p = pressure_at(h)

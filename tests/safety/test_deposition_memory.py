@@ -3,7 +3,7 @@ of a ~340 m footprint at 0.1 m cells); now the grid keeps its padded convolution
 (coarser cells), so the peak stays far below 1.5 GB at any height, and the volume balance still holds.
 Since issue 31 drag and the rotor wake keep a drop's footprint to a few metres even from 400 m (the
 cones' 340 m footprint is ``DepositionConfig(drag_reach=False)``, still exercised here), and the far field's
-parcels are bounded (physics/deposition.py MAX_FAR_PARCELS).
+parcels are bounded (spray/deposition.py MAX_FAR_PARCELS).
 
 Each case runs in a child process under an address-space ceiling (tests/safety/memguard.py), so the
 unbounded allocation of the old code fails there with MemoryError instead of exhausting the machine.
@@ -23,8 +23,8 @@ LIMIT_MB = 1536.0
 DEPOSIT_AT = """
 import json, sys
 import numpy as np
-from vinecli.physics.deposition import EMIT_COLUMNS, SprayEmitter
-from vinecli.sim.deposition import deposit
+from vinecli.spray.deposition import EMIT_COLUMNS, SprayEmitter
+from vinecli.sim.spray_deposit import deposit
 from vinecli.world import load_world
 h = float(sys.argv[1])
 world = load_world(sys.argv[2])
@@ -32,7 +32,7 @@ em = SprayEmitter()
 for i in range(250):  # 10 s along +x at 2 m/s, 0.02 L/s, one record per 0.04 s
     t = 0.04 * i
     em.emit((t, 2.0 * t - 10.0, 0.0, h, 0.0, 0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 30.0, 0.0008, 0.0))
-from vinecli.physics.deposition import DepositionConfig
+from vinecli.spray.deposition import DepositionConfig
 dep = deposit(em, world, world.vehicle, world.wind, seed=1, config=DepositionConfig(drag_reach=CONE))
 print(json.dumps({"cell": dep.grid.cell, "nx": dep.grid.nx, "ny": dep.grid.ny, "emitted": dep.emitted_l,
                   "balance": dep.balance_error, "on_grid": dep.on_grid_l}))
@@ -118,9 +118,9 @@ canopy: {bbch: 75}
 BUDGET_AT = """
 import json, tracemalloc
 from pathlib import Path
-from vinecli.physics.deposition import SprayEmitter, SprayerGeometry
+from vinecli.spray.deposition import SprayEmitter, SprayerGeometry
 from vinecli.runs.budget_out import evaluate_budget, write_budget
-from vinecli.sim.deposition import deposit
+from vinecli.sim.spray_deposit import deposit
 from vinecli.sim.memory import _budget_mb
 from vinecli.world import load_world
 h, n, out = HEIGHT, RECORDS, OUT

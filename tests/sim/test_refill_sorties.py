@@ -146,7 +146,7 @@ def test_a_job_that_cannot_progress_is_aborted(flat_world_dir):
 
 
 def test_crew_refuses_a_flying_vehicle():
-    from vinecli.physics.tank import Tank
+    from vinecli.flight.tank import Tank
     from vinecli.vehicle import load_vehicle
 
     tank = Tank(load_vehicle("x500-sprayer").tank, 0.0)

@@ -17,9 +17,9 @@ The parts, one job each:
   (:mod:`vinecli.autopilot.hover_thrust`).
 - :mod:`vinecli.autopilot.supervisor`: modes, phase sequence, arming, preflight, failsafes
   (geofence, battery, cannot take off), events and the run status.
-- :mod:`vinecli.autopilot.phase`: the :class:`~vinecli.autopilot.phase.Phase` base and what a phase
+- :mod:`vinecli.autopilot.phases.phase`: the :class:`~vinecli.autopilot.phases.phase.Phase` base and what a phase
   may use of the autopilot; :mod:`vinecli.autopilot.phases` (``make_phase``: mission spec -> phase),
-  :mod:`vinecli.autopilot.flight_phases`, :mod:`vinecli.autopilot.spray_phase` (refill sorties).
+  :mod:`vinecli.autopilot.phases.flight`, :mod:`vinecli.autopilot.phases.spray` (refill sorties).
 - :mod:`vinecli.autopilot.estimate` (the state estimate it flies on: its own
   :mod:`vinecli.autopilot.estimator`, or the one the simulator hands over in ground-truth runs),
   :mod:`vinecli.autopilot.geofence`, :mod:`vinecli.autopilot.preflight`, :mod:`vinecli.control`
@@ -40,12 +40,12 @@ from typing import Any
 
 from vinecli.autopilot.base import RUNNING, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimator import Estimator
-from vinecli.autopilot.flight_phases import OpenLoop
 from vinecli.autopilot.geofence import Geofence
 from vinecli.autopilot.hover_thrust import HoverThrustEstimator
 from vinecli.autopilot.land_detector import LandDetector
-from vinecli.autopilot.phase import Phase
-from vinecli.autopilot.phases import make_phase
+from vinecli.autopilot.phases.flight import OpenLoop
+from vinecli.autopilot.phases.from_spec import make_phase
+from vinecli.autopilot.phases.phase import Phase
 from vinecli.autopilot.supervisor import FlightSupervisor
 from vinecli.autopilot.terrain import TerrainSense
 from vinecli.control.cascade import Cascade, G

@@ -35,7 +35,7 @@ G = STANDARD_GRAVITY
 def earth_field_enu(origin: GeoOrigin) -> Vec3:
     """Earth magnetic field at the origin in the world frame (ENU along its grid), gauss (the WMM the simulated
     magnetometer uses)."""
-    from vinecli.physics.magnetic import earth_field_ned
+    from vinecli.flight.magnetic import earth_field_ned
 
     return true_enu_to_grid(ned_to_enu(earth_field_ned(origin)), origin.convergence_rad)
 

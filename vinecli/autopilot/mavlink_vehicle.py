@@ -30,7 +30,7 @@ from typing import Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.builtin import BuiltinAutopilot
-from vinecli.autopilot.phase import Phase, PhaseHost
+from vinecli.autopilot.phases.phase import Phase, PhaseHost
 from vinecli.errors import InputError
 from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_to_euler, xyzw_to_wxyz
 from vinecli.mavlink import px4modes as M

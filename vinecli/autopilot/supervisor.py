@@ -1,6 +1,6 @@
 """The built-in autopilot's flight supervisor: mode, phase sequence, arming, preflight, failsafes
 (geofence, battery, cannot take off) and the run status - everything a phase may ask of the
-autopilot (:class:`~vinecli.autopilot.phase.PhaseHost`). :class:`FlightSupervisor` is the base of
+autopilot (:class:`~vinecli.autopilot.phases.phase.PhaseHost`). :class:`FlightSupervisor` is the base of
 :class:`~vinecli.autopilot.builtin.BuiltinAutopilot`, which builds the state in ``reset`` and
 runs the estimator and the controllers. World ENU, SI units.
 
@@ -44,9 +44,9 @@ from collections.abc import Callable
 
 from vinecli.autopilot.base import RUNNING, AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.autopilot.estimate import StateEstimate
-from vinecli.autopilot.flight_phases import Land, Loiter, OpenLoop, Rtl
 from vinecli.autopilot.geofence import GF_ACTION, Geofence
-from vinecli.autopilot.phase import Phase
+from vinecli.autopilot.phases.flight import Land, Loiter, OpenLoop, Rtl
+from vinecli.autopilot.phases.phase import Phase
 from vinecli.autopilot.preflight import (
     PreflightFailure,
     check_plan,
@@ -67,7 +67,7 @@ _NAN = float("nan")
 
 class FlightSupervisor:
     """Mode, phase sequence, arming, preflight and failsafes of the built-in autopilot (see the module
-    docstring); the :class:`~vinecli.autopilot.phase.PhaseHost` its phases run on. The state below is
+    docstring); the :class:`~vinecli.autopilot.phases.phase.PhaseHost` its phases run on. The state below is
     set by :meth:`BuiltinAutopilot.reset <vinecli.autopilot.builtin.BuiltinAutopilot.reset>`."""
 
     # the run

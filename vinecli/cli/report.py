@@ -40,8 +40,8 @@ def report_cmd(
     """
     from vinecli.errors import ChecksFailed, InputError
     from vinecli.report import build_report
+    from vinecli.report.assemble import FIGURE_POLICIES
     from vinecli.report.baseline import parse_tolerances
-    from vinecli.report.build import FIGURE_POLICIES
 
     if figures not in FIGURE_POLICIES:
         raise InputError(f"unknown --figures {figures!r} ({', '.join(FIGURE_POLICIES)})")

@@ -138,7 +138,7 @@ def batch_cmd(
 
         start_fork_server()
     from vinecli.batch import run_batch
-    from vinecli.batch.spec import pipeline_cases
+    from vinecli.batch.pipeline import pipeline_cases
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
 
     n = len(pipeline_cases(pipeline, world))  # for the progress bar (and a bad pipeline fails before any work)
@@ -192,7 +192,7 @@ def compare_cmd(
     Example: vinecli run compare pipelines/missions/px4/spray-rows.yaml --world build/vineyard --out cmp
     --px4-bin PX4/bin/px4 --ardupilot-bin ArduPilot/bin/arducopter
     """
-    from vinecli.batch.compare import compare_autopilots
+    from vinecli.batch.compare_autopilots import compare_autopilots
     from vinecli.errors import ChecksFailed, RuntimeFailure
     from vinecli.report.autopilots import markdown_table
 

@@ -43,7 +43,7 @@ def reconstruct(
 
     Example: vinecli terrain reconstruct field.laz --out field-mesh --classes 2 --dsm 0.5
     """
-    from vinecli.terrain.pointcloud import ReconstructOptions, parse_list, reconstruct_cloud
+    from vinecli.terrain.pointcloud.reconstruct import ReconstructOptions, parse_list, reconstruct_cloud
 
     options = ReconstructOptions(
         method=method,  # type: ignore[arg-type]  # validated by ReconstructOptions.validate

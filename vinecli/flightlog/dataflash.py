@@ -1,4 +1,4 @@
-"""ArduPilot DataFlash (``.bin``) -> :class:`~vinecli.flightlog.model.FlightLog`, read with pymavlink's DFReader.
+"""ArduPilot DataFlash (``.bin``) -> :class:`~vinecli.flightlog.flight_log.FlightLog`, read with pymavlink's DFReader.
 
 Messages: ``RCOU`` (motor PWM, ``C1..`` or ArduCopter 3.x ``Chan1..``), ``IMU`` (FRD, instance 0), ``ATT``
 (roll, pitch, yaw in degrees, NED/FRD), the EKF's ``XKF1``/``NKF1``/``EKF1`` (PN PE PD VN VE VD, NED),
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.flightlog.convert import (
+from vinecli.flightlog.arrays import (
     attitude_from_euler_ned,
     frd_to_flu_array,
     ned_to_enu_array,
@@ -27,7 +27,7 @@ from vinecli.flightlog.convert import (
     require,
     sorted_stream,
 )
-from vinecli.flightlog.model import (
+from vinecli.flightlog.flight_log import (
     Attitude,
     BatteryLog,
     FlightLog,

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd, quat_to_euler
 
 __all__ = ["write_dataflash"]

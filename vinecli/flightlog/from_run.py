@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vinecli.flightlog.model import (
+from vinecli.flightlog.flight_log import (
     Attitude,
     BatteryLog,
     FlightLog,

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.outputs import sha256_file
 
 __all__ = ["ULOG_MAGIC", "DATAFLASH_MAGIC", "read_flight_log"]

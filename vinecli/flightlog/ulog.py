@@ -1,4 +1,4 @@
-"""PX4 ULog (``.ulg``) -> :class:`~vinecli.flightlog.model.FlightLog`, read with pyulog.
+"""PX4 ULog (``.ulg``) -> :class:`~vinecli.flightlog.flight_log.FlightLog`, read with pyulog.
 
 Topics: ``actuator_outputs`` (the instance driving the motors, PWM µs), ``sensor_combined`` (IMU, FRD),
 ``vehicle_attitude`` (q NED<-FRD, w first), ``vehicle_local_position`` (NED), ``battery_status``,
@@ -18,7 +18,7 @@ from datetime import UTC, datetime
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.flightlog.convert import (
+from vinecli.flightlog.arrays import (
     attitude_from_quat_ned,
     frd_to_flu_array,
     ned_to_enu_array,
@@ -26,7 +26,7 @@ from vinecli.flightlog.convert import (
     require,
     sorted_stream,
 )
-from vinecli.flightlog.model import (
+from vinecli.flightlog.flight_log import (
     Attitude,
     BatteryLog,
     FlightLog,

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.frames import attitude_enu_flu_to_ned_frd, enu_to_ned, flu_to_frd
 
 __all__ = ["write_ulog"]

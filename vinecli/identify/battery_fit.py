@@ -1,6 +1,6 @@
 """The pack: cells, open-circuit voltage at the start, internal resistance, capacity.
 
-vinecli's battery (``physics.battery``): terminal ``V = E(soc) - I R``, ``E = cells E_cell(soc)`` (Chen &
+vinecli's battery (``flight.battery``): terminal ``V = E(soc) - I R``, ``E = cells E_cell(soc)`` (Chen &
 Rincón-Mora's Li-polymer curve, or the base's ``ocv_table``), ``soc`` the energy fraction. Over one flight
 the open-circuit voltage falls almost linearly with the charge drawn ``q = integral I dt`` (Ah), so
 ``V = E0 - k q - R I`` is a linear regression: ``R`` comes from the current steps (take-off, climbs),
@@ -18,10 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vinecli.flightlog.convert import cells_from_voltage
-from vinecli.flightlog.model import BatteryLog, LogConfig
-from vinecli.identify.params import Param, block_bootstrap, fixed
-from vinecli.physics.battery import Battery
+from vinecli.flight.battery import Battery
+from vinecli.flightlog.arrays import cells_from_voltage
+from vinecli.flightlog.flight_log import BatteryLog, LogConfig
+from vinecli.identify.fitted_params import Param, block_bootstrap, fixed
 from vinecli.specs.vehicle import BatterySpec
 
 __all__ = ["BatteryFit", "charge_ah", "energy_wh", "fit_battery", "soc_at_ocv"]

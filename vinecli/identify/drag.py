@@ -2,8 +2,8 @@
 
 With a steady horizontal wind ``w`` the apparent air is ``w - v`` and vinecli's laws give, along body x
 and y (FLU), ``f_x = b_x + (c / m) |V| V_x + (k_d / m) (sum_i w_i) V_x`` with ``V = R^T (w - v)`` (and the
-same for y): the body's quadratic drag ``c |V| V`` (``physics.aero.wind_drag``, ``c`` = the sum over the
-vehicle's drag links) and the rotors' H-force ``k_d w V_perp`` (``physics.motor``), with
+same for y): the body's quadratic drag ``c |V| V`` (``flight.aero.wind_drag``, ``c`` = the sum over the
+vehicle's drag links) and the rotors' H-force ``k_d w V_perp`` (``flight.motor``), with
 ``w_i = (w_max - w_min)(u_i + r)`` from the thrust curve. ``b_x, b_y`` absorb the accelerometer's
 offsets and a thrust axis not quite along the IMU's z (a tilted mount reads a steady in-plane force).
 
@@ -23,7 +23,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from vinecli.frames import quat_rotate_many
-from vinecli.identify.params import Param, block_bootstrap, fixed
+from vinecli.identify.fitted_params import Param, block_bootstrap, fixed
 from vinecli.identify.samples import FlightSamples
 from vinecli.identify.thrust import ThrustFit
 

@@ -7,11 +7,11 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.identify.battery_fit import charge_ah
+from vinecli.identify.fit_result import FitResult
 from vinecli.identify.power import cube_sum
 from vinecli.identify.replay import ReplayResult
-from vinecli.identify.result import FitResult
 
 __all__ = ["fit_figures", "replay_figures"]
 

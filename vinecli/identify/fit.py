@@ -23,12 +23,12 @@ from vinecli.flightlog.read import read_flight_log
 from vinecli.identify.base_vehicle import BaseVehicle, fitted_spec, load_base
 from vinecli.identify.battery_fit import fit_battery
 from vinecli.identify.drag import fit_drag
+from vinecli.identify.fit_result import FitResult
+from vinecli.identify.fitted_params import Param
 from vinecli.identify.fitted_vehicle import fitted_vehicle
-from vinecli.identify.params import Param
 from vinecli.identify.power import fit_power
 from vinecli.identify.replay import replay_log
 from vinecli.identify.replay_model import AIR_DENSITY
-from vinecli.identify.result import FitResult
 from vinecli.identify.samples import make_samples
 from vinecli.identify.thrust import fit_thrust
 from vinecli.identify.vehicle_io import replay_summary, write_outputs

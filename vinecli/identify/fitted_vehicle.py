@@ -19,7 +19,7 @@ from typing import Any
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.identify.battery_fit import BatteryFit
 from vinecli.identify.drag import DragFit
-from vinecli.identify.params import Param, fixed
+from vinecli.identify.fitted_params import Param, fixed
 from vinecli.identify.power import ETA_RANGE, PowerFit
 from vinecli.identify.replay_model import AIR_DENSITY
 from vinecli.identify.thrust import ThrustFit

@@ -8,10 +8,10 @@ import html
 import math
 from typing import Any
 
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.identify.figures import fit_figures, replay_figures
+from vinecli.identify.fit_result import FitResult
 from vinecli.identify.replay import ERROR_KEYS, ReplayResult
-from vinecli.identify.result import FitResult
 
 __all__ = ["fit_page", "replay_page"]
 

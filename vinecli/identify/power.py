@@ -1,6 +1,6 @@
 """Electrical power against the motor outputs: hover power, figure of merit, the flight's energy.
 
-vinecli's load (``physics.battery.ElectricalLoad.power_w``): ``P = sum_i k_m k_f w_i³ / eta + P_avionics``
+vinecli's load (``flight.battery.ElectricalLoad.power_w``): ``P = sum_i k_m k_f w_i³ / eta + P_avionics``
 (shaft power ``k_m T w`` over the motor+ESC efficiency). With ``w_i = (w_max - w_min)(u_i + r)`` that is
 ``P = a sum_i (u_i + r)³ + P0``: linear in ``a`` and ``P0`` at the thrust curve's ``r``, regressed on the
 log's ``V I`` (terminal power) at each battery sample against the outputs averaged over that sample's
@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.flightlog.model import BatteryLog
+from vinecli.flightlog.flight_log import BatteryLog
 from vinecli.identify.battery_fit import energy_wh
-from vinecli.identify.params import Param, block_bootstrap, fixed
+from vinecli.identify.fitted_params import Param, block_bootstrap, fixed
 from vinecli.identify.samples import FlightSamples, interval_means
 from vinecli.identify.thrust import ThrustFit
 

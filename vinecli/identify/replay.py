@@ -26,11 +26,11 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.flightlog.model import FlightLog
+from vinecli.flight.battery import Battery
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.identify.battery_fit import soc_at_ocv
 from vinecli.identify.replay_model import BATTERY_DT, RATE_HZ, RigidState6, VehicleReplay
 from vinecli.identify.samples import FlightSamples, interval_means, make_samples, quat_at
-from vinecli.physics.battery import Battery
 from vinecli.specs.vehicle import VehicleSpec
 
 __all__ = ["ERROR_KEYS", "WINDOW_S", "ReplayResult", "replay_log"]

@@ -1,15 +1,15 @@
 """A vehicle driven by a log's motor outputs: vinecli's own laws on a rigid body, no PyBullet.
 
-The forces and torques are the simulator's (:class:`~vinecli.physics.motor.MotorBank`: first-order motor
-lag, thrust ``k_f w²``, rotor drag, rolling moment, reaction torque; :func:`~vinecli.physics.aero.wind_drag`
+The forces and torques are the simulator's (:class:`~vinecli.flight.motor.MotorBank`: first-order motor
+lag, thrust ``k_f w²``, rotor drag, rolling moment, reaction torque; :func:`~vinecli.flight.aero.wind_drag`
 per drag link at its centre of pressure) on the vehicle's rigid mass and inertia
 (:func:`~vinecli.vehicle.urdf.rigid_inertia`), integrated with PyBullet's scheme (semi-implicit Euler) at
 the simulator's 250 Hz, in still air and without ground contact: a replay window is airborne. The forces
 act at the log's attitude; the body rates are integrated open loop as a prediction (:meth:`VehicleReplay.step`). The motor
 command of an output ``u`` is the PX4 SITL mapping ``w = w_min + u (w_max - w_min)`` (``px4.w_min_rad_s``,
 ``motor.w_max``); a stopped or disarmed motor is commanded 0. The electrical load is
-:class:`~vinecli.physics.battery.ElectricalLoad` of the rotors' shaft power, drawn from a
-:class:`~vinecli.physics.battery.Battery`.
+:class:`~vinecli.flight.battery.ElectricalLoad` of the rotors' shaft power, drawn from a
+:class:`~vinecli.flight.battery.Battery`.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
+from vinecli.flight.aero import wind_drag
+from vinecli.flight.battery import Battery, ElectricalLoad
+from vinecli.flight.motor import MotorBank
 from vinecli.frames import QuatXYZW, Vec3, cross, quat_rotate, quat_rotate_inv
-from vinecli.physics.aero import wind_drag
-from vinecli.physics.battery import Battery, ElectricalLoad
-from vinecli.physics.motor import MotorBank
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.vehicle.urdf import rigid_inertia
 

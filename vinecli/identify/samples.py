@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vinecli.flightlog.model import FlightLog
+from vinecli.flightlog.flight_log import FlightLog
 from vinecli.frames import quat_rotate_many
 
 __all__ = ["FlightSamples", "interval_means", "make_samples", "quat_at"]

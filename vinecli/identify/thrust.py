@@ -23,7 +23,7 @@ from scipy.optimize import minimize_scalar
 
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.errors import InputError
-from vinecli.identify.params import Param, block_bootstrap, fixed
+from vinecli.identify.fitted_params import Param, block_bootstrap, fixed
 from vinecli.identify.samples import FlightSamples
 
 __all__ = ["R_MAX", "SLOW_MPS", "ThrustFit", "fit_thrust"]

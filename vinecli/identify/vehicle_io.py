@@ -11,8 +11,8 @@ import yaml
 from vinecli.errors import SpecError
 from vinecli.flightlog.read import read_flight_log
 from vinecli.identify.base_vehicle import load_base
+from vinecli.identify.fit_result import FitResult
 from vinecli.identify.replay import ERROR_KEYS, ReplayResult, replay_log
-from vinecli.identify.result import FitResult
 from vinecli.outputs import Manifest, atomic_output_dir, jsonable, write_json
 from vinecli.specs import YAML_DUMPER
 from vinecli.vehicle import load_vehicle
@@ -39,7 +39,7 @@ def replay_report(rep: ReplayResult, log_summary: dict[str, Any], vehicle: str, 
             "baselines": {k: v for k, v in rep.errors.items() if k != "vehicle"},
             "windows": len(rep.windows), "window_s": (rep.windows[0][1] - rep.windows[0][0]) if rep.windows else None,
             "span_s": list(rep.span_s), "imu_offset_xy_mps2": list(rep.imu_offset_xy),
-            "integration": "rigid body, semi-implicit Euler at 250 Hz, vinecli.physics laws (MotorBank, "
+            "integration": "rigid body, semi-implicit Euler at 250 Hz, vinecli.flight laws (MotorBank, "
                            "aero.wind_drag, Battery), still air, no PyBullet",
             "notes": list(rep.notes)}
 

@@ -433,7 +433,7 @@ DEFAULT_PARAMS: dict[str, float | int] = {
     "PWM_MAIN_FUNC9": 301,
     "SYS_AUTOSTART": 10016,
     # PX4's battery failsafe thresholds and its SITL battery simulator (PX4 v1.15 defaults); vinecli's PX4
-    # bridge sets them from the vehicle's pack (vinecli.sitl.px4.mission.battery_params)
+    # bridge sets them from the vehicle's pack (vinecli.sitl.px4.mission_client.battery_params)
     "BAT_LOW_THR": 0.15,
     "BAT_CRIT_THR": 0.07,
     "BAT_EMERGEN_THR": 0.05,

@@ -44,7 +44,7 @@ BUDGET_METRICS: dict[str, tuple[str, str]] = {
 
 
 def budget_metrics(budget: Any, canopy: Any, applied_lpha: float) -> dict[str, float]:
-    """The :data:`BUDGET_METRICS` of a :class:`~vinecli.physics.budget.SprayBudget`."""
+    """The :data:`BUDGET_METRICS` of a :class:`~vinecli.spray.budget.SprayBudget`."""
     fr = budget.fractions
     m = {f"budget_{k}_fraction": float(v) for k, v in fr.items()}
     m["budget_balance_error"] = float(budget.balance_error)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.physics.deposit_grid import GridSpec
+from vinecli.spray.deposit_grid import GridSpec
 
 __all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "points_in_polygon",
            "row_profiles"]
@@ -211,7 +211,7 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
                        bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15,
                        holes: dict[int, list[tuple[float, float]]] | None = None
                        ) -> tuple[dict[str, float], list[dict[str, Any]]]:
-    """(metrics, per-row figures) of a :class:`~vinecli.sim.deposition.DepositionResult`.
+    """(metrics, per-row figures) of a :class:`~vinecli.sim.spray_deposit.DepositionResult`.
 
     ``rows``: the rows the mission targeted (coverage, mean rate, CV, per-row figures);
     ``canopy_rows``: every row of the field (the on-row fraction: liquid on any vine), default ``rows``;

@@ -13,7 +13,13 @@ Positions are MAVLink's degE7 ints, or float degrees for a plan file (``PlanCont
 The wire type is :class:`vinecli.mavlink.mission_items.MissionItem`.
 """
 
-from vinecli.phase_items.sprayer import DO_SET_ACTUATOR, DO_SPRAYER, SprayerCommand, do_set_servo, sprayer_fraction
+from vinecli.phase_items.sprayer_command import (
+           DO_SET_ACTUATOR,
+           DO_SPRAYER,
+           SprayerCommand,
+           do_set_servo,
+           sprayer_fraction,
+)
 from vinecli.phase_items.to_items import ItemPlan, PlanContext, fence_items, phases_to_items, sortie_to_items
 from vinecli.phase_items.to_phases import items_to_phases
 

@@ -2,7 +2,7 @@
 
 :func:`phases_to_items` makes the item list a ground station uploads: take-off, waypoints, speed changes,
 loiter, land, RTL, and the sprayer switched with the command the caller chose
-(:class:`~vinecli.phase_items.sprayer.SprayerCommand`: DO_SET_ACTUATOR for PX4, DO_SPRAYER or
+(:class:`~vinecli.phase_items.sprayer_command.SprayerCommand`: DO_SET_ACTUATOR for PX4, DO_SPRAYER or
 DO_SET_SERVO for ArduPilot). A spray phase becomes THE spray plan (with the vehicle in the context
 :func:`vinecli.rows.spray_rate.phase_plan`, the plan the built-in autopilot flies: passes from the
 sprayer's effective swath run on past the row ends; without it :func:`vinecli.rows.plan.plan_rows`, a pass
@@ -31,7 +31,7 @@ from vinecli.geo import GeoOrigin
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.mission_items import MissionItem, item_xy
 from vinecli.phase_items.spray_legs import leg_actions
-from vinecli.phase_items.sprayer import SprayerCommand
+from vinecli.phase_items.sprayer_command import SprayerCommand
 from vinecli.rows.plan import PATH_ACCEL_MPS2, Leg, plan_rows
 from vinecli.specs.mission import (
     GeofenceSpec,

@@ -35,7 +35,7 @@ from vinecli.frames import heading_ned_to_yaw_enu, wrap_pi
 from vinecli.geo import GeoOrigin
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.mission_items import MissionItem, item_enu
-from vinecli.phase_items.sprayer import sprayer_fraction
+from vinecli.phase_items.sprayer_command import sprayer_fraction
 from vinecli.specs.mission import (
     GotoPhase,
     HoldPhase,

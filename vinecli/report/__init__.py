@@ -5,8 +5,8 @@ and :data:`DEFAULT_TOLERANCES` for ``--baseline`` comparisons; the figure functi
 :mod:`vinecli.report.plots`.
 """
 
+from vinecli.report.assemble import FORMATS, ReportResult, build_report
 from vinecli.report.baseline import DEFAULT_TOLERANCES, Tolerance
-from vinecli.report.build import FORMATS, ReportResult, build_report
 from vinecli.report.loader import Run, load_runs
 
 __all__ = ["DEFAULT_TOLERANCES", "FORMATS", "ReportResult", "Run", "Tolerance", "build_report", "load_runs"]

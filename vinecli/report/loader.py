@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.batch.runner import BATCH_JSON
+from vinecli.batch.run import BATCH_JSON
 from vinecli.errors import InputError
 from vinecli.inputs import read_input_text, require_regular_file
 from vinecli.missions.metrics import airborne_mask

@@ -4,7 +4,7 @@ Writes ``OUT/swath.json`` (the single-pass cross-track patterns of both pass dir
 back-and-forth and racetrack overlapped patterns against the lane spacing, the effective swath and its
 CV, the single-pass width, the footprint) and ``OUT/swath.png`` (three panels: the single-pass pattern,
 the overlapped pattern at the effective swath, CV against spacing), atomically. Computed by
-:func:`vinecli.physics.swath.swath_pattern`, the model the runs use. Metres, L/ha relative to the mean.
+:func:`vinecli.spray.swath.swath_pattern`, the model the runs use. Metres, L/ha relative to the mean.
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ def swath_figure(pattern: Any, vehicle: str) -> bytes:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from vinecli.physics.swath import overlapped
     from vinecli.report.figure_base import DPI, png_bytes
+    from vinecli.spray.swath import overlapped
 
     fig = Figure(figsize=(9.0, 10.0), dpi=DPI)
     FigureCanvasAgg(fig)
@@ -115,7 +115,7 @@ def swath_report(vehicle: str | Path, out: Path, *, height_agl_m: float, speed_m
                  overwrite: bool = False) -> SwathReport:
     """Compute the swath of ``vehicle`` (a name in vehicles/ or a path) and write ``out`` (module docstring)."""
     from vinecli.outputs import check_output_target
-    from vinecli.physics.swath import swath_pattern
+    from vinecli.spray.swath import swath_pattern
     from vinecli.vehicle import load_vehicle
 
     _check_options(height_agl_m=height_agl_m, speed_mps=speed_mps, crosswind_mps=crosswind_mps, cv_limit=cv_limit,

@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import TerrainError
-from vinecli.physics.canopy import row_spacing
 from vinecli.rows.comb import Comb, RowKnots, comb_of, eval_row, fit_row, make_strips, row_knots
 from vinecli.rows.geometry import polyline_length
 from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, relief_of
+from vinecli.spray.canopy import row_spacing
 
 Polyline = list[tuple[float, float]]
 

@@ -2,7 +2,7 @@
 
 :func:`layout_lanes` places the passes so that every row, the edge rows included, gets the asked
 rate on its canopy band. It works on the rows' positions across the block and the expected
-cross-track pattern of one pass (:class:`~vinecli.physics.swath.SwathPattern`):
+cross-track pattern of one pass (:class:`~vinecli.spray.swath.SwathPattern`):
 
 * one row: one pass over it; the flow doses its band (``flow_width`` = the single-pass width);
 * rows at least an effective swath apart: one pass over each row, its flow dosing the band with the

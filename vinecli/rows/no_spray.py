@@ -32,7 +32,7 @@ MIN_PIECE_M = 0.5
 
 
 def _reach(pattern: object | None) -> float:
-    """R + |a| of a :class:`~vinecli.physics.swath.SwathPattern` (0 without one), m."""
+    """R + |a| of a :class:`~vinecli.spray.swath.SwathPattern` (0 without one), m."""
     return float(getattr(pattern, "footprint_radius_m", 0.0)) + abs(float(getattr(pattern, "along_offset_m", 0.0)))
 
 

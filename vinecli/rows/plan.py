@@ -3,7 +3,7 @@
 * rows are first clipped to the geofence shrunk by a margin (and to the terrain), with one warning
   line each when rows leave them; what is left of each row is its *planned stretch* (``stretches``:
   start and end along the row, m), the part the sections must dose;
-* passes: with the sprayer's pattern (``pattern``, :mod:`vinecli.physics.swath`) the passes are
+* passes: with the sprayer's pattern (``pattern``, :mod:`vinecli.spray.swath`) the passes are
   laid out by :func:`~vinecli.rows.lanes.layout_lanes` (evenly spaced within the effective swath, the
   edge rows dosed like the inner ones; or one pass per row when the rows are a swath or more apart)
   and the plan's ``flow_width_m`` is the track width of the flow (rate x width x speed); without a
@@ -249,7 +249,7 @@ def plan_rows(
 ) -> RowPlan:
     """Operator-style plan over ``rows`` (ENU polylines, indices kept) from ``start_xy``; see the module
     docstring. ``climb`` = (altitude m, climb speed m/s, descent speed m/s) adds take-off and landing
-    time to the estimate; ``pattern`` (a :class:`~vinecli.physics.swath.SwathPattern`) lays the passes out
+    time to the estimate; ``pattern`` (a :class:`~vinecli.spray.swath.SwathPattern`) lays the passes out
     for an even dose on every row's ``band_m`` wide canopy band and runs them on past the row ends by its
     footprint + ``end_margin_m`` (the sprayer's ramp up and down), within the fence. ``no_spray``: the world's
     no-spray zones (rings, grown by their buffer): the passes close their sections the footprint's clearance before

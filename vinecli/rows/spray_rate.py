@@ -3,7 +3,7 @@
 rate [L/ha] = 10 000 · q [L/s] / (v [m/s] · w [m]) with w the track width of the plan's passes
 (:attr:`~vinecli.rows.plan.RowPlan.flow_width_m`): the lane spacing of evenly overlapped passes, or
 the single-pass width that doses a row's canopy band when each row is its own pass, both from the
-effective swath of the vehicle at the phase's height and speed (:mod:`vinecli.physics.swath`), not
+effective swath of the vehicle at the phase's height and speed (:mod:`vinecli.spray.swath`), not
 from the cone geometry. The flow of a phase is what the pump delivers at the phase's cruise speed;
 in flight the built-in autopilot scales it with the ground speed (litres per metre = q / v).
 
@@ -28,7 +28,7 @@ from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 from vinecli.specs.vehicle import VehicleSpec
 
 if TYPE_CHECKING:
-    from vinecli.physics.swath import SwathPattern
+    from vinecli.spray.swath import SwathPattern
 
 __all__ = ["DEFAULT_BAND_M", "flow_for_rate", "nominal_rate_lpha", "nozzle_height_m", "phase_plan", "phase_rows",
            "resolve_spray_rates", "spray_pattern", "spray_swath_m"]
@@ -57,7 +57,7 @@ def flow_for_rate(rate_lpha: float, swath_m: float, speed_mps: float) -> float:
 @functools.lru_cache(maxsize=16)
 def _pattern(vehicle_json: str, height_agl_m: float, speed_mps: float, air_density: float,
              crosswind_mps: float = 0.0) -> SwathPattern:
-    from vinecli.physics.swath import swath_pattern
+    from vinecli.spray.swath import swath_pattern
 
     return swath_pattern(VehicleSpec.model_validate_json(vehicle_json), height_agl_m, speed_mps, air_density=air_density,
                          crosswind_mps=crosswind_mps)

@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from vinecli.missions.budget_metrics import budget_metrics
-from vinecli.physics.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
-from vinecli.physics.deposit_grid import rasterise
 from vinecli.runs.deposition_out import NODATA, clean_json, write_grid_tif
+from vinecli.spray.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
+from vinecli.spray.deposit_grid import rasterise
 
 __all__ = ["BUDGET_JSON", "CANOPY_TIF", "DRIFT_CSV", "BudgetOutputs", "evaluate_budget", "write_budget"]
 
@@ -51,9 +51,9 @@ class BudgetOutputs:
 
 def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
     """(ny, nx) one-sided leaf area (m²) of the hedges above each cell, splatted like the canopy deposit
-    (:data:`~vinecli.physics.budget.ACROSS` points across each hedge, every half cell along it) so both maps
+    (:data:`~vinecli.spray.budget.ACROSS` points across each hedge, every half cell along it) so both maps
     share their cells."""
-    from vinecli.physics.budget import ACROSS
+    from vinecli.spray.budget import ACROSS
 
     if canopy is None:
         return np.zeros((grid.ny, grid.nx))
@@ -90,8 +90,8 @@ def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np
 
 def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: float,
                     config: BudgetConfig | None = None) -> BudgetOutputs:
-    """The budget of one run's deposition (:class:`~vinecli.sim.deposition.DepositionResult`) over ``world``."""
-    from vinecli.physics.canopy import hedge_window, row_spacing
+    """The budget of one run's deposition (:class:`~vinecli.sim.spray_deposit.DepositionResult`) over ``world``."""
+    from vinecli.spray.canopy import hedge_window, row_spacing
 
     config = config or BudgetConfig()
     canopy = world.canopy_model() if hasattr(world, "canopy_model") else None

@@ -9,8 +9,8 @@ from collections.abc import Callable
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.autopilot.terrain import TerrainDatabase
+from vinecli.flight.rangefinder import Rangefinder, make_rangefinder
 from vinecli.frames import Vec3
-from vinecli.physics.rangefinder import Rangefinder, make_rangefinder
 from vinecli.sim.perfect_estimator import PerfectEstimator
 from vinecli.sim.setup import PreparedRun
 from vinecli.world.model import World

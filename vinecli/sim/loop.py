@@ -17,14 +17,14 @@ import numpy as np
 
 from vinecli.autopilot.base import RUNNING, Autopilot, AutopilotStatus, RunStatus
 from vinecli.errors import AutopilotError, FirmwareUnreachable
+from vinecli.flight.aero import body_drag
+from vinecli.flight.battery import Battery, ElectricalLoad
+from vinecli.flight.motor import MotorBank
+from vinecli.flight.pump import Pump
+from vinecli.flight.sensors import make_sensors
+from vinecli.flight.tank import Tank, TankCoupling
+from vinecli.flight.wind import WindField
 from vinecli.frames import BodyFrame, Vec3, quat_to_euler, tilt_angle
-from vinecli.physics.aero import body_drag
-from vinecli.physics.battery import Battery, ElectricalLoad
-from vinecli.physics.motor import MotorBank
-from vinecli.physics.pump import Pump
-from vinecli.physics.sensors import make_sensors
-from vinecli.physics.tank import Tank, TankCoupling
-from vinecli.physics.wind import WindField
 from vinecli.sim.autopilot_inputs import autopilot_context, world_rangefinder
 from vinecli.sim.ground_events import CONTACT_MARGIN_M, DEBOUNCE_S, LIFTOFF_THRUST_FRAC, GroundEvents, touching
 from vinecli.sim.recorder import Recorder, timeseries_columns
@@ -46,8 +46,8 @@ from vinecli.types import (
 from vinecli.world.engine import Engine
 
 if TYPE_CHECKING:
-    from vinecli.physics.deposition import SprayEmitter
     from vinecli.sim.camera import DepthCamera
+    from vinecli.spray.deposition import SprayEmitter
 
 __all__ = ["Flight", "Plant", "fly", "serve_ground_request", "vehicle_physics"]
 
@@ -198,7 +198,7 @@ class Flight:
         self.emitter: SprayEmitter | None = None
         self.groups: SprayGroups | None = None
         if run.deposition:
-            from vinecli.physics.deposition import DepositionConfig, SprayEmitter
+            from vinecli.spray.deposition import DepositionConfig, SprayEmitter
 
             self.emitter = SprayEmitter()
             group_s = (run.deposition_config or DepositionConfig()).group_s

@@ -3,8 +3,8 @@
 A run keeps its time series (``max_duration_s`` × ``record_rate_hz`` rows of every column, twice at the
 end: the recorder's chunks and the columns handed to the writer), the spray records and, after the
 flight, the transported parcels, the deposition grid and the padded disc convolution
-(:mod:`vinecli.physics.deposit_grid`, sized by :func:`~vinecli.physics.deposit_grid.grid_for` for the
-highest the mission flies over the whole terrain), and the spray budget (:mod:`vinecli.physics.budget`: its
+(:mod:`vinecli.spray.deposit_grid`, sized by :func:`~vinecli.spray.deposit_grid.grid_for` for the
+highest the mission flies over the whole terrain), and the spray budget (:mod:`vinecli.spray.budget`: its
 per-parcel arrays, the canopy points of every hedge a parcel's footprint reaches, the canopy maps over the
 hedges' cells of the grid, the release row of every emission group). :func:`check_run_memory` adds these upper bounds to
 what the process holds anyway and refuses (InputError, exit 2, the numbers in one line) a mission whose
@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.physics.canopy import hedge_window, row_spacing
-from vinecli.physics.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
-from vinecli.physics.deposition import FAR_BINS, LIFT_BIN_S, MAX_FAR_PARCELS, DepositionConfig
 from vinecli.sim.recorder import timeseries_columns
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
+from vinecli.spray.canopy import hedge_window, row_spacing
+from vinecli.spray.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
+from vinecli.spray.deposition import FAR_BINS, LIFT_BIN_S, MAX_FAR_PARCELS, DepositionConfig
 from vinecli.world.model import World
 
 __all__ = ["RUN_MEMORY_LIMIT_MB", "MemoryEstimate", "check_run_memory", "estimate_run_memory"]
@@ -145,7 +145,7 @@ def _budget_mb(world: World, grid: GridSpec, parcels: int, records: int, footpri
         reach = len(canopy.hedges) if not spacing > 0 else min(len(canopy.hedges), int(across / spacing) + 2)
     win = hedge_window(grid, canopy)
     n_rows = len(world.vine_rows_enu)
-    # the far field's parcels (physics/deposition.py MAX_FAR_PARCELS): up to FAR_BINS per lifted parcel, merged over
+    # the far field's parcels (spray/deposition.py MAX_FAR_PARCELS): up to FAR_BINS per lifted parcel, merged over
     # LIFT_BIN_S, across every hedge (their discs reach tens of metres)
     far = min(MAX_FAR_PARCELS, math.ceil(parcels * FAR_BINS * DepositionConfig().group_s / LIFT_BIN_S))
     far_bytes = far * (PARCEL_BYTES + BUDGET_BYTES_PER_PARCEL + BUDGET_BYTES_PER_PARCEL_HEDGE * len(

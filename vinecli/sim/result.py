@@ -36,7 +36,7 @@ class SimResult:
     terrain_preview: dict[str, np.ndarray]
     #: depth-camera point clouds (t_s, (N, 3) float32 world ENU m), empty when the camera is off
     point_clouds: list[tuple[float, np.ndarray]] = field(default_factory=list)
-    #: where the spray landed (vinecli.sim.deposition.DepositionResult); None when nothing was sprayed or when off
+    #: where the spray landed (vinecli.sim.spray_deposit.DepositionResult); None when nothing was sprayed or when off
     deposition: Any = None
     #: machine-dependent figures, not metrics: loop_wall_s, wall_per_step_us, cpu_per_step_us, real_time_factor
     timing: dict[str, float] = field(default_factory=dict)
@@ -83,7 +83,7 @@ def assemble_result(flight: Flight, run: PreparedRun, seed: int, wall0: float, w
         flight.groups.flush()
     emitter = flight.emitter
     if emitter is not None and emitter.rows:  # the sprayer was used
-        from vinecli.sim.deposition import deposit
+        from vinecli.sim.spray_deposit import deposit
 
         cpu_dep0 = time.process_time()
         dep = deposit(emitter, run.world, run.vehicle, run.wind, seed, run.deposition_config)

@@ -50,10 +50,10 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from vinecli.autopilot.base import Autopilot
+from vinecli.flight.battery import Battery
+from vinecli.flight.tank import Tank
+from vinecli.flight.wind import make_wind
 from vinecli.frames import quat_rotate, quat_to_euler
-from vinecli.physics.battery import Battery
-from vinecli.physics.tank import Tank
-from vinecli.physics.wind import make_wind
 from vinecli.sim.loop import Flight, Plant, fly
 from vinecli.sim.result import SimResult, assemble_result
 from vinecli.sim.setup import PreparedRun, prepare_run
@@ -62,7 +62,7 @@ from vinecli.specs.vehicle import VehicleSpec
 from vinecli.world.model import World
 
 if TYPE_CHECKING:
-    from vinecli.physics.deposition import DepositionConfig
+    from vinecli.spray.deposition import DepositionConfig
 
 __all__ = ["SimResult", "run_simulation", "simulate"]
 
@@ -98,7 +98,7 @@ def run_simulation(
     end_on_crash : end the run with CRASHED on a hard impact (else only the event is logged).
     crash_speed_mps : vertical speed at first contact above which an impact is a crash, m/s.
     deposition : run the spray transport model (vehicles with a tank): ``SimResult.deposition``; a
-        :class:`~vinecli.physics.deposition.DepositionConfig` sets its options (cell size, margin, ...).
+        :class:`~vinecli.spray.deposition.DepositionConfig` sets its options (cell size, margin, ...).
     """
     wall0 = time.perf_counter()
     with prepare_run(world, mission, vehicle=vehicle, end_on_crash=end_on_crash, crash_speed_mps=crash_speed_mps,

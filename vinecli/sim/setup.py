@@ -40,7 +40,7 @@ from vinecli.specs.wind import WindSpec
 from vinecli.world.model import World, rest_position
 
 if TYPE_CHECKING:
-    from vinecli.physics.deposition import DepositionConfig
+    from vinecli.spray.deposition import DepositionConfig
 
 __all__ = ["PreparedRun", "RunOverrides", "Spawn", "prepare_run", "resolve_rows"]
 

@@ -2,7 +2,7 @@
 
 While the sprayer runs, the volume that left the nozzles is summed over ``every`` steps (≈ 0.04 s,
 ``DepositionConfig.group_s``) and handed to ``emit`` as one record with the state of the group's last
-step and the mean lag ``(n - 1) / 2`` steps of its volume (:data:`vinecli.physics.deposition.EMIT_COLUMNS`);
+step and the mean lag ``(n - 1) / 2`` steps of its volume (:data:`vinecli.spray.deposition.EMIT_COLUMNS`);
 a group also ends when the flow stops, and the last one when the run ends (:meth:`SprayGroups.flush`).
 """
 

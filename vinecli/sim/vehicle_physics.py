@@ -4,16 +4,16 @@
 force at the centre of mass and ONE world torque (the loop's two PyBullet calls; equivalent to per-link
 forces because the links are rigidly fixed):
 
-1. motor lag (:meth:`MotorBank.update <vinecli.physics.motor.MotorBank.update>`) and the wind
-   (:meth:`WindField.velocity <vinecli.physics.wind.WindField.velocity>`) at the CoM;
+1. motor lag (:meth:`MotorBank.update <vinecli.flight.motor.MotorBank.update>`) and the wind
+   (:meth:`WindField.velocity <vinecli.flight.wind.WindField.velocity>`) at the CoM;
 2. rotors: thrust, rotor drag, reaction torque and rolling moment from the air at each rotor
-   (:meth:`MotorBank.wrench_com <vinecli.physics.motor.MotorBank.wrench_com>`, body FLU -> world);
-3. link drag with its lever arm (:class:`~vinecli.physics.aero.BodyDrag`);
-4. the pump delivers the commanded flow through its lag (:class:`~vinecli.physics.pump.Pump`), the tank
-   drains what it delivers and the liquid pushes at its mount (:class:`~vinecli.physics.tank.Tank`,
-   :class:`~vinecli.physics.tank.TankCoupling`);
-5. the battery delivers the electrical load (:class:`~vinecli.physics.battery.ElectricalLoad`: shaft
-   power / efficiency + avionics + pump) over the step (:class:`~vinecli.physics.battery.Battery`).
+   (:meth:`MotorBank.wrench_com <vinecli.flight.motor.MotorBank.wrench_com>`, body FLU -> world);
+3. link drag with its lever arm (:class:`~vinecli.flight.aero.BodyDrag`);
+4. the pump delivers the commanded flow through its lag (:class:`~vinecli.flight.pump.Pump`), the tank
+   drains what it delivers and the liquid pushes at its mount (:class:`~vinecli.flight.tank.Tank`,
+   :class:`~vinecli.flight.tank.TankCoupling`);
+5. the battery delivers the electrical load (:class:`~vinecli.flight.battery.ElectricalLoad`: shaft
+   power / efficiency + avionics + pump) over the step (:class:`~vinecli.flight.battery.Battery`).
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ import math
 from collections.abc import Sequence
 from typing import final
 
+from vinecli.flight.aero import BodyDrag, apparent_velocity
+from vinecli.flight.battery import Battery, ElectricalLoad
+from vinecli.flight.motor import MotorBank
+from vinecli.flight.pump import Pump
+from vinecli.flight.tank import Tank, TankCoupling
+from vinecli.flight.wind import WindField
 from vinecli.frames import BodyFrame, Vec3
-from vinecli.physics.aero import BodyDrag, apparent_velocity
-from vinecli.physics.battery import Battery, ElectricalLoad
-from vinecli.physics.motor import MotorBank
-from vinecli.physics.pump import Pump
-from vinecli.physics.tank import Tank, TankCoupling
-from vinecli.physics.wind import WindField
 from vinecli.types import ActuatorCommand
 
 __all__ = ["VehiclePhysics"]

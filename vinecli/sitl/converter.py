@@ -34,7 +34,7 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
 
 def pump_max_flow_lps(vehicle: VehicleSpec) -> float:
     """The flow (L/s) of a firmware's pump output at 100 %: the maximum of the vehicle's pump model (the tank's
-    ``nozzle_max_flow_lps``, :class:`vinecli.physics.pump.Pump`), 0 without a tank. PX4's DO_SET_ACTUATOR value and
+    ``nozzle_max_flow_lps``, :class:`vinecli.flight.pump.Pump`), 0 without a tank. PX4's DO_SET_ACTUATOR value and
     ArduPilot's sprayer pump output are duties of it; the flow command they give goes through the pump's lag."""
     return float(vehicle.tank.nozzle_max_flow_lps) if vehicle.tank is not None else 0.0
 

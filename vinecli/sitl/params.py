@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from vinecli.errors import AutopilotError, AutopilotTimeout, InputError
-from vinecli.sitl.link import param_name
+from vinecli.sitl.polled_link import param_name
 
 ParamValue = int | float
 _NAME = re.compile(r"[A-Z][A-Z0-9_]{0,15}")

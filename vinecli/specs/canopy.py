@@ -1,6 +1,6 @@
 """Canopy and air specs of a world (``canopy:``, ``air:`` in worlds/*.yaml); docs/budget.md.
 
-``canopy`` describes every row's hedge (:mod:`vinecli.physics.canopy`): a growth stage (BBCH) gives
+``canopy`` describes every row's hedge (:mod:`vinecli.spray.canopy`): a growth stage (BBCH) gives
 the defaults, any dimension given overrides them, ``source: chm`` measures each row's height on the
 world's surface model (the canopy height model of its DSM), ``rows`` overrides single rows.
 ``air`` gives the temperature and humidity that evaporate drops in flight.

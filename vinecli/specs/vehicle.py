@@ -101,7 +101,7 @@ class TankSpec(StrictModel):
 
 
 class BatterySpec(StrictModel):
-    """Lithium-polymer pack and the electrical loads on it (vinecli/physics/battery.py).
+    """Lithium-polymer pack and the electrical loads on it (vinecli/flight/battery.py).
 
     Open-circuit voltage per cell from the state of charge (energy fraction) by Chen &
     Rincón-Mora (2006) unless ``ocv_table`` gives ``[[soc, volts], ...]``; terminal voltage sags by

@@ -1,7 +1,7 @@
 """Wind laws as data (world and mission files). World frame ENU, m/s.
 
 A law is one of the models below or a ``sum`` of them; the physics module
-:mod:`vinecli.physics.wind` turns a spec into a callable field ``velocity(t, p_enu)``.
+:mod:`vinecli.flight.wind` turns a spec into a callable field ``velocity(t, p_enu)``.
 Headings are compass degrees the wind blows TOWARDS, measured from north clockwise
 (0 = towards north, 90 = towards east).
 """

@@ -1,7 +1,7 @@
 """``terrain info``: what a DSM (or point cloud) is, and what ``convert`` would do with it.
 
 Rasters are scanned in row strips (memory stays at one strip) for the nodata share and z range.
-Point clouds are described by :func:`vinecli.terrain.pointcloud_info.cloud_info`, imported only
+Point clouds are described by :func:`vinecli.terrain.pointcloud.cloud_info.cloud_info`, imported only
 when a cloud is given.
 """
 
@@ -136,7 +136,7 @@ def describe(path: Path) -> dict[str, Any]:
         if not path.is_file():
             raise InputError("file not found", path=path)
         try:
-            from vinecli.terrain.pointcloud_info import cloud_info
+            from vinecli.terrain.pointcloud.cloud_info import cloud_info
         except ImportError as exc:
             raise InputError(f"point-cloud info is not available in this build ({exc})", path=path) from exc
         info = dict(cloud_info(path))

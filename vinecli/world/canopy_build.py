@@ -1,8 +1,8 @@
 """World build: the ``canopy:`` spec resolved into every row's hedge (world.json ``canopy``), docs/budget.md.
 
 Precedence per field: a row's own override > the world's value > the growth stage's default
-(:data:`vinecli.physics.canopy.BBCH_DEFAULTS`). ``source: chm`` replaces each row's top by the height
-the world's surface model shows (:func:`vinecli.physics.canopy.measure_row_heights`), the foliage
+(:data:`vinecli.spray.canopy.BBCH_DEFAULTS`). ``source: chm`` replaces each row's top by the height
+the world's surface model shows (:func:`vinecli.spray.canopy.measure_row_heights`), the foliage
 base keeping the stage's base-to-top ratio, unless given.
 """
 
@@ -15,8 +15,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from vinecli.errors import SpecError
-from vinecli.physics.canopy import Canopy, Hedge, bbch_dims, measure_row_heights, row_spacing
 from vinecli.specs.canopy import CanopySpec
+from vinecli.spray.canopy import Canopy, Hedge, bbch_dims, measure_row_heights, row_spacing
 
 __all__ = ["resolve_canopy"]
 

@@ -283,7 +283,7 @@ def reuse_terrain_engines(enabled: bool = True) -> None:
     """Keep the engine of the last terrain in this thread across runs (batch workers: a case on the same
     world skips connecting PyBullet and loading its tiles). Runs stay bit-identical to fresh engines: the
     engine is created with ``deterministicOverlappingPairs`` and only the vehicle body is removed between
-    runs (checked against fresh engines in tests/sim/test_engine_reuse.py)."""
+    runs (checked against fresh engines in tests/world/test_engine_reuse.py)."""
     global _DROP_AT_EXIT
     _KEPT.enabled = enabled
     if not enabled:

@@ -29,7 +29,7 @@
      "canopy_width_m": float,                            # row band width of the spray metrics, m
      "canopy": {"source", "bbch", "profile", "g_factor", "leaf_width_m", "spacing_m", "lai", "notes",
                 "hedges": [{"row", "base_m", "top_m", "width_m", "lad_m2m3"}]} | null,
-                                                         # each row's hedge (vinecli.physics.canopy, docs/budget.md)
+                                                         # each row's hedge (vinecli.spray.canopy, docs/budget.md)
      "air": {"temperature_c", "relative_humidity_pct", "obukhov_length_m"} | null,   # drop evaporation, stability
      "sdf": "world.sdf"}
 """
@@ -119,10 +119,10 @@ class World:
         return self.terrain.flat_z
 
     def canopy_model(self) -> Any:
-        """The rows' hedges (:class:`vinecli.physics.canopy.Canopy`), or None when the world has no canopy."""
+        """The rows' hedges (:class:`vinecli.spray.canopy.Canopy`), or None when the world has no canopy."""
         if not self.canopy:
             return None
-        from vinecli.physics.canopy import Canopy
+        from vinecli.spray.canopy import Canopy
 
         return Canopy.from_dict(self.canopy, self.vine_rows_enu)
 

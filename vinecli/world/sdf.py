@@ -19,8 +19,8 @@ from typing import Any
 
 from lxml import etree
 
+from vinecli.flight.wind import heading_unit_enu
 from vinecli.geo import GeoOrigin
-from vinecli.physics.wind import heading_unit_enu
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import ConstantWind, DrydenWind, GustWind, SinusoidWind, SumWind, WindLaw, WindSpec
 
@@ -176,7 +176,7 @@ def world_sdf(
 ) -> str:
     """SDF 1.9 text. ``terrain``: {"kind", "heightmap_png", "size_m", "z_min", "z_max", "centre",
     "tiles": [relative paths], "flat_z", "size"}; paths relative to the world directory. ``canopy``: the
-    rows' hedges (:class:`vinecli.physics.canopy.Canopy`), drawn on ``ground`` (terrain z at x, y)."""
+    rows' hedges (:class:`vinecli.spray.canopy.Canopy`), drawn on ``ground`` (terrain z at x, y)."""
     sdf = etree.Element("sdf", version="1.9")
     world = _sub(sdf, "world", name=name)
     phys = _sub(world, "physics", name=f"{int(round(rate_hz))}hz", type="ignored")

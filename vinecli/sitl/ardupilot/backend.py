@@ -32,12 +32,12 @@ from vinecli.errors import AutopilotError, InputError
 from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, quat_rotate_inv, xyzw_to_wxyz
 from vinecli.sitl.ardupilot.client import ArdupilotClient
 from vinecli.sitl.ardupilot.json_link import JSON_PORT_BASE, JsonPhysicsLink, ServoFrame, state_line, timestamp_s
+from vinecli.sitl.ardupilot.mission_plan import ArdupilotPlan, home_frame, plan_for
 from vinecli.sitl.ardupilot.params import pump_fraction, sprayer_params, vehicle_params
-from vinecli.sitl.ardupilot.plan import ArdupilotPlan, home_frame, plan_for
 from vinecli.sitl.ardupilot.process import SERIAL0_PORT_BASE, ArdupilotProcess, reserve_instance
 from vinecli.sitl.converter import pump_max_flow_lps, takeoff_mass_kg
 from vinecli.sitl.identity import identity_from_message
-from vinecli.sitl.link import PolledTcpLink
+from vinecli.sitl.polled_link import PolledTcpLink
 from vinecli.sitl.record import FirmwareRecord
 from vinecli.sitl.takeoff import TakeoffWatch
 from vinecli.types import ActuatorCommand, Event, Observation, RigidState

@@ -1,7 +1,7 @@
 """The ground-station side of one ArduCopter run, stepped in simulated time by the lockstep.
 
 :class:`ArdupilotClient` is called once per servo frame, while ArduPilot waits for the physics' answer
-(:meth:`step`): it reads what ArduPilot sent (:class:`~vinecli.sitl.link.PolledTcpLink`, no thread),
+(:meth:`step`): it reads what ArduPilot sent (:class:`~vinecli.sitl.polled_link.PolledTcpLink`, no thread),
 acts, and sends. Every deadline is simulated time, so the conversation is the same on a loaded machine.
 
 **What it sees, and when.** ArduPilot consumes what vinecli sends at fixed points of its simulated clock
@@ -39,11 +39,11 @@ from typing import Any
 from vinecli.autopilot.base import RunStatus
 from vinecli.errors import AutopilotError, AutopilotTimeout
 from vinecli.mavlink import px4modes as M
-from vinecli.sitl.ardupilot.plan import ArdupilotPlan
+from vinecli.sitl.ardupilot.mission_plan import ArdupilotPlan
 from vinecli.sitl.inbox import OrderedInbox
-from vinecli.sitl.link import PolledTcpLink, statustext
 from vinecli.sitl.mission_upload import MissionUpload
 from vinecli.sitl.params import ParamReadback
+from vinecli.sitl.polled_link import PolledTcpLink, statustext
 
 log = logging.getLogger(__name__)
 

@@ -125,7 +125,7 @@ def sprayer_params(setting: SprayerSetting, sprayer: SprayerSpec, *, pump_max_fl
     """AC_Sprayer from the vehicle's sprayer (``sprayer:``) and the mission's asked rate: the pump output follows
     ground speed, ``pump % = SPRAY_PUMP_RATE (% per m/s) x speed``, at least SPRAY_PUMP_MIN %, off below
     SPRAY_SPEED_MIN (cm/s). The pump output is a duty of the pump's maximum flow (``pump_max_flow_lps``, the
-    maximum of vinecli's pump model, :meth:`vinecli.physics.pump.Pump.update_duty`), so the asked flow at the
+    maximum of vinecli's pump model, :meth:`vinecli.flight.pump.Pump.update_duty`), so the asked flow at the
     asked speed gives ``SPRAY_PUMP_RATE = 100 flow / (max flow x speed)`` and the litres per metre stay the asked
     ones at any speed above the minimum. SPRAY_SPEED_MIN is the sprayer's ``control.speed_min_mps`` (the built-in
     sprayer's switch-on speed) and SPRAY_PUMP_MIN the bottom of its flow range (the nozzles' minimum pressure,

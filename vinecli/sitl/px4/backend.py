@@ -26,7 +26,7 @@ consecutive stalls raise AutopilotError (PX4 stopped answering). Outputs map to 
 the sprayer channel gives flow = clamp(u, 0, 1) * nozzle_max_flow.
 
 Mission control runs on PX4's API link (UDP 14540+i) in a background thread
-(:class:`vinecli.sitl.px4.mission.Px4MissionClient`); ``step`` only polls its state, so
+(:class:`vinecli.sitl.px4.mission_client.Px4MissionClient`); ``step`` only polls its state, so
 the lockstep never blocks on mission traffic.
 """
 
@@ -135,7 +135,7 @@ class Px4SitlAutopilot:
 
     def reset(self, ctx: AutopilotContext) -> None:
         """Convert the mission, listen on TCP, wait for PX4 to connect (AutopilotTimeout otherwise)."""
-        from vinecli.sitl.px4.mission import plan_for
+        from vinecli.sitl.px4.mission_client import plan_for
 
         self.ctx = ctx
         v = ctx.vehicle
@@ -148,7 +148,7 @@ class Px4SitlAutopilot:
         self.w_min, self.w_max = v.px4.w_min_rad_s, v.motor.w_max
         self.spray_ch = v.px4.sprayer_channel
         self.nozzle = pump_max_flow_lps(v)  # the pump model's maximum: the firmware's pump output is a duty of it
-        from vinecli.physics.magnetic import earth_field_world
+        from vinecli.flight.magnetic import earth_field_world
 
         self.mag_world = earth_field_world(ctx.origin)
         self.gamma = ctx.origin.convergence_rad  # world (CRS grid) -> true north, at the firmware boundary
@@ -179,7 +179,7 @@ class Px4SitlAutopilot:
             raise
 
     def _connect(self, ctx: AutopilotContext) -> None:
-        from vinecli.sitl.px4.mission import Px4MissionClient
+        from vinecli.sitl.px4.mission_client import Px4MissionClient
 
         if self.px4_bin is not None:
             self._prepare_process()
@@ -395,7 +395,7 @@ class Px4SitlAutopilot:
             self._baro = (b.pressure_pa / 100.0, b.temperature_c, b.altitude_m)
             fields |= M.FIELDS_BARO
         elif self._baro is None:
-            from vinecli.physics.atmosphere import pressure_at, temperature_at
+            from vinecli.flight.atmosphere import pressure_at, temperature_at
 
             alt = self.ctx.origin.alt + tr.pos[2]
             self._baro = (pressure_at(alt) / 100.0, temperature_at(alt) - 273.15, alt)

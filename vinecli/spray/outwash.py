@@ -1,0 +1,109 @@
+"""Fine drops the rotor wake does not drive into the ground: lifted by the outwash, then carried by the wind.
+
+The vehicle's downwash reaches the ground as a jet of diameter ``W`` (the rotors' merged wake,
+``W = D_prop √n_rotors``) at the speed ``U`` the fall model has there. Like particles in an inertial
+impactor, drops with enough inertia cross the jet's turn and hit the ground; the others follow the
+air into the radial outwash. The share that impacts is the round-jet impactor efficiency against
+``Stk = ρ_w d² U / (9 μ W)``, 50 % at ``√Stk50 = 0.49`` (Marple & Willeke 1976, in *Fine Particles*,
+Liu ed., Academic Press; Hinds, *Aerosol Technology*, 2nd ed., §5.5). The shape around the cut is this
+model's assumption: a logistic in ``√Stk`` going from 10 % to 90 % over ±0.1 (a sharp impactor).
+
+The drops that follow the outwash leave the wall jet ``W/2`` downwind of their landing point, spread evenly
+between the ground and the height ``W`` (the recirculating ground vortex of a rotor's wall jet reaches
+about a wake diameter up, as the ground vortex of a helicopter in ground effect reaches the rotor's height:
+Curtiss et al. 1984, J. Am. Helicopter Soc. 29(1)), and the surface layer carries them
+(:mod:`vinecli.spray.surface_layer`: wind profile, turbulence, settling). Each lifted parcel becomes one
+parcel per bin of its landing density (at the bin's middle, spread over a disc overlapping its neighbours),
+plus one for the share still airborne beyond the far-field model's reach.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vinecli.spray.surface_layer import SurfaceLayer, landing_bands
+
+__all__ = ["BEYOND_M", "SQRT_STK50", "impaction_share", "lifted_parcels"]
+
+SQRT_STK50 = 0.49  # Marple & Willeke 1976, round jets
+_WIDTH = 0.1 / np.log(9.0)  # logistic scale: 10 % -> 90 % over ±0.1 in √Stk
+#: where the share still airborne at the far-field model's reach is put (far beyond any drift domain), m downwind
+BEYOND_M = 1.0e4
+#: a bin's parcel spreads over a disc this many times the bin's half width: neighbouring bins overlap, so the
+#: deposit is smooth across bin edges (ripple about ±9 %; 1 would leave it falling to 0 between bins)
+BAND_SMOOTHING = 4.0
+#: the wind inside a canopy falls as exp(-a (1 - z/h)) below its top h (Cionco 1965, J. Appl. Meteorol. 4:517; a ≈ 2
+#: for moderately dense crops): the drops released among the hedges are carried by that slower wind
+CANOPY_ATTENUATION = 2.0
+#: how far downwind the far-field model follows the drops, m (beyond: airborne out of the drift domain)
+REACH_M = 250.0
+
+
+def impaction_share(d_m: np.ndarray, jet_speed_mps: np.ndarray, jet_diam_m: float, rho_w: float = 998.2,
+                    mu: float = 1.81e-5) -> np.ndarray:
+    """Share of the drops (diameter m) the wake (speed m/s, diameter m) drives into the ground, 0..1."""
+    stk = rho_w * np.asarray(d_m) ** 2 * np.maximum(np.asarray(jet_speed_mps, dtype=np.float64), 0.0) / (
+        9.0 * mu * jet_diam_m)
+    return 1.0 / (1.0 + np.exp(-(np.sqrt(stk) - SQRT_STK50) / _WIDTH))
+
+
+def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.ndarray, t_fall: np.ndarray,
+                   wind_x: np.ndarray, wind_y: np.ndarray, z_wind_m: np.ndarray, roughness_m: float,
+                   jet_diam_m: float | np.ndarray, obukhov_m: float = math.inf,
+                   offset_m: float | np.ndarray | None = None, displacement_m: float = 0.0,
+                   spread_m: float | np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The parcels the outwash re-releases (see the module doc), one per lifted parcel and landing band.
+
+    Inputs per lifted parcel: landing point (m ENU), lifted volume (L), terminal velocities (m/s, (n, 2): the
+    lowest and highest of its size class), fall time so far (s), wind (m/s ENU) at height ``z_wind_m`` (m above
+    the ground), the release layer's top (m: the wall jet's ``W``, or per parcel), where the layer starts downwind
+    of the landing point (m, per parcel; default half the top: the wall jet's ``W/2``), the crop's zero-plane
+    displacement (m: the share released below it stays among the plants, the rest rises into the surface layer
+    above them), the least radius each landing bin spreads over (m, per parcel; default the offset). Returns ``x, y,
+    vol, t_fall,
+    vx, vy, vz, radius, src`` (src: index of the parcel it came from; radius: the disc each bin spreads over, m: its
+    smoothed width, at least the release's offset).
+    """
+    speed = np.hypot(wind_x, wind_y)
+    top = np.broadcast_to(np.asarray(jet_diam_m, dtype=np.float64), x.shape)
+    offset = 0.5 * top if offset_m is None else np.broadcast_to(np.asarray(offset_m, dtype=np.float64), x.shape)
+    spread = offset if spread_m is None else np.broadcast_to(np.asarray(spread_m, dtype=np.float64), x.shape)
+    ex = np.where(speed > 0, wind_x / np.maximum(speed, 1e-12), 0.0)
+    ey = np.where(speed > 0, wind_y / np.maximum(speed, 1e-12), 0.0)
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in ("x", "y", "vol", "t_fall", "vx", "vy", "vz", "radius", "src")}
+    d_plane = max(float(displacement_m), 0.0)
+    for i in range(x.size):
+        above = max(float(top[i]) - d_plane, 0.0)
+        sheltered = 1.0 - above / max(float(top[i]), 1e-9)  # released evenly over [0, top]: the share below d
+        if above > 0.0:
+            layer = SurfaceLayer.from_wind(float(speed[i]), max(float(z_wind_m[i]) - d_plane, 2.0 * roughness_m),
+                                           roughness_m, obukhov_m)
+            mass, dist, half, time = landing_bands(layer, (float(v_t[i, 0]), float(v_t[i, 1])), above, REACH_M)
+            mass = mass * (1.0 - sheltered)
+        else:
+            layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
+            mass, dist, half, time = (np.zeros(0),) * 4
+        if sheltered > 0.0:  # the share released among the plants: carried by the slower wind inside the canopy
+            low = min(float(top[i]), d_plane)
+            slow = math.exp(-CANOPY_ATTENUATION * (1.0 - 0.5 * low / (1.5 * d_plane)))
+            inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
+            m2, d2, h2, t2 = landing_bands(inner, (float(v_t[i, 0]), float(v_t[i, 1])), low, REACH_M)
+            mass, dist = np.append(mass, sheltered * m2), np.append(dist, d2)
+            half, time = np.append(half, h2), np.append(time, t2)
+            if above <= 0.0:
+                layer = inner
+        d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
+        cols["x"].append(x[i] + ex[i] * d)
+        cols["y"].append(y[i] + ey[i] * d)
+        cols["vol"].append(lifted_l[i] * mass)
+        cols["t_fall"].append(t_fall[i] + time)
+        cols["vx"].append(np.full(mass.size, wind_x[i]))
+        cols["vy"].append(np.full(mass.size, wind_y[i]))
+        # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
+        # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
+        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(layer.sigma_w(np.zeros(1))[0])))
+        cols["radius"].append(np.maximum(BAND_SMOOTHING * half, spread[i]))  # at least the release's own spread
+        cols["src"].append(np.full(mass.size, i))
+    return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
