@@ -5,7 +5,7 @@ canopy, so the spray budget runs with its canopy maps (the mission's own 180 m f
 take off to the spray height, spray one 20 m row at ``height_agl_m`` = H (flow 0.02 L/s), land. The peak resident set of
 that process (``wait4``'s ``ru_maxrss``) is compared with the same flight along the row without the
 sprayer (a waypoints phase: no deposition), run right after it: the difference is what the deposition
-model (records, transport, grid, writing deposition.tif) adds at that height. Issue 20 item 5: no accepted
+model (records, transport, grid, writing deposition.tif) adds at that height. No accepted
 mission peaks above 1.5 GB; the deposition grid keeps its convolution inside a cell budget
 (:mod:`vinecli.spray.deposit_grid`), so the peak must not grow with the height.
 

@@ -1,4 +1,4 @@
-"""The dose as a grower judges it, over seeds (issue 19): the spraying missions flown for seeds 0..N-1 with the
+"""The dose as a grower judges it, over seeds: the spraying missions flown for seeds 0..N-1 with the
 default dose checks on, and per mission the figures that say whether every vine got its dose:
 
 * seeds passed (every check, the default dose checks included) and the statuses;

@@ -1,5 +1,5 @@
 """The loop's instructions and estimated cycles per step against the PyBullet floor's, counted by Valgrind: figures
-a shared machine cannot move, to compare one checkout with another (e.g. before and after the loop split, issue 24).
+a shared machine cannot move, to compare one checkout with another (e.g. before and after a change of the loop).
 
 ``loop_parts.py`` times the loop in CPU µs, which a virtual machine's neighbours inflate by 1.5-3x from one
 minute to the next (its floor read 6.0 µs one day and 12-21 µs on an idle machine another, the same checkout's
@@ -65,7 +65,12 @@ def floor(world_dir, steps):
 def mission(world_dir, mission_path, runs):
     from vinecli import native
     from vinecli.runs.mission import run_mission
-    s = run_mission(mission_path, world_dir, runs, seed=0, run_id="counted", overwrite=True)
+    try:
+        from vinecli.runs.request import RunRequest
+    except ImportError:  # a checkout from before RunRequest: run_mission's keywords
+        s = run_mission(mission_path, world_dir, runs, seed=0, run_id="counted", overwrite=True)
+    else:
+        s = run_mission(RunRequest(mission_path, world_dir, runs, seed=0, run_id="counted", overwrite=True))
     print(json.dumps({"kernel": native.state, "status": s.status, "sim_time_s": s.sim_time_s}))
 
 if __name__ == "__main__":

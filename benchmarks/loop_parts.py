@@ -112,7 +112,7 @@ def part_of(filename: str, funcname: str) -> str:
 def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: float) -> dict[str, float]:
     """µs per step of each part: cProfile self-time shares of one run, scaled to ``cpu_per_step``."""
     import vinecli.sim.runner as runner
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     prof = cProfile.Profile()
     fly = runner.fly  # profile the per-step loop only, not set-up and writing
@@ -126,7 +126,7 @@ def profile_parts(world_dir: Path, mission: Path, runs: Path, cpu_per_step: floa
 
     runner.fly = profiled_fly  # type: ignore[assignment]
     try:
-        s = run_mission(mission, world_dir, runs, seed=0, run_id="profiled", overwrite=True)
+        s = run_mission(RunRequest(mission, world_dir, runs, seed=0, run_id="profiled", overwrite=True))
     finally:
         runner.fly = fly
     steps = s.sim_time_s * 250.0
@@ -199,10 +199,10 @@ def reference(world_dir: Path, mission: Path, runs: Path, parts: bool) -> dict[s
 
 def _reference_main(world_dir: Path, mission: Path, runs: Path, parts: bool) -> int:
     from vinecli import native
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     assert native.state == "pure", native.state
-    s = run_mission(mission, world_dir, runs, seed=0, run_id="reference", overwrite=True)
+    s = run_mission(RunRequest(mission, world_dir, runs, seed=0, run_id="reference", overwrite=True))
     cpu = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]["cpu_per_step_us"]
     row: dict[str, Any] = {"loop_cpu_us_per_step": cpu}
     if parts:
@@ -224,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
     import numpy as np
 
     from vinecli import native
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.runs.rundir import TIMESERIES, read_timeseries
     from vinecli.world import build_world, load_world
     from vinecli.world.engine import reuse_terrain_engines
@@ -248,12 +248,12 @@ def main(argv: list[str] | None = None) -> int:
         reuse_terrain_engines()  # as a batch worker: the second run of a mission is a warm case
         for name in args.missions:
             mission = REPO / "pipelines" / "missions" / f"{name}.yaml"
-            s = run_mission(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True)
+            s = run_mission(RunRequest(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True))
             cpu = json.loads((Path(s.run_dir) / "summary.json").read_text())["timing"]["cpu_per_step_us"]
             ground = float(np.mean(read_timeseries(Path(s.run_dir) / TIMESERIES)["on_ground"] > 0.5))
             floor_run = (1.0 - ground) * floor + ground * floor_ground  # the floor of this run's mix of steps
             t = time.perf_counter()
-            run_mission(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True)
+            run_mission(RunRequest(mission, world_dir, tmp / "runs", seed=0, run_id=name, overwrite=True))
             warm = s.sim_time_s / (time.perf_counter() - t)
             rtf_proc, wall = whole_process_rtf(world_dir, mission, tmp / "runs")
             bound = s.sim_time_s / (deps_s + load_s + s.wall_time_s)  # vinecli's own start-up and writing free

@@ -1,4 +1,4 @@
-"""Liquid in a grower's no-spray zone and the dose of the rows around it (issue 19): the grower case of
+"""Liquid in a grower's no-spray zone and the dose of the rows around it: the grower case of
 ``tests/gis/test_gis_world.py`` (three rows 2.5 m apart, the middle one cut by a stream grown by a 1 m buffer,
 x500-sprayer at 2 m and 3 m/s) flown with the built-in autopilot, and measured from the run directory alone:
 
@@ -82,7 +82,7 @@ def fly(rate: float, seed: int, work: Path) -> tuple[Path, Path]:
     import yaml
 
     from tests.gis.test_gis_world import grower_world
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.world import build_world
 
     world = work / "world"
@@ -94,7 +94,7 @@ def fly(rate: float, seed: int, work: Path) -> tuple[Path, Path]:
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
                    {"type": "spray", "rows": "world", "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": rate},
                    {"type": "land"}]}))
-    s = run_mission(m, world, work / "runs", seed=seed)
+    s = run_mission(RunRequest(m, world, work / "runs", seed=seed))
     return Path(s.run_dir), world
 
 

@@ -2,7 +2,7 @@
 
 Usage: ``python benchmarks/physics.py [--quick] [--vehicle x500-sprayer]``
 
-Budget (design.md §8): the whole per-step physics for a 4-rotor vehicle (motor lag, rotor
+Budget (docs/flight-models.md §6): the whole per-step physics for a 4-rotor vehicle (motor lag, rotor
 wrench, wind, link drag, tank) should stay well under 20 µs; sensors are listed apart.
 """
 
@@ -120,7 +120,7 @@ def main() -> None:
     for name, fn in cases:
         best = min(timeit.repeat(fn, number=n, repeat=repeat)) / n * 1e6
         print(f"  {name:<{width}}  {best:7.2f} µs")
-    print("  budget: full physics step well under 20 µs (design.md §8: 40 µs is the whole loop at 100x real time)")
+    print("  budget: full physics step well under 20 µs (docs/flight-models.md §6: 40 µs is the whole loop at 100x real time)")
 
 
 if __name__ == "__main__":

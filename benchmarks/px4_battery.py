@@ -1,7 +1,7 @@
 """PX4's periodic work over many real PX4 runs: one mission (default the CI take-off) flown by real PX4 SITL
 over seeds, one PX4 at a time; after each run PX4's own kept ULog is audited (vinecli.sitl.px4.log_audit):
 did ``battery_status`` (battery_simulator) and ``cpuload`` (load_mon) run to the end of the log, and did PX4
-warn "Battery unhealthy"? Prints one line per run and the counts: the flake of issue 25 (PX4 v1.15's HRT race
+warn "Battery unhealthy"? Prints one line per run and the counts: the flake (PX4 v1.15's HRT race
 at arming, see vinecli/sitl/px4/process.py SAFE_BOOT_PARAMS) is a stopped topic.
 
     .venv/bin/python benchmarks/px4_battery.py --px4-bin PX4/bin/px4 --world build/vineyard [--seeds 40]
@@ -26,13 +26,14 @@ def one_run(mission: Path, world: Path, out: Path, seed: int, px4_bin: str) -> d
     import json
 
     from vinecli.errors import VinecliError
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
+    from vinecli.sitl.options import AutopilotOptions
     from vinecli.sitl.px4.log_audit import audit_ulog
 
     t0 = time.perf_counter()
     try:
-        run_mission(mission, world, out, seed=seed, autopilot="px4", run_id=f"s{seed}",
-                    autopilot_options={"px4_bin": px4_bin})
+        run_mission(RunRequest(mission, world, out, seed=seed, autopilot="px4", run_id=f"s{seed}",
+                               autopilot_options=AutopilotOptions(px4_bin=px4_bin)))
     except VinecliError as exc:
         return {"seed": seed, "error": str(exc)}
     summary = json.loads((out / f"s{seed}" / "summary.json").read_text())

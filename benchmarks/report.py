@@ -4,7 +4,7 @@ Usage: ``python benchmarks/report.py [--quick] [--runs 1000] [--workers N]``
 
 Writes four synthetic chapter-5 runs (tests/report/synth_runs.py), clones them into a batch of
 ``--runs`` run directories (5 % with a failed check) and times ``build_report`` on it and on a
-10-run batch. Prints the total time, the cost per run and the ratio of the two. Budget (issue 5):
+10-run batch. Prints the total time, the cost per run and the ratio of the two. Budget:
 a 1,000-run report builds in under a minute on the project's 2-core machine.
 ``--quick``: 100 runs (smoke run).
 """

@@ -5,7 +5,7 @@ Usage: ``python benchmarks/terrain.py [--quick] [--stages heightmap,tiles,memory
 Stages (each prints one table with ratios; ``--quick`` shrinks every size for a smoke run):
 
 * ``heightmap``: a 2049² DSM (matplotlib's real ``jacksboro_fault_dem`` SRTM sample, cubic-upsampled
-  to 1 m pixels, as in terrain-notes.md) -> 1025² with vinecli vs ``gdalwarp`` doing the same crop and
+  to 1 m pixels, as in docs/terrain.md) -> 1025² with vinecli vs ``gdalwarp`` doing the same crop and
   resampling. Half-pixel convention: vinecli's vertices sit *on* the crop edges (first/last vertex =
   first/last pixel centre), so the heightmap is a raster of cells *centred* on the vertices whose
   extent is the crop grown by half a cell. ``gdalwarp -te <crop> -ts N N`` instead makes the crop
@@ -51,7 +51,7 @@ Row = dict[str, Any]
 
 def jacksboro_dsm(path: Path, n: int) -> np.ndarray:
     """matplotlib's SRTM sample (344×403) cubic-upsampled to n×n float32, 1 m pixels, UTM 33N,
-    heights rescaled to 56 m of relief (the setup of terrain-notes.md)."""
+    heights rescaled to 56 m of relief (the setup of docs/terrain.md)."""
     import rasterio
     from matplotlib import cbook
     from rasterio.transform import from_origin

@@ -1,4 +1,6 @@
-"""Shared fixtures: repository paths and the optional ../shared data folder."""
+"""Fixtures several test folders share (each folder's own live in its conftest): repository paths and the
+optional ../shared data folder, built worlds (flat, the vineyard sample, a bumpy DSM as tiles and as a heightmap),
+and for the MAVLink and firmware tests free loopback ports and a flat world made without ``world build``."""
 
 from __future__ import annotations
 
@@ -99,6 +101,7 @@ def ports() -> dict[str, int]:
 
 @pytest.fixture
 def world(tmp_path: Path) -> World:
+    """A flat world at ``loopback_world.ORIGIN`` made without ``world build`` (tests/loopback_world.py)."""
     from loopback_world import flat_world
 
     return flat_world(tmp_path)

@@ -1,19 +1,21 @@
 """The dependency rule (docs/architecture.md): every import of a vinecli module - at the top of a
-file or inside a function - goes to the same layer or one below, and no modules import each other
-in a circle. A private name (leading underscore) stays inside its unit: other units import public
-names only. Walked with ``ast`` over the package source, so a new upward edge or private import fails here."""
+file or inside a function - goes to the same layer or one below, and no modules, nor packages, import each
+other in a circle. A private name (leading underscore) stays inside its unit: other units import public
+names only. A module name repeats only in the families that say why (:data:`NAME_FAMILIES`). Walked with
+``ast`` over the package source, so a new upward edge, circle or private import fails here."""
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 from tests.repo_paths import REPO
 
 #: the layers, ground floor first; a unit is a top-level module or a package of vinecli
 LAYERS: list[set[str]] = [
-    {"constants", "errors", "frames", "geo", "inputs", "lifeline", "locks", "names", "native", "output_guard", "outputs",
-     "spray_defaults", "types"},
+    {"constants", "errors", "frames", "geo", "geometry", "inputs", "lifeline", "locks", "names", "native", "output_guard",
+     "outputs", "spray_defaults", "types"},
     {"specs"},
     {"flight", "spray", "control", "terrain", "vehicle", "mavlink", "flightlog"},
     {"rows", "phase_items", "identify", "gis"},
@@ -23,7 +25,8 @@ LAYERS: list[set[str]] = [
     {"sim"},
     {"missions"},
     {"runs"},
-    {"batch", "report"},
+    {"report"},
+    {"batch"},
     {"cli", "__main__", "__init__"},
 ]
 LAYER_OF = {unit: i for i, units in enumerate(LAYERS) for unit in units}
@@ -52,33 +55,33 @@ def _imports(path: Path, module: str, modules: set[str]) -> set[str]:
     return {m for m in found if m in modules and m != module}
 
 
-def _graph() -> dict[str, set[str]]:
+def import_graph() -> dict[str, set[str]]:
     files = {_module_name(p): p for p in sorted(PKG.rglob("*.py"))}
     return {mod: _imports(path, mod, set(files)) for mod, path in files.items()}
 
 
-def _unit(module: str) -> str:
+def unit_of(module: str) -> str:
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else "__init__"
 
 
 def test_every_unit_has_a_layer() -> None:
-    units = {_unit(m) for m in _graph()}
+    units = {unit_of(m) for m in import_graph()}
     assert units <= set(LAYER_OF), f"modules with no layer in docs/architecture.md: {sorted(units - set(LAYER_OF))}"
 
 
 def test_no_import_goes_up_a_layer() -> None:
-    graph = _graph()
+    graph = import_graph()
     upward = sorted(
-        f"{src} (layer {LAYER_OF[_unit(src)]}) -> {dst} (layer {LAYER_OF[_unit(dst)]})"
+        f"{src} (layer {LAYER_OF[unit_of(src)]}) -> {dst} (layer {LAYER_OF[unit_of(dst)]})"
         for src, dsts in graph.items() for dst in dsts
-        if _unit(dst) != "__init__" and LAYER_OF[_unit(dst)] > LAYER_OF[_unit(src)]
+        if unit_of(dst) != "__init__" and LAYER_OF[unit_of(dst)] > LAYER_OF[unit_of(src)]
     )
     assert not upward, "upward imports:\n" + "\n".join(upward)
 
 
-def test_no_import_circles() -> None:
-    graph = _graph()
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one node (Tarjan): the nodes importing each other in a circle."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -86,13 +89,13 @@ def test_no_import_circles() -> None:
     circles: list[list[str]] = []
     counter = 0
 
-    def visit(v: str) -> None:  # Tarjan's strongly connected components
+    def visit(v: str) -> None:
         nonlocal counter
         index[v] = low[v] = counter
         counter += 1
         stack.append(v)
         on_stack.add(v)
-        for w in sorted(graph[v]):
+        for w in sorted(graph.get(v, ())):
             if w not in index:
                 visit(w)
                 low[v] = min(low[v], low[w])
@@ -112,7 +115,48 @@ def test_no_import_circles() -> None:
     for v in sorted(graph):
         if v not in index:
             visit(v)
+    return circles
+
+
+def test_no_import_circles() -> None:
+    circles = _circles(import_graph())
     assert not circles, "modules importing each other in a circle: " + "; ".join(" <-> ".join(c) for c in circles)
+
+
+def _package(module: str, packages: set[str]) -> str:
+    """The package a module belongs to (itself for a package); a module of vinecli's top level is a unit of its own."""
+    if module in packages:
+        return module
+    parent = module.rsplit(".", 1)[0]
+    return module if parent == "vinecli" else parent
+
+
+def _package_graph(graph: dict[str, set[str]], packages: set[str]) -> dict[str, set[str]]:
+    """Imports between packages; a package and the packages inside it are one room (their edges are not counted)."""
+    out: dict[str, set[str]] = {}
+    for src, dsts in graph.items():
+        a = _package(src, packages)
+        for dst in dsts:
+            b = _package(dst, packages)
+            if a != b and not b.startswith(a + ".") and not a.startswith(b + "."):
+                out.setdefault(a, set()).add(b)
+    return out
+
+
+def test_no_package_circles() -> None:
+    """Two packages (batch and report, sitl/px4 and sitl/ardupilot, ...) never import each other, directly or
+    through others: a package's modules may depend on one another, packages only one way."""
+    packages = {_module_name(p.parent / "__init__.py") for p in PKG.rglob("__init__.py")}
+    circles = _circles(_package_graph(import_graph(), packages))
+    assert not circles, "packages importing each other in a circle: " + "; ".join(" <-> ".join(c) for c in circles)
+
+
+def test_the_rule_catches_a_package_circle() -> None:
+    graph = {"vinecli.batch.run": {"vinecli.report.plots"}, "vinecli.report.loader": {"vinecli.batch.run"},
+             "vinecli.report.plots": set(), "vinecli.sitl.options": {"vinecli.sitl.px4.backend"},
+             "vinecli.sitl.px4.backend": {"vinecli.sitl.process"}, "vinecli.sitl.process": set()}
+    packages = {"vinecli.batch", "vinecli.report", "vinecli.sitl", "vinecli.sitl.px4"}
+    assert _circles(_package_graph(graph, packages)) == [["vinecli.batch", "vinecli.report"]]
 
 
 def test_the_rule_catches_an_upward_import(tmp_path: Path) -> None:
@@ -172,7 +216,7 @@ def test_no_private_name_crosses_a_unit() -> None:
     crossing = sorted(
         f"{src}:{line} uses {name}"
         for src, path in files.items() for line, name in _private_uses(path, src, set(files))
-        if _unit(name) != _unit(src)
+        if unit_of(name) != unit_of(src)
     )
     assert not crossing, "private names used outside their unit:\n" + "\n".join(crossing)
 
@@ -190,7 +234,96 @@ def test_the_rule_catches_a_private_import(tmp_path: Path) -> None:
                      "vinecli.report.loader._load_run"]
 
 
-#: small files with one job, short functions (issue 24): limits for every file and function of vinecli/
+#: a function takes at most this many parameters (``self``/``cls`` not counted, ``*args`` and ``**kwargs`` one each):
+#: more travel in one named object, unless a comment at the def says why (:data:`WIDE_REASON`)
+MAX_PARAMETERS = 8
+#: the comment that says why a function takes more, on the lines just above its def (or in its signature)
+WIDE_REASON = re.compile(r"#\s*parameters:\s*\S.{9,}")
+#: names of results and records (a run's, a firmware's, a deposition's): never annotated ``Any``
+RESULTISH = re.compile(r"^(result|record|dep|deposition)$|_(result|record)$|^(result|record)_")
+
+
+def _parameter_count(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    a = fn.args
+    names = [x.arg for x in a.posonlyargs + a.args]
+    if names and names[0] in ("self", "cls"):
+        names = names[1:]
+    return len(names) + len(a.kwonlyargs) + (a.vararg is not None) + (a.kwarg is not None)
+
+
+def _wide_without_reason(text: str) -> list[tuple[int, str, int]]:
+    """(line, function, parameters) of every function of ``text`` over :data:`MAX_PARAMETERS` whose def has no
+    :data:`WIDE_REASON` comment: in the comment block right above it (above its decorators) or in its signature."""
+    lines = text.splitlines()
+    out = []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and _parameter_count(node) > MAX_PARAMETERS:
+            top = min([node.lineno, *(d.lineno for d in node.decorator_list)]) - 1  # 0-based index of the first line
+            above = top - 1
+            while above >= 0 and lines[above].lstrip().startswith("#"):
+                above -= 1
+            comments = lines[above + 1:top] + lines[node.lineno - 1:node.body[0].lineno - 1]
+            if not any(WIDE_REASON.search(line) for line in comments):
+                out.append((node.lineno, node.name, _parameter_count(node)))
+    return out
+
+
+def test_functions_take_few_parameters_or_say_why() -> None:
+    wide = [f"{path.relative_to(REPO)}:{line} {name} ({n} parameters)"
+            for path in sorted(PKG.rglob("*.py")) for line, name, n in _wide_without_reason(path.read_text())]
+    assert not wide, (f"functions with more than {MAX_PARAMETERS} parameters: pass a named object, or say why at the "
+                      "def ('# parameters: ...'):\n" + "\n".join(wide))
+
+
+def test_the_parameter_rule_reads_the_reason() -> None:
+    nine = "a, b, c, d, e, f, g, h, i"
+    src = (f"def bare({nine}): pass\n"
+           f"# parameters: the nine inputs of a published formula\n@decorated\ndef said({nine}): pass\n"
+           f"def inline(\n    {nine},  # parameters: Typer reads one option per parameter\n): pass\n"
+           f"# parameters:\ndef empty({nine}): pass\n"
+           f"class C:\n    def method(self, a, b, c, d, e, f, g, h): pass\n    def more(self, *, {nine}): pass\n")
+    assert [name for _, name, _ in _wide_without_reason(src)] == ["bare", "empty", "more"]
+
+
+def _any_annotated(text: str) -> list[tuple[int, str]]:
+    """(line, name) of every parameter, field or attribute named like a result or record (:data:`RESULTISH`)
+    annotated ``Any`` (alone or with None)."""
+    def is_any(ann: ast.expr | None) -> bool:
+        if ann is None:
+            return False
+        words = ast.unparse(ann).replace("typing.", "").replace("Optional[", "").replace("]", "").replace(" ", "")
+        return "Any" in words.split("|") or words.strip("'\"") == "Any"
+
+    out = []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            a = node.args
+            out += [(x.lineno, x.arg) for x in a.posonlyargs + a.args + a.kwonlyargs
+                    if RESULTISH.search(x.arg) and is_any(x.annotation)]
+        elif isinstance(node, ast.AnnAssign) and is_any(node.annotation):
+            target = node.target
+            name = target.id if isinstance(target, ast.Name) else target.attr if isinstance(target, ast.Attribute) else ""
+            if RESULTISH.search(name):
+                out.append((node.lineno, name))
+    return out
+
+
+def test_no_result_or_record_is_any() -> None:
+    untyped = [f"{path.relative_to(REPO)}:{line} {name}"
+               for path in sorted(PKG.rglob("*.py")) for line, name in _any_annotated(path.read_text())]
+    assert not untyped, "results and records annotated Any (give their type):\n" + "\n".join(untyped)
+
+
+def test_the_any_rule_sees_parameters_fields_and_attributes() -> None:
+    src = ("from typing import Any, Optional\n"
+           "def f(result: Any, run_record: Any | None, record: 'Any', summary: Any, dep: dict[str, Any]): pass\n"
+           "class R:\n    deposition: Optional[Any] = None\n    result: int = 0\n"
+           "    def __init__(self):\n        self.firmware_record: Any = None\n")
+    assert [name for _, name in _any_annotated(src)] == ["result", "run_record", "record", "deposition",
+                                                          "firmware_record"]
+
+
+#: small files with one job, short functions: limits for every file and function of vinecli/
 MAX_FILE_LINES = 500
 MAX_FUNCTION_LINES = 120
 #: temporary exceptions, each with who removes it and when; an exception that is no longer needed fails
@@ -222,3 +355,43 @@ def test_files_and_functions_stay_small() -> None:
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
     stale = [f for f in SIZE_EXCEPTIONS if f not in files or files[f] <= MAX_FILE_LINES]
     assert not stale, f"remove these size exceptions, they are no longer needed: {stale}"
+
+
+#: where a module's file name may repeat, and why (each package's docstring says it too): a name that says which
+#: part of the product the module serves, the same in every package where it occurs
+NAME_FAMILIES: dict[str, str] = {
+    "vinecli/cli/": "the command line: one module per command group (vinecli terrain, plan, run, ...) and its options",
+    "vinecli/specs/": "a spec is named after the part it specifies (vehicle, wind, mission, sprayer, canopy)",
+    "vinecli/missions/metrics/": "metric families, named after what they measure (takeoff, wind, job)",
+    "defaults.py": "a package's defaults, light to import for the command line's help (terrain, identify)",
+    "read.py": "a file-format package's reader (gis, flightlog)",
+}
+#: inside it a name may repeat once per firmware (px4/, ardupilot/) and for their shared part: the same role
+PER_FIRMWARE = "vinecli/sitl/"
+
+
+def _in_family(path: str) -> bool:
+    return any(path.startswith(f) or path.endswith("/" + f) for f in NAME_FAMILIES)
+
+
+def test_every_package_says_what_lives_there_and_what_it_may_import() -> None:
+    """Each package's ``__init__.py`` has a docstring, and it says what the package may import."""
+    silent = sorted(p.relative_to(REPO).as_posix() for p in PKG.rglob("__init__.py")
+                    if "may import" not in " ".join((ast.get_docstring(ast.parse(p.read_text())) or "").lower().split()))
+    assert not silent, f"packages whose __init__ docstring does not say what they may import: {silent}"
+
+
+def test_module_names_repeat_only_for_a_reason() -> None:
+    """A file name several modules use (``__init__.py`` aside) is allowed when all of them but one sit in a
+    :data:`NAME_FAMILIES`, or the rest all in :data:`PER_FIRMWARE`: anything else is two modules named alike for no
+    reason (``mission.py`` in runs/ and in sitl/px4/), which a reader has to tell apart."""
+    by_name: dict[str, list[str]] = {}
+    for path in sorted(PKG.rglob("*.py")):
+        if path.name != "__init__.py":
+            by_name.setdefault(path.name, []).append(path.relative_to(REPO).as_posix())
+    alike = {}
+    for name, paths in by_name.items():
+        rest = [p for p in paths if not _in_family(p)]
+        if len(rest) > 1 and not all(p.startswith(PER_FIRMWARE) for p in rest):
+            alike[name] = paths
+    assert not alike, f"modules named alike without a reason (rename one, or say why in NAME_FAMILIES): {alike}"

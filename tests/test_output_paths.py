@@ -1,4 +1,4 @@
-"""Issue 9 item 4: names cannot become paths, every write stays inside ``--out``, ``--out`` never replaces
+"""Names cannot become paths, every write stays inside ``--out``, ``--out`` never replaces
 an input, ``run mission`` needs ``--overwrite`` to replace a run, outputs follow the umask, writability is
 probed before the work. Real worlds, the real loop, real run and report directories."""
 
@@ -177,7 +177,7 @@ def test_check_output_target_refuses_inputs(tmp_path: Path) -> None:
 
 def test_batch_case_dir_never_replaces_its_mission(flat_world_dir: Path, tmp_path: Path) -> None:
     """A case named like the folder holding its mission, with --out at the pipeline: the batch is refused at
-    load (issue 20: every case's folder is checked against every input before anything is written), the
+    load (every case's folder is checked against every input before anything is written), the
     mission survives."""
     (tmp_path / "missions").mkdir()
     (tmp_path / "missions" / "m.yaml").write_text(MISSION.format(name="quick"))

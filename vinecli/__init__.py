@@ -1,6 +1,9 @@
 """vinecli: simulation pipeline for precision-agriculture spraying drones.
 
 DSM / point cloud -> terrain -> world -> missions (PyBullet, built-in autopilot or PX4 SITL) -> report.
+
+The packages, their floors and where each feature lives: docs/architecture.md. This module may import only the
+compiled kernel's switch (:mod:`vinecli.native`), so ``import vinecli`` stays light.
 """
 
 __version__ = "0.1.0"

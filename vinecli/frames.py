@@ -10,7 +10,7 @@ Constants (thesis §4.2.5):
 * ``Q_FRD_FROM_FLU`` = (w, x, y, z) (0, 1, 0, 0): 180° about x, its own inverse.
 
 Functions take and return plain tuples of floats: they run in the 250 Hz loop, where a
-numpy call on a 3-vector costs 10× a few float operations (design.md §8).
+numpy call on a 3-vector costs 10× a few float operations (docs/flight-models.md §6).
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""What a command reads: one set of inputs, known before anything is written (issue 20 items 1 and 6).
+"""What a command reads: one set of inputs, known before anything is written, so no
+output can replace one of them.
 
 Every reader notes the files and folders it reads with :func:`note_input` (a spec and each ``base:`` it
 inherits from, vehicles, world folders and the terrain and vehicle files a world spec names, DSMs,

@@ -1,4 +1,5 @@
-"""Child processes die with the process that started them, however it dies (issue 20 item 4).
+"""Child processes die with the process that started them, however it dies (``kill -9``
+included): no firmware or worker outlives a batch.
 
 Two mechanisms, for the two kinds of children:
 

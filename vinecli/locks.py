@@ -1,4 +1,5 @@
-"""One writer per output: a lock per run id, batch folder and output folder (issue 20 item 3).
+"""One writer per output: a lock per run id, batch folder and output folder, so a second writer
+exits 2 at once instead of interleaving its files with the first's.
 
 :func:`output_lock` takes an exclusive ``flock`` on a hidden lock file next to what it guards
 (``.<name>.lock`` beside the folder or file, ``.vinecli.lock`` inside a runs folder) and writes the

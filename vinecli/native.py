@@ -44,6 +44,7 @@ KERNEL: tuple[str, ...] = (
     "sim/ground_events.py",
     "sim/spray_groups.py",
     "sim/recorder.py",
+    "sim/row.py",
     "sim/perfect_estimator.py",
     "flight/motor.py",
     "flight/aero.py",

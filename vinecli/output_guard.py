@@ -1,4 +1,4 @@
-"""What vinecli may write where: ``--out`` holds only what vinecli made (issue 20 items 1, 2, 7).
+"""What vinecli may write where: ``--out`` holds only what vinecli made, never an input.
 
 * Every folder vinecli creates carries a marker: the vinecli ``manifest.json`` every output folder gets
   last (a run, a world, a report, terrain), or, on the folders that hold outputs (a runs folder,

@@ -1,4 +1,5 @@
-"""Atomic output directories with a ``manifest.json``, locked and marked (issue 20 items 2 and 3).
+"""Atomic output directories with a ``manifest.json``, locked and marked (docs/architecture.md
+"Inputs, names and outputs").
 
 Every command writes its results through :func:`atomic_output_dir`: it holds the output's lock
 (:func:`vinecli.locks.output_lock`: a second writer exits 2, ``in use by pid N``), files go to a hidden

@@ -1,4 +1,4 @@
-"""Issue 20, done-when: an attack on one sandbox, as a careless or hostile user would try it.
+"""An attack on one sandbox, as a careless or hostile user would try it.
 
 The sandbox holds every kind of input (a DSM, a point cloud, a world spec and its base, a vehicle and its
 base, a built world, missions with a ``base:`` chain, a pipeline, a .plan, a finished runs folder). Then:

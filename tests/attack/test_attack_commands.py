@@ -1,4 +1,4 @@
-"""Issue 20, done-when, on the commands that came after the first attack (tests/attack/test_attack.py):
+"""On the commands that came after the first attack (tests/attack/test_attack.py):
 ``vehicle fit`` / ``vehicle replay``, ``run compare``, ``gis export``, ``plan swath``, ``plan rows`` with its
 ``OUT-stem.rows.geojson``, ``world build`` with ``gis:`` files, ``report --baseline``, and firmware runs.
 

@@ -11,12 +11,12 @@ import os
 import time
 from pathlib import Path
 
-from vinecli.batch.case import CaseResult, RunSpec
+from vinecli.batch.case import CaseResult
 from vinecli.outputs import Manifest, atomic_output_dir
-from vinecli.runs import rundir
+from vinecli.runs import RunRequest, rundir
 
 
-def case_light(spec: RunSpec) -> CaseResult:
+def case_light(spec: RunRequest) -> CaseResult:
     if spec.case.startswith("boom"):
         raise RuntimeError(f"case {spec.case} exploded")
     if spec.case.startswith("crash"):

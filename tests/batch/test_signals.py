@@ -1,4 +1,4 @@
-"""Issue 9 item 6: SIGTERM / SIGINT to ``vinecli run batch`` (a real subprocess, real signals, the real loop):
+"""SIGTERM / SIGINT to ``vinecli run batch`` (a real subprocess, real signals, the real loop):
 the workers stop (no orphans), the running cases are written as ``interrupted`` partial runs, batch.json keeps
 no case ``pending``, exit 143 / 130. ``--resume`` re-runs a case whose run directory fails its manifest."""
 

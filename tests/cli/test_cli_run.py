@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from vinecli.cli.app import app
 from vinecli.missions.spec_io import load_mission
-from vinecli.sim.recorder import timeseries_columns
+from vinecli.sim.row import timeseries_columns
 
 runner = CliRunner()
 
@@ -132,7 +132,7 @@ def test_missing_world_exits_2(tmp_path: Path) -> None:
 
 
 def test_interrupted_run_is_a_valid_partial_run(flat_world_dir: Path, tmp_path: Path) -> None:
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     m = quick_mission(tmp_path, hold=30.0)
     state = {"t": 0.0}
@@ -140,7 +140,7 @@ def test_interrupted_run_is_a_valid_partial_run(flat_world_dir: Path, tmp_path: 
     def progress(sim_t: float, wall_t: float) -> None:
         state["t"] = sim_t
 
-    s = run_mission(m, flat_world_dir, tmp_path / "runs", seed=1, progress=progress,
+    s = run_mission(RunRequest(m, flat_world_dir, tmp_path / "runs", seed=1), progress=progress,
                     should_stop=lambda: state["t"] >= 6.0)
     assert s.status == "interrupted" and not s.passed
     assert 6.0 <= s.sim_time_s < 8.0

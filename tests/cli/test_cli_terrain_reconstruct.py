@@ -42,7 +42,7 @@ def test_ground_mesh_and_dsm_from_real_lidar(tmp_path: Path) -> None:
     p = stats["points"]
     assert (p["in"], p["after_filters"], p["class_filtered_out"]) == (73_403, 8_159, 65_244)
     assert stats["crs"]["epsg"] == 2949 and stats["units"]["xy_to_m"] == 1.0
-    assert stats["mesh"]["components"] == 1  # ground only: one piece (terrain-notes §2)
+    assert stats["mesh"]["components"] == 1  # ground only: one piece (docs/terrain.md §2)
     assert stats["holes_after"] < stats["holes_before"]
     assert stats["radii_m"] == pytest.approx([2 * stats["spacing_m"]["d"], 4 * stats["spacing_m"]["d"],
                                               8 * stats["spacing_m"]["d"]])

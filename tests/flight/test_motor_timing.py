@@ -1,4 +1,4 @@
-"""Motor lag timing (issue 14): speeds at the step's time, forces from the exact interval means.
+"""Motor lag timing: speeds at the step's time, forces from the exact interval means.
 
 The rigid-body step holds a force constant over [t_k, t_k + dt]; with the lagged speed
 w(s) = c + (w_k - c) e^(-s/tau) the exact impulse of rotor i is k_f ∫ w² ds. Using the end-of-step

@@ -1,4 +1,4 @@
-"""Attacks on the GIS inputs of a world (issue 21 item 4): each bad file is exit 2 with one line naming the file
+"""Attacks on the GIS inputs of a world: each bad file is exit 2 with one line naming the file
 and the problem, and nothing is written."""
 
 from __future__ import annotations

@@ -86,7 +86,7 @@ def grower_world(tmp: Path) -> Path:
 
 
 def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Path) -> None:
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.world import build_world
 
     world = build_world(grower_world(tmp_path), tmp_path / "world")
@@ -110,7 +110,7 @@ def test_grower_files_become_the_world_the_job_and_the_gis_outputs(tmp_path: Pat
                    {"type": "spray", "rows": "world", "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 20.0},
                    {"type": "land"}],
         "checks": [{"name": "covered", "quantity": "metric:row_coverage_fraction", "op": ">=", "bound": 0.9}]}))
-    s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=1)
+    s = run_mission(RunRequest(tmp_path / "m.yaml", world, tmp_path / "runs", seed=1))
     assert s.passed, (s.status, s.status_message, [(c["name"], c["value"], c["passed"]) for c in s.checks])
     dep = json.loads((Path(s.run_dir) / "deposition.json").read_text())
     assert dep["metrics"]["deposit_in_no_spray_fraction"] < 1e-3  # the sections closed a footprint before the zone
@@ -162,7 +162,7 @@ def test_a_plan_spraying_up_to_the_zone_fails_the_no_spray_check(tmp_path: Path,
     """The same job with the plan's clearance at the zone set to 0 (the passes end at the zone's edge, as before the
     clearance): the footprint and the pump's run-down put liquid into the zone, and the default check says so."""
     import vinecli.rows.plan
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.world import build_world
 
     monkeypatch.setattr(vinecli.rows.plan, "clearance_m", lambda pattern, end_margin_m: 0.0)
@@ -172,7 +172,7 @@ def test_a_plan_spraying_up_to_the_zone_fails_the_no_spray_check(tmp_path: Path,
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.5},
                    {"type": "spray", "rows": "world", "height_agl_m": 2.0, "speed_mps": 3.0, "rate_lpha": 20.0},
                    {"type": "land"}]}))
-    s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=1)
+    s = run_mission(RunRequest(tmp_path / "m.yaml", world, tmp_path / "runs", seed=1))
     check = next(c for c in s.checks if c["name"] == "dose_no_spray")
     assert not s.passed and not check["passed"] and check["value"] > 0.01, check  # 3.5 % of the liquid
 

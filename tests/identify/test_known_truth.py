@@ -148,14 +148,14 @@ def test_a_run_with_the_fitted_vehicle_carries_its_provenance(flight: dict[str, 
                                                                flat_world_dir: Path) -> None:
     from vinecli.report.loader import load_runs
     from vinecli.report.markdown import render_markdown
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     out = ulog_fit
     mission = flight["dir"] / "quick.yaml"
     mission.write_text(yaml.safe_dump({
         "name": "quick-fitted", "vehicle": str(out / "vehicle.yaml"), "max_duration_s": 30, "record_rate_hz": 25,
         "phases": [{"type": "takeoff", "altitude_agl_m": 2.0}, {"type": "hold", "duration_s": 1.0}, {"type": "land"}]}))
-    run = run_mission(mission, flat_world_dir, flight["dir"] / "runs", seed=1)
+    run = run_mission(RunRequest(mission, flat_world_dir, flight["dir"] / "runs", seed=1))
     summary = json.loads((Path(run.run_dir) / "summary.json").read_text())
     assert summary["status"] == "completed"
     fit = summary["vehicle_fit"]

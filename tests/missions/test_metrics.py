@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from vinecli.frames import quat_from_axis_angle
+from vinecli.geometry import point_polyline_distance
 from vinecli.missions.metrics import METRICS, dominant_period
 from vinecli.missions.rundata import MetricContext, RunData
-from vinecli.rows.geometry import point_polyline_distance
 
 G = 9.80665
 

@@ -1,4 +1,4 @@
-"""Issue 9 item 5: check quantities (and metric/status bounds) are resolved when the mission loads, so a typo
+"""Check quantities (and metric/status bounds) are resolved when the mission loads, so a typo
 is exit 2 before simulating instead of a failed check after the whole run."""
 
 from __future__ import annotations
@@ -79,8 +79,8 @@ def test_typo_exits_2_not_1(flat_world_dir: Path, tmp_path: Path) -> None:
 
 def test_every_metric_a_real_run_reports_is_known(flat_world_dir: Path, tmp_path: Path) -> None:
     """SIMULATOR_METRICS lists what the loop reports: a check may name any summary metric."""
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     p = mission(tmp_path, "{name: c, quantity: pos_enu_z_m, reduce: max, op: '>', bound: 1}")
-    s = run_mission(p, flat_world_dir, tmp_path / "runs")
+    s = run_mission(RunRequest(p, flat_world_dir, tmp_path / "runs"))
     assert s.metrics and set(s.metrics) <= known_metrics(), set(s.metrics) - known_metrics()

@@ -7,8 +7,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vinecli.geometry import point_polyline_distance
 from vinecli.missions.deposition_metrics import near_polylines
-from vinecli.rows.geometry import point_polyline_distance
 
 _XC = np.arange(-10.0, 10.0, 0.1) + 0.05
 _YC = np.arange(-15.0, 15.0, 0.1) + 0.05

@@ -1,4 +1,4 @@
-"""Issue 9 item 5: text from run directories is escaped in every report format (HTML, Markdown, JUnit XML with
+"""Text from run directories is escaped in every report format (HTML, Markdown, JUnit XML with
 control characters replaced), so a hostile or broken name neither injects markup nor crashes ``report``."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Row detection on real rasters its thresholds were never calibrated on (issue 21: "try a real DSM the tests have
-never seen"): each quarter of the AHN LiDAR sheet, and DSMs gridded from the real point clouds of tests/data
+"""Row detection on real rasters its thresholds were never calibrated on: each quarter of the AHN LiDAR sheet,
+and DSMs gridded from the real point clouds of tests/data
 (airborne LiDAR of a park by a river, hilly forest, a conifer plot; drone photogrammetry of a park from
 ../shared). None has crop rows: each is refused with the evidence (README "Rows and spray plans")."""
 

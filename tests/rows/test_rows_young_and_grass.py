@@ -1,4 +1,4 @@
-"""Row detection on the hard synthetic vineyards of issue 21: young vines (canopy 0.3-0.8 m over the ground) and
+"""Row detection on hard synthetic vineyards: young vines (canopy 0.3-0.8 m over the ground) and
 grass between the rows. Each case either finds every row within the synthetic bounds (count exact, lateral error
 <= 10 cm) or refuses with the evidence; it never reports rows on the grass strips (README "Rows and spray
 plans" states which cases are which)."""

@@ -13,7 +13,7 @@ import pytest
 import rasterio
 from lxml import etree
 
-from vinecli.runs.mission import recheck_run, run_mission
+from vinecli.runs import RunRequest, recheck_run, run_mission
 
 WORLD = """\
 name: flat-vines
@@ -59,7 +59,7 @@ def run(vine_world: Path, tmp_path_factory: pytest.TempPathFactory):
     d = tmp_path_factory.mktemp("budget-run")
     (d / "m.yaml").write_text(SPRAY.format(name="vines", checks="  - {name: done, quantity: status, op: '==', "
                                                                "bound: completed}"))
-    return run_mission(d / "m.yaml", vine_world, d / "runs", seed=2)
+    return run_mission(RunRequest(d / "m.yaml", vine_world, d / "runs", seed=2))
 
 
 def test_world_has_the_canopy_in_json_and_sdf(vine_world: Path) -> None:
@@ -154,7 +154,7 @@ def test_no_budget_without_spraying(flat_world_dir: Path, tmp_path: Path) -> Non
     m = tmp_path / "hover.yaml"
     m.write_text("name: hover\nvehicle: x500-sprayer\nmax_duration_s: 8\nphases:\n"
                  "  - {type: takeoff, altitude_agl_m: 2.0}\n  - {type: land}\n")
-    s = run_mission(m, flat_world_dir, tmp_path / "runs", seed=0)
+    s = run_mission(RunRequest(m, flat_world_dir, tmp_path / "runs", seed=0))
     rd = Path(s.run_dir)
     assert not (rd / "budget.json").exists() and not (rd / "canopy_deposit.tif").exists()
     assert "budget_canopy_fraction" not in s.metrics

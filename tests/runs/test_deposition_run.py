@@ -10,7 +10,7 @@ import pytest
 import rasterio
 from repo_paths import REPO
 
-from vinecli.runs.mission import run_mission
+from vinecli.runs import RunRequest, run_mission
 
 SPRAY = """\
 name: {name}
@@ -41,8 +41,8 @@ def mission(d: Path, name: str, fence: str = "", maxdur: float = 60.0) -> Path:
 
 def test_spray_run_writes_deposition_and_is_deterministic(flat_world_dir: Path, tmp_path: Path) -> None:
     m = mission(tmp_path, "rows")
-    a = run_mission(m, flat_world_dir, tmp_path / "a", seed=4)
-    b = run_mission(m, flat_world_dir, tmp_path / "b", seed=4)
+    a = run_mission(RunRequest(m, flat_world_dir, tmp_path / "a", seed=4))
+    b = run_mission(RunRequest(m, flat_world_dir, tmp_path / "b", seed=4))
     assert a.passed, a.failed_checks
     ra, rb = Path(a.run_dir), Path(b.run_dir)
     assert (ra / "deposition.tif").read_bytes() == (rb / "deposition.tif").read_bytes()
@@ -89,7 +89,8 @@ def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(fla
     # through it mid-row: geofence hold until the time limit, sprayer off at the breach
     fence = ("geofence: {polygon_enu: [[-1.0, -10.0], [10.0, -10.0], [10.0, 20.0], [-1.0, 20.0]], action: hold}\n"
              "wind: {law: {type: gust, peak_mps: 24.0, start_s: 6.0, duration_s: 4.0, heading_deg: 270.0}}")
-    s = run_mission(mission(tmp_path, "stuck", fence=fence, maxdur=45.0), flat_world_dir, tmp_path / "runs", seed=4)
+    s = run_mission(RunRequest(mission(tmp_path, "stuck", fence=fence, maxdur=45.0), flat_world_dir, tmp_path / "runs",
+                               seed=4))
     failed = {c["name"] for c in s.failed_checks}
     assert "spray_coverage" in failed
     assert s.metrics["row_coverage_fraction"] < 0.5
@@ -135,7 +136,7 @@ def test_deposition_map_of_a_dsm_world_is_in_the_dsm_crs(tmp_path: Path) -> None
     m = tmp_path / "short.yaml"
     m.write_text(SPRAY.format(name="short", fence="", maxdur=60.0).replace(
         "[[[0.0, 2.0], [0.0, 14.0]], [[3.6, 14.0], [3.6, 2.0]]]", "[[[-3.0, -10.0], [-3.0, 0.0]]]"))
-    s = run_mission(m, world, tmp_path / "runs", seed=2)
+    s = run_mission(RunRequest(m, world, tmp_path / "runs", seed=2))
     doc = json.loads((Path(s.run_dir) / "deposition.json").read_text())
     origin = load_world(world).origin  # the world's georeference: the DSM's CRS grid (vinecli.geo.GeoFrame)
     dsm = REPO / "worlds" / "sample" / "fieldimager_potato_plots_dsm_3cm_utm16n.tif"

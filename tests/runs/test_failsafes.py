@@ -39,7 +39,7 @@ checks:
 
 @pytest.fixture(scope="module")
 def breach_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[logging.LogRecord]]:
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.world import build_world
 
     tmp = tmp_path_factory.mktemp("failsafe")
@@ -50,7 +50,7 @@ def breach_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[log
     handler.emit = records.append  # type: ignore[method-assign]
     logging.getLogger("vinecli").addHandler(handler)
     try:
-        s = run_mission(tmp / "breach.yaml", world, tmp / "runs", seed=2)
+        s = run_mission(RunRequest(tmp / "breach.yaml", world, tmp / "runs", seed=2))
     finally:
         logging.getLogger("vinecli").removeHandler(handler)
     return Path(s.run_dir), records

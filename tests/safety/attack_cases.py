@@ -5,12 +5,12 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from vinecli.batch.case import CaseResult, RunSpec
+from vinecli.batch.case import CaseResult
 from vinecli.outputs import Manifest, atomic_output_dir
-from vinecli.runs import rundir
+from vinecli.runs import RunRequest, rundir
 
 
-def case_slow_write(spec: RunSpec) -> CaseResult:
+def case_slow_write(spec: RunRequest) -> CaseResult:
     """Writes its run folder slowly: a minute inside the atomic write (its temporary folder exists), then done."""
     with atomic_output_dir(Path(spec.runs_dir) / spec.run_id, Manifest(command="test"), overwrite=True) as tmp:
         rundir.write_summary(tmp / rundir.SUMMARY, {"run_id": spec.run_id, "status": "completed", "passed": True,

@@ -1,7 +1,7 @@
 """Run Python code or vinecli in a child process under an address-space ceiling and read its peak RSS.
 
-The ceiling (``RLIMIT_AS``) keeps a test of an unbounded allocation (the 8.2 GB deposition grid of a
-400 m spray height before issue 20) from taking the shared machine down: the child gets MemoryError
+The ceiling (``RLIMIT_AS``) keeps a test of an unbounded allocation (an 8.2 GB deposition grid for a
+400 m spray height, without the cell budget) from taking the shared machine down: the child gets MemoryError
 instead. The peak resident set comes from ``wait4``'s ``ru_maxrss`` of that one child.
 """
 

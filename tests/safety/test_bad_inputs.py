@@ -1,4 +1,4 @@
-"""Issue 20 item 6: exit 2 for every bad input. Each kind the attack pass found ending in exit 3 (or hanging)
+"""Exit 2 for every bad input. Each kind the attack pass found ending in exit 3 (or hanging)
 on main now ends with one clear line and exit 2, nothing written; a FIFO is refused without blocking."""
 
 from __future__ import annotations

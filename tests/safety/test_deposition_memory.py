@@ -1,7 +1,7 @@
-"""Issue 20 item 5: bounded memory. A spray height of 400 m built an 8.2 GB deposition grid (the disc kernel
+"""Bounded memory. A spray height of 400 m built an 8.2 GB deposition grid (the disc kernel
 of a ~340 m footprint at 0.1 m cells); now the grid keeps its padded convolution inside a cell budget
 (coarser cells), so the peak stays far below 1.5 GB at any height, and the volume balance still holds.
-Since issue 31 drag and the rotor wake keep a drop's footprint to a few metres even from 400 m (the
+Drag and the rotor wake keep a drop's footprint to a few metres even from 400 m (the
 cones' 340 m footprint is ``DepositionConfig(drag_reach=False)``, still exercised here), and the far field's
 parcels are bounded (spray/deposition.py MAX_FAR_PARCELS).
 

@@ -1,5 +1,5 @@
-"""Issue 20 item 6: a DSM in a geographic CRS (EPSG:4326, degrees) is reprojected onto a local metric grid, not
-refused and not an internal error (on main before issue 20 it ended with exit 3). The fine case: the sample
+"""A DSM in a geographic CRS (EPSG:4326, degrees) is reprojected onto a local metric grid, not
+refused and not an internal error. The fine case: the sample
 vineyard's 3 cm survey warped to EPSG:4326 (0.03 m ≈ 2.9e-7 degrees per pixel) gives the same rows as the survey
 in its own UTM zone, and converts to a heightmap with its spacing in metres."""
 

@@ -1,4 +1,4 @@
-"""Issue 20 item 1: one notion of inputs. Every command resolves every file it reads (the mission and its
+"""One notion of inputs. Every command resolves every file it reads (the mission and its
 ``base:`` chain, the vehicle and its parts, the world folder, the DSM, the .plan) before it writes, and
 refuses with exit 2, one line naming both paths and nothing written, an output that is, contains or lies
 inside one of them. On main `plan rows` and `plan import` wrote over their own inputs and exited 0, and

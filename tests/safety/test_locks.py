@@ -1,4 +1,4 @@
-"""Issue 20 item 3: atomic and locked. A second writer of a run id (or of a batch folder) exits 2 at once,
+"""Atomic and locked. A second writer of a run id (or of a batch folder) exits 2 at once,
 ``in use by pid N``, instead of racing (on main both runs of one id exited 0 and one was lost); a lock
 left by a dead process is taken over; nothing but complete runs lands in ``--out``. Real processes."""
 

@@ -1,4 +1,4 @@
-"""Issue 20 item 4: no orphans. ``kill -9`` of the batch process leaves no process of its tree (fork server,
+"""No orphans. ``kill -9`` of the batch process leaves no process of its tree (fork server,
 workers) within 5 s (on main they kept running: the workers ignored SIGTERM and held the fork server up),
 and a second signal during the shutdown leaves only complete runs or runs clearly marked as not complete
 (batch.json says ``interrupted``), never a half-written folder. Real processes, real signals."""
@@ -17,7 +17,7 @@ from attack_kit import IDLE, kill_session, mission, vinecli_proc, wait_for
 from proc_tree import alive, descendants, simulating
 from repo_paths import REPO
 
-#: the longest a killed batch's processes may outlive it, s (issue 20)
+#: the longest a killed batch's processes may outlive it, s
 DEADLINE_S = 5.0
 
 

@@ -1,4 +1,4 @@
-"""Issue 20 item 2: ``--out`` holds only what vinecli made. ``--overwrite`` and a batch replace only folders
+"""``--out`` holds only what vinecli made. ``--overwrite`` and a batch replace only folders
 vinecli made (marked: a vinecli manifest, or the ``.vinecli`` marker of the folders that hold outputs) and
 only when they hold nothing else; a user's file or folder in the way is named and kept (exit 2); a symbolic
 link inside ``--out`` is never followed for writing. On main a batch replaced a user folder named like a

@@ -1,4 +1,4 @@
-"""Issue 20 item 6, as properties (hypothesis): whatever a careless or hostile user puts in a spec field, a
+"""As properties (hypothesis): whatever a careless or hostile user puts in a spec field, a
 command-line option or an input file, vinecli ends with exit 0 (or 1: a check failed), or 2 with one line,
 never 3 or a traceback, and its inputs stay byte-identical.
 

@@ -1,4 +1,4 @@
-"""Issue 20 item 7: confined references and escaped text. ``base:`` and every spec a spec names resolve
+"""Confined references and escaped text. ``base:`` and every spec a spec names resolve
 relative to the file that names them and only inside the folders specs may refer to, and only to specs:
 ``base: /etc/shadow`` is refused unread (on main a file's first line could reach the error). Every user
 string printed to the terminal shows its control characters escaped (on main a check name with terminal

@@ -1,4 +1,4 @@
-"""Fixtures for the simulation tests: built worlds (flat, synthetic bumpy DSM as tiles and heightmap)."""
+"""Fixtures of the simulation tests: the flat world loaded (the bumpy DSM's worlds are tests/conftest.py's)."""
 
 from __future__ import annotations
 

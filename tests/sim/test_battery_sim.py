@@ -1,4 +1,4 @@
-"""Battery in the loop (issue 13): hover power against momentum theory, energy against the state of
+"""Battery in the loop: hover power against momentum theory, energy against the state of
 charge, voltage sag under load. Real PyBullet, built-in autopilot."""
 
 from __future__ import annotations

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vinecli.sim.recorder import Recorder, timeseries_columns
+from vinecli.sim.recorder import Recorder
+from vinecli.sim.row import timeseries_columns
 
 
 def test_rows_blocks_and_growth():

@@ -1,4 +1,4 @@
-"""Refill sorties (issues 13, 19) in the real loop: the tank runs dry mid-pass, the vehicle records the
+"""Refill sorties in the real loop: the tank runs dry mid-pass, the vehicle records the
 breakpoint, returns, lands, is refilled (a fresh battery only when the next sortie needs one), takes off,
 flies in along the pass at spraying speed and resumes at the breakpoint; the dose joins evenly there."""
 

@@ -1,7 +1,7 @@
 """Independent check of the loop against RotorPy (github.com/spencerfolk/rotorpy, MIT), whose
 ``Multirotor`` integrates the same rigid-body + first-order-motor ODE with scipy's RK45 at tight
 tolerances: open-loop x500 cases (collective step, roll step, yaw step, drag deceleration) agree
-within 1 % (issue 14); the rates of the attitude steps, first-order exact in both, within 0.2 %
+within 1 %; the rates of the attitude steps, first-order exact in both, within 0.2 %
 (the old motor timing, lag tau - dt/2, was ~1 % fast there). RotorPy is a test-only reference (``pip install --no-deps rotorpy``; its
 vehicle model needs only numpy and scipy); the test skips with a reason without it.
 

@@ -96,7 +96,7 @@ def test_one_prepared_run_flies_any_seed_like_run_simulation(flat_world: Any) ->
 
 def test_run_mission_reads_the_file_and_loads_the_vehicle_once(flat_world_dir: Path, tmp_path: Path,
                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     reads: list[Path] = []
     loads: list[str] = []
@@ -109,7 +109,7 @@ def test_run_mission_reads_the_file_and_loads_the_vehicle_once(flat_world_dir: P
     m = tmp_path / "m.yaml"
     m.write_text(yaml.safe_dump({"name": "x5", "vehicle": "x500", "max_duration_s": 0.2, "phases": [
         {"type": "open_loop", "duration_s": 0.2, "rotor_speeds_rad_s": 0.0}]}))
-    s = run_mission(m, flat_world_dir, tmp_path / "runs", record_rate=25.0, truth=True)
+    s = run_mission(RunRequest(m, flat_world_dir, tmp_path / "runs", record_rate=25.0, truth=True))
     assert s.status == "completed"
     assert reads == [m] and loads == ["x500"]
     (run,) = prepared

@@ -110,7 +110,7 @@ def test_world_build_refuses_a_spawn_that_cannot_pass_preflight(tmp_path: Path, 
     from typer.testing import CliRunner
 
     from vinecli.cli.app import app
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
 
     strict = tmp_path / "strict.yaml"  # the x500 sprayer that refuses to arm above 10 deg (the slope is 15)
     strict.write_text(f"base: {repo / 'vehicles' / 'x500-sprayer.yaml'}\nname: strict\n"
@@ -124,7 +124,7 @@ def test_world_build_refuses_a_spawn_that_cannot_pass_preflight(tmp_path: Path, 
     r = CliRunner().invoke(app, ["world", "build", str(spec), "--out", str(tmp_path / "w"), "--allow-unsafe-spawn"])
     assert r.exit_code == 0, r.output
     (tmp_path / "m.yaml").write_text("name: up\nmax_duration_s: 20\nphases: [{type: takeoff, altitude_agl_m: 2.0}]\n")
-    s = run_mission(tmp_path / "m.yaml", tmp_path / "w", tmp_path / "runs", seed=1)
+    s = run_mission(RunRequest(tmp_path / "m.yaml", tmp_path / "w", tmp_path / "runs", seed=1))
     assert s.status == "preflight_failed" and "'tilt'" in s.status_message and "limit 10 deg" in s.status_message
     events = (tmp_path / "runs" / s.run_id / "events.jsonl").read_text()
     assert '"kind": "preflight"' in events and '"kind": "arming"' not in events

@@ -1,4 +1,4 @@
-"""Step timing of the loop (issue 14): recorded rotor speeds are the speeds at the row's time and
+"""Step timing of the loop: recorded rotor speeds are the speeds at the row's time and
 follow the analytic first-order lag; the integration scheme's error bound; open-loop schedules.
 
 Integration scheme (PyBullet, one step per physics tick): semi-implicit (symplectic) Euler with

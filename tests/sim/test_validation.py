@@ -1,4 +1,4 @@
-"""Validation of the PyBullet loop against closed-form physics (issue 3).
+"""Validation of the PyBullet loop against closed-form physics.
 
 Every test runs the real loop (run_simulation, real PyBullet) with an in-test open-loop
 autopilot and compares recorded quantities with formulas.

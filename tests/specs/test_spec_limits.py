@@ -1,4 +1,4 @@
-"""Issue 9 item 5: NaN/inf and absurd magnitudes in any spec are load errors (exit 2, one line naming the
+"""NaN/inf and absurd magnitudes in any spec are load errors (exit 2, one line naming the
 file and the field), alias bombs and huge sweeps are refused before anything is expanded."""
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ import rasterio
 import yaml
 from rasterio.transform import from_origin
 
-from vinecli.runs import run_mission
+from vinecli.runs import RunRequest, run_mission
 
 
 def vineyard_tif(path: Path) -> None:
@@ -69,7 +69,7 @@ def test_auto_rows_are_detected_and_sprayed(tmp_path: Path) -> None:
         "checks": [{"name": "on_rows", "quantity": "metric:deposit_on_rows_fraction", "op": ">=", "bound": 0.15},
                    {"name": "drain", "quantity": "metric:drain_time_ratio", "op": "between", "bound": [0.95, 1.1]}],
     }))
-    s = run_mission(tmp_path / "m.yaml", world, tmp_path / "runs", seed=2)
+    s = run_mission(RunRequest(tmp_path / "m.yaml", world, tmp_path / "runs", seed=2))
     assert s.passed, (s.status, s.status_message, [(c["name"], c["value"], c["passed"]) for c in s.checks])
     summ = json.loads((Path(s.run_dir) / "summary.json").read_text())
     rows = summ["world"]["rows_enu"]

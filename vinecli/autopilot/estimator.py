@@ -145,6 +145,8 @@ class Estimator(StateEstimate):
     the GNSS position noise σ (the fence margins' unit).
     """
 
+    # parameters: keyword-only filter gains and time constants with their defaults; a caller names the few it
+    # changes
     def __init__(self, vehicle: VehicleSpec, origin: GeoOrigin, *, kp_acc: float = 0.4, ki_acc: float = 0.02,
                  kp_mag: float = 0.5, ki_mag: float = 0.01, acc_ref_tau_s: float = 0.5, acc_sigma: float = 0.2, bias_sigma: float = 0.02,
                  mag_field_enu: Vec3 | None = None, settle_s: float = 1.5) -> None:

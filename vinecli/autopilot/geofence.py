@@ -45,15 +45,11 @@ def point_in_polygon(x: float, y: float, poly: Sequence[tuple[float, float]]) ->
 
 def distance_to_polygon_edges(x: float, y: float, poly: Sequence[tuple[float, float]]) -> float:
     """Shortest distance (m) from (x, y) to the polygon's boundary (unsigned)."""
+    from vinecli.geometry import segments
+
     best = math.inf
-    n = len(poly)
-    for i in range(n):
-        ax, ay = poly[i - 1]
-        bx, by = poly[i]
-        dx, dy = bx - ax, by - ay
-        ll = dx * dx + dy * dy
-        u = 0.0 if ll == 0.0 else max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / ll))
-        best = min(best, math.hypot(x - (ax + u * dx), y - (ay + u * dy)))
+    for edge in segments([poly[-1], *poly]):  # the closing edge first
+        best = min(best, float(edge.nearest(x, y)[1]))
     return best
 
 

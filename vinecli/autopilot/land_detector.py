@@ -140,6 +140,8 @@ class LandDetector:
     def freefall(self) -> bool:
         return self.freefall_h.state
 
+    # parameters: called every physics step by compiled code with the estimate and the set points as plain
+    # floats (PX4's land detector inputs): an object to hold them would be built every step
     def update(self, t_us: int, armed: bool, z: float, vel: Vec3, omega: Vec3, acc: Vec3, thrust: float,
                hover_estimate: float, hover_valid: bool, vz_sp: float, *, climb_rate_control: bool = True,
                dist_bottom: float = math.nan, range_observable: bool = False) -> None:

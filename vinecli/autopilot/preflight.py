@@ -92,6 +92,7 @@ def check_spawn_fence(fence: GeofenceSpec | None, home: Vec3, margin_h: float) -
                             f"{horiz:.2f} m inside, needs {margin_h:.2f} m (position uncertainty)")
 
 
+# parameters: keyword-only options, each with its default (the mission's world: fence, vehicle, terrain, air, no-spray zones); a caller names the ones it sets
 def plan_points(mission: MissionSpec, home: Vec3, rows: Sequence[Sequence[tuple[float, float]]],
                 terrain_height: Callable[[float, float], float] | None, landing_gear_m: float, *,
                 fence: GeofenceSpec | None = None, accel_mps2: float | None = None, vehicle: VehicleSpec | None = None,

@@ -1,4 +1,4 @@
-"""The unit of work of a batch: ``run_one(RunSpec) -> CaseResult``.
+"""The unit of work of a batch: ``run_one(RunRequest) -> CaseResult``.
 
 ``run_one`` is a top-level, picklable function executed in worker processes (local process
 pool or Dask workers). A worker keeps one PyBullet client with its world's terrain loaded from one
@@ -17,24 +17,9 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from vinecli.batch.signals import case_running, worker_should_stop
+from vinecli.runs.request import RunRequest
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    """Everything a worker needs to run one case (plain data, picklable)."""
-
-    case: str
-    run_id: str
-    mission: dict[str, Any]  # validated MissionSpec as JSON-able dict
-    mission_path: str
-    world_dir: str  # a built world directory
-    runs_dir: str
-    seed: int
-    timeout_s: float | None = None
-    mcap: bool = False
-    autopilot_options: dict[str, Any] = field(default_factory=dict)  # firmware options (px4_bin, ardupilot_bin)
 
 
 @dataclass
@@ -57,31 +42,28 @@ class CaseResult:
         return asdict(self)
 
 
-def run_one(spec: RunSpec) -> CaseResult:
-    """Run one case into ``runs_dir/run_id``; any failure becomes ``status='error'`` with a message."""
+def run_one(request: RunRequest) -> CaseResult:
+    """Run one case (a batch's :class:`~vinecli.runs.request.RunRequest`, its case and run id set) into
+    ``runs_dir/run_id``; any failure becomes ``status='error'`` with a message."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
+    case, run_id, seed = str(request.case), str(request.run_id), request.seed
     if worker_should_stop():
-        return CaseResult(spec.case, spec.run_id, "interrupted", False, "not run: the batch was stopped", seed=spec.seed)
+        return CaseResult(case, run_id, "interrupted", False, "not run: the batch was stopped", seed=seed)
     try:
         from vinecli.runs.mission import run_mission
-        from vinecli.specs.mission import MissionSpec
         from vinecli.world.engine import reuse_terrain_engines
 
         reuse_terrain_engines()  # a worker keeps its world's terrain loaded from one case to the next
 
-        mission = MissionSpec.model_validate(spec.mission)
         with case_running():
-            s = run_mission(mission, spec.world_dir, spec.runs_dir, seed=spec.seed, run_id=spec.run_id,
-                            mcap=spec.mcap, wall_timeout_s=spec.timeout_s, case=spec.case,
-                            overwrite=True, should_stop=worker_should_stop,
-                            protect=[spec.mission_path], autopilot_options=spec.autopilot_options or None)
+            s = run_mission(request, should_stop=worker_should_stop)
     except BaseException as exc:  # noqa: BLE001 - a worker reports, it never dies with the case
         if isinstance(exc, KeyboardInterrupt):
             raise
-        log.debug("case %s failed:\n%s", spec.case, traceback.format_exc())
-        return CaseResult(spec.case, spec.run_id, "error", False, f"{type(exc).__name__}: {exc}", seed=spec.seed,
+        log.debug("case %s failed:\n%s", case, traceback.format_exc())
+        return CaseResult(case, run_id, "error", False, f"{type(exc).__name__}: {exc}", seed=seed,
                           wall_time_s=round(time.perf_counter() - t0, 3))
     error = None
     status = s.status
@@ -90,7 +72,7 @@ def run_one(spec: RunSpec) -> CaseResult:
     elif status == "error":  # the run could not fly to its end (a firmware died, a lost link): not a check failure
         error = s.status_message or "the run failed"
     return CaseResult(
-        spec.case, spec.run_id, status, s.passed and error is None, error, seed=spec.seed, sim_time_s=s.sim_time_s,
+        case, run_id, status, s.passed and error is None, error, seed=seed, sim_time_s=s.sim_time_s,
         wall_time_s=s.wall_time_s, real_time_factor=s.real_time_factor,
         failed_checks=[c["name"] for c in s.failed_checks],
     )

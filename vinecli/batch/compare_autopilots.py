@@ -23,6 +23,7 @@ COMPARISON_JSON = "comparison.json"
 COMPARISON_PNG = "comparison.png"
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli run compare` option; a caller names the ones it sets
 def compare_autopilots(mission: str | Path, world: str | Path, runs_dir: str | Path, *,
                        autopilots: Sequence[str] = AUTOPILOTS, seed: int = 0, workers: int = 1,
                        px4_bin: str | Path | None = None, ardupilot_bin: str | Path | None = None,

@@ -1,4 +1,4 @@
-"""Checks a batch passes before any case runs (issue 20): its inputs, its outputs, its memory.
+"""Checks a batch passes before any case runs: its inputs, its outputs, its memory.
 
 * :func:`note_case_inputs`: every file the cases read (the vehicles the missions name, the worlds: built
   folders, or specs with the terrain and vehicle files they name) joins the batch's inputs
@@ -13,7 +13,6 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from vinecli.batch.pipeline import Case
 from vinecli.errors import InputError, OutputError
 from vinecli.inputs import current_inputs, note_input
 from vinecli.output_guard import contained_path, replaceable_problem
+from vinecli.runs.batch_json import read_batch_json
 
 __all__ = ["check_case_targets", "check_cases_memory", "note_case_inputs"]
 
@@ -78,10 +78,9 @@ def check_case_targets(cases: Sequence[Case], runs_dir: Path, pipeline: Path, *,
 
 def _is_batch_json(path: Path) -> bool:
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        return "pipeline" in read_batch_json(path)
+    except InputError:
         return False
-    return isinstance(doc, dict) and isinstance(doc.get("cases"), list) and "pipeline" in doc
 
 
 def check_cases_memory(cases: Sequence[Case], worlds: Mapping[str, str], pipeline: Path) -> None:

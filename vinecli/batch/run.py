@@ -30,7 +30,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from vinecli.batch.case import CaseResult, RunSpec, run_one
+from vinecli.batch.case import CaseResult, run_one
 from vinecli.batch.executors import (
     EXECUTORS,
     WORKER_CASES,
@@ -47,11 +47,14 @@ from vinecli.inputs import note_input, reading_inputs
 from vinecli.locks import output_lock
 from vinecli.outputs import contained_path, jsonable, output_folder, remove_stale_temps, write_text_atomic
 from vinecli.runs import rundir
+from vinecli.runs.batch_json import BATCH_JSON
+from vinecli.runs.request import RunRequest
+from vinecli.sitl.options import PX4_DEFAULTS, AutopilotOptions
 from vinecli.specs.limits import MAX_DURATION_S
+from vinecli.specs.mission import MissionSpec
 
 log = logging.getLogger(__name__)
 
-BATCH_JSON = "batch.json"
 WORLDS_DIR = "_worlds"
 #: seconds running cases get to write their partial runs after a stop signal
 STOP_GRACE_S = 30.0
@@ -94,6 +97,8 @@ class BatchResult:
 ProgressFn = Callable[[CaseResult, int, int], None]
 
 
+# parameters: the keyword options of the public batch API, one per `vinecli run batch` option or test hook; they
+# travel on as one _Batch (what every case's run gets) and one _Pool (how the cases run)
 def run_batch(
     pipeline: str | Path | PipelineSpec,
     runs_dir: str | Path,
@@ -104,7 +109,7 @@ def run_batch(
     timeout_s: float | None = None,
     *,
     progress: ProgressFn | None = None,
-    run_case: Callable[[RunSpec], CaseResult] = run_one,
+    run_case: Callable[[RunRequest], CaseResult] = run_one,
     dask_processes: bool = True,
     max_tasks_per_child: int = WORKER_CASES,
     grace_s: float | None = None,
@@ -141,7 +146,7 @@ def run_batch(
                 raise InputError("world not found", path=world)
             spec = with_world(spec, world)
         cases = expand_cases(spec, ppath)
-        ap_opts: dict[str, dict[str, Any]] = {"px4": {}, "ardupilot": {}}
+        ap_opts: dict[str, AutopilotOptions] = {}
         for name, given, piped in (("px4", px4_bin, spec.px4_bin), ("ardupilot", ardupilot_bin, spec.ardupilot_bin)):
             if given is not None or piped is not None:
                 pb = Path(given) if given is not None else (ppath.parent / str(piped))
@@ -149,65 +154,106 @@ def run_batch(
                 if not pb.is_file():
                     raise InputError(f"{label} binary not found ({name}_bin)", path=pb)
                 note_input(pb, f"{label} binary")
-                ap_opts[name][f"{name}_bin"] = str(pb.resolve())
+                ap_opts[name] = AutopilotOptions(**{f"{name}_bin": str(pb.resolve())})
         note_case_inputs(cases, ppath)
         check_case_targets(cases, runs_dir, ppath, batch_json=BATCH_JSON, worlds_dir=WORLDS_DIR, resume=resume)
         with output_folder(runs_dir, "runs"), output_lock(runs_dir, inside=True):
             remove_stale_temps(runs_dir)
             try:
-                return _run(spec, ppath, cases, runs_dir, workers, executor, scheduler, resume, timeout_s, progress,
-                            run_case, dask_processes, max_tasks_per_child, grace_s, mcap, ap_opts)
+                batch = _Batch(spec, ppath, cases, runs_dir, resume, timeout_s if timeout_s is not None else spec.timeout_s,
+                               grace_s, mcap, ap_opts)
+                pool = _Pool(run_case, workers, executor, scheduler, dask_processes, max_tasks_per_child)
+                return _run(batch, pool, progress)
             finally:  # what workers killed by a second signal left half-written
                 remove_stale_temps(runs_dir)
 
 
-def _run(spec: PipelineSpec, ppath: Path, cases: list[Case], runs_dir: Path, workers: int, executor: str,
-         scheduler: str | None, resume: bool, timeout_s: float | None, progress: ProgressFn | None,
-         run_case: Callable[[RunSpec], CaseResult], dask_processes: bool, max_tasks_per_child: int, grace_s: float | None,
-         mcap: bool, ap_opts: dict[str, dict[str, Any]]) -> BatchResult:
+@dataclass(frozen=True)
+class _Batch:
+    """A batch once its inputs are read: the pipeline (and its file), its cases, the runs folder, and what every
+    case's run gets (its wall-clock limit, run.mcap, the firmware binaries of its autopilot)."""
+
+    spec: PipelineSpec
+    ppath: Path
+    cases: list[Case]
+    runs_dir: Path
+    resume: bool
+    timeout_s: float | None  # wall-clock limit per case, s
+    grace_s: float | None  # past the limit, s, before the parent stops a worker (None: max(30 s, limit / 4))
+    mcap: bool
+    autopilot_options: dict[str, AutopilotOptions]  # per autopilot name
+
+    def request(self, case: Case, world_dir: str) -> RunRequest:
+        """The run of ``case`` in the built world ``world_dir``."""
+        options = self.autopilot_options.get(str(case.mission.get("autopilot")), PX4_DEFAULTS)
+        return RunRequest(MissionSpec.model_validate(case.mission), world_dir, str(self.runs_dir), seed=case.seed,
+                          run_id=case.name, case=case.name, mcap=self.mcap, wall_timeout_s=self.timeout_s,
+                          overwrite=True, protect=(case.mission_path,), autopilot_options=options)
+
+    @property
+    def hard_limit_s(self) -> float | None:
+        """Wall seconds after which the parent stops a case's worker (the limit and its grace), None without one."""
+        limit = self.timeout_s
+        if limit is None:
+            return None
+        return limit + (self.grace_s if self.grace_s is not None else max(30.0, 0.25 * limit))
+
+
+@dataclass(frozen=True)
+class _Pool:
+    """How the cases run: ``run_case`` in ``workers`` processes of the ``executor`` (a local process pool, or Dask at
+    ``scheduler`` with ``dask_processes``), a local worker replaced after ``max_tasks_per_child`` cases."""
+
+    run_case: Callable[[RunRequest], CaseResult]
+    workers: int
+    executor: str
+    scheduler: str | None
+    dask_processes: bool
+    max_tasks_per_child: int
+
+
+def _run(batch: _Batch, pool: _Pool, progress: ProgressFn | None) -> BatchResult:
     """:func:`run_batch` once its inputs are read and its outputs checked (the runs folder locked)."""
-    limit = timeout_s if timeout_s is not None else spec.timeout_s
     t0 = time.perf_counter()
-    if executor == "local":
+    if pool.executor == "local":
         start_fork_server()  # its imports overlap with preparing the worlds
     with StopRequest() as stop:
         worlds: dict[str, str] = {}
         try:
             with stop.interruptible():
-                worlds = prepare_worlds(cases, runs_dir)
+                worlds = prepare_worlds(batch.cases, batch.runs_dir)
         except BatchInterrupted:
             log.warning("%s: batch stopped while preparing the worlds", stop.name)
         if stop.signum is None:
-            check_cases_memory(cases, worlds, ppath)
-        run_specs = [RunSpec(c.name, c.name, c.mission, c.mission_path, worlds.get(c.world, c.world), str(runs_dir),
-                             c.seed, limit, mcap, ap_opts.get(str(c.mission.get("autopilot")), {})) for c in cases]
-        hard = None if limit is None else limit + (grace_s if grace_s is not None else max(30.0, 0.25 * limit))
+            check_cases_memory(batch.cases, worlds, batch.ppath)
+        requests = [batch.request(c, worlds.get(c.world, c.world)) for c in batch.cases]
 
-        def execute(todo: Sequence[RunSpec], record: Callable[[CaseResult], None]) -> None:
-            _execute(todo, run_case, workers, executor, scheduler, dask_processes, max_tasks_per_child, hard, record, stop)
+        def execute(todo: Sequence[RunRequest], record: Callable[[CaseResult], None]) -> None:
+            _execute(todo, pool, batch.hard_limit_s, record, stop)
 
         def write(results: dict[str, CaseResult]) -> None:
-            _write_batch_json(runs_dir, spec, ppath, executor, workers, run_specs, results, t0)
+            _write_batch_json(batch.runs_dir, batch.spec, batch.ppath, pool.executor, pool.workers, requests, results,
+                              t0)
 
-        results = _run_cases(run_specs, runs_dir, resume, stop, progress, execute, write)
-    return BatchResult(spec.name, str(runs_dir), [results[rs.case] for rs in run_specs],
+        results = _run_cases(requests, batch.runs_dir, batch.resume, stop, progress, execute, write)
+    return BatchResult(batch.spec.name, str(batch.runs_dir), [results[str(r.case)] for r in requests],
                        round(time.perf_counter() - t0, 3), stop.signum)
 
 
-def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: StopRequest,
+def _run_cases(requests: list[RunRequest], runs_dir: Path, resume: bool, stop: StopRequest,
                progress: ProgressFn | None,
-               execute: Callable[[Sequence[RunSpec], Callable[[CaseResult], None]], None],
+               execute: Callable[[Sequence[RunRequest], Callable[[CaseResult], None]], None],
                write: Callable[[dict[str, CaseResult]], None]) -> dict[str, CaseResult]:
     """Resume, ``execute`` and record every case, ``write`` batch.json after each; after a stop signal the
     cases that did not run are recorded as ``interrupted`` so batch.json never keeps a case ``pending``."""
     results: dict[str, CaseResult] = {}
-    todo: list[RunSpec] = []
-    for rs in run_specs:
-        if resume and rundir.is_complete_run(runs_dir / rs.run_id):
-            results[rs.case] = _result_from_summary(rs, runs_dir / rs.run_id)
+    todo: list[RunRequest] = []
+    for rs in requests:
+        if resume and rundir.is_complete_run(runs_dir / str(rs.run_id)):
+            results[str(rs.case)] = _result_from_summary(rs, runs_dir / str(rs.run_id))
         else:
             todo.append(rs)
-    total = len(run_specs)
+    total = len(requests)
     done_count = len(results)
     if results:
         log.info("resume: %d of %d cases already finished", len(results), total)
@@ -223,35 +269,33 @@ def _run_cases(run_specs: list[RunSpec], runs_dir: Path, resume: bool, stop: Sto
     for r in list(results.values()):
         if progress is not None:
             progress(r, list(results).index(r.case) + 1, total)
-    # longest first (LPT): the mission's time limit is the cost estimate, so short cases fill the tail
-    todo.sort(key=lambda rs: -float(rs.mission.get("max_duration_s") or 0.0))
     try:
         if todo and stop.signum is None:
             execute(todo, record)
     finally:  # also on a second signal (KeyboardInterrupt): batch.json stays consistent
         if stop.signum is not None:
-            for rs in run_specs:
+            for rs in requests:
                 if rs.case not in results:
-                    results[rs.case] = _interrupted(rs, f"not run: the batch was stopped by {stop.name}")
+                    results[str(rs.case)] = _interrupted(rs, f"not run: the batch was stopped by {stop.name}")
         write(results)
     return results
 
 
-def _execute(todo: Sequence[RunSpec], run_case: Callable[[RunSpec], CaseResult], workers: int, executor: str,
-             scheduler: str | None, dask_processes: bool, max_tasks_per_child: int, hard_limit: float | None,
-             record: Callable[[CaseResult], None], stop: StopRequest) -> None:
+def _execute(todo: Sequence[RunRequest], pool: _Pool, hard_limit: float | None, record: Callable[[CaseResult], None],
+             stop: StopRequest) -> None:
     # longest expected case first (max_duration_s as the estimate): a long case started last would leave
     # the other workers idle at the end of the batch; the order does not change any run (seeds are per case)
-    pending: deque[RunSpec] = deque(sorted(todo, key=_expected_cost, reverse=True))
-    suspects: deque[RunSpec] = deque()  # cases in flight when a worker died: rerun one at a time
-    inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]] = {}
-    local = executor == "local"
+    pending: deque[RunRequest] = deque(sorted(todo, key=_expected_cost, reverse=True))
+    suspects: deque[RunRequest] = deque()  # cases in flight when a worker died: rerun one at a time
+    inflight: dict[Future[CaseResult], tuple[RunRequest, float, bool]] = {}
+    run_case, workers, max_tasks_per_child = pool.run_case, pool.workers, pool.max_tasks_per_child
+    local = pool.executor == "local"
     flag = local_stop_flag() if local else None
     with ExitStack() as stack:
         if local:
             ex: Executor = make_local_executor(workers, max_tasks_per_child, flag)
         else:
-            ex = stack.enter_context(dask_executor(workers, scheduler, processes=dask_processes))
+            ex = stack.enter_context(dask_executor(workers, pool.scheduler, processes=pool.dask_processes))
 
         def refill() -> None:
             while pending and not suspects and len(inflight) < workers:
@@ -309,12 +353,12 @@ def _execute(todo: Sequence[RunSpec], run_case: Callable[[RunSpec], CaseResult],
                     ex.shutdown(wait=True)
 
 
-def _expected_cost(s: RunSpec) -> float:
+def _expected_cost(s: RunRequest) -> float:
     """Simulated seconds a case may take (its mission's ``max_duration_s``), to schedule long cases first."""
-    return float(s.mission.get("max_duration_s") or 0.0)
+    return float(s.mission.max_duration_s) if isinstance(s.mission, MissionSpec) else 0.0
 
 
-def _drain(inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]], flag: Any,
+def _drain(inflight: dict[Future[CaseResult], tuple[RunRequest, float, bool]], flag: Any,
            record: Callable[[CaseResult], None], signame: str) -> None:
     """After a stop signal: raise a local pool's stop ``flag`` (its runs end at the next step and are written
     as ``interrupted``), wait up to :data:`STOP_GRACE_S` and record what the cases return (Dask, no flag:
@@ -336,7 +380,7 @@ def _drain(inflight: dict[Future[CaseResult], tuple[RunSpec, float, bool]], flag
         record(_interrupted(s, f"stopped by {signame}: no result after {STOP_GRACE_S:g} s (worker killed)"))
 
 
-def _interrupted(s: RunSpec, message: str) -> CaseResult:
+def _interrupted(s: RunRequest, message: str) -> CaseResult:
     return CaseResult(s.case, s.run_id, "interrupted", False, message, seed=s.seed)
 
 
@@ -350,7 +394,7 @@ def _kill_pool(ex: Executor) -> None:
         p.join(timeout=5)
 
 
-def _error(s: RunSpec, message: str) -> CaseResult:
+def _error(s: RunRequest, message: str) -> CaseResult:
     return CaseResult(s.case, s.run_id, "error", False, message, seed=s.seed)
 
 
@@ -360,7 +404,7 @@ def _timing(summary: dict[str, Any]) -> dict[str, Any]:
     return t if isinstance(t, dict) else summary
 
 
-def _result_from_summary(s: RunSpec, run_dir: Path) -> CaseResult:
+def _result_from_summary(s: RunRequest, run_dir: Path) -> CaseResult:
     d = rundir.read_summary(run_dir)
     return CaseResult(
         s.case, s.run_id, str(d.get("status")), bool(d.get("passed")), None, seed=int(d.get("seed", s.seed)),
@@ -371,9 +415,9 @@ def _result_from_summary(s: RunSpec, run_dir: Path) -> CaseResult:
 
 
 def _write_batch_json(runs_dir: Path, spec: PipelineSpec, ppath: Path, executor: str, workers: int,
-                      run_specs: Sequence[RunSpec], results: dict[str, CaseResult], t0: float) -> None:
+                      requests: Sequence[RunRequest], results: dict[str, CaseResult], t0: float) -> None:
     cases: list[dict[str, Any]] = []
-    for rs in run_specs:
+    for rs in requests:
         r = results.get(rs.case)
         cases.append(r.to_dict() if r else {"case": rs.case, "run_id": rs.run_id, "status": "pending",
                                              "passed": False, "error": None, "seed": rs.seed})
@@ -422,12 +466,3 @@ def build_world_once(spec_path: Path, worlds_root: Path) -> Path:
         build_world(spec_path, out, overwrite=True)
         write_text_atomic(stamp, digest + "\n")
     return out
-
-
-def read_batch(runs_dir: Path) -> dict[str, Any]:
-    """``RUNS/batch.json`` as a dict."""
-    p = Path(runs_dir) / BATCH_JSON
-    try:
-        return json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"cannot read batch.json: {exc}", path=p) from None

@@ -16,6 +16,7 @@ app = typer.Typer(help="Spray plans: rows -> QGroundControl .plan, .plan -> miss
                   no_args_is_help=True)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("rows")
 @handles_errors
 def rows_cmd(
@@ -44,11 +45,12 @@ def rows_cmd(
 
     Example: vinecli plan rows worlds/sample/fieldimager_potato_plots_dsm_3cm_utm16n.tif --out rows.plan
     """
-    from vinecli.missions.rowjob import plan_rows_job
+    from vinecli.missions.rowjob import RowsPlanOptions, plan_rows_job
 
-    job = plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
-                        detect=detect, world_rows=use_world_rows, vehicle=vehicle, tank_l=tank,
-                        fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
+    options = RowsPlanOptions(spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff, detect=detect,
+                              world_rows=use_world_rows, vehicle=vehicle, tank_l=tank, fence_margin=fence_margin,
+                              home=home)
+    job = plan_rows_job(source, out, options, mission_out=mission_out, overwrite=overwrite)
     if job.detection is not None:
         out_console.print(escape(f"rows: {job.detection.summary()}"))
         if job.detection.confidence < 0.5:

@@ -13,6 +13,7 @@ from vinecli.cli.options import out_option, overwrite_option, workers_option
 app = typer.Typer()
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("report")
 @handles_errors
 def report_cmd(

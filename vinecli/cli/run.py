@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -25,9 +25,14 @@ from vinecli.cli.options import (
 )
 from vinecli.sitl.options import PX4_DEFAULTS
 
+if TYPE_CHECKING:
+    from vinecli.batch.case import CaseResult
+    from vinecli.batch.run import BatchResult
+
 app = typer.Typer(help="Run missions (single or batch) in PyBullet.", no_args_is_help=True)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("mission")
 @handles_errors
 def mission_cmd(
@@ -72,7 +77,7 @@ def mission_cmd(
     """
     from vinecli.errors import ChecksFailed, Interrupted, RuntimeFailure
     from vinecli.missions.spec_io import read_mission
-    from vinecli.runs import run_mission
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.sitl.options import AutopilotOptions, firmware_binary, px4_binary
 
     src = read_mission(mission)  # read once: run_mission takes it as it is
@@ -91,9 +96,9 @@ def mission_cmd(
             mavlink=mavlink, realtime=realtime, mavlink_allow_remote=mavlink_allow_remote,
             px4_allow_remote=px4_allow_remote,
             ardupilot_bin=firmware_binary(ardupilot_bin, "--ardupilot-bin", "ArduPilot"))
-        summary = run_mission(src, world, out, seed=seed, autopilot=autopilot, truth=truth or None,
-                              record_rate=rate, mcap=mcap, progress=on_progress, run_id=run_id, overwrite=overwrite,
-                              autopilot_options=options.changed())
+        request = RunRequest(src, world, out, seed=seed, run_id=run_id, autopilot=autopilot, truth=truth or None,
+                             record_rate=rate, mcap=mcap, overwrite=overwrite, autopilot_options=options)
+        summary = run_mission(request, progress=on_progress)
     _checks_table(summary.checks, title=f"{summary.run_id}: {summary.status}")
     out_console.print(f"{summary.run_dir}  sim {summary.sim_time_s:.1f} s, wall {summary.wall_time_s:.1f} s, "
                       f"{summary.real_time_factor:.1f}x real time")
@@ -107,6 +112,7 @@ def mission_cmd(
                            + ", ".join(c["name"] for c in summary.failed_checks), path=summary.run_dir)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("batch")
 @handles_errors
 def batch_cmd(
@@ -146,7 +152,7 @@ def batch_cmd(
     with bar:
         task = bar.add_task("cases", total=n, info="")
 
-        def on_case(r: Any, done: int, total: int) -> None:
+        def on_case(r: CaseResult, done: int, total: int) -> None:
             mark = "skipped" if r.skipped else ("ok" if r.passed else (r.error and "error") or "FAILED")
             bar.update(task, completed=done, info=f"{r.case}: {mark}")
 
@@ -255,7 +261,7 @@ def _checks_table(checks: list[dict[str, Any]], title: str) -> None:
             out_console.print(f"  [red]{escape(str(c['name']))}[/]: {escape(str(c['message']))}", markup=True)
 
 
-def _batch_table(result: Any) -> None:
+def _batch_table(result: BatchResult) -> None:
     from rich.markup import escape
     from rich.table import Table
 

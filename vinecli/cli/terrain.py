@@ -15,6 +15,7 @@ from vinecli.terrain.defaults import FILL, HEIGHTMAP_METHOD, RECONSTRUCT_METHOD,
 app = typer.Typer(help="Turn DSMs and point clouds into simulator terrain.", no_args_is_help=True)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("reconstruct")
 @handles_errors
 def reconstruct(
@@ -82,6 +83,7 @@ def _render_reconstruct(stats: dict, out: Path) -> None:
     out_console.print(t)
 
 
+# parameters: Typer reads the command's options from its parameters, one per option
 @app.command("convert")
 @handles_errors
 def convert(

@@ -37,6 +37,8 @@ class PathFollower:
     rest at the points whose indices are in ``stops``.
     """
 
+    # parameters: keyword-only tuning with defaults (speeds, accelerations, lead and look-ahead);
+    # a caller names the few it changes
     def __init__(self, points: Sequence[Vec3], speed: float, *, accel: float = 1.5, flows: Sequence[float] | None = None,
                  terrain: Callable[[float, float], float] | None = None, acceptance_m: float = 0.5,
                  max_lead_m: float = 2.5, corner_speed: float = 0.3, terrain_tau_s: float = 0.4,

@@ -1,11 +1,13 @@
-"""Physics models as plain Python objects (no PyBullet): motors, drag, wind, tank, sensors.
+"""Flight dynamics as plain models (no PyBullet, no MAVLink): the vehicle and the air it flies in, per physics step.
 
-World frame ENU, body frame FLU, SI units; per-step code uses plain floats (design.md §8).
-The simulation engine (``vinecli.sim``) applies these models to PyBullet bodies.
+* :mod:`~vinecli.flight.motor` (``MotorBank``: rotor lag, thrust, rotor drag, torques), :mod:`~vinecli.flight.aero`
+  (drag on the links), :mod:`~vinecli.flight.battery` (cells, load, sag), :mod:`~vinecli.flight.tank` (the liquid's
+  push, sloshing), :mod:`~vinecli.flight.pump` (the sprayer's pump).
+* :mod:`~vinecli.flight.wind` (``make_wind``) and :mod:`~vinecli.flight.dryden` (turbulence);
+  :mod:`~vinecli.flight.atmosphere` (ISA), :mod:`~vinecli.flight.magnetic` (the Earth's field).
+* :mod:`~vinecli.flight.sensors` (IMU, barometer, magnetometer, GNSS) and :mod:`~vinecli.flight.rangefinder`.
 
-Modules: :mod:`~vinecli.flight.motor` (MotorBank), :mod:`~vinecli.flight.aero`
-(wind_drag), :mod:`~vinecli.flight.wind` (make_wind) and :mod:`~vinecli.flight.dryden`,
-:mod:`~vinecli.flight.tank` (Tank), :mod:`~vinecli.flight.sensors` (make_sensors),
-:mod:`~vinecli.flight.magnetic` (earth_field_ned), :mod:`~vinecli.flight.atmosphere`.
-Submodules are imported on use so importing the package stays cheap.
+World frame ENU, body frame FLU, SI units; per-step code uses plain floats (docs/flight-models.md §6) and most of it
+is compiled with the kernel (vinecli/native.py). The simulator (:mod:`vinecli.sim`) applies these models to
+PyBullet bodies. May import the ground floor (constants, errors, frames, geo, inputs, outputs, types, ...) and :mod:`vinecli.specs`. Submodules are imported on use.
 """

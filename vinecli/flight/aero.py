@@ -1,4 +1,4 @@
-"""Quadratic wind drag on the vehicle's links (thesis §2.2.2 "wind-drag" plugin, design.md §3).
+"""Quadratic wind drag on the vehicle's links (thesis §2.2.2 "wind-drag" plugin, docs/flight-models.md §2).
 
 ``F = c |V_app|² V_app/|V_app| = c |V_app| V_app`` with ``V_app = wind - v_link`` and
 ``c = ½ ρ S C_D0`` (kg/m). Any frame works as long as both vectors share it (the simulation

@@ -1,4 +1,4 @@
-"""ISA troposphere as Gazebo's barometer plugin computes it (px4-sitl-and-mavlink.md §1.7).
+"""ISA troposphere as Gazebo's barometer plugin computes it (docs/firmware-protocols.md §2).
 
 ``T = 288.15 - 0.0065 h`` K and ``p = 101325 / (288.15 / T)^5.256`` Pa with h in metres
 above mean sea level, in the troposphere (h <= 11 km). Above it (a vehicle that climbs for hours) the

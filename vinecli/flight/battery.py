@@ -1,4 +1,4 @@
-"""Lithium-polymer battery and the vehicle's electrical load (issue 13; plain Python, no PyBullet).
+"""Lithium-polymer battery and the vehicle's electrical load (plain Python, no PyBullet).
 
 Model (one equivalent cell times ``cells`` in series, SI units):
 

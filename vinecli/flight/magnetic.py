@@ -3,7 +3,7 @@
 Uses ``pygeomag`` (a port of NOAA's WMM; WMM-2025 coefficients by default, valid 2025-2030).
 PX4 compares the simulated field with its own WMM tables (strength, inclination,
 declination) before arming, so the simulator must report the real field of the location
-(px4-sitl-and-mavlink.md §1.7). Results are cached: pygeomag costs milliseconds per call.
+(docs/firmware-protocols.md §2). Results are cached: pygeomag costs milliseconds per call.
 """
 
 from __future__ import annotations

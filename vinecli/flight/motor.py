@@ -1,4 +1,4 @@
-"""Multicopter motor/propeller model (design.md §3, Gazebo ``gazebo_motor_model.cpp``).
+"""Multicopter motor/propeller model (docs/flight-models.md §1, Gazebo ``gazebo_motor_model.cpp``).
 
 Per rotor i, body frame FLU, SI units:
 
@@ -24,7 +24,7 @@ Per rotor i, body frame FLU, SI units:
 
 The total wrench about the centre of mass adds ``r_i × (T_i a_i + D_i)``. Gazebo-classic's
 extra thrust reduction ``(1 - v_axial/25)`` is not modelled (valid near hover, |V| < tip
-speed / 7, rigid blades). Everything is plain floats (design.md §8): this runs every step.
+speed / 7, rigid blades). Everything is plain floats (docs/flight-models.md §6): this runs every step.
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ class LocalFeature:
 
 def rows_features(rows: list[list[tuple[float, float]]]) -> list[LocalFeature]:
     """One LineString per row, properties ``index`` (0-based, the plan's numbering) and ``length_m``."""
-    from vinecli.rows.geometry import polyline_length
+    from vinecli.geometry import polyline_length
 
     return [LocalFeature("LineString", list(r), {"index": i, "length_m": round(polyline_length(r), 3)})
             for i, r in enumerate(rows)]

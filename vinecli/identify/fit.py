@@ -78,7 +78,7 @@ def fit_flight_log(log_path: str | Path, *, base: str = "x500", mass_kg: float |
     stem = name_from(Path(log_path).stem, "log")
     vname = name or f"{stem}-fit"
     desc = f"fitted to {Path(log_path).name} ({log.info.firmware}{', ' + log.info.date_utc[:10] if log.info.date_utc else ''})"
-    fv = fitted_vehicle(b.spec, b.ref, mass, thrust, drag, battery, power, vname, desc)
+    fv = fitted_vehicle(b, mass, thrust, drag, battery, power, name=vname, description=desc)
     prov = {"log": Path(log_path).name, "log_sha256": log.info.sha256, "format": log.info.format,
             "firmware": log.info.firmware, "hardware": log.info.hardware, "flight_date_utc": log.info.date_utc,
             "fitted_utc": datetime.now(UTC).isoformat(timespec="seconds"), "vinecli_version": __version__,

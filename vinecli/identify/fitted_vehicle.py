@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from vinecli.constants import STANDARD_GRAVITY
+from vinecli.identify.base_vehicle import BaseVehicle
 from vinecli.identify.battery_fit import BatteryFit
 from vinecli.identify.drag import DragFit
 from vinecli.identify.fitted_params import Param, fixed
@@ -71,9 +72,10 @@ def _drag_links(base: VehicleSpec, c_total: float) -> dict[str, Any]:
     return out
 
 
-def fitted_vehicle(base: VehicleSpec, base_ref: str, mass: Param, thrust: ThrustFit, drag: DragFit,
-                   battery: BatteryFit | None, power: PowerFit | None, name: str, description: str) -> FittedVehicle:
-    """Turn the fits into vinecli parameters and the overrides of ``base`` (module docstring)."""
+def fitted_vehicle(base_vehicle: BaseVehicle, mass: Param, thrust: ThrustFit, drag: DragFit, battery: BatteryFit | None,
+                   power: PowerFit | None, *, name: str, description: str) -> FittedVehicle:
+    """Turn the fits into vinecli parameters and the overrides of the base vehicle (module docstring)."""
+    base, base_ref = base_vehicle.spec, base_vehicle.ref
     m, n = mass.value, thrust.n_rotors
     r = thrust.r.value
     w_max = float(base.motor.w_max)

@@ -1,4 +1,4 @@
-"""PX4 flight modes and the MAVLink numbers vinecli uses (px4-sitl-and-mavlink.md §4.4, appendix).
+"""PX4 flight modes and the MAVLink numbers vinecli uses (docs/firmware-protocols.md §3, §4).
 
 PX4 custom_mode = (main_mode << 16) | (sub_mode << 24). Main: 1 MANUAL, 2 ALTCTL, 3 POSCTL,
 4 AUTO, 5 ACRO, 6 OFFBOARD, 7 STABILIZED; AUTO sub: 1 READY, 2 TAKEOFF, 3 LOITER (Hold),
@@ -102,9 +102,3 @@ def mode_name(main: int, sub: int) -> str:
     if main == MAIN_AUTO and sub == 0:
         return "mission"
     return f"unknown({main}/{sub})"
-
-
-def mode_word(name: str) -> int:
-    """custom_mode word of a vinecli mode name."""
-    main, sub = MODES[name]
-    return custom_mode(main, sub)

@@ -5,7 +5,7 @@
 (:class:`VehicleHandler`). Call :meth:`VehicleEndpoint.update` regularly (every physics step):
 it answers everything received and sends periodic telemetry.
 
-Sent (px4-sitl-and-mavlink.md §4.4): HEARTBEAT 1 Hz (type 2, autopilot 12, base_mode 1 | 128
+Sent (docs/firmware-protocols.md §3): HEARTBEAT 1 Hz (type 2, autopilot 12, base_mode 1 | 128
 armed, PX4 custom_mode; re-sent at once on mode/arm changes), SYS_STATUS 1 Hz (gyro, accel,
 mag, baro, GPS and PREARM_CHECK bits), GLOBAL_POSITION_INT 10 Hz, GPS_RAW_INT 5 Hz, ATTITUDE
 and ATTITUDE_QUATERNION 10 Hz, EXTENDED_SYS_STATE 1 Hz, HOME_POSITION 1 Hz (and on request),

@@ -16,16 +16,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vinecli.geometry import Polyline, points_in_polygon, segments
 from vinecli.spray.deposit_grid import GridSpec
 
-__all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "points_in_polygon",
-           "row_profiles"]
+if TYPE_CHECKING:
+    from vinecli.sim.spray_deposit import DepositionResult
 
-Polyline = Sequence[tuple[float, float]]
+__all__ = ["DEPOSIT_METRICS", "deposition_metrics", "near_polylines", "no_spray_fraction", "row_profiles"]
+
 
 #: name -> (unit, description); registered in vinecli.missions.metrics.METRICS
 DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
@@ -58,30 +60,14 @@ DEPOSIT_METRICS: dict[str, tuple[str, str]] = {
 }
 
 
-def points_in_polygon(x: np.ndarray, y: np.ndarray, poly: Sequence[tuple[float, float]]) -> np.ndarray:
-    """Even-odd ray casting, vectorised over the points (ENU m); boolean mask."""
-    inside = np.zeros(np.shape(x), dtype=bool)
-    pts = np.asarray(poly, dtype=np.float64)
-    n = len(pts)
-    for i in range(n):
-        x1, y1 = pts[i]
-        x2, y2 = pts[(i + 1) % n]
-        if y1 == y2:
-            continue
-        cond = (y1 > y) != (y2 > y)
-        xint = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-        inside ^= cond & (x < xint)
-    return inside
-
-
 def near_polylines(xc: np.ndarray, yc: np.ndarray, lines: Sequence[Polyline], reach_m: float) -> np.ndarray:
     """Mask (ny, nx) of the grid cells (centres ``xc``, ``yc`` ascending, m) within ``reach_m`` of any segment of
     ``lines``: each segment is measured only over the cells of its bounding box grown by the reach (the same cells
     as a distance to every segment over the whole grid, at a fraction of the work)."""
     mask = np.zeros((yc.size, xc.size), dtype=bool)
     for line in lines:
-        pts = np.asarray(line, dtype=np.float64)
-        for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
+        for seg in segments(line):
+            ax, ay, bx, by = seg.ax, seg.ay, seg.bx, seg.by
             x0 = int(np.searchsorted(xc, min(ax, bx) - reach_m, side="left"))
             x1 = int(np.searchsorted(xc, max(ax, bx) + reach_m, side="right"))
             y0 = int(np.searchsorted(yc, min(ay, by) - reach_m, side="left"))
@@ -89,30 +75,21 @@ def near_polylines(xc: np.ndarray, yc: np.ndarray, lines: Sequence[Polyline], re
             if x1 <= x0 or y1 <= y0:
                 continue
             px, py = np.meshgrid(xc[x0:x1], yc[y0:y1])
-            dx, dy = bx - ax, by - ay
-            seg2 = dx * dx + dy * dy
-            u = np.clip(((px - ax) * dx + (py - ay) * dy) / seg2, 0.0, 1.0) if seg2 > 0 else np.zeros_like(px)
-            mask[y0:y1, x0:x1] |= np.hypot(px - (ax + u * dx), py - (ay + u * dy)) <= reach_m
+            mask[y0:y1, x0:x1] |= seg.nearest(px, py)[1] <= reach_m
     return mask
 
 
 def _dist_along(px: np.ndarray, py: np.ndarray, line: Polyline) -> tuple[np.ndarray, np.ndarray]:
     """Distance to the polyline and the arc length of the nearest point (m)."""
-    pts = np.asarray(line, dtype=np.float64)
     best = np.full(px.shape, np.inf)
     s_best = np.zeros(px.shape)
-    s0 = 0.0
-    for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
-        dx, dy = bx - ax, by - ay
-        seg = math.hypot(dx, dy)
-        if seg <= 0:
+    for seg in segments(line, len2="hypot"):
+        if seg.length <= 0:
             continue
-        u = np.clip(((px - ax) * dx + (py - ay) * dy) / (seg * seg), 0.0, 1.0)
-        d = np.hypot(px - (ax + u * dx), py - (ay + u * dy))
+        u, d = seg.nearest(px, py)
         better = d < best
         best = np.where(better, d, best)
-        s_best = np.where(better, s0 + u * seg, s_best)
-        s0 += seg
+        s_best = np.where(better, seg.start + u * seg.length, s_best)
     return best, s_best
 
 
@@ -204,7 +181,9 @@ def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: fl
     return vals, win
 
 
-def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float,
+# parameters: the run's deposition, rows and fence, then the dose's settings with their defaults (DoseSpec's
+# fields, named by the caller)
+def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_width_m: float,
                        fence: Sequence[tuple[float, float]] | None, nominal_rate_lpha: float,
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
                        stretches: dict[int, tuple[float, float]] | None = None, window_m: float = 1.0,
@@ -295,7 +274,7 @@ def deposition_metrics(dep: Any, rows: Sequence[Polyline], canopy_width_m: float
     return m, profiles
 
 
-def no_spray_fraction(dep: Any, zones: Sequence[Sequence[tuple[float, float]]]) -> float:
+def no_spray_fraction(dep: DepositionResult, zones: Sequence[Sequence[tuple[float, float]]]) -> float:
     """Share of the emitted volume of ``dep`` landing in the no-spray ``zones`` (rings, ENU m; grid cells by their
     centres); 0 without zones, NaN when nothing was emitted."""
     em = float(dep.emitted_l)

@@ -1,4 +1,4 @@
-"""The dose judged by default: checks every mission with a spray phase gets (issue 19).
+"""The dose judged by default: checks every mission with a spray phase gets.
 
 Unless the mission says ``dose: {check: false}``, a spraying mission is judged on the deposit along each
 target row's planned stretch (:mod:`vinecli.missions.deposition_metrics`), with the bands of its ``dose``

@@ -1,4 +1,4 @@
-"""Whole-field spray jobs from a run's time series: sorties, rows sprayed, area rate (issue 13).
+"""Whole-field spray jobs from a run's time series: sorties, rows sprayed, area rate.
 
 Plain numpy on the recorded columns (docs/architecture.md): ``sortie`` (1, 2, ... from the
 built-in autopilot), ``tank_flow_lps`` (delivered flow), ``power_elec_w`` (battery power drawn),

@@ -61,6 +61,7 @@ def export_plan(
                          fence_radius_m=gf.max_horizontal_distance_m if gf is not None else None)
 
 
+# parameters: keyword-only options, each with its default (the plan's flight settings: height, speed, flow, take-off, terrain, fence); a caller names the ones it sets
 def sortie_plan(legs: Sequence[Leg], origin: GeoOrigin, home_enu: tuple[float, float, float], *, height_m: float,
                 speed_mps: float, flow_lps: float, nozzle_max_flow_lps: float, takeoff_m: float,
                 surface: Callable[[float, float], float] | None = None,

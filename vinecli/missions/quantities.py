@@ -1,6 +1,6 @@
 """What a check may measure, resolved when the mission loads (a typo is exit 2, not a failed check later).
 
-A check's ``quantity`` is ``status``, a time-series column (:func:`vinecli.sim.recorder.timeseries_columns`;
+A check's ``quantity`` is ``status``, a time-series column (:func:`vinecli.sim.row.timeseries_columns`;
 rotor columns up to the vehicle's rotor count) or ``metric:<name>`` (the registry of
 :mod:`vinecli.missions.metrics` or a scalar the simulator reports, :data:`SIMULATOR_METRICS`). A
 string ``bound``/``reference`` names a metric too, except for ``status`` checks, whose bound is a
@@ -36,7 +36,7 @@ def known_metrics() -> set[str]:
 
 
 def _columns() -> list[str]:
-    from vinecli.sim.recorder import timeseries_columns
+    from vinecli.sim.row import timeseries_columns
 
     return timeseries_columns(0)
 

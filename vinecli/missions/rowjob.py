@@ -53,23 +53,34 @@ def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
 
 
-def plan_rows_job(source: Path, out: Path, *, spacing: float | None = None, height: float = SPRAY_DEFAULTS.height_m,
-                  speed: float = SPRAY_DEFAULTS.speed_mps, flow: float = SPRAY_DEFAULTS.flow_lps,
-                  takeoff: float = SPRAY_DEFAULTS.takeoff_m, detect: bool = False, world_rows: bool = False,
-                  vehicle: str | None = None, tank_l: float | None = None, fence_margin: float | None = None,
-                  home: tuple[float, float] | None = None, mission_out: Path | None = None,
-                  overwrite: bool = False) -> RowsJob:
+@dataclass(frozen=True)
+class RowsPlanOptions:
+    """The options of ``vinecli plan rows`` (:func:`plan_rows_job`); the defaults are the command's."""
+
+    spacing: float | None = None  # expected row spacing, m (None: searched over 0.5-6 m)
+    height: float = SPRAY_DEFAULTS.height_m  # spray height above the canopy surface, m
+    speed: float = SPRAY_DEFAULTS.speed_mps  # ground speed along the rows, m/s
+    flow: float = SPRAY_DEFAULTS.flow_lps  # nozzle flow on the rows, L/s
+    takeoff: float = SPRAY_DEFAULTS.takeoff_m  # take-off altitude above home, m
+    detect: bool = False  # a world source: detect rows on its height grid instead of taking its rows
+    world_rows: bool = False  # a world source: its rows (an error when it has none)
+    vehicle: str | None = None  # None: the world's, else the default sprayer
+    tank_l: float | None = None  # litres per sortie (None: the vehicle's tank; 0: one sortie)
+    fence_margin: float | None = None  # m inside the fence (None: 1 m inside a world's, 0 inside a DSM's extent)
+    home: tuple[float, float] | None = None  # take-off point, ENU m of the source (None: spawn / a corner row end)
+
+
+def plan_rows_job(source: Path, out: Path, options: RowsPlanOptions = RowsPlanOptions(), *,
+                  mission_out: Path | None = None, overwrite: bool = False) -> RowsJob:
     """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
-    (m): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the survey area: its edge
-    rows are flown, only the headland turns are kept over the surveyed ground). Every file is checked before
-    the first is written: none may be an input, or replace an existing file without ``overwrite``
-    (OutputError, exit 2, nothing written)."""
+    (m, :class:`RowsPlanOptions`): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the
+    survey area: its edge rows are flown, only the headland turns are kept over the surveyed ground). Every file
+    is checked before the first is written: none may be an input, or replace an existing file without
+    ``overwrite`` (OutputError, exit 2, nothing written)."""
     with reading_inputs():
         note_input(source, "world" if source.is_dir() else "DSM")
         _check_targets([out, _geojson_path(out), *([mission_out] if mission_out is not None else [])], overwrite)
-        return _plan_rows_job(source, out, spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff,
-                              detect=detect, world_rows=world_rows, vehicle=vehicle, tank_l=tank_l,
-                              fence_margin=fence_margin, home=home, mission_out=mission_out, overwrite=overwrite)
+        return _plan_rows_job(source, out, options, mission_out, overwrite)
 
 
 def _check_targets(targets: list[Path], overwrite: bool) -> None:
@@ -102,10 +113,10 @@ def _geojson_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.rows.geojson")
 
 
-def _plan_rows_job(source: Path, out: Path, *, spacing: float | None, height: float, speed: float, flow: float,
-                   takeoff: float, detect: bool, world_rows: bool, vehicle: str | None, tank_l: float | None,
-                   fence_margin: float | None, home: tuple[float, float] | None, mission_out: Path | None,
-                   overwrite: bool) -> RowsJob:
+def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, mission_out: Path | None, overwrite: bool) -> RowsJob:
+    spacing, height, speed, flow, takeoff = o.spacing, o.height, o.speed, o.flow, o.takeoff
+    detect, world_rows, vehicle, tank_l = o.detect, o.world_rows, o.vehicle, o.tank_l
+    fence_margin, home = o.fence_margin, o.home
     from vinecli.missions.patterns import spray_mission
     from vinecli.missions.qgc_export import export_plan, sortie_plan
     from vinecli.missions.qgc_format import vehicle_nozzle_flow_lps, write_plan

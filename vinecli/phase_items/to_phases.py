@@ -98,6 +98,8 @@ class _Phases:
         self.pos = (x, y, z if z is not None else (self.pos[2] if self.pos is not None else None))
 
 
+# parameters: the items and their georeference, then conversion options with their defaults (QGC's sprayer
+# servo, degrees, compact legs, speed)
 def items_to_phases(
     items: Sequence[MissionItem], origin: GeoOrigin, home_alt_amsl: float, nozzle_max_flow_lps: float | None,
     takeoff_alt_default: float = 2.5, sprayer_servo: int = 9, *, degrees: bool = False, sprayer_on: float = 1.0,

@@ -19,12 +19,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from vinecli.batch.run import BATCH_JSON
 from vinecli.errors import InputError
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, write_json
 from vinecli.report.autopilots import comparison_groups, html_blocks, markdown_section
 from vinecli.report.baseline import Comparison, Regression, Tolerance, compare
 from vinecli.report.loader import Run, compute_report_metrics, load_runs
+from vinecli.runs.batch_json import BATCH_JSON, read_batch_json
 from vinecli.runs.rundir import SUMMARY
 
 log = logging.getLogger(__name__)
@@ -166,11 +166,9 @@ def _pipeline_name(runs_dir: Path) -> str | None:
     """The pipeline a batch's runs directory comes from (its batch.json), None for loose runs."""
     if not (runs_dir / BATCH_JSON).is_file():
         return None
-    import json
-
     try:
-        return json.loads((runs_dir / BATCH_JSON).read_text(encoding="utf-8")).get("pipeline")
-    except (OSError, ValueError):
+        return read_batch_json(runs_dir / BATCH_JSON).get("pipeline")
+    except InputError:
         return None
 
 
@@ -195,6 +193,7 @@ def _figure_notes(runs: Sequence[Any], chosen: Sequence[Any], want_figs: bool, f
     return notes, policy_note
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli report` option; a caller names the ones it sets
 def build_report(
     runs_dir: str | Path,
     out_dir: str | Path,

@@ -132,6 +132,7 @@ def _missions(runs: Sequence[Run]) -> list[dict[str, Any]]:
     return out
 
 
+# parameters: the runs and their figures, then keyword-only page options with their defaults
 def write_html(out_dir: Path, runs: Sequence[Run], figures: Mapping[str, Mapping[str, Mapping[str, Any]]],
                comparison: Comparison | None = None, *, title: str = "vinecli report", runs_dir: str = "",
                pipeline: str | None = None, inline_limit: int = 20, page_size: int = 100,

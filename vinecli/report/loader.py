@@ -19,12 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.batch.run import BATCH_JSON
 from vinecli.errors import InputError
 from vinecli.inputs import read_input_text, require_regular_file
 from vinecli.missions.metrics import airborne_mask
 from vinecli.names import check_name
 from vinecli.outputs import MANIFEST
+from vinecli.runs.batch_json import BATCH_JSON, read_batch_json
 from vinecli.runs.failsafes import describe_failsafes
 from vinecli.runs.rundir import EVENTS, PREVIEW, SUMMARY, SUMMARY_KEYS, TIMESERIES
 
@@ -168,13 +168,7 @@ def load_runs(runs_dir: str | Path) -> list[Run]:
 
 def _from_batch(root: Path) -> list[Run]:
     p = root / BATCH_JSON
-    try:
-        batch = json.loads(read_input_text(p, BATCH_JSON))
-        cases = batch["cases"]
-        if not isinstance(cases, list):
-            raise TypeError("'cases' is not a list")
-    except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise InputError(f"corrupt batch.json: {exc}", path=p) from None
+    cases = read_batch_json(p)["cases"]
     runs = []
     for i, c in enumerate(cases):
         if not isinstance(c, dict) or "run_id" not in c:

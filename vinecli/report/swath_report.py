@@ -110,6 +110,7 @@ def _check_options(**values: float) -> None:
         check_range(opt, v, lo, hi, open_lo=open_lo)
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli vehicle swath` option; a caller names the ones it sets
 def swath_report(vehicle: str | Path, out: Path, *, height_agl_m: float, speed_mps: float, crosswind_mps: float = 0.0,
                  cv_limit: float = 0.10, band_m: float = 0.6, air_density: float = 1.225,
                  overwrite: bool = False) -> SwathReport:

@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import TerrainError
+from vinecli.geometry import polyline_length
 from vinecli.rows.comb import Comb, RowKnots, comb_of, eval_row, fit_row, make_strips, row_knots
-from vinecli.rows.geometry import polyline_length
 from vinecli.rows.spectrum import decimate, direction_and_spacing, fill_and_detrend, relief_of
 from vinecli.spray.canopy import row_spacing
 
@@ -161,6 +161,7 @@ class NoRowsError(TerrainError):
         self.evidence = evidence
 
 
+# parameters: keyword-only options, each with its default (the detector's tuning); a caller names the ones it sets
 def detect_rows_grid(
     z: np.ndarray,
     x: np.ndarray,
@@ -214,8 +215,8 @@ def detect_rows_grid(
         return ss * n[0] + tt * u[0], ss * n[1] + tt * u[1]
 
     min_len = min_length_m if min_length_m is not None else max(3 * p, 2 * st.length)
-    found = _fit_rows(kn, comb, st, to_xy, relief, x, y, max(1, int(math.floor(max_gap_m / st.length))),
-                      min_prominence, min_len, max(cell, 0.05))
+    inputs = _FitInputs(kn, comb, st, to_xy, relief, x, y, min_len, max(cell, 0.05))
+    found = _fit_rows(inputs, max(1, int(math.floor(max_gap_m / st.length))), min_prominence)
     found = _rows_of_the_field(found)
     if not found:
         raise NoRowsError(f"no row found: {ev.describe()}", ev)
@@ -285,9 +286,25 @@ def _refuse_rows_between_rows(st: Any, comb: Comb, ev: RowEvidence) -> None:
                           f"{ev.describe()}", ev)
 
 
-def _fit_rows(kn: RowKnots, comb: Comb, st: Any, to_xy: Any, relief: np.ndarray, x: np.ndarray, y: np.ndarray,
-              gap_strips: int, min_prominence: float, min_len: float, step: float) -> list[_Found]:
+@dataclass(frozen=True)
+class _FitInputs:
+    """What the row fit reads of a field: its comb rows' knots, the comb, the strips, the map from (across, along)
+    to ENU x, y, the relief grid and its axes, the shortest row kept (m) and the centre lines' step (m)."""
+
+    kn: RowKnots
+    comb: Comb
+    st: Any
+    to_xy: Any
+    relief: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    min_len: float
+    step: float
+
+
+def _fit_rows(inputs: _FitInputs, gap_strips: int, min_prominence: float) -> list[_Found]:
     """Each comb row's stretches of knots fitted into centre lines (see :mod:`vinecli.rows.comb`)."""
+    kn, comb = inputs.kn, inputs.comb
     p = comb.spacing
     seen = kn.inside & np.isfinite(kn.contrast)
     if not seen.any():
@@ -301,15 +318,16 @@ def _fit_rows(kn: RowKnots, comb: Comb, st: Any, to_xy: Any, relief: np.ndarray,
         if js.size < 2:
             continue
         for run in np.split(js, np.flatnonzero(np.diff(js) > gap_strips + 1) + 1):
-            f = _fit_run(kn, r, run, st, comb, to_xy, relief, x, y, thr, min_len, step)
+            f = _fit_run(inputs, r, run, thr)
             if f is not None:
                 out.append(f)
     return out
 
 
-def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, comb: Comb, to_xy: Any, relief: np.ndarray,
-             x: np.ndarray, y: np.ndarray, thr: float, min_len: float, step: float) -> _Found | None:
-    """One stretch of a row: robust centre line, ends trimmed to the canopy, support and confidence."""
+def _fit_run(inputs: _FitInputs, r: int, run: np.ndarray, thr: float) -> _Found | None:
+    """One stretch (the knots ``run``) of comb row ``r``: robust centre line, ends trimmed to the canopy, support and
+    confidence; ``thr`` the contrast a knot needs."""
+    kn, st, comb, to_xy, step = inputs.kn, inputs.st, inputs.comb, inputs.to_xy, inputs.step
     p = comb.spacing
     if run.size < 2:
         return None
@@ -322,8 +340,8 @@ def _fit_run(kn: RowKnots, r: int, run: np.ndarray, st: Any, comb: Comb, to_xy: 
     t0, t1 = float(st.t_centre[run[0]] - st.length), float(st.t_centre[run[-1]] + st.length)
     tl = np.arange(t0, t1 + step / 2, step)
     sl = eval_row(tk, sk, sigma, tl, p, comb.shift)
-    trimmed = _trim_ends(tl, sl, to_xy, relief, x, y, p)
-    if trimmed is None or trimmed[0][-1] - trimmed[0][0] < min_len:
+    trimmed = _trim_ends(tl, sl, to_xy, inputs.relief, inputs.x, inputs.y, p)
+    if trimmed is None or trimmed[0][-1] - trimmed[0][0] < inputs.min_len:
         return None
     tl, sl = trimmed
     px, py = to_xy(sl, tl)

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
+from vinecli.geometry import polyline_length
 from vinecli.rows.detect import Polyline
-from vinecli.rows.geometry import polyline_length
 from vinecli.rows.lanes import LaneLayout, lane_polyline, layout_lanes
 from vinecli.rows.no_spray import pass_pieces
 from vinecli.rows.stretches import SAME_LINE_M, cut_path, line_spans, merge_spans, row_lines
@@ -109,10 +109,10 @@ def lay_passes(keep: list[tuple[int, Polyline]], u: tuple[float, float], pattern
     if pattern is None:
         return [(i, i, c) for i, r in keep for c in pass_pieces(r, blocked)], None
     normal = (-u[1], u[0])
-    across = [sum(normal[0] * x + normal[1] * y for x, y in r) / len(r) for _, r in keep]
+    across = _across(keep, normal)
     lines = row_lines(across, [r for _, r in keep], u)
     if any(len(ln) > 1 for ln in lines):  # rows cut into stretches: a pass per stretch, none over the gaps
-        return _cutlay_passes(keep, lines, across, u, pattern, band_m, inner, end_margin, blocked)
+        return _cutlay_passes(keep, lines, u, pattern, band_m, inner, end_margin, blocked)
     lay = layout_lanes(across, pattern, band_m)
     out: list[Pass] = []
     cut = 0
@@ -132,13 +132,19 @@ def lay_passes(keep: list[tuple[int, Polyline]], u: tuple[float, float], pattern
     return out, lay
 
 
-def _cutlay_passes(keep: list[tuple[int, Polyline]], lines: list[list[int]], across: list[float], u: tuple[float, float],
-                pattern: object, band_m: float, inner: object | None, end_margin: float, blocked: object | None
-                ) -> tuple[list[Pass], LaneLayout]:
+def _across(keep: list[tuple[int, Polyline]], normal: tuple[float, float]) -> list[float]:
+    """Each kept row's mean position across the rows (along ``normal``), m."""
+    return [sum(normal[0] * x + normal[1] * y for x, y in r) / len(r) for _, r in keep]
+
+
+def _cutlay_passes(keep: list[tuple[int, Polyline]], lines: list[list[int]], u: tuple[float, float], pattern: object,
+                   band_m: float, inner: object | None, end_margin: float, blocked: object | None
+                   ) -> tuple[list[Pass], LaneLayout]:
     """:func:`_passes` for rows cut into stretches (:mod:`vinecli.rows.stretches`): the layout over the row lines; a
     pass on a line flies each of its stretches, a pass between lines the spans where either neighbour has canopy;
     runs on past the lines' outer ends only."""
     normal = (-u[1], u[0])
+    across = _across(keep, normal)
     paths = [r for _, r in keep]
     line_across = [sum(across[j] for j in ln) / len(ln) for ln in lines]
     hulls = [[p for j in ln for p in (paths[j] if _along_sign(paths[j], u) else paths[j][::-1])] for ln in lines]

@@ -30,8 +30,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from vinecli.geometry import polyline_length
 from vinecli.rows.detect import Polyline
-from vinecli.rows.geometry import polyline_length
 from vinecli.rows.lanes import LaneLayout
 from vinecli.rows.no_spray import blocked_area, clearance_m, dosed_stretch, taper_m
 from vinecli.rows.passes import Pass, clip_rows, lay_passes, room_ahead
@@ -231,6 +231,7 @@ def _leg_time(leg: Leg, v: float, a: float) -> float:
 
 
 # ---------------------------------------------------------------- the plan
+# parameters: keyword-only options, each with its default (the plan's speed, acceleration, fence, terrain, climb, lanes, no-spray zones); a caller names the ones it sets
 def plan_rows(
     rows: Sequence[Sequence[tuple[float, float]]],
     start_xy: tuple[float, float],

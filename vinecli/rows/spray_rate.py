@@ -82,6 +82,7 @@ def plan_crosswind_mps(phase: SprayPhase, rows: Rows) -> float:
     return float(-uy * phase.plan_wind_enu[0] + ux * phase.plan_wind_enu[1])
 
 
+# parameters: keyword-only options, each with its default (the world the phase flies in: fence, terrain, air, climb, no-spray zones); a caller names the ones it sets
 def phase_plan(phase: SprayPhase, vehicle: VehicleSpec, rows: Rows, start_xy: tuple[float, float], *,
                fence_enu: Sequence[tuple[float, float]] | None = None,
                terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225,
@@ -154,6 +155,8 @@ def _check_rows(i: int, rows: Rows) -> None:
                              "a row needs two distinct points")
 
 
+# parameters: the plan's inputs (mission, vehicle, rows, fence, terrain, air, band, no-spray rows) and the wind the
+# passes are displaced against
 def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: Rows = (), *,
                         fence_enu: Sequence[tuple[float, float]] | None = None,
                         terrain_bounds: tuple[float, float, float, float] | None = None,

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from vinecli.rows.geometry import point_polyline_distance
+from vinecli.geometry import point_polyline_distance
 from vinecli.runs import rundir
 
 

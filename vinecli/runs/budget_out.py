@@ -19,7 +19,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from vinecli.missions.budget_metrics import budget_metrics
 from vinecli.runs.deposition_out import NODATA, clean_json, write_grid_tif
 from vinecli.spray.budget import FRACTIONS, BudgetConfig, SprayBudget, spray_budget
 from vinecli.spray.deposit_grid import rasterise
+
+if TYPE_CHECKING:
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["BUDGET_JSON", "CANOPY_TIF", "DRIFT_CSV", "BudgetOutputs", "evaluate_budget", "write_budget"]
 
@@ -82,13 +85,13 @@ def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np
     """Per parcel: the row it was released over (nearest row to its emission group's nozzle path point)."""
     if not rows or path_xy.size == 0 or group.size == 0:
         return np.full(group.size, -1, dtype=np.int64)
-    from vinecli.rows.geometry import point_polyline_distance
+    from vinecli.geometry import point_polyline_distance
 
     d = np.stack([point_polyline_distance(path_xy[:, 0], path_xy[:, 1], [r]) for r in rows])
     return np.argmin(d, axis=0)[group]
 
 
-def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: float,
+def evaluate_budget(dep: DepositionResult, world: Any, rows_all: list[Any], applied_lpha: float,
                     config: BudgetConfig | None = None) -> BudgetOutputs:
     """The budget of one run's deposition (:class:`~vinecli.sim.spray_deposit.DepositionResult`) over ``world``."""
     from vinecli.spray.canopy import hedge_window, row_spacing
@@ -105,13 +108,15 @@ def evaluate_budget(dep: Any, world: Any, rows_all: list[Any], applied_lpha: flo
     leaf = _hedge_cells(g, canopy)
     metrics = budget_metrics(b, canopy, applied_lpha)
     release = _release_rows(np.asarray(p.path_xy), b.group, rows_all)
-    doc = _document(b, dep, world, canopy, applied_lpha, config, metrics, release,
-                    {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "grid": g.to_dict()})
+    doc = {**_document(b, dep, world, canopy, applied_lpha, config, release),
+           "maps": {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "grid": g.to_dict()},
+           "metrics": metrics}
     return BudgetOutputs(b, g, canopy_l, leaf, doc, metrics)
 
 
-def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float, config: BudgetConfig,
-              metrics: dict[str, float], release: np.ndarray, maps: dict[str, float]) -> dict[str, Any]:
+def _document(b: SprayBudget, dep: DepositionResult, world: Any, canopy: Any, applied: float, config: BudgetConfig,
+              release: np.ndarray) -> dict[str, Any]:
+    """budget.json but its ``maps`` and ``metrics`` (which follow)."""
     rows_doc = []
     n_rows = len(canopy.rows) if canopy is not None else len(getattr(world, "vine_rows_enu", []) or [])
     for i in range(n_rows):
@@ -148,12 +153,10 @@ def _document(b: SprayBudget, dep: Any, world: Any, canopy: Any, applied: float,
             "evaporation": b.evaporation,
         },
         "rows": rows_doc,
-        "maps": maps,
-        "metrics": metrics,
     }
 
 
-def write_budget(out_dir: Path, out: BudgetOutputs, dep: Any, world: Any, crs: Any) -> None:
+def write_budget(out_dir: Path, out: BudgetOutputs, dep: DepositionResult, world: Any, crs: Any) -> None:
     """Write ``budget.json``, ``canopy_deposit.tif`` and ``drift_curve.csv`` into ``out_dir``."""
     g = out.grid
     cell_area = g.cell * g.cell

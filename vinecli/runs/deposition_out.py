@@ -15,7 +15,7 @@ import json
 import logging
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,9 @@ from vinecli.missions.deposition_metrics import deposition_metrics, no_spray_fra
 from vinecli.rows.spray_rate import nominal_rate_lpha, phase_plan, spray_pattern, spray_swath_m
 from vinecli.specs.mission import MissionSpec, SprayPhase
 from vinecli.specs.vehicle import VehicleSpec
+
+if TYPE_CHECKING:
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["DEPOSITION_JSON", "DEPOSITION_TIF", "NODATA", "clean_json", "dsm_crs", "evaluate_deposition",
            "write_deposition", "write_grid_tif"]
@@ -67,7 +70,7 @@ def _enu_to_crs_affine(origin: Any, crs: Any) -> tuple[float, float, float, floa
     return ((x1 - x0) / 100.0, (x2 - x0) / 100.0, x0, (y1 - y0) / 100.0, (y2 - y0) / 100.0, y0)
 
 
-def write_deposition(out_dir: Path, dep: Any, world: Any, crs: Any, doc: dict[str, Any]) -> None:
+def write_deposition(out_dir: Path, dep: DepositionResult, world: Any, crs: Any, doc: dict[str, Any]) -> None:
     """Write ``deposition.tif`` and ``deposition.json`` into ``out_dir``; the JSON is ``doc`` (of
     :func:`evaluate_deposition`) with ``totals.max_rate_lpha`` and ``geotiff`` filled in."""
     g = dep.grid
@@ -151,7 +154,7 @@ def world_row(phase: SprayPhase | None, i: int) -> int | None:
     return listed if isinstance(listed, int) else None
 
 
-def evaluate_deposition(dep: Any, spec: MissionSpec, vehicle: VehicleSpec, world: Any,
+def evaluate_deposition(dep: DepositionResult, spec: MissionSpec, vehicle: VehicleSpec, world: Any,
                         rows: list[list[tuple[float, float]]], fence: Any) -> tuple[dict[str, float], dict[str, Any]]:
     """(summary metrics, deposition.json document) of one run's deposition (:func:`write_deposition` adds
     the raster's figures: ``totals.max_rate_lpha``, ``geotiff``). ``spec``: the mission as flown (spray rates

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from vinecli import native
 from vinecli.constants import MAX_SEED, STANDARD_GRAVITY
-from vinecli.errors import ChecksFailed, InputError, RuntimeFailure, SpecError, VinecliError
+from vinecli.errors import InputError, RuntimeFailure, SpecError, VinecliError
 from vinecli.inputs import note_input, reading_inputs
 from vinecli.locks import output_lock
 from vinecli.missions.checks import evaluate_checks
@@ -33,7 +33,7 @@ from vinecli.missions.job import sorties as job_sorties
 from vinecli.missions.metrics import METRICS
 from vinecli.missions.quantities import check_quantities
 from vinecli.missions.rundata import EventMissing, MetricContext, RunData
-from vinecli.missions.spec_io import MissionFile, dump_mission, load_mission, read_mission
+from vinecli.missions.spec_io import dump_mission, load_mission, read_mission
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path, output_folder
 from vinecli.runs import rundir
@@ -41,7 +41,11 @@ from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 
 if TYPE_CHECKING:
+    from vinecli.runs.budget_out import BudgetOutputs
+    from vinecli.runs.request import RunRequest
+    from vinecli.sim.result import SimResult
     from vinecli.sim.setup import PreparedRun
+    from vinecli.sitl.record import FirmwareRecord
 
 log = logging.getLogger(__name__)
 
@@ -79,12 +83,6 @@ class RunSummary:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
-    def raise_if_failed(self) -> None:
-        """ChecksFailed (exit 1) if a check failed."""
-        if not self.passed:
-            names = ", ".join(c["name"] for c in self.failed_checks) or self.status
-            raise ChecksFailed(f"{len(self.failed_checks)} check(s) failed: {names}", path=self.run_dir)
-
 
 class _StopFlag:
     """SIGINT/SIGTERM -> stop at the next step; wall-clock deadline; optional caller predicate."""
@@ -107,101 +105,72 @@ def default_run_id(mission: MissionSpec, seed: int) -> str:
     return f"{mission.name}-s{seed}"
 
 
-def run_mission(
-    mission: str | Path | MissionSpec | MissionFile,
-    world_dir: str | Path,
-    runs_dir: str | Path,
-    *,
-    seed: int = 0,
-    autopilot: str | None = None,
-    truth: bool | None = None,
-    record_rate: float | None = None,
-    mcap: bool = False,
-    progress: Callable[[float, float], None] | None = None,
-    run_id: str | None = None,
-    should_stop: Callable[[], bool] | None = None,
-    wall_timeout_s: float | None = None,
-    case: str | None = None,
-    autopilot_options: dict[str, Any] | None = None,
-    overwrite: bool = False,
-    protect: Sequence[str | Path] = (),
-) -> RunSummary:
-    """Run one mission and write ``runs_dir/<run_id>/``.
+def run_mission(request: RunRequest, *, progress: Callable[[float, float], None] | None = None,
+                should_stop: Callable[[], bool] | None = None) -> RunSummary:
+    """Run one mission and write its run folder, ``runs_dir/<run_id>/`` (the :class:`RunRequest` says what to run
+    and how).
 
-    Parameters
-    ----------
-    mission : mission YAML path, a validated MissionSpec or a :class:`~vinecli.missions.spec_io.MissionFile`
-        (:func:`~vinecli.missions.spec_io.read_mission`: the file and its vehicle already read)
-    world_dir : a built world directory (``vinecli world build``)
-    runs_dir : parent of the run directory
-    seed : run seed (sensor noise, turbulence)
-    autopilot, truth, record_rate : override the mission's ``autopilot``, ``truth``, ``record_rate_hz`` (Hz)
-    mcap : also write ``run.mcap`` (Foxglove)
-    progress : called as ``progress(sim_time_s, wall_time_s)`` by the loop
-    should_stop : extra stop predicate (polled every step); ``wall_timeout_s``: stop after this wall time
-    overwrite : replace an existing ``runs_dir/<run_id>/`` made by vinecli (otherwise OutputError, exit 2, before
-        simulating; a folder vinecli did not make, or holding files it did not write, is never replaced)
-    protect : more inputs the run directory may not be, contain or lie inside (the mission file, its ``base:``
-        chain, the vehicle and the world always). The run holds the lock of its run id from the checks to the
-        write: a second writer of the same id exits 2 (``in use by pid N``).
+    ``progress`` is called as ``progress(sim_time_s, wall_time_s)`` by the loop; ``should_stop``: an extra stop
+    predicate (polled every step). The run holds the lock of its run id from the checks to the write: a second
+    writer of the same id exits 2 (``in use by pid N``).
 
-    Returns the :class:`RunSummary`; the run's checks decide ``passed`` (see :meth:`RunSummary.raise_if_failed`).
+    Returns the :class:`RunSummary`; the run's checks decide ``passed``.
     Raises SpecError/InputError (exit 2) for bad inputs, RuntimeFailure (exit 3) if the loop fails.
     """
     from vinecli.sim.memory import check_run_memory
     from vinecli.sim.setup import RunOverrides, prepare_run
     from vinecli.world import load_world
 
+    seed = request.seed
     with reading_inputs():  # every file the run reads, known before anything is written
-        src = read_mission(mission)  # the file, its base: chain and the vehicle it names, read here once
+        src = read_mission(request.mission)  # the file, its base: chain and the vehicle it names, read here once
         mission_path = src.path
-        for p in (mission_path, *protect):
+        for p in (mission_path, *request.protect):
             if p is not None:
                 note_input(p, "mission")
         if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
             raise InputError(f"seed: an integer in [0, {MAX_SEED}], got {seed!r}")
-        run_id = check_name(run_id or default_run_id(src.spec, seed), "run id")
-        runs_dir = Path(runs_dir)
+        run_id = check_name(request.run_id or default_run_id(src.spec, seed), "run id")
+        runs_dir = Path(request.runs_dir)
         out = contained_path(runs_dir, run_id)
-        world = load_world(Path(world_dir))
-        check_output_target(out, overwrite=overwrite, kind="run mission")
-        overrides = RunOverrides(autopilot=autopilot, truth=truth, record_rate_hz=record_rate)
+        world = load_world(Path(request.world_dir))
+        check_output_target(out, overwrite=request.overwrite, kind="run mission")
+        overrides = RunOverrides(autopilot=request.autopilot, truth=request.truth, record_rate_hz=request.record_rate)
         with output_folder(runs_dir, "runs"), output_lock(out), \
                 prepare_run(world, src.spec, vehicle=src.vehicle, overrides=overrides, source=mission_path) as run:
             check_run_memory(run.mission, run.vehicle, run.world, path=mission_path or run.mission.name,
                              config=run.deposition_config)
-            return _run_prepared(run, Path(world_dir), run_id, out, seed=seed, mission_path=mission_path, mcap=mcap,
-                                 progress=progress, should_stop=should_stop, wall_timeout_s=wall_timeout_s,
-                                 case=case, autopilot_options=autopilot_options, overwrite=overwrite)
+            check_quantities(run.mission.checks, mission_path or run.mission.name, n_rotors=run.vehicle.n_rotors)
+            flown = _fly(run, request, mission_path, progress, should_stop)
+            try:
+                return _write_run(run, request, flown, out, mission_path)
+            finally:
+                if flown.record is not None:
+                    flown.record.discard()
 
 
-def _run_prepared(
-    run: PreparedRun,
-    world_dir: Path,
-    run_id: str,
-    out: Path,
-    *,
-    seed: int,
-    mission_path: Path | None,
-    mcap: bool,
-    progress: Callable[[float, float], None] | None,
-    should_stop: Callable[[], bool] | None,
-    wall_timeout_s: float | None,
-    case: str | None,
-    autopilot_options: dict[str, Any] | None,
-    overwrite: bool,
-) -> RunSummary:
-    """Fly a prepared run, evaluate its checks and write ``out`` (:func:`run_mission`, after the set-up)."""
-    spec, vehicle = run.mission, run.vehicle
-    check_quantities(spec.checks, mission_path or spec.name, n_rotors=vehicle.n_rotors)
-    from vinecli.sitl.options import make_run_autopilot
+@dataclass(frozen=True)
+class _Flown:
+    """A flown run before its checks and its folder: what the loop returned, the firmware's record (its identity
+    and kept logs, amended with what they say), when and how long it flew, and what stopped it."""
 
-    # autopilot_options: PX4 / MAVLink options of `run mission` (see make_run_autopilot)
-    ap = make_run_autopilot(spec.autopilot, **(autopilot_options or {}))
-    stop = _StopFlag(time.monotonic() + wall_timeout_s if wall_timeout_s else None, should_stop)
+    result: SimResult
+    record: FirmwareRecord | None
+    started_utc: str
+    wall_s: float
+    stop: _StopFlag
 
+
+def _fly(run: PreparedRun, request: RunRequest, mission_path: Path | None,
+         progress: Callable[[float, float], None] | None, should_stop: Callable[[], bool] | None) -> _Flown:
+    """Make the run's autopilot, fly the prepared run with it (:func:`vinecli.sim.runner.simulate`) and close it."""
     from vinecli.sim.runner import simulate
+    from vinecli.sitl.options import make_run_autopilot
+    from vinecli.sitl.record import firmware_record
 
+    ap = make_run_autopilot(run.mission.autopilot, request.autopilot_options)
+    timeout = request.wall_timeout_s
+    stop = _StopFlag(time.monotonic() + timeout if timeout else None, should_stop)
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     on_progress = None
@@ -210,7 +179,7 @@ def _run_prepared(
             progress(sim_t, time.perf_counter() - t0)
     with _stop_signals_to_flag(stop):
         try:
-            result = simulate(run, ap, seed=seed, on_progress=on_progress, should_stop=stop)
+            result = simulate(run, ap, seed=request.seed, on_progress=on_progress, should_stop=stop)
         except VinecliError:
             raise
         except Exception as exc:  # noqa: BLE001 - any engine failure becomes one exit-3 line
@@ -220,30 +189,34 @@ def _run_prepared(
             if close is not None:
                 close()
     wall = time.perf_counter() - t0
-    record = getattr(ap, "firmware_record", None)  # a firmware backend's identity and kept logs
+    record = firmware_record(ap)
     if record is not None:
         record.amend(result.metrics, result.events)  # what the firmware's own logs say about the firmware
-    try:
-        return _write_run(run, result, record, world_dir, run_id, out, seed=seed, mission_path=mission_path,
-                          mcap=mcap, wall=wall, stop=stop, wall_timeout_s=wall_timeout_s, case=case,
-                          autopilot_options=autopilot_options, overwrite=overwrite, started=started)
-    finally:
-        if record is not None:
-            record.discard()
+    return _Flown(result, record, started, wall, stop)
 
 
-def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_id: str, out: Path, *, seed: int,
-               mission_path: Path | None, mcap: bool, wall: float, stop: _StopFlag, wall_timeout_s: float | None,
-               case: str | None, autopilot_options: dict[str, Any] | None, overwrite: bool,
-               started: str) -> RunSummary:
-    """Checks, summary and the run directory of a flown run (:func:`_run_prepared`)."""
-    spec, world, vehicle = run.mission, run.world, run.vehicle
+@dataclass(frozen=True)
+class _Folder:
+    """What a run folder holds besides the flown run: its manifest, summary.json, and the deposition and spray
+    budget documents of a spraying run."""
+
+    manifest: Manifest
+    summary: dict[str, Any]
+    deposition: dict[str, Any] | None
+    budget: BudgetOutputs | None
+
+
+def _write_run(run: PreparedRun, request: RunRequest, flown: _Flown, out: Path, mission_path: Path | None
+               ) -> RunSummary:
+    """Checks, summary and the run folder ``out`` of a flown run (:func:`run_mission`)."""
+    spec, world, vehicle, result, wall = run.mission, run.world, run.vehicle, flown.result, flown.wall_s
+    run_id = out.name  # the run folder is named after its run id
     status = _status_name(result.status)
     status_message = result.detail or _status_message(result.status)
-    if stop.timed_out and status == "interrupted":
-        status_message = f"stopped: wall-clock limit of {wall_timeout_s:g} s reached"
-    elif stop.signum and status == "interrupted":
-        status_message = f"stopped by {signal.Signals(stop.signum).name}"
+    if flown.stop.timed_out and status == "interrupted":
+        status_message = f"stopped: wall-clock limit of {request.wall_timeout_s:g} s reached"
+    elif flown.stop.signum and status == "interrupted":
+        status_message = f"stopped by {signal.Signals(flown.stop.signum).name}"
     failsafes = failsafes_from_events(result.events)
     if failsafes:
         status_message = f"{status_message} (failsafe: {describe_failsafes(failsafes)})"
@@ -251,9 +224,9 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
     rows = _rows_for_metrics(spec, world.vine_rows_enu)
     dep_metrics: dict[str, float] = {}
     dep_doc: dict[str, Any] | None = None
-    budget: Any = None
+    budget: BudgetOutputs | None = None
     spray: dict[str, Any] = {}
-    if getattr(result, "deposition", None) is not None:  # spray deposition (docs/deposition.md)
+    if result.deposition is not None:  # spray deposition (docs/deposition.md)
         from vinecli.runs.budget_out import evaluate_budget
         from vinecli.runs.deposition_out import evaluate_deposition
 
@@ -292,9 +265,10 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
     metrics = _summary_metrics(data)
     sim_time = float(result.sim_time_s)
     rtf = sim_time / wall if wall > 0 else 0.0
+    world_dir = Path(request.world_dir)
     summary = {
         "run_id": run_id,
-        "case": case or run_id,
+        "case": request.case or run_id,
         "mission": spec.name,
         "description": spec.description,
         "vehicle": vehicle.name,
@@ -302,9 +276,9 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         "vehicle_fit": vehicle.provenance.model_dump(mode="json") if vehicle.provenance is not None else None,
         "world": _world_doc(run, world_dir),
         "autopilot": spec.autopilot,
-        "firmware": record.summary() if record is not None else None,
+        "firmware": flown.record.summary() if flown.record is not None else None,
         "truth": spec.truth,
-        "seed": seed,
+        "seed": request.seed,
         "status": status,
         "status_message": status_message,
         "passed": passed,
@@ -316,24 +290,24 @@ def _write_run(run: PreparedRun, result: Any, record: Any, world_dir: Path, run_
         "sorties": job_sorties(result.timeseries, [(e.t_us * 1e-6, e.kind, e.data) for e in result.events]),
         **spray,
         "timing": _timing_doc(result.timing, wall, rtf),
-        "started_utc": started,
+        "started_utc": flown.started_utc,
         "kernel": native.identity(),  # which kernel ran: compiled or pure, and its build identity
     }
     manifest = Manifest(
         command="run mission",
-        parameters={"seed": seed, "autopilot": spec.autopilot, "truth": spec.truth, **(autopilot_options or {}),
-                    "record_rate_hz": spec.record_rate_hz, "mcap": mcap, "run_id": run_id},
+        parameters={"seed": request.seed, "autopilot": spec.autopilot, "truth": spec.truth,
+                    **request.autopilot_options.changed(), "record_rate_hz": spec.record_rate_hz, "mcap": request.mcap,
+                    "run_id": run_id},
         inputs=[p for p in (mission_path, world_dir / "world.json") if p is not None],
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
-    _write_run_dir(out, manifest, result, run, summary, dep_doc, budget, world_dir, record, mcap=mcap,
-                   overwrite=overwrite)
+    _write_run_dir(out, run, request, flown, _Folder(manifest, summary, dep_doc, budget))
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
     return RunSummary(
         run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
         wall_time_s=round(wall, 4), real_time_factor=round(rtf, 3), checks=summary["checks"], metrics=metrics,
-        status_message=status_message, stop_signal=stop.signum,
+        status_message=status_message, stop_signal=flown.stop.signum,
     )
 
 
@@ -356,33 +330,32 @@ def _timing_doc(loop: dict[str, float], wall: float, rtf: float) -> dict[str, fl
             "loop_real_time_factor": _num(loop.get("real_time_factor"))}
 
 
-def _write_run_dir(out: Path, manifest: Manifest, result: Any, run: PreparedRun, summary: dict[str, Any],
-                   dep_doc: dict[str, Any] | None, budget: Any, world_dir: Path, record: Any, *, mcap: bool,
-                   overwrite: bool) -> None:
-    """Write the run directory ``out`` atomically: time series, events, the resolved mission, the terrain
-    preview, run.mcap (``mcap``), the deposition outputs and the spray budget's, a firmware's kept logs
-    (``record``), summary.json last."""
-    spec, run_id, seed = run.mission, summary["run_id"], summary["seed"]
+def _write_run_dir(out: Path, run: PreparedRun, request: RunRequest, flown: _Flown, folder: _Folder) -> None:
+    """Write the run folder ``out`` atomically: time series, events, the resolved mission, the terrain preview,
+    run.mcap (``request.mcap``), the deposition outputs and the spray budget's, a firmware's kept logs, summary.json
+    last."""
+    spec, result, record, summary, manifest = run.mission, flown.result, flown.record, folder.summary, folder.manifest
+    run_id, seed = summary["run_id"], summary["seed"]
     t1 = time.perf_counter()
-    with atomic_output_dir(out, manifest, overwrite=overwrite) as tmp:
+    with atomic_output_dir(out, manifest, overwrite=request.overwrite) as tmp:
         rundir.write_timeseries(tmp / rundir.TIMESERIES, result.timeseries,
                                 {"run_id": run_id, "mission": spec.name, "seed": str(seed), "units": "SI; frame in names"})
         rundir.write_events(tmp / rundir.EVENTS, result.events)
         (tmp / rundir.MISSION).write_text(dump_mission(spec), encoding="utf-8")
-        rundir.write_preview(tmp / rundir.PREVIEW, getattr(result, "terrain_preview", None))
-        if mcap:
+        rundir.write_preview(tmp / rundir.PREVIEW, result.terrain_preview)
+        if request.mcap:
             from vinecli.runs.mcap_out import write_mcap
 
             write_mcap(tmp / rundir.MCAP, result.timeseries, result.events)
-        if dep_doc is not None:
+        if folder.deposition is not None and result.deposition is not None:
             from vinecli.runs.deposition_out import dsm_crs, write_deposition
 
-            crs = dsm_crs(world_dir)
-            write_deposition(tmp, result.deposition, run.world, crs, dep_doc)
-            if budget is not None:
+            crs = dsm_crs(Path(request.world_dir))
+            write_deposition(tmp, result.deposition, run.world, crs, folder.deposition)
+            if folder.budget is not None:
                 from vinecli.runs.budget_out import write_budget
 
-                write_budget(tmp, budget, result.deposition, run.world, crs)
+                write_budget(tmp, folder.budget, result.deposition, run.world, crs)
         if record is not None:
             record.copy_into(tmp)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Mapping, Sequence
+import re
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,19 +35,29 @@ SUMMARY_KEYS = ("run_id", "status", "passed", "checks", "sim_time_s")
 
 
 def write_timeseries(path: Path, columns: Mapping[str, np.ndarray], metadata: Mapping[str, str] | None = None) -> None:
-    """Write the time series as one Parquet table (float64/int columns, zstd), ``t_s`` first."""
+    """Write the time series as one Parquet table (float64/int columns, zstd), the columns in the order the row's
+    schema declares (:mod:`vinecli.sim.row`; any it does not declare after them)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    names = list(columns)
-    if "t_s" in names:
-        names.remove("t_s")
-        names.insert(0, "t_s")
+    names = schema_order(columns)
     arrays = [pa.array(np.asarray(columns[n])) for n in names]
     table = pa.Table.from_arrays(arrays, names=names)
     if metadata:
         table = table.replace_schema_metadata({k: str(v) for k, v in metadata.items()})
     pq.write_table(table, path, compression="zstd")
+
+
+def schema_order(names: Iterable[str]) -> list[str]:
+    """``names`` in the order of the time-series schema (:func:`vinecli.sim.row.timeseries_columns` for as many
+    rotors as they have), any name it does not declare after them in their own order."""
+    from vinecli.sim.row import timeseries_columns
+
+    names = list(names)
+    rotors = sum(re.fullmatch(r"rotor\d+_w_radps", c) is not None for c in names)
+    declared = timeseries_columns(rotors)
+    have, known = set(names), set(declared)
+    return [c for c in declared if c in have] + [c for c in names if c not in known]
 
 
 def read_timeseries(path: Path) -> dict[str, np.ndarray]:

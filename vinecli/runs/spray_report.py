@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from vinecli.geometry import segments
 from vinecli.specs.mission import MissionSpec, SprayPhase
 
 __all__ = ["ROW_SPRAYED", "describe_spray", "judge_ending", "locate_cutouts", "locate_faults", "row_label"]
@@ -79,17 +80,11 @@ def _row_at(x: float, y: float, rows: Sequence[Mapping[str, Any]], reach_m: floa
         planned = r.get("planned_m")
         if not planned:
             continue
-        pts = np.asarray(r["polyline_enu"], dtype=float)
-        s0 = 0.0
-        for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
-            dx, dy = bx - ax, by - ay
-            seg = math.hypot(dx, dy)
-            u = min(max(((x - ax) * dx + (y - ay) * dy) / (seg * seg), 0.0), 1.0) if seg > 0 else 0.0
-            d = math.hypot(ax + u * dx - x, ay + u * dy - y)
-            s = s0 + u * seg
+        for seg in segments(r["polyline_enu"], len2="hypot"):
+            u, d = seg.nearest(x, y)
+            s = seg.start + u * seg.length
             if d <= reach_m and planned[0] <= s <= planned[1] and (best is None or d < best[0]):
                 best = (d, row_label(r), s)
-            s0 += seg
     return (best[1], best[2]) if best is not None else None
 
 

@@ -3,7 +3,7 @@ plant, then :meth:`Flight.step` advances it one physics step at a time until the
 
 Everything the steps read is taken out of the run's dataclasses once, in the set-up: a step touches plain
 floats and compiled objects (the physics laws, :class:`~vinecli.sim.vehicle_physics.VehiclePhysics`, the
-sensors, the ground events), never a pydantic model or a dataclass of the run (design.md §8).
+sensors, the ground events), never a pydantic model or a dataclass of the run (docs/flight-models.md §6).
 """
 
 from __future__ import annotations
@@ -24,10 +24,11 @@ from vinecli.flight.pump import Pump
 from vinecli.flight.sensors import make_sensors
 from vinecli.flight.tank import Tank, TankCoupling
 from vinecli.flight.wind import WindField
-from vinecli.frames import BodyFrame, Vec3, quat_to_euler, tilt_angle
+from vinecli.frames import BodyFrame, Vec3, tilt_angle
 from vinecli.sim.autopilot_inputs import autopilot_context, world_rangefinder
 from vinecli.sim.ground_events import CONTACT_MARGIN_M, DEBOUNCE_S, LIFTOFF_THRUST_FRAC, GroundEvents, touching
-from vinecli.sim.recorder import Recorder, timeseries_columns
+from vinecli.sim.recorder import Recorder
+from vinecli.sim.row import Row, timeseries_columns
 from vinecli.sim.setup import PreparedRun
 from vinecli.sim.spray_groups import SprayGroups
 from vinecli.sim.vehicle_physics import VehiclePhysics
@@ -142,6 +143,7 @@ class Flight:
         self.max_duration_s = run.flight.max_duration_s
         self.max_us = int(round(self.max_duration_s * 1e6))
         self.rec = Recorder(timeseries_columns(veh.n_rotors), self.max_us // self.rec_period_us + 4)
+        self.row = Row(veh.n_rotors)
         # raw pybullet functions with the client id passed positionally: ~0.4 µs less per call than
         # BulletClient's keyword partials (5 calls per step)
         pb = engine.p
@@ -331,7 +333,7 @@ class Flight:
                 self.baro_alt = baro.altitude_m
             if gnss is not None:
                 self.gnss = (gnss.lat_deg, gnss.lon_deg, gnss.alt_m)
-            self._record(t, pos, vel, acc, quat, omega_body, cmd, imu.accel_flu, imu.gyro_flu, tz_, agl, on_ground)
+            self._record(truth, cmd, imu, terrain_z=tz_, agl=agl)
         if not running:
             return False
         self.apply_f(body, -1, force, pos, self.world_frame, cid)
@@ -344,24 +346,15 @@ class Flight:
             self.on_progress(self.k * self.dt_us * 1e-6, self.max_duration_s)
         return True
 
-    def _record(self, t: float, pos: Vec3, vel: Vec3, acc: Vec3, quat: tuple[float, float, float, float],
-                omega_body: Vec3, cmd: ActuatorCommand, accel: Vec3, gyro: Vec3, terrain_z: float, agl: float,
-                on_ground: bool) -> None:
-        """One time-series row (sim/recorder.py column order) of the state at ``t``."""
-        roll, pitch, yaw = quat_to_euler(quat)
-        row = [t, pos[0], pos[1], pos[2], vel[0], vel[1], vel[2], acc[0], acc[1], acc[2], quat[0], quat[1], quat[2],
-               quat[3], roll, pitch, yaw, tilt_angle(quat), omega_body[0], omega_body[1], omega_body[2]]
-        self.physics.record(row, cmd.rotor_speed_cmd, vel)
-        st = self.st
-        ex = st.extra
-        lat, lon, alt = self.gnss
-        row += (accel[0], accel[1], accel[2], gyro[0], gyro[1], gyro[2], self.baro_alt, lat, lon, alt,
-                terrain_z, agl, 1.0 if on_ground else 0.0,
-                ex.get("sp_x", NAN), ex.get("sp_y", NAN), ex.get("sp_z", NAN),
-                float(st.phase_index), 1.0 if cmd.armed else 0.0)
-        self.physics.record_battery(row)
-        row.append(ex.get("sortie", NAN))
-        self.rec.append(row)
+    def _record(self, truth: RigidState, cmd: ActuatorCommand, imu: ImuSample, terrain_z: float, agl: float) -> None:
+        """One time-series row (sim/row.py) of the state ``truth``, flown with ``cmd``."""
+        row = self.row
+        row.set_truth(truth)
+        self.physics.record(row, cmd, truth.vel)
+        row.set_sensors(imu, self.baro_alt, self.gnss)
+        row.set_ground(terrain_z=terrain_z, agl=agl, on_ground=truth.on_ground)
+        row.set_autopilot(self.st, cmd.armed)
+        self.rec.append(row.values())
 
 
 def fly(flight: Flight) -> None:

@@ -1,4 +1,5 @@
-"""What a run may hold in memory, worked out at load: a mission that cannot fit is refused (issue 20 item 5).
+"""What a run may hold in memory, worked out at load: a mission that cannot fit is refused before it
+runs, with the numbers, instead of exhausting a shared machine half-way.
 
 A run keeps its time series (``max_duration_s`` × ``record_rate_hz`` rows of every column, twice at the
 end: the recorder's chunks and the columns handed to the writer), the spray records and, after the
@@ -22,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from vinecli.errors import InputError
-from vinecli.sim.recorder import timeseries_columns
+from vinecli.sim.row import timeseries_columns
 from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.spray.canopy import hedge_window, row_spacing

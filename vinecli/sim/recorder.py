@@ -1,6 +1,6 @@
-"""Time-series recording into numpy chunks (docs/architecture.md column names).
+"""Time-series recording into numpy chunks.
 
-The loop appends one row (a plain list of floats, in :func:`timeseries_columns` order) per
+The loop appends one row (a plain list of floats in its columns' order: :meth:`vinecli.sim.row.Row.values`) per
 record period; rows go into fixed-size chunks in blocks (memory grows with the run, nothing is
 preallocated for ``max_duration_s``); :meth:`Recorder.columns_dict` returns ``{name: 1-D array}``
 at the end (the missions tools write them to Parquet).
@@ -13,32 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["Recorder", "timeseries_columns"]
-
-
-def _xyz(prefix: str, suffix: str) -> list[str]:
-    return [f"{prefix}_{a}_{suffix}" for a in "xyz"]
-
-
-def timeseries_columns(n_rotors: int) -> list[str]:
-    """Column names in recording order (SI units, frame in the name, rotors numbered 1..n)."""
-    cols = ["t_s"]
-    cols += _xyz("pos_enu", "m") + _xyz("vel_enu", "mps") + _xyz("acc_enu", "mps2")
-    cols += ["quat_x", "quat_y", "quat_z", "quat_w", "roll_rad", "pitch_rad", "yaw_rad", "tilt_rad"]
-    cols += _xyz("omega_flu", "radps")
-    for i in range(1, n_rotors + 1):
-        cols += [f"rotor{i}_w_radps", f"rotor{i}_cmd_radps", f"rotor{i}_thrust_n"]
-    cols += ["thrust_total_n"]
-    cols += _xyz("wind_enu", "mps") + _xyz("air_app_enu", "mps") + _xyz("drag_enu", "n") + _xyz("rotor_drag_flu", "n")
-    cols += ["tank_level_l", "tank_mass_kg", "tank_flow_lps", "tank_flow_cmd_lps"]
-    cols += _xyz("tank_force_enu", "n") + ["tank_force_grav_enu_z_n"] + _xyz("tank_force_inertial_enu", "n")
-    cols += ["total_mass_kg"]
-    cols += _xyz("imu_accel_flu", "mps2") + _xyz("imu_gyro_flu", "radps")
-    cols += ["baro_alt_m", "gnss_lat_deg", "gnss_lon_deg", "gnss_alt_m"]
-    cols += ["terrain_z_m", "height_agl_m", "on_ground"]
-    cols += _xyz("sp_pos_enu", "m") + ["phase_index", "armed"]
-    cols += ["battery_soc", "battery_voltage_v", "battery_current_a", "power_elec_w", "sortie"]
-    return cols
+__all__ = ["Recorder"]
 
 
 class Recorder:

@@ -8,7 +8,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +16,9 @@ from vinecli.autopilot.base import RunStatus
 from vinecli.sim.loop import Flight
 from vinecli.sim.setup import PreparedRun
 from vinecli.types import Event
+
+if TYPE_CHECKING:
+    from vinecli.sim.spray_deposit import DepositionResult
 
 __all__ = ["SimResult", "assemble_result"]
 
@@ -36,8 +39,8 @@ class SimResult:
     terrain_preview: dict[str, np.ndarray]
     #: depth-camera point clouds (t_s, (N, 3) float32 world ENU m), empty when the camera is off
     point_clouds: list[tuple[float, np.ndarray]] = field(default_factory=list)
-    #: where the spray landed (vinecli.sim.spray_deposit.DepositionResult); None when nothing was sprayed or when off
-    deposition: Any = None
+    #: where the spray landed; None when nothing was sprayed or when off
+    deposition: DepositionResult | None = None
     #: machine-dependent figures, not metrics: loop_wall_s, wall_per_step_us, cpu_per_step_us, real_time_factor
     timing: dict[str, float] = field(default_factory=dict)
 

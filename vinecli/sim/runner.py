@@ -13,7 +13,7 @@ Per physics step k (t_us = k · dt_us, dt_us = round(1e6 / rate)):
 2. sensors sample the truth (IMU/baro/mag/GNSS at their own rates, depth camera if enabled);
 3. ``autopilot.step(obs)`` -> rotor speed commands, spray flow, armed;
 4. motors follow the command over dt (first-order lag), wind ``W(t_k, p_k)``; forces, each law in
-   ``physics/`` composed by :class:`vinecli.sim.vehicle_physics.VehiclePhysics`:
+   ``flight/`` composed by :class:`vinecli.sim.vehicle_physics.VehiclePhysics`:
 
    * rotors: thrust, rotor drag, reaction torque, rolling moment from the apparent air
      velocity at each rotor (``wind - (v + ω × r_i)``, body FLU) -> body wrench about the CoM;
@@ -40,7 +40,7 @@ motors off, liquid weight at the mount): home is that rest pose. Events detected
 (:mod:`vinecli.sim.ground_events`): ``liftoff`` (no contact for 0.05 s with the rotors carrying at least
 half the weight -- a bounce or a tumble with idle motors is none), ``touchdown`` (contact again for 0.05 s
 after a lift-off), ``crash`` (contact with a vertical speed above ``crash_speed_mps``); and ``tank_empty``.
-Plain floats throughout the loop (design.md §8).
+Plain floats throughout the loop (docs/flight-models.md §6).
 """
 
 from __future__ import annotations
@@ -69,6 +69,8 @@ __all__ = ["SimResult", "run_simulation", "simulate"]
 SPAWN_GAP_M = 0.0  # m between the skids and the terrain at spawn
 
 
+# parameters: the library's one-call run: keyword-only options with their defaults, handed to prepare_run and
+# simulate as they are
 def run_simulation(
     world: World,
     mission: MissionSpec,

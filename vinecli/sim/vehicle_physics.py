@@ -19,7 +19,6 @@ forces because the links are rigidly fixed):
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import final
 
 from vinecli.flight.aero import BodyDrag, apparent_velocity
@@ -29,18 +28,18 @@ from vinecli.flight.pump import Pump
 from vinecli.flight.tank import Tank, TankCoupling
 from vinecli.flight.wind import WindField
 from vinecli.frames import BodyFrame, Vec3
+from vinecli.sim.row import Row
 from vinecli.types import ActuatorCommand
 
 __all__ = ["VehiclePhysics"]
-
-_NO_TANK = (0.0,) * 11
-
 
 @final
 class VehiclePhysics:
     """Motors, wind, drag, tank and battery of one vehicle (module doc); after :meth:`step`, ``wind``
     (m/s ENU at the CoM), ``drag`` (N ENU), ``flow_cmd_lps`` and ``energy_j`` hold this step's values."""
 
+    # parameters: one per physics law composed (each its own type, built once per run by sim.loop's
+    # vehicle_physics)
     def __init__(self, motors: MotorBank, wind: WindField, drag: BodyDrag, tank: Tank | None,
                  coupling: TankCoupling | None, battery: Battery | None, load: ElectricalLoad | None,
                  rigid_mass_kg: float, pump: Pump | None = None) -> None:
@@ -63,6 +62,8 @@ class VehiclePhysics:
         tank = self.tank
         return self.rigid_mass + (tank.mass_kg if tank is not None else 0.0)
 
+    # parameters: called every physics step by the compiled loop with its state as plain floats and vectors:
+    # an object to hold them would be built every step
     def step(self, frame: BodyFrame, t: float, pos: Vec3, vel: Vec3, omega: Vec3, omega_body: Vec3, acc: Vec3,
              alpha: Vec3, cmd: ActuatorCommand, dt: float) -> tuple[Vec3, Vec3]:
         """(force N, torque N m), world ENU about the CoM, for the step ``t`` -> ``t + dt`` of the body at
@@ -102,29 +103,37 @@ class VehiclePhysics:
             self.energy_j += battery.power_drawn_w * dt
         return (fx, fy, fz), (tx, ty, tz)
 
-    def record(self, row: list[float], cmd_w: Sequence[float], vel: Vec3) -> None:
-        """Append this step's vehicle columns to a time-series row (rotors .. total mass, sim/recorder.py)."""
+    def record(self, row: Row, cmd: ActuatorCommand, vel: Vec3) -> None:
+        """This step's vehicle columns of a time-series row (sim/row.py): the rotors at the row's time, wind,
+        drag, tank, mass and battery; ``vel`` the body's velocity, m/s ENU."""
         motors = self.motors
-        w, thr = motors.w_start, motors.thrust  # the speeds at the row's time
-        for i in range(motors.n):
-            row += (w[i], cmd_w[i], thr[i])
+        row.rotor_w_radps = motors.w_start  # the speeds at the row's time
+        row.rotor_cmd_radps = cmd.rotor_speed_cmd
+        row.rotor_thrust_n = motors.thrust
+        row.thrust_total_n = motors.thrust_total
         wx, wy, wz = self.wind
-        dx, dy, dz = self.drag
-        rd = motors.rotor_drag_body
-        row += (motors.thrust_total, wx, wy, wz, wx - vel[0], wy - vel[1], wz - vel[2], dx, dy, dz, rd[0], rd[1], rd[2])
+        row.wind_enu_x_mps, row.wind_enu_y_mps, row.wind_enu_z_mps = wx, wy, wz
+        row.air_app_enu_x_mps, row.air_app_enu_y_mps, row.air_app_enu_z_mps = wx - vel[0], wy - vel[1], wz - vel[2]
+        row.drag_enu_x_n, row.drag_enu_y_n, row.drag_enu_z_n = self.drag
+        row.rotor_drag_flu_x_n, row.rotor_drag_flu_y_n, row.rotor_drag_flu_z_n = motors.rotor_drag_body
         tank = self.tank
         if tank is not None:
-            tf, tgf, tif = tank.force, tank.gravity_force, tank.inertial_force
-            row += (tank.level_l, tank.mass_kg, tank.flow_lps, self.flow_cmd_lps, tf[0], tf[1], tf[2], tgf[2],
-                    tif[0], tif[1], tif[2], self.rigid_mass + tank.mass_kg)
+            row.tank_level_l, row.tank_mass_kg, row.tank_flow_lps = tank.level_l, tank.mass_kg, tank.flow_lps
+            row.tank_flow_cmd_lps = self.flow_cmd_lps
+            row.tank_force_enu_x_n, row.tank_force_enu_y_n, row.tank_force_enu_z_n = tank.force
+            row.tank_force_grav_enu_z_n = tank.gravity_force[2]
+            row.tank_force_inertial_enu_x_n, row.tank_force_inertial_enu_y_n, row.tank_force_inertial_enu_z_n = \
+                tank.inertial_force
+            row.total_mass_kg = self.rigid_mass + tank.mass_kg
         else:
-            row += _NO_TANK
-            row.append(self.rigid_mass)
-
-    def record_battery(self, row: list[float]) -> None:
-        """Append the battery columns (state of charge at the row's time, voltage, current, power; NaN without one)."""
-        b = self.battery
+            row.tank_level_l = row.tank_mass_kg = row.tank_flow_lps = row.tank_flow_cmd_lps = 0.0
+            row.tank_force_enu_x_n = row.tank_force_enu_y_n = row.tank_force_enu_z_n = 0.0
+            row.tank_force_grav_enu_z_n = 0.0
+            row.tank_force_inertial_enu_x_n = row.tank_force_inertial_enu_y_n = row.tank_force_inertial_enu_z_n = 0.0
+            row.total_mass_kg = self.rigid_mass
+        b = self.battery  # state of charge at the row's time, voltage, current, power; NaN without one
         if b is not None:
-            row += (b.soc_start, b.voltage_v, b.current_a, b.power_drawn_w)
+            row.battery_soc, row.battery_voltage_v, row.battery_current_a = b.soc_start, b.voltage_v, b.current_a
+            row.power_elec_w = b.power_drawn_w
         else:
-            row += (math.nan, math.nan, math.nan, math.nan)
+            row.battery_soc = row.battery_voltage_v = row.battery_current_a = row.power_elec_w = math.nan

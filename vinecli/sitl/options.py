@@ -35,7 +35,7 @@ class AutopilotOptions:
     ardupilot_bin: str | None = None  # ArduCopter SITL binary: vinecli starts (and stops) ArduPilot for the run
 
     def changed(self) -> dict[str, Any]:
-        """Only the options that differ from their defaults (``run_mission(autopilot_options=...)``)."""
+        """Only the options that differ from their defaults (what a run's manifest.json records)."""
         return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != f.default}
 
 
@@ -62,22 +62,8 @@ def px4_binary(path: Path | None) -> str | None:
     return firmware_binary(path)
 
 
-def make_run_autopilot(
-    name: str,
-    *,
-    mavlink: str | None = PX4_DEFAULTS.mavlink,
-    realtime: bool = PX4_DEFAULTS.realtime,
-    mavlink_allow_remote: bool = PX4_DEFAULTS.mavlink_allow_remote,
-    px4_instance: int | None = PX4_DEFAULTS.px4_instance,
-    px4_host: str = PX4_DEFAULTS.px4_host,
-    px4_connect_timeout_s: float = PX4_DEFAULTS.px4_connect_timeout_s,
-    px4_step_timeout_s: float | None = PX4_DEFAULTS.px4_step_timeout_s,
-    px4_allow_remote: bool = PX4_DEFAULTS.px4_allow_remote,
-    px4_bin: str | None = PX4_DEFAULTS.px4_bin,
-    mavlink_local_port: int | None = PX4_DEFAULTS.mavlink_local_port,
-    ardupilot_bin: str | None = PX4_DEFAULTS.ardupilot_bin,
-) -> Autopilot:
-    """The backend for one run.
+def make_run_autopilot(name: str, options: AutopilotOptions = PX4_DEFAULTS) -> Autopilot:
+    """The backend ``name`` of one run, with its ``options``.
 
     * ``mavlink`` set: the built-in autopilot behind a MAVLink vehicle endpoint
       (:class:`vinecli.autopilot.mavlink_vehicle.MavlinkControlledAutopilot`), lockstep or ``realtime``;
@@ -91,30 +77,32 @@ def make_run_autopilot(
     Ground-truth runs (the mission's ``truth``) need no option here: the simulator hands the
     backend its perfect estimator in the context.
     """
-    if mavlink is not None:
+    o = options
+    if o.mavlink is not None:
         if name != "builtin":
             raise InputError(f"--mavlink serves the built-in autopilot; with --autopilot {name} connect your "
                              "ground station to that autopilot directly (PX4: UDP 14550 / 14540+i)")
         from vinecli.autopilot.mavlink_vehicle import serve_mavlink
 
-        return serve_mavlink(mavlink, realtime=realtime, allow_remote=mavlink_allow_remote,  # type: ignore[return-value]
-                             local_port=mavlink_local_port)
-    if realtime:
+        return serve_mavlink(o.mavlink, realtime=o.realtime, allow_remote=o.mavlink_allow_remote,  # type: ignore[return-value]
+                             local_port=o.mavlink_local_port)
+    if o.realtime:
         raise InputError("--realtime applies to --mavlink runs (PX4 runs pace themselves in lockstep)")
     if name == "px4":
         from vinecli.sitl.px4.backend import Px4SitlAutopilot
 
-        if px4_instance is None and px4_bin is None:
-            px4_instance = PX4_DEFAULT_INSTANCE  # an external PX4 started by hand: instance 0 unless told
-        return Px4SitlAutopilot(host=px4_host, instance=px4_instance, connect_timeout_s=px4_connect_timeout_s,  # type: ignore[return-value]
-                                step_timeout_s=px4_step_timeout_s, allow_remote=px4_allow_remote, px4_bin=px4_bin)
+        instance = o.px4_instance
+        if instance is None and o.px4_bin is None:
+            instance = PX4_DEFAULT_INSTANCE  # an external PX4 started by hand: instance 0 unless told
+        return Px4SitlAutopilot(host=o.px4_host, instance=instance, connect_timeout_s=o.px4_connect_timeout_s,  # type: ignore[return-value]
+                                step_timeout_s=o.px4_step_timeout_s, allow_remote=o.px4_allow_remote, px4_bin=o.px4_bin)
     if name == "ardupilot":
         from vinecli.sitl.ardupilot.backend import ArdupilotSitlAutopilot
 
-        return ArdupilotSitlAutopilot(ardupilot_bin=ardupilot_bin)  # type: ignore[return-value]
-    if px4_bin is not None:
+        return ArdupilotSitlAutopilot(ardupilot_bin=o.ardupilot_bin)  # type: ignore[return-value]
+    if o.px4_bin is not None:
         raise InputError(f"--px4-bin needs --autopilot px4 (this run uses {name!r})")
-    if ardupilot_bin is not None:
+    if o.ardupilot_bin is not None:
         raise InputError(f"--ardupilot-bin needs --autopilot ardupilot (this run uses {name!r})")
     from vinecli.autopilot.registry import make_autopilot
 

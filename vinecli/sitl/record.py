@@ -55,4 +55,10 @@ class FirmwareRecord:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
-__all__ = ["FIRMWARE_DIR", "FirmwareRecord", "LogAuditor"]
+def firmware_record(autopilot: object) -> FirmwareRecord | None:
+    """What a firmware backend kept when it closed (its ``firmware_record``); None for any other autopilot."""
+    record = getattr(autopilot, "firmware_record", None)
+    return record if isinstance(record, FirmwareRecord) else None
+
+
+__all__ = ["FIRMWARE_DIR", "FirmwareRecord", "LogAuditor", "firmware_record"]

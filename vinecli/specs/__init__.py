@@ -1,4 +1,8 @@
-"""Loading user-written YAML specs into validated pydantic models.
+"""User-written YAML specs as validated pydantic models: one module per part specified, named after it
+(:mod:`~vinecli.specs.vehicle`, :mod:`~vinecli.specs.sprayer`, :mod:`~vinecli.specs.wind`,
+:mod:`~vinecli.specs.mission`, :mod:`~vinecli.specs.canopy`: the names repeat those of the models of the same
+part on purpose), their limits (:mod:`~vinecli.specs.limits`) and references between files
+(:mod:`~vinecli.specs.refs`). May import the ground floor only.
 
 ``load_spec(path, Model)`` reads YAML with ``safe_load``, resolves ``base:`` inheritance
 (a path relative to the file, or a bare name looked up in the same folder; the child's keys

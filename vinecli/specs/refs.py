@@ -1,4 +1,5 @@
-"""References from one spec to another: resolved relative to the file that names them, confined (issue 20 item 7).
+"""References from one spec to another: resolved relative to the file that names them, confined (a
+``base: /etc/shadow`` is refused unread).
 
 A spec names other specs: ``base:`` (any spec), ``vehicle:`` (missions and worlds), the missions and
 world specs of a pipeline. :func:`spec_reference` resolves such a reference relative to the folder of

@@ -34,7 +34,7 @@ class FrameSpec(StrictModel):
 
 
 class MotorSpec(StrictModel):
-    """Motor/propeller constants shared by every rotor (design.md §3)."""
+    """Motor/propeller constants shared by every rotor (docs/flight-models.md §1)."""
 
     k_f: float = Field(gt=0, description="thrust constant, N/(rad/s)²")
     k_m: float = Field(ge=0, description="reaction torque / thrust, m")

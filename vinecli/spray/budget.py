@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vinecli.constants import STANDARD_GRAVITY
+from vinecli.geometry import Polyline, segments
 from vinecli.spray.canopy import Canopy
 from vinecli.spray.deposition import FAR_WALL_JET
 from vinecli.spray.downwash import wake_velocity
@@ -32,7 +33,6 @@ from vinecli.spray.wake import plume_radius_at
 
 __all__ = ["BudgetConfig", "SprayBudget", "spray_budget"]
 
-Polyline = Sequence[tuple[float, float]]
 ACROSS = (-0.25, 0.25)  # where across a hedge (share of its width) its deposit is put
 FRACTIONS = ("canopy", "ground_in_field", "ground_off_field", "airborne_out", "evaporated")
 
@@ -107,32 +107,30 @@ class SprayBudget:
 def _row_coords(x: np.ndarray, y: np.ndarray, line: Polyline) -> tuple[np.ndarray, ...]:
     """Per point: signed distance to the polyline (left of its direction positive), arc length of the nearest
     point, the unit normal (left) of the nearest segment, and the polyline's length."""
-    pts = np.asarray(line, dtype=np.float64)
     best = np.full(x.shape, np.inf)
     s_signed = np.zeros(x.shape)
     arc = np.zeros(x.shape)
     nx = np.zeros(x.shape)
     ny = np.zeros(x.shape)
     s0 = 0.0
-    for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:], strict=True):
-        dx, dy = bx - ax, by - ay
-        seg = math.hypot(dx, dy)
-        if seg <= 0:
+    for seg in segments(line, len2="hypot"):
+        if seg.length <= 0:
             continue
-        u = ((x - ax) * dx + (y - ay) * dy) / (seg * seg)
-        uc = np.clip(u, 0.0, 1.0)
-        d = np.hypot(x - (ax + uc * dx), y - (ay + uc * dy))
+        u = seg.fraction(x, y)
+        d = seg.distance(x, y, seg.clamp(u))
         better = d < best
         best = np.where(better, d, best)
-        lx, ly = -dy / seg, dx / seg
-        s_signed = np.where(better, (x - ax) * lx + (y - ay) * ly, s_signed)
-        arc = np.where(better, s0 + u * seg, arc)
+        lx, ly = -seg.dy / seg.length, seg.dx / seg.length
+        s_signed = np.where(better, (x - seg.ax) * lx + (y - seg.ay) * ly, s_signed)
+        arc = np.where(better, seg.start + u * seg.length, arc)
         nx = np.where(better, lx, nx)
         ny = np.where(better, ly, ny)
-        s0 += seg
+        s0 = seg.start + seg.length
     return s_signed, arc, nx, ny, np.full(x.shape, s0)
 
 
+# parameters: the parcels' arrays the capture model reads (position, size, volume, velocity, impaction
+# efficiency), one value per parcel each
 def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarray, avail: np.ndarray,
                   vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, eff: np.ndarray, nodes: int,
                   plume: tuple[np.ndarray, ...] | None = None, wake: tuple[np.ndarray, ...] | None = None,
@@ -295,6 +293,8 @@ def _canopy_first(p: _Merged, canopy: Canopy, landed: np.ndarray, vz: np.ndarray
     return captured, r1 + r2, np.concatenate([pts1, pts2], axis=1), on_the_way
 
 
+# parameters: the parcels and their size classes, the rows and the field's wind, then the air, the options and
+# gravity with defaults
 def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: Canopy | None,
                  rows: Sequence[Polyline], spacing_m: float, applied_lpha: float, wind_xy: tuple[float, float],
                  air: tuple[float, float] | None = None, config: BudgetConfig = BudgetConfig(),

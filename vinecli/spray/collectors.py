@@ -26,6 +26,8 @@ __all__ = ["UL_PER_CM2", "collector_deposit"]
 UL_PER_CM2 = 100.0  # µL/cm² per L/m²
 
 
+# parameters: the parcels' arrays the collector model reads (position, volume, size, velocity, settling
+# speed), one value per parcel each, then the collectors
 def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.ndarray, vx: np.ndarray,
                       vy: np.ndarray, vz: np.ndarray, v_t: np.ndarray, points: np.ndarray, canopy: Canopy | None,
                       width_m: float | None = 0.12, g: float = STANDARD_GRAVITY,

@@ -208,6 +208,8 @@ def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
     return out
 
 
+# parameters: the records and the sprayer, the terrain, wind and air of the run, its seed, then options with
+# their defaults
 def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray],
               wind_spec: WindSpec, air_density: float, seed: int, config: DepositionConfig = DepositionConfig(),
               g: float = STANDARD_GRAVITY, expected: bool = False) -> Parcels:
@@ -374,6 +376,7 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, stripped: np.ndarray, geo: 
         _release(out, kind, lifted, top, offset, t_left, geo, height, wnd, z_release, config)
 
 
+# parameters: one escape route's release (volumes, layer top, offset, time left, kind) and the transport's context
 def _release(out: Parcels, kind: int, lifted: np.ndarray, top: np.ndarray, offset: np.ndarray, t_left: np.ndarray,
              geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray,
              z_release: np.ndarray, config: DepositionConfig) -> None:

@@ -27,11 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vinecli.geometry import Polyline, convex_signed_distance
 from vinecli.spray.interception import semicircle_cdf
 
 __all__ = ["CALM_MPS", "DriftFrame", "drift_curve", "drift_frames", "field_polygon", "field_split"]
 
-Polyline = Sequence[tuple[float, float]]
 CALM_MPS = 0.1
 
 
@@ -53,33 +53,16 @@ def field_polygon(rows: Sequence[Polyline], spacing_m: float, path_xy: np.ndarra
     return MultiPoint(shapely.get_coordinates(geom)).convex_hull
 
 
-def _signed_distance(geom: object, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Distance to the boundary of the convex polygon ``geom`` (m), negative inside (numpy, per edge)."""
-    import shapely
-
-    v = np.asarray(shapely.get_coordinates(geom.exterior), dtype=np.float64)  # type: ignore[attr-defined]
-    best = np.full(x.shape, np.inf)
-    inside = np.ones(x.shape, dtype=bool)
-    area2 = float(np.sum(v[:-1, 0] * v[1:, 1] - v[1:, 0] * v[:-1, 1]))  # > 0: counter-clockwise
-    for (ax, ay), (bx, by) in zip(v[:-1], v[1:], strict=True):
-        dx, dy = bx - ax, by - ay
-        seg2 = dx * dx + dy * dy
-        if seg2 <= 0:
-            continue
-        u = np.clip(((x - ax) * dx + (y - ay) * dy) / seg2, 0.0, 1.0)
-        best = np.minimum(best, np.hypot(x - ax - u * dx, y - ay - u * dy))
-        cross = dx * (y - ay) - dy * (x - ax)
-        inside &= cross * area2 >= 0.0
-    return np.where(inside, -best, best)
-
-
 def field_split(field: object, domain_m: float, x: np.ndarray, y: np.ndarray, radius: np.ndarray,
                 vol: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per parcel: volume landing (in the field, beyond it within the domain, beyond the domain), L."""
     if field is None or vol.size == 0:
         z = np.zeros_like(vol)
         return vol.copy(), z, z
-    d = _signed_distance(field, x, y)
+    import shapely
+
+    ring = np.asarray(shapely.get_coordinates(field.exterior), dtype=np.float64)  # type: ignore[attr-defined]
+    d = convex_signed_distance(ring, x, y)
     r = np.maximum(radius, 1e-3)
     inside = semicircle_cdf(-d / r)
     within_domain = semicircle_cdf((domain_m - d) / r)

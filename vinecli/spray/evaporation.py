@@ -15,7 +15,7 @@ factor of a drop falling at its terminal velocity (Re at the initial diameter).
 
 The rule of thumb of spray practice, a drop's lifetime ``d²/(80 ΔT)`` s with d in µm and the
 wet-bulb depression ΔT in K (Amsden 1962; Matthews, *Pesticide Application Methods*), is the same
-law with λ ≈ 80 ΔT µm²/s; tests/physics/test_evaporation.py compares the two.
+law with λ ≈ 80 ΔT µm²/s; tests/spray/test_budget_models.py compares the two.
 """
 
 from __future__ import annotations

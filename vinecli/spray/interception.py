@@ -77,6 +77,8 @@ def leaf_area_on_path(s: np.ndarray, k: np.ndarray, width: np.ndarray, base: np.
     return total
 
 
+# parameters: the formula's inputs (module doc): per (parcel, hedge) pair arrays of the parcel and the
+# hedge, one value per pair each, evaluated in one vectorised pass
 def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np.ndarray, eff: np.ndarray,
                      g_factor: float, width: np.ndarray, base: np.ndarray, top: np.ndarray, lad: np.ndarray,
                      profile: np.ndarray, nodes: int = 8, diverge: np.ndarray | float = 0.0,

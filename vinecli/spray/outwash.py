@@ -49,6 +49,8 @@ def impaction_share(d_m: np.ndarray, jet_speed_mps: np.ndarray, jet_diam_m: floa
     return 1.0 / (1.0 + np.exp(-(np.sqrt(stk) - SQRT_STK50) / _WIDTH))
 
 
+# parameters: the formula's inputs (module doc): arrays of the lifted parcels, one value per parcel each, and the
+# surface layer's (roughness, stability, the crop's displacement)
 def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.ndarray, t_fall: np.ndarray,
                    wind_x: np.ndarray, wind_y: np.ndarray, z_wind_m: np.ndarray, roughness_m: float,
                    jet_diam_m: float | np.ndarray, obukhov_m: float = math.inf,

@@ -54,6 +54,8 @@ class TrialVehicle:
             arm_m=self.arm_m if self.arm_m is not None else 0.55 * self.prop_diameter_m / math.sin(math.pi / self.n_rotors))
 
 
+# parameters: a straight pass as the published trials describe it: ends, height, speed, flow, thrust, wind,
+# then the record clock with defaults
 def pass_records(start_xy: tuple[float, float], end_xy: tuple[float, float], z_m: float, speed_mps: float,
                  flow_lps: float, thrust_n: float, wind_enu: tuple[float, float, float], t0: float = 0.0,
                  dt: float = 0.04) -> np.ndarray:

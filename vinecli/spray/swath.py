@@ -39,7 +39,7 @@ CV_LIMIT = 0.10
 _DY = 0.01  # m, cross-track resolution of the pattern (finest; coarser for wide swaths, :func:`_resolution`)
 #: cross-track samples and lane spacings a pattern keeps at most: a pattern 80 m wide or more (a spray height
 #: above ~60 m, or a strong crosswind) and a swath over 20 m are sampled coarser, so the pattern of a 400 m spray
-#: height (460 m wide) takes seconds, not an hour (issue 20: every accepted height completes)
+#: height (460 m wide) takes seconds, not an hour: every height a spec accepts completes
 _SAMPLES = 8000
 _SPACINGS = 400
 
@@ -193,6 +193,7 @@ def pattern_cv(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = T
     return float(np.std(rel))
 
 
+# parameters: the pattern's physical inputs (vehicle, height, speed, crosswind, air, gravity, CV limit, tank fill, transport)
 def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, crosswind_mps: float = 0.0,
                   air_density: float = 1.225, g: float = STANDARD_GRAVITY, cv_limit: float = CV_LIMIT,
                   fill_fraction: float = 0.5, config: DepositionConfig | None = None) -> SwathPattern:

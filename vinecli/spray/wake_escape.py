@@ -69,6 +69,7 @@ def band_outside_share(radius: np.ndarray, offset: np.ndarray, edge: float) -> n
     return np.clip(1.0 - (semicircle_cdf((edge - d) / r) - semicircle_cdf((-edge - d) / r)), 0.0, 1.0)
 
 
+# parameters: the formula's inputs (module doc), arrays broadcast together
 def stripped_share(radius: np.ndarray, offset_xy: tuple[np.ndarray, np.ndarray], air_xy: tuple[np.ndarray, np.ndarray],
                    velocity_xy: tuple[np.ndarray, np.ndarray], fall_s: np.ndarray, edge: float, wake_mps: np.ndarray,
                    tau_s: np.ndarray, fall_m: np.ndarray) -> np.ndarray:

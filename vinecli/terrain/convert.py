@@ -19,6 +19,7 @@ if TYPE_CHECKING:
 TARGETS = ("heightmap", "tiles")
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli terrain convert` option; a caller names the ones it sets
 def convert_dsm(dsm: Path, out: Path, *, to: str, size: int | None = None, method: str = HEIGHTMAP_METHOD,
                 window: str | None = None, bbox: str | None = None, fill: str = FILL, z_unit: str | None = None,
                 max_error: float | None = None, max_triangles: int | None = None, tile_px: int = TILE_PX,

@@ -1,6 +1,6 @@
 """The square a heightmap covers, and its vertex-aligned grid.
 
-Conventions (terrain-notes.md §3): a heightmap of N = 2^n + 1 vertices per side spans a square
+Conventions (docs/terrain.md §3): a heightmap of N = 2^n + 1 vertices per side spans a square
 of side L from its first to its last vertex, spacing d = L / (N - 1). Vertices sit on the
 square's edges. As a raster the grid has N×N cells *centred* on the vertices, i.e. its extent
 is the square grown by d/2 on every side; ``rasterio.warp.reproject`` onto that grid samples

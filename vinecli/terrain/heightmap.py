@@ -50,7 +50,7 @@ from vinecli.terrain.raster import (
 log = logging.getLogger(__name__)
 
 METHODS: tuple[str, ...] = ("bilinear", "cubic", "average", "max", "nearest")
-#: PyBullet GEOM_HEIGHTFIELD breaks silently above this many samples (terrain-notes.md §4).
+#: PyBullet GEOM_HEIGHTFIELD breaks silently above this many samples (docs/terrain.md §4).
 MAX_SAMPLES = 2**21
 #: Crops above this many pixels are streamed through GDAL's warper when downsampling.
 MAX_READ_PX = 2**25
@@ -448,6 +448,7 @@ def _tif_crs(meta: DsmMeta, crop: SquareCrop) -> Any:
     return crop.grid_crs
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli terrain convert --to heightmap` option; a caller names the ones it sets
 def convert_to_heightmap(dsm: Path, out: Path, *, size: int | None = None, method: str = HEIGHTMAP_METHOD,
                          window: tuple[int, int, int, int] | None = None,
                          bbox: tuple[float, float, float, float] | None = None, fill: str | float = FILL,

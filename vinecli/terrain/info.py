@@ -19,9 +19,9 @@ from vinecli.terrain.raster import CLOUD_SUFFIXES, RASTER_SUFFIXES, gdal_env, in
 
 log = logging.getLogger(__name__)
 
-#: Measured PyBullet GEOM_HEIGHTFIELD memory (samples -> MB), terrain-notes.md §4.
+#: Measured PyBullet GEOM_HEIGHTFIELD memory (samples -> MB), docs/terrain.md §4.
 HEIGHTFIELD_MB: tuple[tuple[int, float], ...] = ((257 * 257, 132.0), (513 * 513, 265.0), (1025 * 1025, 1000.0))
-#: Measured PyBullet memory per triangle of a static concave mesh (KB), terrain-notes.md §4.
+#: Measured PyBullet memory per triangle of a static concave mesh (KB), docs/terrain.md §4.
 MESH_KB_PER_TRIANGLE = 0.43
 
 
@@ -121,7 +121,7 @@ def raster_info(path: Path) -> dict[str, Any]:
                 "full_grid_triangles": full_tris,
                 "max_error_m": DEFAULT_MAX_ERROR,
                 "pybullet_mb_full_grid": full_tris * MESH_KB_PER_TRIANGLE / 1024,
-                "note": "pydelatin keeps 50-80% of the grid's triangles on vegetation DSMs (terrain-notes §1)",
+                "note": "pydelatin keeps 50-80% of the grid's triangles on vegetation DSMs (docs/terrain.md §1)",
             },
         },
         "warnings": warnings,

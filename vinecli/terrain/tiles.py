@@ -163,6 +163,7 @@ def _borders(cedges: list[int], redges: list[int]) -> list[tuple[tuple[int, int]
     return out
 
 
+# parameters: keyword-only options, each with its default, one per `vinecli terrain convert --to tiles` option; a caller names the ones it sets
 def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, max_triangles: int | None = None,
                      tile_px: int = TILE_PX, fmt: str = TILE_FORMAT, fill: str | float = FILL, z_unit: str | None = None,
                      workers: int | None = None, overwrite: bool = False) -> TileSet:
@@ -271,19 +272,48 @@ def convert_to_tiles(dsm: Path, out: Path, *, max_error: float | None = None, ma
             with manifest.stage("stitch"):
                 for a, b, axis, line in _borders(cedges, redges):
                     gaps.append(border_gap(tins[a], tins[b], axis, line, z))
-            tiles_meta = _tiles_json(dsm, meta, keys, tins, stats, e_mesh, cedges, redges, origin, alt, (cx, cy),
-                                     (dx, dy), fres, max_error, max_triangles, bounded, tile_px, fmt, n_workers,
-                                     max(gaps, default=0.0), manifest.timings, time.perf_counter() - t_start)
+            tiles_meta = _tiles_json(_TilesRecord(
+                dsm=dsm, meta=meta, keys=keys, tins=tins, stats=stats, e_mesh=e_mesh, cedges=cedges, redges=redges,
+                origin=origin, alt=alt, centre=(cx, cy), pix_m=(dx, dy), fres=fres, max_error=max_error,
+                max_triangles=max_triangles, bounded=bounded, tile_px=tile_px, fmt=fmt, workers=n_workers,
+                max_gap=max(gaps, default=0.0), timings=manifest.timings, seconds=time.perf_counter() - t_start))
             write_json(tmp / "tiles.json", tiles_meta)
     return load_tiles(out)
 
 
-def _tiles_json(dsm: Path, meta: Any, keys: list[tuple[int, int]], tins: dict[tuple[int, int], Tin],
-                stats: dict[tuple[int, int], dict[str, Any]], e_mesh: dict[tuple[int, int], float],
-                cedges: list[int], redges: list[int], origin: GeoOrigin | None, alt: float,
-                centre: tuple[float, float], pix_m: tuple[float, float], fres: Any, max_error: float,
-                max_triangles: int | None, bounded: bool, tile_px: int, fmt: str, workers: int, max_gap: float,
-                timings: dict[str, float], seconds: float) -> dict[str, Any]:
+@dataclass(frozen=True)
+class _TilesRecord:
+    """What tiles.json records of one conversion (:func:`convert_to_tiles`)."""
+
+    dsm: Path
+    meta: Any  # the DSM's DsmMeta (terrain.raster.inspect_dsm)
+    keys: list[tuple[int, int]]  # tiles (row, col) in order
+    tins: dict[tuple[int, int], Tin]
+    stats: dict[tuple[int, int], dict[str, Any]]  # each tile's measured errors and bounds (finish_task)
+    e_mesh: dict[tuple[int, int], float]  # the vertical error each tile was meshed to, m
+    cedges: list[int]  # tile borders, raster columns
+    redges: list[int]  # tile borders, raster rows
+    origin: GeoOrigin | None  # geodetic origin at the raster centre (None: no CRS)
+    alt: float  # raster height at the centre, m
+    centre: tuple[float, float]  # raster centre, CRS x, y
+    pix_m: tuple[float, float]  # pixel size, m
+    fres: Any  # the nodata fill (terrain.fill.fill_nodata)
+    max_error: float  # the vertical error bound, m (0: none)
+    max_triangles: int | None
+    bounded: bool  # the error bound enforced (no triangle budget)
+    tile_px: int
+    fmt: str  # mesh format, obj or stl
+    workers: int
+    max_gap: float  # largest gap along a tile border, m
+    timings: dict[str, float]  # seconds per stage
+    seconds: float  # in all
+
+
+def _tiles_json(r: _TilesRecord) -> dict[str, Any]:
+    """The tiles.json document of a conversion."""
+    dsm, meta, keys, tins, stats, e_mesh = r.dsm, r.meta, r.keys, r.tins, r.stats, r.e_mesh
+    cedges, redges = r.cedges, r.redges
+    origin, alt, centre, pix_m, fres, fmt = r.origin, r.alt, r.centre, r.pix_m, r.fres, r.fmt
     tiles = []
     tri_total = vert_total = samples = 0
     sq = 0.0
@@ -327,12 +357,12 @@ def _tiles_json(dsm: Path, meta: Any, keys: list[tuple[int, int]], tins: dict[tu
         "horizontal": horizontal,
         "pixel_size_m": list(pix_m),
         "raster_size_px": [w, h],
-        "tile_px": tile_px,
+        "tile_px": r.tile_px,
         "tile_grid": [len(redges) - 1, len(cedges) - 1],
         "mesh_format": fmt,
-        "max_error_m": max_error if max_error > 0 else None,
-        "max_triangles": max_triangles,
-        "error_bound_enforced": bounded,
+        "max_error_m": r.max_error if r.max_error > 0 else None,
+        "max_triangles": r.max_triangles,
+        "error_bound_enforced": r.bounded,
         "error_note": "vertical |mesh - raster| at every raster sample of each tile (nodata-filled raster)",
         "nodata_filled_fraction": fres.filled_fraction,
         "fill_method": fres.method,
@@ -343,11 +373,11 @@ def _tiles_json(dsm: Path, meta: Any, keys: list[tuple[int, int]], tins: dict[tu
         "totals": {
             "tiles": len(tiles), "triangles": tri_total, "vertices": vert_total, "full_grid_triangles": full,
             "triangle_ratio": tri_total / full, "max_error_m": max(t["max_error_m"] for t in tiles),
-            "rms_error_m": math.sqrt(sq / samples) if samples else None, "max_border_gap_m": max_gap,
+            "rms_error_m": math.sqrt(sq / samples) if samples else None, "max_border_gap_m": r.max_gap,
             "bounds_m": [float(v) for v in (*lo, *hi)],
         },
-        "workers": workers,
-        "seconds": {**{k: round(v, 4) for k, v in timings.items()}, "total": round(seconds, 3)},
+        "workers": r.workers,
+        "seconds": {**{k: round(v, 4) for k, v in r.timings.items()}, "total": round(r.seconds, 3)},
     }
 
 

@@ -1,4 +1,6 @@
-"""Vehicles: load ``vehicles/*.yaml`` specs and turn them into URDF for PyBullet."""
+"""Vehicles: load ``vehicles/*.yaml`` specs (here) and turn them into URDF for PyBullet (:mod:`~vinecli.vehicle.urdf`).
+
+May import the ground floor and :mod:`vinecli.specs`."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ Links (body FLU, metres, origin = the frame's centre of mass):
 * ``payload``: the fixed payload mass at its position (only if the mass is > 0).
 
 Rotors are fixed: the simulation applies thrust and torques as external forces (the rotors'
-spin is not simulated, as px4-sitl-and-mavlink.md §1.8 recommends).
+spin is not simulated, as docs/firmware-protocols.md §1 says of Gazebo).
 """
 
 from __future__ import annotations

@@ -1,4 +1,9 @@
-"""Worlds: ``worlds/*.yaml`` specs, ``world build`` (world.json, URDF, SDF, terrain) and ``load_world``."""
+"""Worlds: ``worlds/*.yaml`` specs (:mod:`~vinecli.world.spec`), ``world build`` (:mod:`~vinecli.world.build`:
+world.json, URDF, SDF, terrain, canopy), ``load_world`` (:mod:`~vinecli.world.model`) and the PyBullet engine a run
+steps (:mod:`~vinecli.world.engine`).
+
+May import every floor below it (terrain, rows, GIS files, the autopilot's preflight for the spawn); never the
+simulator or anything above it."""
 
 from __future__ import annotations
 

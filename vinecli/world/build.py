@@ -106,7 +106,7 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
             (contained_path(tmp, "vehicles", f"{vehicle.name}.json")).write_text(vehicle.model_dump_json(indent=1))
 
         with man.stage("spawn"):
-            rest = _rest_at_spawn(terrain_json, tmp, grid, vehicle, urdf, sx, sy, yaw, spawn, spec)
+            rest = _rest_at_spawn(terrain_json, tmp, grid, vehicle, urdf, spawn, spec)
         unsafe(check_tilt(math.radians(rest["tilt_deg"]), vehicle))
         if rest["tilt_deg"] > MAX_REST_TILT_DEG:
             log.warning("world %s: the vehicle rests %.1f deg tilted at the spawn (%.2f, %.2f) (more than %.0f deg): "
@@ -246,8 +246,9 @@ def _refuse_unsafe(spec_path: Path, allow: bool) -> Callable[[PreflightFailure |
 
 
 def _rest_at_spawn(terrain_json: dict[str, Any], tmp: Path, grid: TerrainGrid | None, vehicle: Any, urdf: Path,
-                   x: float, y: float, yaw: float, spawn: Any, spec: WorldSpec) -> dict[str, Any]:
-    """Settle the vehicle (full tank) at the spawn in PyBullet: its rest pose for world.json ``spawn.rest``."""
+                   spawn: Any, spec: WorldSpec) -> dict[str, Any]:
+    """Settle the vehicle (full tank) at the world's spawn in PyBullet (``spawn`` its rest position on the height
+    grid, m ENU, where the settling starts): its rest pose for world.json ``spawn.rest``."""
     from vinecli.frames import quat_to_euler, tilt_angle
     from vinecli.world.engine import rest_pose
 
@@ -255,6 +256,7 @@ def _rest_at_spawn(terrain_json: dict[str, Any], tmp: Path, grid: TerrainGrid | 
                        grid=grid, flat_z=float(terrain_json.get("flat_z", 0.0)),
                        offset=tuple(terrain_json.get("offset_enu", (0.0, 0.0, 0.0))))  # type: ignore[arg-type]
     tank = vehicle.tank
+    x, y, yaw = spec.spawn.x_m, spec.spawn.y_m, math.radians(spec.spawn.yaw_deg)
     r = rest_pose(info, urdf, x=x, y=y, yaw=yaw, z_guess=spawn[2], collision_box_m=vehicle.frame.collision_box_m,
                   landing_gear_height_m=vehicle.frame.landing_gear_height_m,
                   liquid_kg=vehicle.liquid_mass(tank.capacity_l) if tank is not None else 0.0,

@@ -4,7 +4,7 @@ Terrain (world ENU, m):
 
 * ``flat``: a static plane at ``flat_z``;
 * ``heightmap``: ``GEOM_HEIGHTFIELD`` from the world's height grid (refused above 2^21 samples,
-  where PyBullet breaks silently; the AABB is checked after loading, terrain-notes.md §4);
+  where PyBullet breaks silently; the AABB is checked after loading, docs/terrain.md §4);
 * ``tiles``: one static body per OBJ/STL tile with ``GEOM_FORCE_CONCAVE_TRIMESH`` and mass 0.
 
 Terrain bodies are created with ``useMaximalCoordinates=True`` (plain static collision objects):
@@ -38,7 +38,7 @@ __all__ = ["HEIGHTFIELD_MAX_SAMPLES", "Engine", "SettleResult", "rest_pose"]
 
 log = logging.getLogger(__name__)
 
-#: PyBullet's heightfield silently breaks above this many samples (terrain-notes.md §4)
+#: PyBullet's heightfield silently breaks above this many samples (docs/terrain.md §4)
 HEIGHTFIELD_MAX_SAMPLES = 2**21
 
 
@@ -331,6 +331,7 @@ def terrain_engine(terrain: TerrainInfo, *, rate_hz: float, gravity: float) -> I
     engine.remove_vehicle()
 
 
+# parameters: keyword-only options, each with its default (the vehicle's box, gear, liquid and the engine's rate and gravity); a caller names the ones it sets
 def rest_pose(terrain: TerrainInfo, urdf: Path, *, x: float, y: float, yaw: float, z_guess: float,
               collision_box_m: Vec3, landing_gear_height_m: float, liquid_kg: float = 0.0,
               mount_flu: Vec3 = (0.0, 0.0, 0.0), rate_hz: float = 250.0, gravity: float = STANDARD_GRAVITY) -> SettleResult:

@@ -161,6 +161,7 @@ def _canopy_models(world: etree._Element, canopy: Any, ground: Callable[[float, 
             _sub(vis, "transparency", "0.35")
 
 
+# parameters: keyword-only options, each with its default (every part of the world the SDF file describes); a caller names the ones it sets
 def world_sdf(
     *,
     name: str,

@@ -1,6 +1,6 @@
 """An in-repo fake PX4 SITL peer: speaks both of PX4's links like PX4 does, for CI.
 
-Simulator link (px4-sitl-and-mavlink.md §1.2-1.5): TCP client to 4560+i, retrying until the
+Simulator link (docs/firmware-protocols.md §1): TCP client to 4560+i, retrying until the
 simulator listens; sends ONE HEARTBEAT (autopilot 12) and COMMAND_LONG SET_MESSAGE_INTERVAL
 (115, 5000 µs); after ``boot_steps`` HIL_SENSORs it answers each HIL_SENSOR (id 0) with
 HIL_ACTUATOR_CONTROLS carrying the same ``time_usec``, ``mode`` 1 | 128 when armed, ``flags`` 1.

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from vinecli.cli.app import app
 from vinecli.errors import InputError
-from vinecli.sitl.options import make_run_autopilot
+from vinecli.sitl.options import AutopilotOptions, make_run_autopilot
 from vinecli.sitl.px4.doctor import px4_doctor
 
 pytestmark = pytest.mark.timeout(60)
@@ -90,11 +90,11 @@ def test_run_autopilot_factory():
     from vinecli.sitl.px4.backend import Px4SitlAutopilot
 
     assert isinstance(make_run_autopilot("builtin"), BuiltinAutopilot)
-    ap = make_run_autopilot("px4", px4_instance=4, px4_connect_timeout_s=5)
+    ap = make_run_autopilot("px4", AutopilotOptions(px4_instance=4, px4_connect_timeout_s=5))
     assert isinstance(ap, Px4SitlAutopilot) and ap.port == 4564 and ap.connect_timeout_s == 5
-    ap = make_run_autopilot("builtin", mavlink="udp:127.0.0.1:14550", realtime=True)
+    ap = make_run_autopilot("builtin", AutopilotOptions(mavlink="udp:127.0.0.1:14550", realtime=True))
     assert isinstance(ap, MavlinkControlledAutopilot) and ap.realtime and ap.port == 14550
     with pytest.raises(InputError, match="serves the built-in autopilot"):
-        make_run_autopilot("px4", mavlink="udp:127.0.0.1:14540")
+        make_run_autopilot("px4", AutopilotOptions(mavlink="udp:127.0.0.1:14540"))
     with pytest.raises(InputError, match="--realtime"):
-        make_run_autopilot("px4", realtime=True)
+        make_run_autopilot("px4", AutopilotOptions(realtime=True))

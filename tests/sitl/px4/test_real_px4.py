@@ -84,14 +84,15 @@ def test_a_case_beside_a_cpu_hog_gets_the_same_verdict(ci_px4, px4_bin, tmp_path
     or simulated time, so the same checks pass with no stall (PX4's mission link runs in its own threads,
     so the flight may shift by a few steps; the verdict may not)."""
     from tests.cpu_hog import cpu_hog
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
+    from vinecli.sitl.options import AutopilotOptions
 
     result, out = ci_px4
     case = next(c for c in result.cases if c.case == "takeoff")
     with cpu_hog(2.0):
-        s = run_mission(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
-                        tmp_path, seed=case.seed, autopilot="px4", run_id="hog",
-                        autopilot_options={"px4_bin": str(px4_bin)})
+        s = run_mission(RunRequest(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
+                                   tmp_path, seed=case.seed, autopilot="px4", run_id="hog",
+                                   autopilot_options=AutopilotOptions(px4_bin=str(px4_bin))))
     quiet = json.loads((out / "takeoff" / "summary.json").read_text())
     assert [(c["name"], c["passed"]) for c in s.checks] == [(c["name"], c["passed"]) for c in quiet["checks"]]
     assert s.passed and s.metrics["px4_stalls"] == 0
@@ -176,7 +177,8 @@ def test_px4_paused_for_half_a_second_is_a_lockstep_pause_not_stale_steps(real_p
 
 def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
     """run_mission with --px4-bin; PX4 is killed in flight: status error, the run so far on disk."""
-    from vinecli.runs.mission import run_mission
+    from vinecli.runs import RunRequest, run_mission
+    from vinecli.sitl.options import AutopilotOptions
     from vinecli.world import build_world
 
     world = tmp_path / "flat"
@@ -203,8 +205,8 @@ def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
 
     th = threading.Thread(target=kill_px4_in_flight, daemon=True)
     th.start()
-    s = run_mission(mission, world, tmp_path / "runs", seed=1,
-                    autopilot_options={"px4_bin": str(px4_bin)}, run_id="killed")
+    s = run_mission(RunRequest(mission, world, tmp_path / "runs", seed=1,
+                               autopilot_options=AutopilotOptions(px4_bin=str(px4_bin)), run_id="killed"))
     th.join(5)
     assert killed
     msg = s.status_message  # EOF seen by the reader, or the next send failing first
@@ -217,8 +219,8 @@ def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
 
 def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
     """Behaviour comparison (BENCHMARKS.md): the built-in autopilot on the same cases, world and seeds."""
+    from vinecli.runs import RunRequest, run_mission
     from vinecli.runs.behaviour import behaviour_figures
-    from vinecli.runs.mission import run_mission
 
     _result, out = ci_px4
     world = next(p for p in (out / "_worlds").iterdir() if p.is_dir())  # beside the .vinecli marker
@@ -227,7 +229,7 @@ def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
     fig: dict[str, dict[str, dict[str, float | None]]] = {}
     for case, rel in missions.items():
         seed = json.loads((out / case / "summary.json").read_text())["seed"]
-        s = run_mission(pipeline_dir / rel, world, tmp_path, seed=seed, autopilot="builtin", run_id=case)
+        s = run_mission(RunRequest(pipeline_dir / rel, world, tmp_path, seed=seed, autopilot="builtin", run_id=case))
         assert s.passed, (case, s.status, s.failed_checks)
         fig[case] = {"builtin": behaviour_figures(tmp_path / case), "px4": behaviour_figures(out / case)}
     print(json.dumps(fig, indent=1))  # shown on failure

@@ -11,7 +11,9 @@ Sign conventions: world ENU, z up. The tank force on the frame is ``m (g_vec - a
 The registry and shared helpers are in :mod:`~vinecli.missions.metrics.base`; the metrics by family:
 :mod:`~vinecli.missions.metrics.takeoff` (§5.1), :mod:`~vinecli.missions.metrics.spraying` (§5.2),
 :mod:`~vinecli.missions.metrics.wind` (§5.3), :mod:`~vinecli.missions.metrics.job` (refill jobs and the
-deposition model's). Importing this package registers all of them in :data:`METRICS`.
+deposition model's). Importing this package registers all of them in :data:`METRICS`. The family modules are
+named after what they measure, so ``wind.py`` or ``job.py`` repeat other packages' names on purpose. May import
+what :mod:`vinecli.missions` may, and the rest of it.
 """
 
 from vinecli.missions.metrics import job, spraying, takeoff, wind  # noqa: F401 - each family registers its metrics

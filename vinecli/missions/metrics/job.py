@@ -1,4 +1,4 @@
-"""Whole-field refill job metrics (issue 13): sorties, job time, rows sprayed, area rate, litres per
+"""Whole-field refill job metrics: sorties, job time, rows sprayed, area rate, litres per
 sortie; and the deposition metrics the model reports (docs/deposition.md)."""
 
 from __future__ import annotations

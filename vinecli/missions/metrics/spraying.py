@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from vinecli.geometry import point_polyline_distance
 from vinecli.missions.metrics.base import (
     Window,
     airborne,
@@ -21,7 +22,6 @@ from vinecli.missions.metrics.base import (
     window_mask,
 )
 from vinecli.missions.rundata import RunData
-from vinecli.rows.geometry import point_polyline_distance
 
 
 def _drain(data: RunData, window: Window) -> tuple[float, float]:

@@ -1,6 +1,6 @@
 """PX4 SITL backend: vinecli is the simulator side of PX4's ``simulator_mavlink`` (TCP 4560+i).
 
-Protocol (px4-sitl-and-mavlink.md §1): vinecli listens on TCP ``host:4560+instance``; PX4
+Protocol (docs/firmware-protocols.md §1): vinecli listens on TCP ``host:4560+instance``; PX4
 connects, sends one HEARTBEAT and SET_MESSAGE_INTERVAL(115). Each physics step vinecli sends
 
 * HIL_STATE_QUATERNION (optional ground truth, sent *first* so a peer answering on
@@ -35,7 +35,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vinecli.autopilot.base import AutopilotContext, AutopilotStatus, RunStatus
 from vinecli.constants import STANDARD_GRAVITY
@@ -49,6 +49,9 @@ from vinecli.sitl.px4.process import px4_start_command
 from vinecli.sitl.takeoff import TakeoffWatch
 from vinecli.specs.mission import TakeoffPhase
 from vinecli.types import ActuatorCommand, Event, Observation
+
+if TYPE_CHECKING:
+    from vinecli.sitl.record import FirmwareRecord
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +87,7 @@ class Px4SitlAutopilot:
 
     name = "px4"
 
+    # parameters: keyword-only options, each with its default, one per PX4 option of `vinecli run mission` or test knob; a caller names the ones it sets
     def __init__(self, *, host: str = "127.0.0.1", instance: int | None = None, port: int | None = None,
                  connect_timeout_s: float = 30.0, step_timeout_s: float | None = None, max_stalls: int = 10,
                  hang_timeout_s: float = 30.0,
@@ -116,7 +120,7 @@ class Px4SitlAutopilot:
         self.link: TcpServerLink | None = None
         self.mission_client: Any = None
         self.mission_version: Any = None  # PX4's AUTOPILOT_VERSION (identity)
-        self.firmware_record: Any = None  # identity and kept logs after close() (vinecli.sitl.record)
+        self.firmware_record: FirmwareRecord | None = None  # identity and kept logs after close()
         self._events: list[Event] = []
         self._status = AutopilotStatus(mode="BOOT", phase_index=0)
         self._closed = False

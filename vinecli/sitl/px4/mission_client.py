@@ -92,6 +92,7 @@ def plan_for(ctx: AutopilotContext) -> ItemPlan:
 class Px4MissionClient:
     """GCS-side mission control of PX4 in a background thread (see the module docstring)."""
 
+    # parameters: keyword-only options, each with its default (PX4's ports and time-outs); a caller names the ones it sets
     def __init__(self, plan: ItemPlan | None, ctx: AutopilotContext, *, host: str = "127.0.0.1", api_port: int = 14540,
                  px4_port: int = 14580, target_system: int = 1, heartbeat_timeout_s: float = 60.0,
                  health_timeout_s: float = 120.0, command_timeout_s: float = 1.0) -> None:

@@ -2,7 +2,7 @@
 
 Coordinates are local metres (the cloud minus its offset, see :mod:`vinecli.terrain.pointcloud`);
 x east, y north, z up. Meshes are ``(V, F)`` pairs: V (n, 3) float64, F (m, 3) int64.
-Measured defaults are in ``terrain-notes.md`` §2: radii [2d, 4d, 8d] from the mean
+Measured defaults are in docs/terrain.md §2: radii [2d, 4d, 8d] from the mean
 nearest-neighbour spacing d, normals oriented +z, then ``fill_holes``.
 """
 
@@ -19,7 +19,7 @@ from vinecli.terrain.pointcloud.o3d import o3d
 
 log = logging.getLogger(__name__)
 
-#: Ball-pivoting radii as multiples of the mean nearest-neighbour spacing d (terrain-notes §2).
+#: Ball-pivoting radii as multiples of the mean nearest-neighbour spacing d (docs/terrain.md §2).
 RADII_FACTORS = (2.0, 4.0, 8.0)
 
 

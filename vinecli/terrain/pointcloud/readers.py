@@ -54,11 +54,6 @@ class RawCloud:
     header: dict[str, Any] = field(default_factory=dict)
 
 
-def is_cloud_path(path: str | Path) -> bool:
-    """True if the extension is a point-cloud format :func:`read_cloud` understands."""
-    return Path(path).suffix.lower() in CLOUD_EXTENSIONS
-
-
 def read_cloud(path: str | Path) -> RawCloud:
     """Read a point cloud by extension; raise TerrainError/InputError naming the file on bad input."""
     path = Path(path)

@@ -36,7 +36,7 @@ log = logging.getLogger(__name__)
 
 Method = Literal["bpa", "delaunay25d"]
 METHODS: tuple[str, ...] = ("bpa", "delaunay25d")
-#: Open3D ball pivoting gets slow above this many points (terrain-notes §2, isl-org/Open3D#6272).
+#: Open3D ball pivoting gets slow above this many points (docs/terrain.md §2, isl-org/Open3D#6272).
 BPA_SLOW_POINTS = 1_000_000
 
 
