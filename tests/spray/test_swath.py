@@ -88,7 +88,11 @@ def test_the_pattern_matches_the_full_model_raster_of_a_flown_pass() -> None:
     expected = 1e4 * per_m * np.interp(yc, p.y_m, p.forward)
     core = expected > 0.3 * expected.max()  # the pattern's body (its flanks are steeper than the 0.1 m raster draws)
     assert measured[core] == pytest.approx(expected[core], rel=0.03)
-    assert measured.sum() == pytest.approx(expected.sum(), rel=0.01)
+    # every litre sprayed over the middle lands in it (none leaves along the track in still air): q / v per metre
+    assert measured.sum() * grid.cell / 1e4 == pytest.approx(per_m, rel=0.01)
+    # and the pattern holds the same volume, within what sampling it at its own step and reading it on the 0.1 m
+    # raster loses at the steep flanks of the discs the wake's edge sheds (1.2 % on the x500)
+    assert measured.sum() == pytest.approx(expected.sum(), rel=0.02)
 
 
 def test_crosswind_moves_both_pass_directions_downwind() -> None:
