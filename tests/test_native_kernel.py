@@ -3,7 +3,8 @@
 A mission flown with the kernel mypyc compiled and with ``VINECLI_PURE_PYTHON=1`` (the sources) must be
 bit-identical: every timeseries column, every event and every metric except timings. The golden runs
 (tests/golden) fly takeoff, spray, gust and a mission with every other law on both kernels against
-stored digests; here the whole-field refill job (long, many sorties) is compared between the two.
+stored digests; here the whole-field refill job (long, many sorties) and a canopy dose flown at segment rates are
+compared between the two.
 """
 
 from __future__ import annotations
@@ -52,9 +53,8 @@ def test_a_new_process_runs_the_compiled_kernel(compiled: None) -> None:
     assert out.stdout.split() == ["compiled", "True", "[]"]
 
 
-def test_compiled_and_pure_python_runs_are_bit_identical(compiled: None, sample_world_dir: Path, tmp_path: Path) -> None:
-    fast = _fly("job.yaml", sample_world_dir, tmp_path / "compiled", pure=False)
-    ref = _fly("job.yaml", sample_world_dir, tmp_path / "pure", pure=True)
+def _identical(fast: Path, ref: Path) -> dict[str, object]:
+    """Assert two runs bit-identical (module docstring); the compiled run's summary."""
     a, b = pq.read_table(fast / "timeseries.parquet"), pq.read_table(ref / "timeseries.parquet")
     assert a.column_names == b.column_names and a.num_rows == b.num_rows > 1000
     for col in a.column_names:
@@ -66,8 +66,23 @@ def test_compiled_and_pure_python_runs_are_bit_identical(compiled: None, sample_
     ka, kb = sa["kernel"], sb["kernel"]  # each run says which kernel ran, built from the same sources
     assert (ka["kind"], kb["kind"]) == ("compiled", "pure") and ka["sources_sha256"] == kb["sources_sha256"]
     assert "-ffp-contract=off" in ka["cflags"] and ka["compiler"].startswith("mypyc")
-    ta, tb = sa["timing"]["cpu_per_step_us"], sb["timing"]["cpu_per_step_us"]
+    return {"compiled": sa, "pure": sb}
+
+
+def test_compiled_and_pure_python_runs_are_bit_identical(compiled: None, sample_world_dir: Path, tmp_path: Path) -> None:
+    fast = _fly("job.yaml", sample_world_dir, tmp_path / "compiled", pure=False)
+    ref = _fly("job.yaml", sample_world_dir, tmp_path / "pure", pure=True)
+    s = _identical(fast, ref)
+    ta, tb = s["compiled"]["timing"]["cpu_per_step_us"], s["pure"]["timing"]["cpu_per_step_us"]  # type: ignore[index]
     assert ta < tb, (ta, tb)  # and the kernel is the faster of the two
+
+
+def test_segment_rates_fly_bit_identical(compiled: None, sample_world_dir: Path, tmp_path: Path) -> None:
+    """A canopy dose (pipelines/missions/dose/lwa.yaml): the spray phase's rate path, look-ahead and speed caps."""
+    fast = _fly("dose/lwa.yaml", sample_world_dir, tmp_path / "compiled", pure=False)
+    ref = _fly("dose/lwa.yaml", sample_world_dir, tmp_path / "pure", pure=True)
+    s = _identical(fast, ref)
+    assert s["compiled"]["as_applied"] == s["pure"]["as_applied"]  # type: ignore[index]
 
 
 def test_pure_python_switch_imports_the_sources() -> None:

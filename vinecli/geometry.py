@@ -18,8 +18,8 @@ from typing import Literal, TypeVar
 
 import numpy as np
 
-__all__ = ["Polyline", "Segment", "convex_signed_distance", "point_polyline_distance", "points_in_polygon",
-           "polyline_length", "segments"]
+__all__ = ["Polyline", "Segment", "convex_signed_distance", "distance_along", "point_polyline_distance",
+           "points_in_polygon", "polyline_length", "segments"]
 
 #: a polyline or polygon ring, (x, y) vertices in m
 Polyline = Sequence[tuple[float, float]]
@@ -92,6 +92,21 @@ def point_polyline_distance(px: np.ndarray, py: np.ndarray, lines: Sequence[Poly
         for seg in segments(line):
             np.minimum(best, seg.nearest(px, py)[1], out=best)
     return best
+
+
+def distance_along(px: np.ndarray, py: np.ndarray, line: Polyline) -> tuple[np.ndarray, np.ndarray]:
+    """(distance to the polyline ``line``, arc length of its nearest point from its first vertex), m, of each
+    point (segments of zero length skipped; the first of equally near segments wins)."""
+    best = np.full(px.shape, np.inf)
+    s_best = np.zeros(px.shape)
+    for seg in segments(line, len2="hypot"):
+        if seg.length <= 0:
+            continue
+        u, d = seg.nearest(px, py)
+        better = d < best
+        best = np.where(better, d, best)
+        s_best = np.where(better, seg.start + u * seg.length, s_best)
+    return best, s_best
 
 
 def polyline_length(points: Polyline) -> float:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Final, Protocol
+from typing import TYPE_CHECKING, Final, Protocol
 
 from vinecli.autopilot.estimate import StateEstimate
 from vinecli.autopilot.terrain import TerrainDatabase
@@ -18,6 +18,9 @@ from vinecli.geo import GeoOrigin
 from vinecli.specs.mission import GeofenceSpec, MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.types import ActuatorCommand, Event, Observation
+
+if TYPE_CHECKING:
+    from vinecli.rows.segment_rates import SegmentRates
 
 
 class RunStatus(str, Enum):  # noqa: UP042 - str() stays "RunStatus.X"; values are used explicitly
@@ -86,6 +89,9 @@ class AutopilotContext:
     air_density_kgm3: float = 1.225
     #: the world's no-spray zones (rings grown by their buffer, x y m): the spray plan closes the sections at them
     no_spray_enu: tuple[tuple[tuple[float, float], ...], ...] = ()
+    #: spray phases dosed per row segment (a canopy dose or a prescription map): phase index -> their
+    #: :class:`~vinecli.rows.segment_rates.SegmentRates` (docs/dose.md); a backend flies them as its firmware can
+    segment_rates: dict[int, SegmentRates] = field(default_factory=dict)
 
     def terrain_height(self, x: float, y: float) -> float:
         """Terrain z (ENU m) of the map at (x, y); flat at the home ground without a map."""

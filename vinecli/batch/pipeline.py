@@ -41,7 +41,7 @@ from pydantic import Field, field_validator, model_validator
 
 from vinecli.constants import MAX_SEED
 from vinecli.errors import SpecError
-from vinecli.missions.spec_io import mission_from_dict
+from vinecli.missions.spec_io import mission_from_dict, resolve_map_paths
 from vinecli.names import SafeName, check_name
 from vinecli.specs import StrictModel, load_spec, read_yaml, resolve_base
 from vinecli.specs.limits import MAX_DURATION_S, MAX_RATE_HZ, SeedInt
@@ -247,7 +247,7 @@ def expand_cases(pipeline: PipelineSpec, pipeline_path: Path | str) -> list[Case
             data["record_rate_hz"] = pipeline.record_rate_hz
         _abs_vehicle(data, mpath)
         try:
-            spec = mission_from_dict(data, mpath)
+            spec = resolve_map_paths(mission_from_dict(data, mpath), mpath.parent)  # prescriptions beside it
         except SpecError as exc:
             raise SpecError(f"case {name}: {exc}", path=pipeline_path) from None
         return Case(name, spec.model_dump(mode="json"), str(mpath.resolve()), world, seed, params)

@@ -37,6 +37,22 @@ def rows_cmd(
     home: Annotated[tuple[float, float] | None, typer.Option("--home", help="Take-off point X Y (ENU m of the source; default: the world's spawn / a corner row end).")] = None,
     mission_out: Annotated[Path | None, typer.Option("--mission", help="Also write the plan as a mission YAML.")] = None,
     overwrite: Annotated[bool, overwrite_option("Replace files of these names that exist.")] = False,
+    rate: Annotated[float | None, typer.Option("--rate", help="Dose: L/ha of ground on every canopy segment (gaps 0); "
+                                                              "writes OUT-stem.rates.json/.geojson.")] = None,
+    dose_lwa: Annotated[float | None, typer.Option("--dose-lwa", help="Dose: litres per 10,000 m² of leaf wall area "
+                                                                      "(EPPO PP 1/239), per segment.")] = None,
+    dose_trv: Annotated[float | None, typer.Option("--dose-trv", help="Dose: litres per 10,000 m³ of tree-row volume, "
+                                                                      "per segment.")] = None,
+    sides: Annotated[int, typer.Option("--sides", help="Sides of each row treated (LWA): 1 or 2.")] = 2,
+    prescription: Annotated[Path | None, typer.Option("--prescription", help="Dose from a prescription map: zones "
+                            "(.gpkg .shp .geojson), a rate GeoTIFF or ISO-XML TaskData (TASKDATA.XML or its folder).")] = None,
+    rate_column: Annotated[str | None, typer.Option("--rate-column", help="Zones: the rate column.")] = None,
+    default_rate: Annotated[float | None, typer.Option("--default-rate", help="Rate outside the map's zones, L/ha.")] = None,
+    rate_units: Annotated[str, typer.Option("--rate-units", help="Units of the map's rates: L/ha, gal/ac or mL/m2.")] = "L/ha",
+    layer: Annotated[str | None, typer.Option("--layer", help="Zones: the layer (default: the first).")] = None,
+    segment: Annotated[float, typer.Option("--segment", help="Canopy segment length along the rows, 1-5 m.")] = 2.0,
+    foliage_base: Annotated[float, typer.Option("--foliage-base", help="Foliage base above the ground (the DSM "
+                                                                       "cannot see under the leaves), m.")] = 0.0,
 ) -> None:
     """Detect vine rows (count, spacing, direction, confidence) and write an operator-style spray .plan:
     nearest row first, boustrophedon with headland turns sized from the vehicle's speed and acceleration,
@@ -46,11 +62,15 @@ def rows_cmd(
     Example: vinecli plan rows worlds/sample/fieldimager_potato_plots_dsm_3cm_utm16n.tif --out rows.plan
     """
     from vinecli.missions.rowjob import RowsPlanOptions, plan_rows_job
+    from vinecli.missions.rowjob_dose import DoseOptions
 
     options = RowsPlanOptions(spacing=spacing, height=height, speed=speed, flow=flow, takeoff=takeoff, detect=detect,
                               world_rows=use_world_rows, vehicle=vehicle, tank_l=tank, fence_margin=fence_margin,
                               home=home)
-    job = plan_rows_job(source, out, options, mission_out=mission_out, overwrite=overwrite)
+    dose = DoseOptions(rate_lpha=rate, lwa_dose_l=dose_lwa, trv_dose_l=dose_trv, sides=sides, prescription=prescription,
+                       rate_column=rate_column, default_rate_lpha=default_rate, rate_units=rate_units, layer=layer,
+                       segment_m=segment, foliage_base_m=foliage_base)
+    job = plan_rows_job(source, out, options, mission_out=mission_out, overwrite=overwrite, dose=dose)
     if job.detection is not None:
         out_console.print(escape(f"rows: {job.detection.summary()}"))
         if job.detection.confidence < 0.5:
@@ -60,6 +80,13 @@ def rows_cmd(
     for w in job.warnings:
         err_console.print(escape(f"warning: {w}"))
     out_console.print(escape(job.plan.summary()))
+    if job.rates is not None:
+        r = job.rates.summary()
+        out_console.print(escape(f"dose {r['dose'] or 'from ' + str(prescription)}: {r['segments']} segments, "
+                                 f"{r['rate_min_lpha']:.0f}-{r['rate_max_lpha']:.0f} L/ha (mean {r['rate_mean_lpha']:.0f}), "
+                                 f"{r['gap_length_m']:.1f} m of gaps unsprayed; {r['litres']:.2f} L against "
+                                 f"{r['uniform_litres']:.2f} L at a uniform {r['uniform_rate_lpha']:.0f} L/ha "
+                                 f"({r['saving_pct']:.0f} % saved)"))
     sorties = f", {job.sorties} sorties (one .plan each)" if job.sorties > 1 else ""
     names = [p.name for p in job.files if ".sortie-" not in p.name]
     if job.sorties > 1:

@@ -189,14 +189,26 @@ def info(
     file: Annotated[Path, typer.Argument(help="DSM GeoTIFF or point cloud (.las .laz .ply .pcd .xyz).",
                                          show_default=False)],
     as_json: Annotated[bool, typer.Option("--json", help="Print the facts as JSON instead of a table.")] = False,
+    canopy: Annotated[bool, typer.Option("--canopy", help="DSM: also detect the rows and measure their canopy "
+                                                          "segment by segment (docs/dose.md).")] = False,
+    foliage_base: Annotated[float, typer.Option("--foliage-base", metavar="M",
+                                                help="--canopy: foliage base above the ground, m.")] = 0.0,
+    segment: Annotated[float, typer.Option("--segment", metavar="M", help="--canopy: segment length, 1-5 m.")] = 2.0,
 ) -> None:
     """One screen about a raster or point cloud and what convert/reconstruct would do with it.
 
-    Example: vinecli terrain info field.tif
+    Example: vinecli terrain info field.tif --canopy --foliage-base 0.5
     """
     from vinecli.terrain.info import describe
 
     facts = describe(file)
+    if canopy and facts.get("kind") == "raster":
+        from vinecli.errors import check_range
+        from vinecli.rows.dsm_canopy import measure_dsm_canopy
+
+        check_range("--foliage-base", foliage_base, 0.0, 20.0)
+        check_range("--segment", segment, 1.0, 5.0)
+        facts["canopy"] = measure_dsm_canopy(file, base_m=foliage_base, segment_m=segment).segments.summary()
     if as_json:
         import json
 
@@ -241,6 +253,10 @@ def _render_raster_info(f: dict) -> None:
                                f"full grid {tl['full_grid_triangles']:,} triangles "
                                f"(~{tl['pybullet_mb_full_grid']:.0f} MB in PyBullet), fewer at "
                                f"--max-error {tl['max_error_m']} m")
+    if f.get("canopy"):
+        from vinecli.rows.canopy_segments import summary_text
+
+        t.add_row("canopy", escape(summary_text(f["canopy"])))
     for w in f.get("warnings", []):
         t.add_row("warning", w)
     out_console.print(t)

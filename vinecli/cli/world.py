@@ -48,6 +48,11 @@ def build(
             f"canopy ({c['source']}, BBCH {c['bbch']}): {len(hs)} hedges, top {min(tops, default=0):.2f}-"
             f"{max(tops, default=0):.2f} m, width {hs[0]['width_m'] if hs else 0:.2f} m, LAD "
             f"{hs[0]['lad_m2m3'] if hs else 0:.1f} m²/m³, LAI {c['lai']:.2f}" if hs else "canopy: no hedges (no rows)")
+    segs = (w.canopy or {}).get("segments")
+    if segs:
+        from vinecli.rows.canopy_segments import summary_text
+
+        out_console.print(escape(f"canopy segments: {summary_text(segs)}; wrote {', '.join(segs['files'])}"))
     if w.rows_detection:
         d = w.rows_detection
         out_console.print(escape(f"rows (auto, from the {d['source']}): {d['count']} rows, spacing {d['spacing_m']:.3f} m, "

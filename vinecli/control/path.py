@@ -32,7 +32,8 @@ _PROFILE_DS = 0.2  # m between samples of the terrain demand along the path
 class PathFollower:
     """Carrot along ``points`` (x, y, z): ``z`` is ENU m, or height above ``terrain(x, y)``.
 
-    ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]); ``max_up`` /
+    ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]), ``speeds[i]`` (m/s) a lower cruise
+    speed there (None: ``speed`` everywhere; e.g. where a prescribed rate needs more flow than the pump has); ``max_up`` /
     ``max_down`` (m/s) cap the carrot's vertical speed on climbing / descending segments; the carrot comes to
     rest at the points whose indices are in ``stops``.
     """
@@ -44,17 +45,20 @@ class PathFollower:
                  max_lead_m: float = 2.5, corner_speed: float = 0.3, terrain_tau_s: float = 0.4,
                  max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf,
                  lookahead_s: float = 2.0, lookahead_m: float | None = None, climb_frac: float = 0.5,
-                 floor_margin_frac: float = 0.25, stops: Sequence[int] = ()) -> None:
+                 floor_margin_frac: float = 0.25, stops: Sequence[int] = (),
+                 speeds: Sequence[float] | None = None) -> None:
         pts: list[Vec3] = [(float(p[0]), float(p[1]), float(p[2])) for p in points]
         # drop zero-length segments
         clean = [pts[0]]
         clean_flows: list[float] = []
+        clean_speeds: list[float] = []
         stop_at: list[int] = []
         for i, p in enumerate(pts[1:]):
             q = clean[-1]
             if math.hypot(p[0] - q[0], p[1] - q[1]) + abs(p[2] - q[2]) > 1e-6:
                 clean.append(p)
                 clean_flows.append(float(flows[i]) if flows is not None else 0.0)
+                clean_speeds.append(float(speeds[i]) if speeds is not None else speed)
             if i + 1 in stops:
                 stop_at.append(len(clean) - 1)
         self.points = clean
@@ -92,7 +96,8 @@ class PathFollower:
             L = self.cum[i + 1] - self.cum[i]
             vz_frac = (b[2] - a[2]) / L if L > 0 else 0.0
             lim = max_up if vz_frac > 0 else max_down
-            self.v_seg.append(min(speed, lim / abs(vz_frac)) if abs(vz_frac) > 1e-6 else speed)
+            v_i = min(speed, clean_speeds[i])
+            self.v_seg.append(min(v_i, lim / abs(vz_frac)) if abs(vz_frac) > 1e-6 else v_i)
         for i in range(1, n - 1):
             self.v_vertex[i] = min(self.v_vertex[i], self.v_seg[i - 1], self.v_seg[i])
         for i in stop_at:  # come to rest there (e.g. before a run-in along a row)

@@ -8,6 +8,7 @@ a raster without CRS but with a given origin) is the topocentric ENU frame of it
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,13 +40,7 @@ class Georef:
         return self.frame.crs if self.frame is not None and self.frame.crs is not None else "EPSG:4326"
 
     def _transformer(self, src: Any, dst: Any) -> Any:
-        from pyproj import CRS, Transformer
-
-        def horizontal(c: Any) -> Any:
-            pc = CRS.from_user_input(c)
-            return pc.sub_crs_list[0] if pc.is_compound else pc
-
-        return Transformer.from_crs(horizontal(src), horizontal(dst), always_xy=True)
+        return _transformer(str(src), str(dst))
 
     def to_crs(self, pts: Points, crs: Any) -> Points:
         """Local metres -> coordinates in ``crs`` (x/lon first)."""
@@ -84,6 +79,19 @@ class Georef:
     def from_lonlat(self, pts: Points) -> Points:
         """WGS84 (lon, lat) degrees -> local metres."""
         return self.from_crs(pts, "EPSG:4326")
+
+
+@functools.lru_cache(maxsize=32)
+def _transformer(src: str, dst: str) -> Any:
+    """The pyproj transformer between the horizontal parts of two CRSs (x/lon first), made once per pair: a
+    writer converts every feature through it."""
+    from pyproj import CRS, Transformer
+
+    def horizontal(c: str) -> Any:
+        pc = CRS.from_user_input(c)
+        return pc.sub_crs_list[0] if pc.is_compound else pc
+
+    return Transformer.from_crs(horizontal(src), horizontal(dst), always_xy=True)
 
 
 def geo_frame(frame: RowFrame | None, origin: GeoOrigin) -> GeoOrigin:

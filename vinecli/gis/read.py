@@ -26,12 +26,14 @@ WGS84_DRIVERS = {"GeoJSON", "KML", "LIBKML", "GeoJSONSeq"}
 @dataclass
 class GisFeature:
     """A feature in local metres: ``layer``, ``fid`` (the file's feature id), ``parts`` (lines: [(x, y)] each;
-    polygons: exterior rings, not closed), ``properties``."""
+    polygons: exterior rings, not closed), ``properties``, and each polygon part's ``holes`` (its interior rings,
+    not closed; grown polygons keep theirs)."""
 
     layer: str
     fid: Any
     parts: list[list[tuple[float, float]]]
     properties: dict[str, Any] = field(default_factory=dict)
+    holes: list[list[list[tuple[float, float]]]] = field(default_factory=list)
 
 
 def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str | None = None,
@@ -76,14 +78,19 @@ def read_features(path: Path | str, georef: Georef, *, expect: str, layer: str |
             raise InputError(f"{where}: invalid polygon ({explain_validity(geom)})", path=path)
         parts = list(geom.geoms) if geom.geom_type.startswith("Multi") else [geom]
         local = []
+        holes: list[list[list[tuple[float, float]]]] = []
         for part in parts:
             coords = [tuple(c[:2]) for c in (part.exterior.coords[:-1] if expect == "polygons" else part.coords)]
             local.append(_checked(georef.from_crs(coords, crs), coords, crs, where, path))
-        if expect == "polygons":
-            local = _buffered(local, float(props.get("buffer_m") or buffer_m))
-        elif bounds is not None:
+            if expect == "polygons":
+                inner = [[tuple(c[:2]) for c in ring.coords[:-1]] for ring in part.interiors]
+                holes.append([_checked(georef.from_crs(r, crs), r, crs, where, path) for r in inner])
+        grow = float(props.get("buffer_m") or buffer_m)
+        if expect == "polygons" and grow != 0:
+            local, holes = _buffered(local, holes, grow)
+        elif expect != "polygons" and bounds is not None:
             _check_inside(local, bounds, where, path)
-        out.append(GisFeature(name, fid, local, props))
+        out.append(GisFeature(name, fid, local, props, holes))
     if not out:
         raise InputError(f"layer {name!r}: no features", path=path)
     return out
@@ -109,18 +116,18 @@ def _checked(local: list[tuple[float, float]], coords: list[tuple[float, ...]], 
     return local
 
 
-def _buffered(rings: list[list[tuple[float, float]]], buffer_m: float) -> list[list[tuple[float, float]]]:
-    """Polygon rings grown by ``buffer_m`` metres (mitred corners) in the local frame."""
-    if buffer_m == 0:
-        return rings
+def _buffered(rings: list[list[tuple[float, float]]], holes: list[list[list[tuple[float, float]]]], buffer_m: float
+              ) -> tuple[list[list[tuple[float, float]]], list[list[list[tuple[float, float]]]]]:
+    """Polygons (exterior rings and their holes) grown by ``buffer_m`` metres (mitred corners) in the local frame."""
     from shapely.geometry import Polygon
 
-    out = []
-    for r in rings:
-        g = Polygon(r).buffer(buffer_m, join_style="mitre")
-        polys = list(g.geoms) if g.geom_type == "MultiPolygon" else [g]
-        out += [[(float(x), float(y)) for x, y in p.exterior.coords[:-1]] for p in polys if not p.is_empty]
-    return out
+    out, out_holes = [], []
+    for r, h in zip(rings, holes, strict=True):
+        g = Polygon(r, h).buffer(buffer_m, join_style="mitre")
+        polys = [p for p in (list(g.geoms) if g.geom_type == "MultiPolygon" else [g]) if not p.is_empty]
+        out += [[(float(x), float(y)) for x, y in p.exterior.coords[:-1]] for p in polys]
+        out_holes += [[[(float(x), float(y)) for x, y in i.coords[:-1]] for i in p.interiors] for p in polys]
+    return out, out_holes
 
 
 def _check_inside(lines: list[list[tuple[float, float]]], bounds: tuple[float, float, float, float], where: str,

@@ -70,11 +70,13 @@ def write_features(path: Path | str, features: list[LocalFeature], georef: Geore
     return path
 
 
-def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef: Georef) -> Path:
+def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef: Georef, *,
+                 spatial_index: bool = True) -> Path:
     """Write several layers to ``path``: ``.gpkg`` one GeoPackage layer each (EPSG:4326; empty layers left out),
     ``.geojson``/``.json`` one RFC 7946 FeatureCollection whose features carry their layer name in the
     ``layer`` property (GeoJSON has no layers; QGIS splits it by geometry type and filters by property).
-    Atomically: a temporary file, then rename."""
+    Atomically: a temporary file, then rename. ``spatial_index``: give each GeoPackage layer its R-tree (a few
+    hundred points need none; building it is most of writing them)."""
     path = Path(path)
     if path.suffix.lower() != ".gpkg":
         feats = [LocalFeature(f.kind, f.coords, {"layer": name, **f.properties}, f.holes)
@@ -84,7 +86,7 @@ def write_layers(path: Path | str, layers: dict[str, list[LocalFeature]], georef
     with atomic_file(path, ".gpkg") as tmp:
         for name, fs in layers.items():
             if fs:
-                _write_gpkg_layer(tmp, feature_collection(fs, georef, name), name)
+                _write_gpkg_layer(tmp, feature_collection(fs, georef, name), name, spatial_index)
     return path
 
 
@@ -104,7 +106,7 @@ def _write_gpkg(path: Path, fc: dict[str, Any], layer: str) -> None:
         _write_gpkg_layer(tmp, fc, layer)
 
 
-def _write_gpkg_layer(path: Path, fc: dict[str, Any], layer: str) -> None:
+def _write_gpkg_layer(path: Path, fc: dict[str, Any], layer: str, spatial_index: bool = True) -> None:
     """Add ``fc`` as layer ``layer`` (EPSG:4326) to the GeoPackage ``path`` (created when absent)."""
     import numpy as np
     import pyogrio.raw
@@ -116,4 +118,5 @@ def _write_gpkg_layer(path: Path, fc: dict[str, Any], layer: str) -> None:
     cols = [_column([f["properties"].get(k) for f in feats]) for k in names]
     kinds = {f["geometry"]["type"] for f in feats}
     pyogrio.raw.write(path, geoms, cols, names, driver="GPKG", layer=layer, crs="EPSG:4326",
-                      geometry_type=kinds.pop() if len(kinds) == 1 else "Unknown", append=path.exists())
+                      geometry_type=kinds.pop() if len(kinds) == 1 else "Unknown", append=path.exists(),
+                      layer_options=None if spatial_index else {"SPATIAL_INDEX": "NO"})

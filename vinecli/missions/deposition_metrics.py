@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vinecli.geometry import Polyline, points_in_polygon, segments
+from vinecli.geometry import Polyline, distance_along, points_in_polygon, segments
 from vinecli.spray.deposit_grid import GridSpec
 
 if TYPE_CHECKING:
@@ -79,20 +79,6 @@ def near_polylines(xc: np.ndarray, yc: np.ndarray, lines: Sequence[Polyline], re
     return mask
 
 
-def _dist_along(px: np.ndarray, py: np.ndarray, line: Polyline) -> tuple[np.ndarray, np.ndarray]:
-    """Distance to the polyline and the arc length of the nearest point (m)."""
-    best = np.full(px.shape, np.inf)
-    s_best = np.zeros(px.shape)
-    for seg in segments(line, len2="hypot"):
-        if seg.length <= 0:
-            continue
-        u, d = seg.nearest(px, py)
-        better = d < best
-        best = np.where(better, d, best)
-        s_best = np.where(better, seg.start + u * seg.length, s_best)
-    return best, s_best
-
-
 def row_profiles(grid: GridSpec, volume_l: np.ndarray, rows: Sequence[Polyline], half_width_m: float,
                  segment_m: float = 0.5) -> list[dict[str, Any]]:
     """Per row: ``s_m`` (segment centres along the row, m) and ``rate_lpha`` (NaN where no grid cell)."""
@@ -110,7 +96,7 @@ def row_profiles(grid: GridSpec, volume_l: np.ndarray, rows: Sequence[Polyline],
         area = np.zeros(nseg)
         if ix1 > ix0 and iy1 > iy0:
             gx, gy = np.meshgrid(xc[ix0:ix1], yc[iy0:iy1])
-            d, s = _dist_along(gx, gy, line)
+            d, s = distance_along(gx, gy, line)
             band = (d <= half_width_m) & (s > 0.0) & (s < length)
             k = np.minimum((s[band] / segment_m).astype(np.int64), nseg - 1)
             vol = np.bincount(k, weights=volume_l[iy0:iy1, ix0:ix1][band], minlength=nseg)

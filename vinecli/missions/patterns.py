@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 from pydantic import ValidationError
 
@@ -38,9 +39,11 @@ def boustrophedon(rows: Sequence[Sequence[tuple[float, float]]], start_xy: tuple
 def spray_mission(rows: Sequence[Sequence[tuple[float, float]]], *, name: str = "spray-rows",
                   height_m: float = SPRAY_DEFAULTS.height_m, speed_mps: float = SPRAY_DEFAULTS.speed_mps,
                   flow_lps: float = SPRAY_DEFAULTS.flow_lps, takeoff_m: float = SPRAY_DEFAULTS.takeoff_m,
-                  estimated_s: float | None = None) -> MissionSpec:
+                  estimated_s: float | None = None, dose: dict[str, Any] | None = None) -> MissionSpec:
     """Takeoff, one spray phase over ``rows`` (explicit polylines, flown as :func:`plan_rows` orders
     them), land. ``max_duration_s`` = 1.5 x ``estimated_s`` + 60 s when given (capped at the spec limit).
+    ``dose``: spray phase fields given instead of ``flow_lps`` (a rate, a canopy dose, a prescription map; their
+    ``rows`` replace ``rows``).
 
     InputError (exit 2) for values the mission spec refuses (e.g. a speed beyond :mod:`vinecli.specs.limits`).
     """
@@ -48,12 +51,14 @@ def spray_mission(rows: Sequence[Sequence[tuple[float, float]]], *, name: str = 
     length = sum(math.dist(a, b) for r in rows_l for a, b in zip(r[:-1], r[1:], strict=True))
     budget = 1.5 * estimated_s + 60.0 if estimated_s else 2.0 * length / speed_mps + 20.0 * len(rows_l) + 120.0
     try:
+        spray: dict[str, Any] = {"rows": rows_l, "height_agl_m": height_m, "speed_mps": speed_mps,
+                                 **({"flow_lps": flow_lps} if dose is None else dose)}
+        what = f"{flow_lps:g} L/s" if dose is None else ", ".join(f"{k} {v}" for k, v in dose.items()
+                                                                 if k in ("rate_lpha", "lwa_dose_l", "trv_dose_l"))
         return MissionSpec(
             name=name,
-            description=f"boustrophedon spray over {len(rows_l)} rows at {height_m:g} m, {flow_lps:g} L/s",
-            phases=[TakeoffPhase(altitude_agl_m=takeoff_m),
-                    SprayPhase(rows=rows_l, height_agl_m=height_m, speed_mps=speed_mps, flow_lps=flow_lps),
-                    LandPhase()],
+            description=f"boustrophedon spray over {len(rows_l)} rows at {height_m:g} m, {what or 'a prescription map'}",
+            phases=[TakeoffPhase(altitude_agl_m=takeoff_m), SprayPhase(**spray), LandPhase()],
             max_duration_s=min(MAX_DURATION_S, round(budget, 1)),
         )
     except ValidationError as exc:

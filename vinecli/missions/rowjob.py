@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,12 +24,24 @@ from vinecli.errors import InputError, OutputError, check_range
 from vinecli.gis.georef import Georef
 from vinecli.gis.write import rows_features, write_features
 from vinecli.inputs import note_input, reading_inputs
+from vinecli.missions.rowjob_dose import (
+    CanopySource,
+    DoseOptions,
+    mission_dose,
+    plan_segment_rates,
+    rates_paths,
+    write_rates,
+)
 from vinecli.outputs import check_output_file
 from vinecli.rows.detect import Polyline, RowDetection
 from vinecli.rows.plan import RowPlan, plan_accel, plan_rows, split_sorties
+from vinecli.rows.segment_rates import SegmentRates
 from vinecli.rows.source import RowFrame
 from vinecli.specs.vehicle import DEFAULT_VEHICLE, VehicleSpec
 from vinecli.spray_defaults import SPRAY_DEFAULTS
+
+if TYPE_CHECKING:
+    from vinecli.specs.mission import MissionSpec
 
 __all__ = ["RowsJob", "plan_rows_job"]
 
@@ -43,6 +56,7 @@ class RowsJob:
     sorties: int
     files: list[Path] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    rates: SegmentRates | None = None
 
 
 def _bbox_polygon(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> list[tuple[float, float]]:
@@ -71,16 +85,22 @@ class RowsPlanOptions:
 
 
 def plan_rows_job(source: Path, out: Path, options: RowsPlanOptions = RowsPlanOptions(), *,
-                  mission_out: Path | None = None, overwrite: bool = False) -> RowsJob:
+                  mission_out: Path | None = None, overwrite: bool = False,
+                  dose: DoseOptions | None = None) -> RowsJob:
     """Detect or load rows, plan them and write the plan files (see the module docstring). ``fence_margin``
     (m, :class:`RowsPlanOptions`): default 1 m inside a world's geofence, 0 m inside a DSM's data extent (the
     survey area: its edge rows are flown, only the headland turns are kept over the surveyed ground). Every file
     is checked before the first is written: none may be an input, or replace an existing file without
-    ``overwrite`` (OutputError, exit 2, nothing written)."""
+    ``overwrite`` (OutputError, exit 2, nothing written). ``dose``: also the rate of every row segment
+    (:mod:`vinecli.missions.rowjob_dose`), its map checked before anything is written."""
+    dose = dose if dose is not None and dose.given else None
     with reading_inputs():
         note_input(source, "world" if source.is_dir() else "DSM")
-        _check_targets([out, _geojson_path(out), *([mission_out] if mission_out is not None else [])], overwrite)
-        return _plan_rows_job(source, out, options, mission_out, overwrite)
+        if dose is not None:
+            dose.check()
+        _check_targets([out, _geojson_path(out), *(rates_paths(out) if dose is not None else []),
+                        *([mission_out] if mission_out is not None else [])], overwrite)
+        return _plan_rows_job(source, out, options, (mission_out, overwrite), dose)
 
 
 def _check_targets(targets: list[Path], overwrite: bool) -> None:
@@ -113,7 +133,10 @@ def _geojson_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.rows.geojson")
 
 
-def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, mission_out: Path | None, overwrite: bool) -> RowsJob:
+def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, writing: tuple[Path | None, bool],
+                   dose: DoseOptions | None) -> RowsJob:
+    """``writing``: (``--mission`` path, ``overwrite``)."""
+    mission_out, overwrite = writing
     spacing, height, speed, flow, takeoff = o.spacing, o.height, o.speed, o.flow, o.takeoff
     detect, world_rows, vehicle, tank_l = o.detect, o.world_rows, o.vehicle, o.tank_l
     fence_margin, home = o.fence_margin, o.home
@@ -130,6 +153,7 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, mission_out: Pat
         from vinecli.world import load_world
 
         w = load_world(source)
+        canopy = CanopySource(world_dir=source, world_rows=not detect, grid=w.terrain.grid)
         veh = w.vehicle if vehicle is None else load_vehicle(vehicle)
         origin, frame = w.origin, world_frame(source)
         start = home or (w.spawn_enu[0], w.spawn_enu[1])
@@ -158,6 +182,7 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, mission_out: Pat
 
         dsm = detect_rows_in_dsm(source, spacing_m=spacing)
         det, frame, rows = dsm.detection, dsm.frame, dsm.detection.rows
+        canopy = CanopySource(dsm_path=source, dsm=dsm)
         if dsm.origin is None:
             raise InputError("the DSM has no CRS: a .plan needs latitude/longitude (build a world with origin: "
                              "and plan on it)", path=source)
@@ -185,6 +210,11 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, mission_out: Pat
         home3 = (start[0], start[1], surface(*start))
     if not rows:
         raise InputError("no rows found (try --spacing)", path=source)
+    georef = Georef(frame, origin)
+    rates = None if dose is None else plan_segment_rates(dose, rows, georef, canopy,
+                                                         spacing_m=det.spacing_m if det is not None else None)
+    own_rows = len(rows) if source.is_dir() and not detect else None  # a world's own rows: a run finds their canopy
+    dose_fields = mission_dose(dose, world_rows=own_rows) if dose is not None and mission_out is not None else None
     _check_options(veh, speed=speed, height=height, flow=flow, takeoff=takeoff, tank_l=tank_l)
     accel = plan_accel(veh)
     plan = plan_rows(rows, start, speed_mps=speed, accel_mps2=accel, fence_enu=fence, fence_margin_m=margin,
@@ -203,19 +233,34 @@ def _plan_rows_job(source: Path, out: Path, o: RowsPlanOptions, mission_out: Pat
     gj = _geojson_path(out)
     sortie_files = [out.with_name(f"{out.stem}.sortie-{k}.plan") for k in range(1, len(sorties) + 1)] \
         if len(sorties) > 1 else []
-    targets = [out, gj, *sortie_files, *([mission_out] if mission_out is not None else [])]
+    targets = [out, gj, *sortie_files, *(rates_paths(out) if rates is not None else []),
+               *([mission_out] if mission_out is not None else [])]
     _check_targets(targets, overwrite)
     # export_plan plans the mission's rows (rounded to mm, as --mission writes them) once more, on purpose:
     # OUT is then exactly the export of that mission. Reusing ``plan.legs`` would change the .plan of
     # detected rows (unrounded): the sub-mm shifts move waypoints and the terrain-following profile.
     write_plan(out, export_plan(mission, origin, home3, nozzle_max_flow_lps=nozzle, accel_mps2=accel, surface=surface))
-    write_features(gj, rows_features(rows), Georef(frame, origin), layer="rows")
+    write_features(gj, rows_features(rows), georef, layer="rows")
+    if rates is not None:
+        write_rates(out, rates, georef)
+        job.rates = rates
     for p, legs in zip(sortie_files, sorties if sortie_files else [], strict=True):  # one sortie: OUT alone
         write_plan(p, sortie_plan(legs, origin, home3, height_m=height, speed_mps=speed, flow_lps=flow,
                                   nozzle_max_flow_lps=nozzle, takeoff_m=takeoff, surface=surface, fence_enu=fence))
     if mission_out is not None:
-        from vinecli.missions.spec_io import write_mission
-
-        write_mission(mission_out, mission)
+        _write_mission(mission_out, mission, dose_fields, (planned, plan.time_s), o)
     job.files = targets
     return job
+
+
+def _write_mission(path: Path, mission: MissionSpec, dose_fields: dict[str, object] | None,
+                   planned: tuple[list[Polyline], float], o: RowsPlanOptions) -> None:
+    """``--mission``: the plan's mission, with a dose on its spray phase (:func:`mission_dose`) instead of the flow of
+    one rate when ``plan rows`` was given one; ``planned``: (the rows sprayed, in order; the plan's time, s)."""
+    from vinecli.missions.patterns import spray_mission
+    from vinecli.missions.spec_io import write_mission
+
+    if dose_fields is not None:
+        mission = spray_mission(planned[0], name=mission.name, height_m=o.height, speed_mps=o.speed,
+                                takeoff_m=o.takeoff, estimated_s=planned[1], dose=dose_fields)
+    write_mission(path, mission)

@@ -70,7 +70,17 @@ def read_mission(mission: Path | str | MissionSpec | MissionFile) -> MissionFile
     path = Path(mission)
     spec = mission_from_dict(resolve_base(path.resolve(), read_yaml(path)), path)
     veh = resolve_vehicle(spec.vehicle, relative_to=path.parent, path=path) if spec.vehicle is not None else None
-    return MissionFile(spec, path, veh)
+    return MissionFile(resolve_map_paths(spec, path.parent), path, veh)
+
+
+def resolve_map_paths(spec: MissionSpec, folder: Path) -> MissionSpec:
+    """``spec`` with its spray phases' prescription paths resolved relative to the mission file's ``folder``."""
+    phases = list(spec.phases)
+    for i, p in enumerate(phases):
+        pr = getattr(p, "prescription", None)
+        if pr is not None and not Path(pr.path).is_absolute():
+            phases[i] = p.model_copy(update={"prescription": pr.model_copy(update={"path": str(folder / pr.path)})})
+    return spec.model_copy(update={"phases": phases})
 
 
 def resolve_vehicle(name_or_path: str, *, relative_to: Path | None = None, path: Path | str | None = None) -> VehicleSpec:

@@ -77,16 +77,69 @@ def _profile(points: Sequence[tuple[float, float]], surface: Callable[[float, fl
     return [(float(xy[ki[j], 0]), float(xy[ki[j], 1]), round(float(alt[j]), 3)) for j in keep]
 
 
+def _waypoints(points: Sequence[tuple[float, float]], height_m: float,
+               surface: Callable[[float, float], float] | None, home_z: float) -> list[tuple[float, float, float]]:
+    if surface is not None:
+        return _profile(points, surface, height_m, home_z)
+    return [(x, y, height_m) for x, y in points]
+
+
+def _straight(points: Sequence[tuple[float, float]], tol_m: float = 0.01) -> list[tuple[float, float]]:
+    """``points`` without the vertices that lie on the straight line of their neighbours (within ``tol_m``)."""
+    out = [points[0]]
+    for i in range(1, len(points) - 1):
+        (ax, ay), (bx, by), (cx, cy) = out[-1], points[i], points[i + 1]
+        n = math.hypot(cx - ax, cy - ay)
+        if n <= 0.0 or abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) / n > tol_m:
+            out.append(points[i])
+    return [*out, points[-1]]
+
+
+def _pass_actions(legs: Sequence[Leg], flows: Sequence[float], height_m: float,
+                  surface: Callable[[float, float], float] | None, home_z: float) -> list[SprayAction]:
+    """One pass of consecutive spray legs at their own flows: the pass's waypoints as one profile, a waypoint on
+    its straight line (altitude interpolated: no bend) where each next leg starts, the flow switched there."""
+    poly = _straight([*legs[0].points, *(p for leg in legs[1:] for p in leg.points[1:])])
+    wps = _waypoints(poly, height_m, surface, home_z)
+    xy = np.array([(w[0], w[1]) for w in wps])
+    at = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]) if len(wps) > 1 else np.zeros(1)
+    starts, d = [], 0.0
+    for leg in legs[:-1]:
+        d += sum(math.dist(a, b) for a, b in zip(leg.points[:-1], leg.points[1:], strict=True))
+        starts.append(d)
+    out: list[SprayAction] = [("wp", *wps[0]), ("spray", flows[0], 0.0, 0.0)]
+    events = sorted([(float(a), 0, k) for k, a in enumerate(at[1:], start=1)] + [(s, 1, k) for k, s in enumerate(starts, 1)])
+    on = flows[0]
+    for a, kind, k in events:
+        if kind == 0:
+            out.append(("wp", *wps[k]))
+        elif flows[k] != on:
+            z = float(np.interp(a, at, [w[2] for w in wps]))
+            out.append(("wp", float(np.interp(a, at, xy[:, 0])), float(np.interp(a, at, xy[:, 1])), round(z, 3)))
+            out.append(("spray", flows[k], 0.0, 0.0))
+            on = flows[k]
+    out.append(("spray", 0.0, 0.0, 0.0))
+    return out
+
+
 def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
-                surface: Callable[[float, float], float] | None = None, home_z: float = 0.0) -> list[SprayAction]:
+                surface: Callable[[float, float], float] | None = None, home_z: float = 0.0,
+                leg_flows: Sequence[float] | None = None) -> list[SprayAction]:
     """Waypoints and sprayer switches for legs flown in order (the first leg's start is where the vehicle
-    is): the sprayer goes on at each row's first point and off at its last."""
+    is): the sprayer goes on at each row's first point and off at its last. ``leg_flows``: each spray leg's own
+    flow (L/s; segment rates): consecutive spray legs are one pass (:func:`_pass_actions`)."""
     out: list[SprayAction] = []
-    for leg in legs:
-        if surface is not None:
-            pts = _profile(leg.points, surface, height_m, home_z)
-        else:
-            pts = [(x, y, height_m) for x, y in leg.points]
+    i = 0
+    while i < len(legs):
+        leg = legs[i]
+        if leg.spray and leg_flows is not None:
+            j = i
+            while j + 1 < len(legs) and legs[j + 1].spray:
+                j += 1
+            out += _pass_actions(legs[i:j + 1], leg_flows[i:j + 1], height_m, surface, home_z)
+            i = j + 1
+            continue
+        pts = _waypoints(leg.points, height_m, surface, home_z)
         if leg.spray:
             out.append(("wp", *pts[0]))
             out.append(("spray", flow_lps, 0.0, 0.0))
@@ -94,6 +147,7 @@ def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
             out.append(("spray", 0.0, 0.0, 0.0))
         else:
             out.extend(("wp", *p) for p in pts[1:])
+        i += 1
     # drop consecutive duplicate waypoints
     clean: list[SprayAction] = []
     for a in out:

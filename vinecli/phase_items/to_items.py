@@ -24,13 +24,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from vinecli.errors import SpecError
 from vinecli.frames import yaw_enu_to_heading_ned
 from vinecli.geo import GeoOrigin
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.mission_items import MissionItem, item_xy
-from vinecli.phase_items.spray_legs import leg_actions
+from vinecli.phase_items.spray_legs import MIN_LEG_M, leg_actions
 from vinecli.phase_items.sprayer_command import SprayerCommand
 from vinecli.rows.plan import PATH_ACCEL_MPS2, Leg, plan_rows
 from vinecli.specs.mission import (
@@ -72,6 +73,11 @@ class PlanContext:
     degrees: bool = False
     #: the world's no-spray zones (rings, ENU m): the spray plan closes the sections at them
     no_spray_enu: Sequence[Sequence[tuple[float, float]]] = ()
+    #: spray phases dosed per segment: phase index -> SegmentRates (docs/dose.md), and how the firmware follows
+    #: them: "actuator" (a flow per piece, switched at its first waypoint led by the pump's lag: PX4's
+    #: DO_SET_ACTUATOR) or "switch" (the sprayer on and off at gaps only, the rate set otherwise: ArduPilot)
+    segment_rates: dict[int, Any] = field(default_factory=dict)
+    rate_items: str = "actuator"
 
     def home_ground_z(self) -> float:
         hx, hy, hz = self.home_enu
@@ -87,6 +93,8 @@ class ItemPlan:
     fence: list[MissionItem] = field(default_factory=list)
     params: dict[str, float | int] = field(default_factory=dict)  # name -> value (int = INT32)
     phase_of_item: list[int] = field(default_factory=list)
+    #: the plan and the rate path (rows.rate_path.RatePath) of every spray phase dosed per segment, by phase index
+    rate_paths: dict[int, tuple[Any, Any]] = field(default_factory=dict)
 
 
 def _flow_fraction(flow_lps: float, ctx: PlanContext, where: str) -> float:
@@ -123,6 +131,7 @@ class _Items:
         self.pos = (ctx.home_enu[0], ctx.home_enu[1])
         self.alt = 0.0
         self.phase = -1
+        self.rate_paths: dict[int, tuple[Any, Any]] = {}
 
     def wp(self, x: float, y: float, z_rel: float, accept: float = 0.5, yaw_ned_deg: float = NAN,
            cmd: int = M.CMD_NAV_WAYPOINT, p1: float = 0.0) -> None:
@@ -166,18 +175,41 @@ def _spray_phase(ph: SprayPhase, out: _Items, fence: Sequence[tuple[float, float
                          no_spray=ctx.no_spray_enu)
     if not plan.legs:
         raise SpecError(f"{where}: no rows left inside the geofence")
+    rates = ctx.segment_rates.get(out.phase)
+    if rates is not None and ctx.vehicle is not None:
+        legs, flows = _rate_legs(ph, plan, rates, rows, out)
+        _fly_legs(out, legs, ph.speed_mps, ph.height_agl_m, ph.flow_lps, where, flows)
+        return
     _fly_legs(out, plan.legs, ph.speed_mps, ph.height_agl_m, ph.flow_lps, where)
 
 
+def _rate_legs(ph: SprayPhase, plan: Any, rates: Any, rows: Any, out: _Items) -> tuple[list[Leg], list[float]]:
+    """The plan's legs at segment rates (:func:`vinecli.rows.rate_path.rate_path`) as the firmware follows them
+    (``PlanContext.rate_items``) and each leg's flow at the phase's speed, L/s."""
+    from vinecli.rows.rate_path import led_changes, rate_legs, rate_path
+
+    v = out.ctx.vehicle
+    sp = v.sprayer  # type: ignore[attr-defined]
+    rp = rate_path(plan, rates, rows, speed_mps=ph.speed_mps, speed_min_mps=sp.control.speed_min_mps,
+                   flow_range_lps=sp.flow_range_lps(out.ctx.nozzle_max_flow_lps or 0.0))
+    out.rate_paths[out.phase] = (plan, rp)
+    if out.ctx.rate_items == "actuator":
+        pts, flows = led_changes(rp.points, rp.flows, ph.speed_mps * sp.pump.tau_up_s, ph.speed_mps * sp.pump.tau_down_s)
+        legs = rate_legs(pts, flows, min_leg_m=MIN_LEG_M)  # a firmware slows down at waypoints closer than that
+    else:
+        legs = rate_legs(rp.points, rp.flows, merge_sprayed=True)
+    return [leg for leg, _ in legs], [f * ph.speed_mps for _, f in legs]
+
+
 def _fly_legs(out: _Items, legs: Sequence[Leg], speed_mps: float, height_m: float, flow_lps: float,
-              where: str) -> None:
+              where: str, leg_flows: Sequence[float] | None = None) -> None:
     """Planned legs as terrain-following waypoints, the sprayer on over the spray legs only (leg_actions)."""
     ctx = out.ctx
     out.speed(speed_mps)
     out.spray(0.0, where)  # off during the transit, whatever an earlier phase left on
     surface = ctx.terrain_height if callable(ctx.terrain_height) else None
     for kind, a, b, c in leg_actions(legs, height_m=height_m, flow_lps=flow_lps, surface=surface,
-                                     home_z=ctx.home_ground_z()):
+                                     home_z=ctx.home_ground_z(), leg_flows=leg_flows):
         if kind == "wp":
             out.wp(a, b, c)
         else:
@@ -224,7 +256,7 @@ def phases_to_items(mission: MissionSpec, ctx: PlanContext, *, sprayer: SprayerC
             raise SpecError(f"{where}: unsupported phase type")
     items = out.items
     return ItemPlan(items=items, fence=fence_items(gf, ctx.origin, degrees=ctx.degrees),
-                    phase_of_item=[it.phase_index for it in items])
+                    phase_of_item=[it.phase_index for it in items], rate_paths=out.rate_paths)
 
 
 def sortie_to_items(legs: Sequence[Leg], ctx: PlanContext, *, sprayer: SprayerCommand, takeoff_m: float,

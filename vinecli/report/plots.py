@@ -19,6 +19,7 @@ from typing import Any
 
 from vinecli.report.budget_plots import fig25_budget
 from vinecli.report.deposition_plots import fig23_deposition, fig24_row_coverage
+from vinecli.report.dose_plots import fig26_dose_maps, fig27_dose_quality
 from vinecli.report.figure_base import DPI, SIZES, NoData, PlotData, columns_needed
 from vinecli.report.figure_marks import check_spans
 from vinecli.report.flight_plots import fig20_rotors, fig21_attitude, fig22_battery
@@ -45,6 +46,10 @@ FIGURES["fig23"] = ("Spray deposition (L/ha) over the terrain with the rows, the
 FIGURES["fig24"] = ("Coverage along the targeted rows: rate along each row and the share covered", fig24_row_coverage)
 FIGURES["fig25"] = ("Where the spray went: canopy, ground in and off the field, airborne, evaporated (per row) "
                     "and the drift curve downwind", fig25_budget)
+FIGURES["fig26"] = ("Segment rates: the prescription, the rate the pump applied and the error, side by side",
+                    fig26_dose_maps)
+FIGURES["fig27"] = ("As applied: error histogram, transition distances against the pump-lag bound, product saved "
+                    "against a uniform rate", fig27_dose_quality)
 
 
 def load_plot_data(run_dir: str | Path, columns: Sequence[str] | None = None) -> PlotData:

@@ -37,10 +37,12 @@ from vinecli.missions.spec_io import dump_mission, load_mission, read_mission
 from vinecli.names import check_name
 from vinecli.outputs import Manifest, atomic_output_dir, check_output_target, contained_path, output_folder
 from vinecli.runs import rundir
+from vinecli.runs.as_applied_run import as_applied_for
 from vinecli.runs.failsafes import describe_failsafes, failsafes_from_events
 from vinecli.specs.mission import MissionSpec, SprayPhase, phase_rows
 
 if TYPE_CHECKING:
+    from vinecli.runs.as_applied_out import DoseOutputs
     from vinecli.runs.budget_out import BudgetOutputs
     from vinecli.runs.request import RunRequest
     from vinecli.sim.result import SimResult
@@ -198,12 +200,13 @@ def _fly(run: PreparedRun, request: RunRequest, mission_path: Path | None,
 @dataclass(frozen=True)
 class _Folder:
     """What a run folder holds besides the flown run: its manifest, summary.json, and the deposition and spray
-    budget documents of a spraying run."""
+    budget documents of a spraying run, the as-applied outputs of a run with segment rates."""
 
     manifest: Manifest
     summary: dict[str, Any]
     deposition: dict[str, Any] | None
     budget: BudgetOutputs | None
+    dose: DoseOutputs | None
 
 
 def _write_run(run: PreparedRun, request: RunRequest, flown: _Flown, out: Path, mission_path: Path | None
@@ -234,6 +237,7 @@ def _write_run(run: PreparedRun, request: RunRequest, flown: _Flown, out: Path, 
         all_rows = [[tuple(q) for q in r] for r in world.vine_rows_enu] or rows
         budget = evaluate_budget(result.deposition, world, all_rows, dep_metrics.get("nominal_rate_lpha", math.nan))
         dep_metrics.update(budget.metrics)
+    dose = as_applied_for(run, result, dep_metrics, dep_doc)  # segment rates flown: the as-applied log (docs/dose.md)
     if any(isinstance(p, SprayPhase) for p in spec.phases):  # did every vine get its dose, and where not
         from vinecli.runs.deposition_out import world_row
         from vinecli.runs.spray_report import describe_spray, judge_ending, locate_cutouts, locate_faults
@@ -302,7 +306,7 @@ def _write_run(run: PreparedRun, request: RunRequest, flown: _Flown, out: Path, 
         timings={"simulate": round(wall, 4)},
         extra={"status": status},
     )
-    _write_run_dir(out, run, request, flown, _Folder(manifest, summary, dep_doc, budget))
+    _write_run_dir(out, run, request, flown, _Folder(manifest, summary, dep_doc, budget, dose))
     log.info("run %s: %s, %d/%d checks passed", run_id, status, sum(c.passed for c in checks), len(checks))
     return RunSummary(
         run_id=run_id, run_dir=str(out), mission=spec.name, status=status, passed=passed, sim_time_s=sim_time,
@@ -358,6 +362,8 @@ def _write_run_dir(out: Path, run: PreparedRun, request: RunRequest, flown: _Flo
                 write_budget(tmp, folder.budget, result.deposition, run.world, crs)
         if record is not None:
             record.copy_into(tmp)
+        if folder.dose is not None:  # and its summary.json entry as_applied
+            folder.dose.write(tmp, run.world, Path(request.world_dir), summary)
         rundir.write_summary(tmp / rundir.SUMMARY, summary)
         manifest.timings["write"] = round(time.perf_counter() - t1, 4)
 

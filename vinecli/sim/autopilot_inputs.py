@@ -44,6 +44,7 @@ def autopilot_context(run: PreparedRun, home: Vec3, dt_us: int, seed: int,
         should_stop=should_stop,
         air_density_kgm3=float(run.world.air_density),
         no_spray_enu=tuple(tuple(p) for p in run.world.no_spray_enu),
+        segment_rates=dict(run.segment_rates),
     )
 
 

@@ -121,6 +121,7 @@ class PreparedRun:
     crash_speed_mps: float = 3.0  # vertical speed at first contact above which an impact is a crash, m/s
     deposition: bool = True  # run the spray transport model (only with a tank)
     deposition_config: DepositionConfig | None = None  # its options (None: defaults)
+    segment_rates: dict[int, Any] = field(default_factory=dict)  # phase index -> SegmentRates (docs/dose.md)
     _urdf_dir: tempfile.TemporaryDirectory[str] | None = field(default=None, repr=False, compare=False)
 
     def close(self) -> None:
@@ -180,10 +181,12 @@ def prepare_run(
     world = resolve_rows(world)
     veh = _vehicle(world, mission, vehicle)
     from vinecli.rows.spray_rate import resolve_spray_rates
+    from vinecli.sim.dose_setup import resolve_dose_phases
 
+    dosed, segment_rates = resolve_dose_phases(mission, world)  # per-segment doses: their rates (docs/dose.md)
     fence = mission.geofence if mission.geofence is not None else world.geofence
     flight = resolve_spray_rates(  # phases in L/ha fly the equivalent flow of their plan, within the pump's range
-        mission, veh, world.vine_rows_enu, fence_enu=fence.polygon_enu if fence is not None else None,
+        dosed, veh, world.vine_rows_enu, fence_enu=fence.polygon_enu if fence is not None else None,
         terrain_bounds=tuple(world.terrain.bounds), air_density=float(world.air_density),
         canopy_width_m=world.canopy_width_m, no_spray=world.no_spray_enu,
         wind_xy=(mission.wind if mission.wind is not None else world.wind).mean_horizontal_enu())
@@ -207,6 +210,7 @@ def prepare_run(
         urdf_dir = tempfile.TemporaryDirectory(prefix="vinecli-urdf-")
         urdf = write_urdf(veh, Path(urdf_dir.name) / f"{veh.name}.urdf")
     return PreparedRun(
+        segment_rates=segment_rates,
         world=world,
         mission=mission,
         flight=flight,

@@ -24,7 +24,8 @@ def converter_inputs(ctx: AutopilotContext, origin: Any = None, *, firmware: str
         terrain_height=ctx.terrain_height,
         nozzle_max_flow_lps=pump_max_flow_lps(v) or None,
         accel_mps2=plan_accel(v), firmware=firmware, vehicle=v, terrain_bounds=ctx.terrain_bounds,
-        air_density=ctx.air_density_kgm3, no_spray_enu=ctx.no_spray_enu,
+        air_density=ctx.air_density_kgm3, no_spray_enu=ctx.no_spray_enu, segment_rates=dict(ctx.segment_rates),
+        rate_items="switch" if firmware == "ArduPilot" else "actuator",
     )
     mission = ctx.mission
     if ctx.geofence is not None and mission.geofence is None:

@@ -44,6 +44,10 @@ class CanopySpec(StrictModel):
     g_factor: float = Field(0.5, gt=0, le=1, description="mean leaf projection on the drops' path (0.5: spherical)")
     leaf_width_m: float = Field(0.12, gt=0, le=2, description="characteristic leaf width for impaction, m")
     rows: list[RowCanopySpec] = Field(default_factory=list, description="per-row overrides")
+    segment_m: float = Field(2.0, ge=1, le=5, description="length of the canopy segments measured along each row, m "
+                             "(docs/dose.md)")
+    gap_min_m: float = Field(0.5, ge=0.1, le=20, description="an absence of canopy at least this long is a gap "
+                             "(missing vines), m")
 
     @model_validator(mode="after")
     def _check(self) -> CanopySpec:

@@ -87,6 +87,17 @@ class RefillSpec(StrictModel):
     max_sorties: int = Field(30, ge=1, le=1000)
 
 
+class PrescriptionSpec(StrictModel):
+    """A grower's prescription map (docs/dose.md): zones (GeoJSON, Shapefile, GeoPackage) with a rate ``column``,
+    a rate GeoTIFF, or ISO 11783-10 TaskData (``TASKDATA.XML`` or its folder); ``path`` relative to the mission."""
+
+    path: str = Field(min_length=1, description="the map file (or TaskData folder)")
+    column: str | None = Field(None, description="zones: the rate column")
+    layer: str | None = Field(None, description="zones: the layer (default: the first)")
+    default_lpha: float | None = Field(None, ge=0, le=10_000.0, description="rate where the map prescribes nothing, L/ha")
+    units: str = Field("L/ha", description="units of the map's rates: L/ha, gal/ac or mL/m2")
+
+
 class SprayPhase(StrictModel):
     """Boustrophedon passes along the world's vine rows at a height above the canopy, flow on
     along each row and off in the turns. With ``refill`` a ``rows_done`` job continues across
@@ -105,6 +116,14 @@ class SprayPhase(StrictModel):
         description="application rate, L/ha: flow = rate x track width x speed / 10 000 (the track width of the plan's "
                     "passes, from the vehicle's effective swath at the phase's height and speed)",
     )
+    lwa_dose_l: float | None = Field(None, gt=0, le=10_000.0, description="dose: litres of spray per 10,000 m² of "
+                                     "leaf wall area (EPPO PP 1/239), converted per canopy segment (docs/dose.md)")
+    trv_dose_l: float | None = Field(None, gt=0, le=100_000.0, description="dose: litres of spray per 10,000 m³ of "
+                                     "tree-row volume, converted per canopy segment")
+    sides: Literal[1, 2] = Field(2, description="sides of each row treated (leaf wall area)")
+    prescription: PrescriptionSpec | None = Field(None, description="dose: a prescription map (rates per zone or cell)")
+    segment_m: float | None = Field(None, ge=0.5, le=20.0, description="dose resolution along the rows, m: the world's "
+                                    "canopy segments merged to about this length (default: the world's segments)")
     until: Literal["rows_done", "empty"] = Field("rows_done", description="'empty' repeats passes until the tank is empty")
     allow_slower: bool = Field(False, description="fly slower than speed_mps when the sprayer cannot deliver the rate "
                                                   "at that speed (else the run is refused)")
@@ -124,9 +143,16 @@ class SprayPhase(StrictModel):
 
     @model_validator(mode="after")
     def _flow_or_rate(self) -> SprayPhase:
-        if (self.flow_lps is None) == (self.rate_lpha is None):
-            raise ValueError("give exactly one of flow_lps or rate_lpha")
+        given = [v is not None for v in (self.flow_lps, self.rate_lpha, self.lwa_dose_l, self.trv_dose_l,
+                                         self.prescription)]
+        if sum(given) != 1:
+            raise ValueError("give exactly one of flow_lps, rate_lpha, lwa_dose_l, trv_dose_l or prescription")
         return self
+
+    @property
+    def segment_dose(self) -> bool:
+        """The dose is per canopy segment or map cell (:mod:`vinecli.sim.dose_setup` resolves it at set-up)."""
+        return self.lwa_dose_l is not None or self.trv_dose_l is not None or self.prescription is not None
 
 
 class SprayerPhase(StrictModel):

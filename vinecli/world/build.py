@@ -128,6 +128,8 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
 
             width = spec.canopy_width_m if "canopy_width_m" in spec.model_fields_set else None
             canopy = resolve_canopy(spec.canopy, rows, grid.heights if grid is not None else None, width, str(spec_path))
+            with man.stage("canopy segments"):
+                canopy_doc = _canopy_segments(spec, canopy, grid, tmp, terrain_json, tdir, origin)
         doc = {
             "schema": SCHEMA,
             "name": spec.name,
@@ -145,7 +147,7 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
             "rows_auto": spec.rows == "auto",
             "rows_detection": rows_detection,
             "canopy_width_m": spec.canopy_width_m,
-            "canopy": canopy.to_dict() if canopy is not None else None,
+            "canopy": {**canopy.to_dict(), "segments": canopy_doc} if canopy is not None else None,
             "air": spec.air.model_dump(mode="json", exclude_none=True) if spec.air is not None else None,
             "geofence": json.loads(geofence.model_dump_json()) if geofence else None,
             "gis": gis_doc,
@@ -161,6 +163,21 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
                               "vehicle": vehicle.name}
     log.info("world %s built in %s", spec.name, out)
     return out
+
+
+def _canopy_segments(spec: WorldSpec, canopy: Any, grid: TerrainGrid | None, tmp: Path, terrain_json: dict[str, Any],
+                     tdir: Path, origin: GeoOrigin) -> dict[str, Any] | None:
+    """The rows' canopy segments (:func:`vinecli.world.canopy_build.canopy_segments`) written into the world;
+    world.json ``canopy.segments`` (None without rows or spacing)."""
+    from vinecli.world.canopy_build import canopy_segments
+    from vinecli.world.canopy_files import write_canopy_segments
+
+    assert spec.canopy is not None
+    segs = canopy_segments(spec.canopy, canopy, grid.heights if grid is not None else None)
+    if segs is None:
+        return None
+    log.info("canopy segments: %s", segs.summary_line())
+    return write_canopy_segments(tmp, segs, terrain_json, tdir, origin)
 
 
 def _warn_rows_outside(rows: list[Any], bounds: list[float], fence: Any, name: str) -> None:

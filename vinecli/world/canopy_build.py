@@ -15,10 +15,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from vinecli.errors import SpecError
+from vinecli.rows.canopy_segments import CanopySegments, Sampling, hedge_segments, segment_canopy
 from vinecli.specs.canopy import CanopySpec
 from vinecli.spray.canopy import Canopy, Hedge, bbch_dims, measure_row_heights, row_spacing
 
-__all__ = ["resolve_canopy"]
+__all__ = ["canopy_segments", "resolve_canopy"]
 
 log = logging.getLogger(__name__)
 
@@ -70,3 +71,18 @@ def resolve_canopy(spec: CanopySpec, rows: Sequence[Sequence[Sequence[float]]],
     return Canopy(rows=tuple(tuple(r) for r in lines), hedges=tuple(hedges), profile=tuple(spec.profile),
                   g_factor=spec.g_factor, leaf_width_m=spec.leaf_width_m, source=spec.source, bbch=spec.bbch,
                   spacing_m=spacing, notes=tuple(notes))
+
+
+def canopy_segments(spec: CanopySpec, canopy: Canopy,
+                    height: Callable[[np.ndarray, np.ndarray], np.ndarray] | None) -> CanopySegments | None:
+    """The rows' canopy segment by segment (docs/dose.md): measured on the surface model for ``source: chm``
+    (each row's foliage base its hedge's), else the given hedges cut into uniform segments; None without rows
+    or without a row spacing (one row)."""
+    if not canopy.hedges or not math.isfinite(canopy.spacing_m):
+        return None
+    if spec.source == "chm" and height is not None:
+        step = 0.1
+        return segment_canopy(height, canopy.rows, spacing_m=canopy.spacing_m,
+                              base_m=[h.base_m for h in canopy.hedges], segment_m=spec.segment_m,
+                              sampling=Sampling(step_m=step, gap_min_m=spec.gap_min_m))
+    return hedge_segments(canopy.rows, canopy.hedges, canopy.spacing_m, spec.segment_m)

@@ -28,8 +28,10 @@
             | null,                                      # gis: in the spec (vinecli.world.gis_inputs)
      "canopy_width_m": float,                            # row band width of the spray metrics, m
      "canopy": {"source", "bbch", "profile", "g_factor", "leaf_width_m", "spacing_m", "lai", "notes",
-                "hedges": [{"row", "base_m", "top_m", "width_m", "lad_m2m3"}]} | null,
-                                                         # each row's hedge (vinecli.spray.canopy, docs/budget.md)
+                "hedges": [{"row", "base_m", "top_m", "width_m", "lad_m2m3"}],
+                "segments": {"files", <CanopySegments.summary()>} | null} | null,
+                                                         # each row's hedge (vinecli.spray.canopy, docs/budget.md),
+                                                         # its segments (vinecli.world.canopy_files, docs/dose.md)
      "air": {"temperature_c", "relative_humidity_pct", "obukhov_length_m"} | null,   # drop evaporation, stability
      "sdf": "world.sdf"}
 """

@@ -58,7 +58,9 @@ def make_phase(p: object, ctx: AutopilotContext) -> Phase:
 
         return FollowPath("waypoints", make_wp, p.timeout_s, flow=p.flow_lps)
     if isinstance(p, SprayPhase):
-        return Spray(p, spray_rows(p, ctx), ctx.terrain_bounds, ctx.air_density_kgm3, ctx.no_spray_enu)
+        index = next((i for i, q in enumerate(ctx.mission.phases) if q is p), -1)  # the mission's own phase: its rates
+        return Spray(p, spray_rows(p, ctx), ctx.terrain_bounds, ctx.air_density_kgm3, ctx.no_spray_enu,
+                     ctx.segment_rates.get(index))
     if isinstance(p, SprayerPhase):
         return SetSprayerFlow(p.flow_lps)
     if isinstance(p, LandPhase):

@@ -9,6 +9,11 @@ its reserve or the battery could no longer bring the vehicle home, return, land,
   vehicle's own position projected on the path - not the carrot's - looking ahead by ground speed x
   the pump's time constant (``tau_up`` to open, ``tau_down`` to close) when ``section_lead``: the
   lagging pump then starts and ends the deposit at the pass ends.
+* Segment rates (a canopy dose or a prescription map, docs/dose.md): each pass is cut where the prescribed rate
+  changes (:func:`vinecli.rows.rate_path.rate_path`) and each piece has its own litres per metre; a rise is
+  commanded ground speed x ``tau_up`` ahead of its piece, a fall ground speed x ``tau_down`` ahead (the pump's
+  lag), gaps close the sections; a piece whose flow the pump cannot deliver at the phase's speed is flown slower
+  (``speed_caps``). Event ``dose_plan`` {pieces, rate range, out_of_range}.
 * Flow: litres per metre x ground speed with AC_Sprayer's minimum speed and on/off delays
   (:class:`~vinecli.control.sprayer.SpeedScaledSprayer`): the dose per hectare holds while the
   vehicle accelerates or brakes. An open section the sprayer does not serve (too slow, tank empty) is
@@ -31,6 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.autopilot.phases.flight import Rtl, Takeoff
@@ -41,6 +47,10 @@ from vinecli.control.sprayer import SpeedScaledSprayer
 from vinecli.errors import InputError
 from vinecli.frames import Vec3
 from vinecli.specs.mission import RefillSpec, SprayPhase, TakeoffPhase
+
+if TYPE_CHECKING:
+    from vinecli.rows.plan import RowPlan
+    from vinecli.rows.segment_rates import SegmentRates
 
 _ON_PATH_M = 0.7  # the sections open only with the vehicle this close to the path (horizontally and vertically)
 _RUN_IN_EXTRA_M = 1.0  # run-in beyond the braking distance v^2 / 2a before a breakpoint, m
@@ -73,8 +83,12 @@ class Spray(Phase):
 
     def __init__(self, spec: SprayPhase, rows: list[list[tuple[float, float]]],
                  terrain_bounds: tuple[float, float, float, float] | None = None, air_density: float = 1.225,
-                 no_spray: Sequence[Sequence[tuple[float, float]]] = ()) -> None:
+                 no_spray: Sequence[Sequence[tuple[float, float]]] = (), rates: SegmentRates | None = None) -> None:
         self.spec = spec
+        self.rates = rates  # segment rates to follow (None: the phase's one rate)
+        self.rated = rates is not None
+        self._dose_announced = False
+        self._range = (0.0, 0.0)  # the sprayer's flow range, L/s (set at start)
         self.no_spray = no_spray  # the world's no-spray zones: the plan closes the sections at them
         self.rows = rows
         self.terrain_bounds = terrain_bounds
@@ -118,9 +132,27 @@ class Spray(Phase):
                 "row_dose_expected": [round(d, 4) for d in lay.row_dose] if lay is not None else [],
                 "stretches": {str(k): [round(a, 3), round(b, 3)] for k, (a, b) in plan.stretches.items()}})
             self.announced = True
-        pts2, flows, stops = plan.path(self.per_m)
+        if self.rates is not None:
+            pts2, flows, stops = self._rate_path(ap, plan)
+        else:
+            pts2, flows, stops = plan.path(self.per_m)
         h = self.spec.height_agl_m
         return [(x, y, h) for x, y in pts2], flows, stops
+
+    def _rate_path(self, ap: PhaseHost, plan: RowPlan) -> tuple[list[tuple[float, float]], list[float], list[int]]:
+        """The plan's path with each pass at the segment rates under it (module docstring); event ``dose_plan``."""
+        from vinecli.rows.rate_path import rate_path
+
+        assert self.rates is not None
+        sp = ap.vehicle.sprayer
+        rp = rate_path(plan, self.rates, self.rows, speed_mps=self.spec.speed_mps, flow_range_lps=self._range,
+                       speed_min_mps=sp.control.speed_min_mps)
+        if not self._dose_announced:
+            s = rp.summary()
+            ap.emit("dose_plan", f"segment rates: {s['pieces']} pieces at {s['rate_min_lpha']:.1f}-"
+                                 f"{s['rate_max_lpha']:.1f} L/ha" + "".join(f"; {n['kind']}" for n in rp.notes), s)
+            self._dose_announced = True
+        return rp.points, rp.flows, rp.stops
 
     @staticmethod
     def accel(ap: PhaseHost) -> float:
@@ -137,6 +169,8 @@ class Spray(Phase):
         lead = sp.control.section_lead
         self.tau_up = sp.pump.tau_up_s if lead else 0.0
         self.tau_down = sp.pump.tau_down_s if lead else 0.0
+        self._range = sp.flow_range_lps(tank.nozzle_max_flow_lps if tank is not None else 0.0)
+        self._dose_announced = False
         self._new_path(ap)
 
     # ---- sorties (refill jobs)
@@ -282,8 +316,13 @@ class Spray(Phase):
         def skids_above_terrain(x: float, y: float) -> float:
             return terrain(x, y) + lgh  # the height is the skids' (as the recorded height_agl_m)
 
+        speeds = None
+        if self.rated:  # pieces whose flow the pump cannot deliver at the phase's speed are flown slower
+            from vinecli.rows.rate_path import speed_caps
+
+            speeds = speed_caps(flows, self.spec.speed_mps, self._range[1])
         self.path = PathFollower(pts, self.spec.speed_mps, accel=self.accel(ap), flows=flows, terrain=skids_above_terrain,
-                                 acceptance_m=0.7, max_lead_m=2.0, stops=stops,
+                                 acceptance_m=0.7, max_lead_m=2.0, stops=stops, speeds=speeds,
                                  max_vz=min(ap.vehicle.control.max_vel_up, ap.vehicle.control.max_vel_down))
         self.s_v = 0.0
         self._speed = 0.0
@@ -297,7 +336,10 @@ class Spray(Phase):
         speed = math.hypot(ap.vel[0], ap.vel[1])
         # open ahead of a pass start by the pump's rise, close ahead of its end by its fall
         per_m = self.path.flow_at(s_v + speed * self.tau_up)
-        if per_m <= 0.0 and self._open:
+        if self.rated:  # a rise ahead by the pump's rise, a fall (a lower rate, a gap) ahead by its fall
+            per_dn = self.path.flow_at(s_v + speed * self.tau_down)
+            per_m = max(per_m, per_dn) if self.tau_up >= self.tau_down else min(per_m, per_dn)
+        elif per_m <= 0.0 and self._open:
             per_m = self.path.flow_at(s_v + speed * self.tau_down)
         open_ = per_m > 0.0 and off < _ON_PATH_M and abs(sp[2] - ap.pos[2]) < _ON_PATH_M
         self._open = open_

@@ -90,10 +90,11 @@ def _reported(name: str) -> Callable[[RunData, Window], float]:
 
 def _register_deposition() -> None:
     """The deposition metrics are computed once per run by the model (whole run; the window is ignored)."""
+    from vinecli.missions.as_applied import AS_APPLIED_METRICS
     from vinecli.missions.budget_metrics import BUDGET_METRICS
     from vinecli.missions.deposition_metrics import DEPOSIT_METRICS
 
-    for name, (unit, doc) in {**DEPOSIT_METRICS, **BUDGET_METRICS}.items():
+    for name, (unit, doc) in {**DEPOSIT_METRICS, **BUDGET_METRICS, **AS_APPLIED_METRICS}.items():
         METRICS[name] = Metric(_reported(name), unit, f"{doc} (whole run; window ignored)")
 
 

@@ -36,6 +36,7 @@ from vinecli.sitl.ardupilot.mission_plan import ArdupilotPlan, home_frame, plan_
 from vinecli.sitl.ardupilot.params import pump_fraction, sprayer_params, vehicle_params
 from vinecli.sitl.ardupilot.process import SERIAL0_PORT_BASE, ArdupilotProcess, reserve_instance
 from vinecli.sitl.converter import pump_max_flow_lps, takeoff_mass_kg
+from vinecli.sitl.dose_follow import follow_event
 from vinecli.sitl.identity import identity_from_message
 from vinecli.sitl.polled_link import PolledTcpLink
 from vinecli.sitl.record import FirmwareRecord
@@ -185,6 +186,9 @@ class ArdupilotSitlAutopilot:
             self._emit(obs.t_us, "firmware", f"ArduCopter {ident.version} ({ident.git_hash})", ident.to_dict())
         self._emit(obs.t_us, "ardupilot", f"ArduPilot ready after {self.boot_s:.1f} s of simulated boot",
                    {"boot_s": round(self.boot_s, 3), "frame_rate_hz": frame.rate_hz})
+        rates = self.plan.pump_rates
+        if rates is not None and (said := follow_event("ardupilot", self.plan.rate_paths, lead_s=rates.lead_s)):
+            self._emit(obs.t_us, *said)  # segment rates: what ArduPilot does with them
         client.start(self._fw_us())
         return frame
 

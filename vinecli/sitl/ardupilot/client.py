@@ -60,6 +60,8 @@ STREAMS = {0: 100_000, 1: 200_000, 42: 200_000, 245: 200_000, 147: 500_000, 193:
 #: horizontal and vertical velocity, absolute horizontal and vertical position; and not these
 EKF_READY = 1 | 2 | 4 | 16 | 32
 EKF_NOT_READY = 128 | 1024  # constant-position mode, uninitialised
+#: GLOBAL_POSITION_INT, streamed at 10 Hz when the ground station sets segment rates in flight
+GLOBAL_POSITION_INT = 33
 SEVERITY_WARNING = 4
 COMMAND_RESEND_US = 500_000
 COMMAND_TIMEOUT_US = 3_000_000
@@ -163,7 +165,8 @@ class ArdupilotClient:
     def _on_connect(self, t_us: int) -> None:
         self._connected_us = t_us
         self.events.append(("ardupilot_link", f"MAVLink link up on TCP {self.link.host}:{self.link.port}", {}))
-        for msg_id, interval in STREAMS.items():
+        streams = {**STREAMS, **({GLOBAL_POSITION_INT: 100_000} if self.plan.pump_rates is not None else {})}
+        for msg_id, interval in streams.items():
             self._queue.append((M.CMD_SET_MESSAGE_INTERVAL, (float(msg_id), float(interval)), f"stream {msg_id}"))
         self._queue.append((M.CMD_REQUEST_MESSAGE, (148.0,), "AUTOPILOT_VERSION"))
 
@@ -270,6 +273,8 @@ class ArdupilotClient:
         elif typ == "MISSION_ITEM_REACHED" and m.seq not in st.reached:
             st.reached.add(m.seq)
             self.events.append(("mission_item_reached", f"item {m.seq} reached", {"seq": int(m.seq)}))
+        elif typ == "GLOBAL_POSITION_INT" and self.plan.pump_rates is not None and self.in_mission:
+            self._pump_rate(m, t_us)
         elif typ == "EXTENDED_SYS_STATE" and m.landed_state != st.landed_state:
             st.landed_state = m.landed_state
             names = {1: "on_ground", 2: "in_air", 3: "takeoff", 4: "landing"}
@@ -288,6 +293,20 @@ class ArdupilotClient:
         if armed != st.armed:
             st.armed = armed
             self.events.append(("arming", "armed" if armed else "disarmed", {"armed": armed}))
+
+    def _pump_rate(self, m: Any, t_us: int) -> None:
+        """Segment rates: SPRAY_PUMP_RATE of the next piece when the vehicle reaches it (:mod:`.pump_rates`)."""
+        sched, frame = self.plan.pump_rates, self.plan.frame
+        assert sched is not None and frame is not None
+        x, y = frame.e7_to_world(int(m.lat), int(m.lon))
+        vx, vy = frame.ned_velocity_to_world(m.vx * 0.01, m.vy * 0.01)
+        c = sched.due(t_us * 1e-6, x, y, vx, vy)
+        if c is None:
+            return
+        self.link.send(self.link.mav.param_set_encode(self.target, 1, b"SPRAY_PUMP_RATE", float(c.pump_rate), 9))
+        self.events.append(("pump_rate_set", f"SPRAY_PUMP_RATE {c.pump_rate:g} %/(m/s) for {c.rate_lpha:.1f} L/ha",
+                            {"pump_rate": c.pump_rate, "rate_lpha": round(c.rate_lpha, 3), "at_enu": [round(x, 3), round(y, 3)],
+                             "piece_enu": [round(c.x, 3), round(c.y, 3)], "change": sched.next_i - 1}))
 
     def _set_phase(self, seq: int) -> None:
         poi = self.plan.phase_of_item

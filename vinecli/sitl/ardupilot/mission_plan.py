@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 
 from vinecli.autopilot.base import AutopilotContext
 from vinecli.errors import SpecError
-from vinecli.frames import grid_to_true_enu
+from vinecli.frames import grid_to_true_enu, true_enu_to_grid
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.mission_items import MissionItem
 from vinecli.phase_items import DO_SPRAYER, phases_to_items
 from vinecli.sitl.ardupilot.params import SprayerSetting, mission_settings
-from vinecli.sitl.converter import converter_inputs
+from vinecli.sitl.ardupilot.pump_rates import PumpRateSchedule, lead_time_s
+from vinecli.sitl.converter import converter_inputs, pump_max_flow_lps
 from vinecli.specs.mission import MissionSpec, SprayerPhase, SprayPhase, WaypointsPhase
 
 #: ArduPilot's LOCATION_SCALING_FACTOR_INV: 1e-7 degrees per metre of latitude (AP_Common/Location.h)
@@ -55,6 +56,19 @@ class ArdupilotFrame:
         lat, lng = self.offset_e7(e, n)
         return lat * 1e-7, lng * 1e-7, self.alt_m + u - self.home_enu[2]
 
+    def e7_to_world(self, lat_e7: int, lng_e7: int) -> tuple[float, float]:
+        """The world point (ENU m) ArduPilot means by ``lat_e7``, ``lng_e7`` (the inverse of :meth:`offset_e7`)."""
+        dlat, dlng = lat_e7 - self.lat_e7, lng_e7 - self.lng_e7
+        scale = max(0.01, min(1.0, math.cos((self.lat_e7 + dlat / 2) * 1e-7 * math.pi / 180.0)))
+        de, dn, _ = true_enu_to_grid((dlng * scale / LOCATION_SCALING_FACTOR_INV, dlat / LOCATION_SCALING_FACTOR_INV,
+                                      0.0), self.convergence_rad)
+        return self.home_enu[0] + de, self.home_enu[1] + dn
+
+    def ned_velocity_to_world(self, vn: float, ve: float) -> tuple[float, float]:
+        """A horizontal velocity from true north and east (m/s) in the world's axes."""
+        vx, vy, _ = true_enu_to_grid((ve, vn, 0.0), self.convergence_rad)
+        return vx, vy
+
 
 def home_frame(ctx: AutopilotContext) -> ArdupilotFrame:
     """ArduPilot's home: the vehicle's resting point (CoM) at the spawn, in WGS84 degE7 and m AMSL."""
@@ -72,6 +86,10 @@ class ArdupilotPlan:
     params: dict[str, int | float] = field(default_factory=dict)
     phase_of_item: list[int] = field(default_factory=list)
     sprayer: SprayerSetting | None = None
+    #: segment rates: the SPRAY_PUMP_RATE changes the ground station sends in flight (None: one rate)
+    pump_rates: PumpRateSchedule | None = None
+    frame: ArdupilotFrame | None = None
+    rate_paths: dict[int, tuple[object, object]] = field(default_factory=dict)  # the converter's (plan, RatePath)
 
     @property
     def lands(self) -> bool:
@@ -106,7 +124,18 @@ def plan_for(ctx: AutopilotContext, frame: ArdupilotFrame) -> ArdupilotPlan:
             it.param4 = 0.0  # ArduPilot's "exit at the loiter centre" flag (NaN: MISSION_ACK INVALID_PARAM4)
         items.append(it)
     return ArdupilotPlan(items=items, fence=conv.fence, params=mission_settings(mission),
-                         phase_of_item=[-1, *conv.phase_of_item], sprayer=sprayer_setting(mission))
+                         phase_of_item=[-1, *conv.phase_of_item], sprayer=sprayer_setting(mission),
+                         pump_rates=_pump_rates(ctx, conv.rate_paths), frame=frame, rate_paths=conv.rate_paths)
+
+
+def _pump_rates(ctx: AutopilotContext, rate_paths: dict[int, tuple[object, object]]) -> PumpRateSchedule | None:
+    """The SPRAY_PUMP_RATE changes of the mission's first dosed spray phase (:mod:`.pump_rates`), None without."""
+    if not rate_paths:
+        return None
+    _, rp = rate_paths[min(rate_paths)]
+    v = ctx.vehicle
+    return PumpRateSchedule.from_path(rp.points, rp.flows, rp.rates, pump_max_flow_lps(v),  # type: ignore[attr-defined]
+                                      lead_time_s(v.sprayer.pump.tau_up_s))
 
 
 __all__ = ["ArdupilotFrame", "ArdupilotPlan", "home_frame", "plan_for", "sprayer_setting"]

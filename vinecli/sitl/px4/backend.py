@@ -44,6 +44,7 @@ from vinecli.frames import attitude_grid_to_ned_frd, flu_to_frd, grid_to_ned, qu
 from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sitl.converter import pump_max_flow_lps
+from vinecli.sitl.dose_follow import follow_event
 from vinecli.sitl.px4.log_audit import apply_audit
 from vinecli.sitl.px4.process import px4_start_command
 from vinecli.sitl.takeoff import TakeoffWatch
@@ -203,6 +204,8 @@ class Px4SitlAutopilot:
             except AutopilotTimeout as exc:  # nobody started PX4 where the user said: exit 2, no run written
                 raise FirmwareUnreachable(exc.problem) from None
         self._emit(0, "px4", f"PX4 connected on TCP {self.host}:{self.port}", {"peer": str(self.link.peer)})
+        if self.plan is not None and (said := follow_event("px4", self.plan.rate_paths)) is not None:
+            self._emit(0, *said)  # segment rates: what PX4 does with them
         hb = self.link.recv_match("HEARTBEAT", timeout=min(5.0, self.connect_timeout_s))
         if hb is None:
             raise AutopilotError(f"TCP {self.host}:{self.port}: the peer connected but sent no HEARTBEAT (is it PX4?)")
