@@ -391,12 +391,16 @@ def _release(out: Parcels, kind: int, lifted: np.ndarray, top: np.ndarray, offse
     # (volume-weighted landing point, fall time, release conditions): the far field's plume is smooth
     per_group = out.group.size and (out.primaries // max(int(out.group[:out.primaries].max()) + 1, 1))
     layer_key = np.unique(top[src], return_inverse=True)[1]
+    # a merged parcel becomes FAR_BINS landing bins, one in still air (outwash.lifted_parcels: nothing carries it)
+    bins = np.where(np.hypot(wnd[out.group[src], 0], wnd[out.group[src], 1]) > 0.0, FAR_BINS, 1)
     bin_s = LIFT_BIN_S
     for _ in range(12):  # a long run: merged over longer windows so the far field stays within MAX_FAR_PARCELS
         key = ((out.group[src] * config.group_s // bin_s).astype(np.int64) * per_group + src % per_group) * (
             int(layer_key.max()) + 1) + layer_key
         uk, inv = np.unique(key, return_inverse=True)
-        if uk.size * FAR_BINS <= MAX_FAR_PARCELS:
+        per_set = np.zeros(uk.size, dtype=np.int64)
+        np.maximum.at(per_set, inv, bins)
+        if int(per_set.sum()) <= MAX_FAR_PARCELS:
             break
         bin_s *= 2.0
     w = lifted[src]

@@ -96,6 +96,10 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
             half, time = np.append(half, h2), np.append(time, t2)
             if above <= 0.0:
                 layer = inner
+        radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
+        if speed[i] <= 0.0 and mass.size:  # still air carries nothing away: every bin lands where it was released
+            time = np.array([float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)])
+            mass, dist, radius = np.array([mass.sum()]), np.zeros(1), np.array([spread[i]])
         d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
         cols["x"].append(x[i] + ex[i] * d)
         cols["y"].append(y[i] + ey[i] * d)
@@ -106,6 +110,6 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
         # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
         # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
         cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(layer.sigma_w(np.zeros(1))[0])))
-        cols["radius"].append(np.maximum(BAND_SMOOTHING * half, spread[i]))  # at least the release's own spread
+        cols["radius"].append(radius)
         cols["src"].append(np.full(mass.size, i))
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
