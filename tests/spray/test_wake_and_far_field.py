@@ -130,6 +130,20 @@ def test_lifted_parcels_keep_their_volume_and_go_downwind() -> None:
     assert np.all(out["t_fall"] > 0.4)
 
 
+def test_lifted_parcels_in_still_air_land_where_they_left_as_one_parcel() -> None:
+    # nothing carries them away: every landing bin would fall on the same spot, so one parcel carries the volume
+    # (the far field's merge window then stays short on calm missions: no lumps along the rows)
+    vt = float(terminal_velocity(60e-6)[0])
+    out = lifted_parcels(np.array([1.0, 5.0]), np.array([2.0, 2.0]), np.array([1.0, 0.5]),
+                         np.array([[vt, vt], [vt, vt]]), np.array([0.4, 0.4]), np.zeros(2), np.zeros(2),
+                         np.array([3.0, 3.0]), 0.1, 1.3)
+    assert out["src"].tolist() == [0, 1]
+    assert out["vol"] == pytest.approx([1.0, 0.5])
+    assert out["x"] == pytest.approx([1.0, 5.0]) and out["y"] == pytest.approx([2.0, 2.0])
+    assert out["radius"] == pytest.approx([0.65, 0.65])  # the release's own spread, the wall jet's W/2
+    assert np.all(out["t_fall"] > 0.4)
+
+
 def test_the_worlds_air_gives_the_stability() -> None:
     from pydantic import ValidationError
 
