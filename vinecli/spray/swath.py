@@ -216,8 +216,9 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
                       expected=True)
         k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol)
         profiles.append(k / (k.sum() * dy))
-        if heading == 0.0:
-            foot = float(np.max(p.radius + 2.0 * p.sigma))
+        if heading == 0.0:  # the cone's footprint: the primaries (the far field's landing bins are drift, not it)
+            near = slice(0, p.primaries)
+            foot = float(np.max(p.radius[near] + 2.0 * p.sigma[near]))
             along = float(np.dot(p.x, p.vol) / p.vol.sum()) - float(np.mean(p.path_xy[:, 0]))
     fwd, back = profiles
     spacing = np.round(np.arange(0.2, 1.6 * geometric + 1e-9, ds) * 100.0) / 100.0
