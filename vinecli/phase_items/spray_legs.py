@@ -139,7 +139,9 @@ def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
             out += _pass_actions(legs[i:j + 1], leg_flows[i:j + 1], height_m, surface, home_z)
             i = j + 1
             continue
-        pts = _waypoints(leg.points, height_m, surface, home_z)
+        # a pass's row ends lie on the straight line of its run-on: no waypoint there (a firmware's jerk-limited
+        # trajectory would hold the short run-on leg at ~0.9 m/s, below AC_Sprayer's minimum speed)
+        pts = _waypoints(_straight(leg.points) if leg.spray else leg.points, height_m, surface, home_z)
         if leg.spray:
             out.append(("wp", *pts[0]))
             out.append(("spray", flow_lps, 0.0, 0.0))
