@@ -156,9 +156,10 @@ def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
             out.append(("spray", 0.0, 0.0, 0.0))
         else:
             out.extend(("wp", *p) for p in pts[1:])
-            if leg.kind == "transit" and len(leg.points) >= 3:  # face along the pass from the run-in point on
-                (ax, ay), (bx, by) = leg.points[-2], leg.points[-1]
-                out.insert(len(out) - 1, ("face", math.atan2(by - ay, bx - ax), 0.0, 0.0))
+            if leg.kind == "transit" and len(leg.points) >= 3 and len(pts) >= 2:  # face along the pass from the run-in
+                (ax, ay), (bx, by) = leg.points[-2], leg.points[-1]  # point on (its waypoint, or the nearest one)
+                k = min(range(1, len(pts)), key=lambda j: math.dist(pts[j][:2], (ax, ay)))
+                out.insert(len(out) - len(pts) + 1 + k, ("face", math.atan2(by - ay, bx - ax), 0.0, 0.0))
         i += 1
     # drop consecutive duplicate waypoints
     clean: list[SprayAction] = []
