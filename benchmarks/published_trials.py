@@ -27,6 +27,7 @@ sys.path.insert(0, str(REPO))
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", type=Path, help="write the figures as JSON")
+    ap.add_argument("--png", type=Path, help="draw the Biglia comparison (paper vs model) to this PNG")
     args = ap.parse_args(argv)
 
     from vinecli.spray.published_trials import BIGLIA_2022, CONFIGS, RAUTMANN_2001, drift_trial, reading
@@ -66,6 +67,43 @@ def main(argv: list[str] | None = None) -> int:
     for name, c in {**curves, **{f"Rautmann 2001, {k}": v for k, v in RAUTMANN_2001.items()}}.items():
         print(f"{name:38s} " + " ".join(f"{c[d]:7.3f}" for d in (3.0, 5.0, 10.0, 15.0, 20.0)))
     out["drift"] = {k: {str(d): v for d, v in c.items()} for k, c in curves.items()}
+
+    import dataclasses
+
+    print("\nOne pass along the edge row, 2 m/s crosswind, % of applied   5 m    10 m    20 m    30 m    50 m")
+    for vmd in (145.0, 150.0, 200.0):
+        base = drift_trial(True, 2.0)
+        x = base.rows[-1][0][0]
+        trial = dataclasses.replace(base, vehicle=dataclasses.replace(base.vehicle, vmd_um=vmd),
+                                    passes=[((x, -5.0), (x, 67.0))])
+        b, _ = run_trial(trial)
+        c = {p["distance_m"]: p["percent_of_applied"] for p in b.drift}
+        print(f"M600-class, hollow cone VMD {vmd:.0f} µm{'':22s}" + " ".join(f"{c[d]:7.3f}" for d in (5.0, 10.0, 20.0,
+                                                                                                   30.0, 50.0)))
+        out.setdefault("edge_row", {})[str(vmd)] = c  # type: ignore[union-attr]
+
+    from vinecli.spray.swath import swath_pattern
+    from vinecli.vehicle import load_vehicle
+
+    print("\nEffective swath (CV <= 10 %, back and forth), m      model   published")
+    for name, h, v, pub in (("ag-hexa-16", 2.5, 3.5, "3.0 (DJI T16 in vines, JKI-approved set-up)"),
+                            ("x500-sprayer", 2.0, 2.0, "-")):
+        pat = swath_pattern(load_vehicle(name), h, v)
+        print(f"{name:16s} {h:.1f} m, {v:.1f} m/s                    {pat.effective_m:5.2f}   {pub}")
+        out.setdefault("swath", {})[name] = pat.effective_m  # type: ignore[union-attr]
+    if args.png:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from vinecli.report.budget_plots import trial_comparison
+
+        fig, ax = plt.subplots(figsize=(8, 4))
+        trial_comparison(ax, [(label.split(" (")[0], BIGLIA_2022[key], model) for label, key, model in rows])
+        ax.set_title("Biglia et al. 2022: band and broadcast spraying, paper vs vinecli", fontsize=10)
+        fig.tight_layout()
+        fig.savefig(args.png, dpi=110)
     if args.json:
         args.json.write_text(json.dumps(out, indent=1))
     return 0

@@ -24,7 +24,16 @@ def pattern():  # noqa: ANN201 - SwathPattern
     return swath_pattern(load_vehicle("x500-sprayer"), 2.0, 3.0)
 
 
-def test_close_rows_get_even_passes_and_the_edge_rows_their_dose(pattern) -> None:  # noqa: ANN001
+@pytest.fixture(scope="module")
+def wide():  # noqa: ANN201 - SwathPattern
+    # the ag-hexa-16 (T16 class, eight nozzles 1.9 m across): a swath of ~2.9 m. The x500-sprayer's two nozzles 0.2 m
+    # apart lay a plume ~1 m wide (the wake carries the drops down, spray/wake.py): its effective swath (0.9 m) is
+    # now narrower than the sample field's rows, so it flies a pass per row there
+    return swath_pattern(load_vehicle("ag-hexa-16"), 2.5, 3.0)
+
+
+def test_close_rows_get_even_passes_and_the_edge_rows_their_dose(wide) -> None:  # noqa: ANN001
+    pattern = wide
     across = [0.917 * i for i in range(16)]  # the sample field: 16 rows 0.92 m apart
     lay = layout_lanes(across, pattern, 0.6)
     assert lay.mode == "broadcast" and len(lay.across_m) < 16
@@ -49,10 +58,30 @@ def test_close_rows_get_even_passes_and_the_edge_rows_their_dose(pattern) -> Non
 def test_rows_a_swath_apart_get_a_pass_each_and_one_row_its_band(pattern) -> None:  # noqa: ANN001
     lay = layout_lanes([0.0, 4.0, 8.0], pattern, 0.6)
     assert lay.mode == "rows" and lay.across_m == [0.0, 4.0, 8.0]
-    assert lay.flow_width_m == pytest.approx(pattern.single_pass_width_m(0.6))
-    assert lay.row_dose == pytest.approx([1.0, 1.0, 1.0], abs=0.01)
+    # the single-pass width, made up for the vehicle's cross-track error: flown TRACK_ERROR_M off its line as often
+    # as on it, a pass doses its row at the asked rate on average (the x500-sprayer's ~1 m plume: ~2 % more flow)
+    w1 = pattern.single_pass_width_m(0.6)
+    flown = np.mean([_row_doses(pattern, np.zeros(1), [d], w1, 0.6)[0] for d in (-TRACK_ERROR_M, 0.0, TRACK_ERROR_M)])
+    own = _row_doses(pattern, np.zeros(1), [0.0], w1, 0.6)[0]
+    assert lay.flow_width_m == pytest.approx(w1 * own / flown, rel=1e-9)
+    assert 1.0 < lay.flow_width_m / w1 < 1.05
+    assert lay.row_dose == pytest.approx([1.02, 1.02, 1.02], abs=0.02)
     one = layout_lanes([5.0], pattern, 0.6)
-    assert one.mode == "single" and one.row_dose == pytest.approx([1.0], abs=1e-3)
+    assert one.mode == "single" and one.flow_width_m == pytest.approx(lay.flow_width_m)
+
+
+def test_rows_closer_than_the_plume_count_the_neighbours_overlap(pattern) -> None:  # noqa: ANN001
+    # the x500-sprayer over the sample field's rows (0.92 m apart, more than its effective swath): a pass per row,
+    # but its plume reaches the neighbouring rows, so the flow is lowered until the edge rows (one neighbour) and the
+    # inner rows (two) are equally far from the asked rate as flown (track error counted)
+    across = [0.917 * i for i in range(16)]
+    lay = layout_lanes(across, pattern, 0.6)
+    assert lay.mode == "rows" and len(lay.across_m) == 16
+    assert lay.flow_width_m < pattern.single_pass_width_m(0.6)
+    flown = np.mean([_row_doses(pattern, np.array(across), [c + d for c in lay.across_m], lay.flow_width_m, 0.6)
+                     for d in (-TRACK_ERROR_M, 0.0, TRACK_ERROR_M)], axis=0)
+    assert 1.0 - flown.min() == pytest.approx(flown.max() - 1.0, abs=0.01)
+    assert lay.worst_row_error <= ROW_TARGET
 
 
 def test_pass_paths_interpolate_between_rows_and_shift_beyond_them() -> None:

@@ -67,15 +67,18 @@ def test_passes_cut_at_the_segment_boundaries() -> None:
 
 def test_rates_beyond_the_pump_are_flown_slower() -> None:
     plan = _plan()
-    rp = rate_path(plan, _rates(scale=10.0), ROWS, speed_mps=2.0, flow_range_lps=(0.0, 0.1), speed_min_mps=1.0)
+    # the pump's 0.1 L/s at 2 m/s over the x500's ~1.0 m track (the wake-narrowed plume) is ~490 L/ha: x28 puts
+    # every rate but the 15 L/ha piece's (420 L/ha) above it, with a margin either side
+    scale = 28.0
+    rp = rate_path(plan, _rates(scale=scale), ROWS, speed_mps=2.0, flow_range_lps=(0.0, 0.1), speed_min_mps=1.0)
     notes = {n["kind"]: n for n in rp.notes}
-    above = sorted(10.0 * r for ps in PIECES.values() for _, _, r in ps if 10.0 * r * rp.per_lpha * 2.0 > 0.1)
-    assert above == [200.0, 250.0, 250.0, 300.0]  # above the pump's 0.1 L/s at 2 m/s: 150 L/ha is not
+    above = sorted(scale * r for ps in PIECES.values() for _, _, r in ps if scale * r * rp.per_lpha * 2.0 > 0.1)
+    assert above == [560.0, 700.0, 700.0, 840.0]  # above the pump's 0.1 L/s at 2 m/s: 420 L/ha is not
     assert set(notes) == {"slowed"} and notes["slowed"]["rates_lpha"] == [above[0], above[-1]]
     caps = speed_caps(rp.flows, 2.0, 0.1)
     for f, v in zip(rp.flows, caps, strict=True):
         assert v <= 2.0 and f * v <= 0.1 + 1e-12  # the pump's maximum at the capped speed
-    assert min(caps) == pytest.approx(0.1 / (300.0 * rp.per_lpha))
+    assert min(caps) == pytest.approx(0.1 / (840.0 * rp.per_lpha))
     low = rate_path(plan, _rates(scale=0.01), ROWS, speed_mps=2.0, flow_range_lps=(0.004, 0.1), speed_min_mps=1.0)
     over = {n["kind"]: n for n in low.notes}["over-dosed"]
     assert over["pieces"] > 0 and min(f for f in low.flows if f > 0) == pytest.approx(0.004 / 2.0)

@@ -208,3 +208,27 @@ def test_terrain_following_legs_are_long_enough_for_a_firmware_to_keep_its_speed
     flat = leg_actions([Leg([(0.0, 0.0), (0.0, 60.0)], True, 0)], height_m=2.0, flow_lps=0.05,
                        surface=lambda x, y: 0.0)
     assert [(a[2], a[3]) for a in flat if a[0] == "wp"] == [(0.0, 2.0), (60.0, 2.0)]
+
+
+def test_a_pass_is_one_leg_from_its_run_on_through_the_row_and_the_run_in_faces_along_it() -> None:
+    """A firmware mission of a pass run on past both row ends (the x500-sprayer's pattern): the row ends are on the
+    straight line of the run-on, so no waypoint there (a short run-on leg held ArduCopter's S-curve at 0.9 m/s, below
+    AC_Sprayer's 1 m/s minimum); the transit's run-in point carries the pass's heading (PX4 turned 180 deg while
+    accelerating out of it and tracked 0.3 m beside the row)."""
+    from vinecli.rows.spray_rate import spray_pattern
+    from vinecli.vehicle import load_vehicle
+
+    pattern = spray_pattern(load_vehicle("x500-sprayer"), 2.0, 2.0, 1.225)
+    plan = plan_rows([[(0.0, 0.0), (0.0, 40.0)]], (-2.0, 5.0), speed_mps=2.0, accel_mps2=1.5, pattern=pattern)
+    legs = [leg.kind for leg in plan.legs]
+    assert legs == ["transit", "row"] and len(plan.legs[0].points) == 3  # a run-in behind the pass start
+    run_in, start = plan.legs[0].points[1:]
+    assert start[1] < -1.0 and run_in[1] < start[1]  # the pass starts its run-on before the row, the run-in behind
+    acts = leg_actions(plan.legs, height_m=2.0, flow_lps=0.05)
+    wps = [a[1:3] for a in acts if a[0] == "wp"]
+    assert all(abs(y) > 0.5 and abs(y - 40.0) > 0.5 for _, y in wps)  # no waypoint at either row end
+    face = [i for i, a in enumerate(acts) if a[0] == "face"]
+    assert len(face) == 1 and acts[face[0] - 1][1:3] == run_in  # the run-in waypoint's yaw ...
+    assert acts[face[0]][1] == pytest.approx(math.pi / 2)  # ... along the pass (north, ENU yaw)
+    on = next(i for i, a in enumerate(acts) if a[0] == "spray" and a[1] > 0)
+    assert [a[0] for a in acts[on + 1:]] == ["wp", "spray"]  # the sprayer on at the pass start, one leg to its end

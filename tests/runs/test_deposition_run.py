@@ -49,12 +49,12 @@ def test_spray_run_writes_deposition_and_is_deterministic(flat_world_dir: Path, 
     doc = json.loads((ra / "deposition.json").read_text())
     met = a.metrics
     # the rate asked in L/ha became the flow 20 x track width x 2 m/s / 10 000; the rows are 3.6 m apart, wider
-    # than the effective swath: a pass over each, whose track width doses the row's canopy band (narrower than the
-    # cone's swath edge to edge)
+    # than the effective swath: a pass over each, whose track width doses the row's canopy band. The wake carries
+    # the drops down as a plume ~1 m wide (spray/wake.py): both are far narrower than the cones' swath edge to edge
     sp = doc["spray_phase"]
     assert sp["passes"]["mode"] == "rows" and sp["passes"]["count"] == 2
     assert sp["flow_lps"] == pytest.approx(20.0 * sp["track_width_m"] * 2.0 / 1e4, rel=1e-4)
-    assert sp["track_width_m"] < sp["effective_swath_m"] < sp["swath_m"]
+    assert max(sp["track_width_m"], sp["effective_swath_m"]) < 0.5 * sp["swath_m"]
     assert "speed-scaled" in doc["sprayer_law"]["flow"]
     # the dose judged by default on each row's planned stretch: the default checks are in the summary and pass
     checks = {c["name"]: c for c in a.checks}
@@ -80,7 +80,7 @@ def test_spray_run_writes_deposition_and_is_deterministic(flat_world_dir: Path, 
     # everything the tank lost was emitted (1 kg/L): 0.4 L minus what is left
     left_l = met["final_mass_kg"] - met["rigid_mass_kg"]
     assert met["deposit_emitted_l"] == pytest.approx(0.4 - left_l, rel=1e-6)
-    assert met["deposit_emitted_l"] > 0.1
+    assert met["deposit_emitted_l"] > 0.04  # 20 L/ha over a ~1 m track at 2 m/s over two 12 m rows
     assert met["row_coverage_fraction"] >= 0.9
 
 
@@ -99,7 +99,7 @@ def test_a_geofence_hold_mid_row_fails_the_spray_checks_with_the_sprayer_off(fla
     (fs,) = summary["failsafes"]
     assert fs["cause"] == "geofence" and fs["action"] == "hold"
     # nothing more left the tank after the breach: well under the 0.4 L it would have emptied onto one spot
-    assert 0.0 < s.metrics["deposit_emitted_l"] < 0.1
+    assert 0.0 < s.metrics["deposit_emitted_l"] < 0.05
 
 
 def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Path) -> None:
@@ -116,7 +116,8 @@ def test_the_deposition_grid_is_configurable(flat_world_dir: Path, tmp_path: Pat
     finally:
         ap.close()
     dep = res.deposition
-    assert dep.grid.cell == 0.05 and dep.balance_error <= 1e-6 and dep.emitted_l > 0.1
+    # 20 L/ha over a ~1 m track at 2 m/s: 0.004 L/s, ~0.06 L over the two 12 m rows and their run-ins
+    assert dep.grid.cell == 0.05 and dep.balance_error <= 1e-6 and dep.emitted_l > 0.04
     ap = make_run_autopilot("builtin")
     try:
         off = run_simulation(load_world(flat_world_dir), spec, ap, seed=1, deposition=False)

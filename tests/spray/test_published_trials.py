@@ -7,9 +7,12 @@ benchmarks/published_trials.py prints the table.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from vinecli.spray.budget import BudgetConfig
 from vinecli.spray.published_trials import BIGLIA_2022, CONFIGS, RAUTMANN_2001, drift_trial, reading
 from vinecli.spray.spray_trial import run_trial
 
@@ -27,27 +30,61 @@ BAND, BAND_CONV = ["T9", "T10", "T11", "T12"], ["T9", "T10"]
 ONE_WAY, TWO_WAY = ["T1", "T2", "T3", "T4"], ["T5", "T6", "T7", "T8"]
 
 
-def test_biglia_broadcast_canopy_and_two_way_ground_agree(readings):
-    # broadcast (across the rows): canopy deposit and the 2-way ground losses within 25 % of the paper
-    assert mean(readings, ONE_WAY + TWO_WAY, "canopy") == pytest.approx(BIGLIA_2022["canopy_broadcast"], rel=0.25)
+def test_biglia_band_spraying_within_a_factor_of_1_5(readings):
+    # the wake carries the band spray down as a plume about a metre wide (spray/wake.py), so a pass along the
+    # hedge puts most of it into the canopy: canopy deposits within a factor 1.5 of the paper (docs/budget.md)
+    for names, key in ((BAND_CONV, "canopy_band_conventional"), (BAND, "canopy_band")):
+        ratio = mean(readings, names, "canopy") / BIGLIA_2022[key]
+        assert 1 / 1.5 <= ratio <= 1.5, (key, ratio)
+
+
+def test_biglia_broadcast_ground_losses_agree(readings):
+    # broadcast (across the rows, 1-way and 2-way: both apply the same dose per cm of the line): within 25 %
+    assert mean(readings, ONE_WAY, "ground") == pytest.approx(BIGLIA_2022["ground_broadcast_1way"], rel=0.25)
     assert mean(readings, TWO_WAY, "ground") == pytest.approx(BIGLIA_2022["ground_broadcast_2way"], rel=0.25)
 
 
 def test_biglia_band_spraying_puts_more_on_the_canopy_than_broadcast(readings):
     band, broad = mean(readings, BAND, "canopy"), mean(readings, ONE_WAY + TWO_WAY, "canopy")
-    assert band > 1.3 * broad  # the paper: +209 % (0.161 vs 0.052); the model: +60 %, the same way
+    assert band > 1.5 * broad  # the paper: +209 % (0.161 vs 0.052); the model: ~+90 %, the same way
     # and the canopy's top catches more than its bottom, three times more in the paper (Fig. 11)
     for n in BAND:
         assert readings[n]["canopy_top"] > 2.0 * readings[n]["canopy_bottom"]
+    # the budget of a band pass at 1 m/s in light wind (T9, T11): 25-60 % of the spray on the canopy
+    for n in ("T9", "T11"):
+        assert 0.25 <= readings[n]["fraction_canopy"] <= 0.60
 
 
-def test_biglia_band_mode_is_where_the_model_disagrees(readings):
-    # the model's spray footprint is the geometric cone (docs/deposition.md): flown over one 0.55 m hedge the
-    # band spray lands mostly beside it; the paper measured the downwash conveying it into the canopy. The
-    # disagreement stated in docs/budget.md: canopy 0.2-0.5x, ground 1.5-3x the paper's
-    assert 0.2 < mean(readings, BAND_CONV, "canopy") / BIGLIA_2022["canopy_band_conventional"] < 0.5
-    assert 1.5 < mean(readings, BAND, "ground") / BIGLIA_2022["ground_band"] < 3.0
-    assert 0.35 < mean(readings, ONE_WAY, "ground") / BIGLIA_2022["ground_broadcast_1way"] < 0.8
+def test_biglia_where_the_model_still_disagrees(readings):
+    # stated in docs/budget.md: band-mode ground losses 1.5-2.2x the paper's (the dishes right under the row catch
+    # the plume's core), broadcast canopy 1.2-1.7x (the flat fans are modelled as full cones)
+    assert 1.5 < mean(readings, BAND, "ground") / BIGLIA_2022["ground_band"] < 2.2
+    assert 1.2 < mean(readings, ONE_WAY + TWO_WAY, "canopy") / BIGLIA_2022["canopy_broadcast"] < 1.7
+
+
+def edge_pass(vmd: float, wind: float, seed: int = 0):
+    """One pass along the downwind edge row of a full-leaf vineyard (ten rows 2.5 m apart, 62 m) by an M600-class
+    hexacopter 3 m above the ground at 3 m/s, hollow cones of the given VMD, in a crosswind blowing off the field."""
+    base = drift_trial(True, wind, seed)
+    veh = dataclasses.replace(base.vehicle, vmd_um=vmd)
+    x = base.rows[-1][0][0]
+    distances = BudgetConfig(drift_distances_m=(1.0, 3.0, 5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 50.0))
+    return run_trial(dataclasses.replace(base, vehicle=veh, passes=[((x, -5.0), (x, 67.0))], budget=distances))[0]
+
+
+@pytest.mark.parametrize("vmd", [150.0, 200.0])
+def test_edge_row_drift_curve_in_a_2_mps_crosswind(vmd):
+    b = edge_pass(vmd, 2.0)
+    assert b.balance_error <= 1e-9
+    curve = {p["distance_m"]: p["percent_of_applied"] for p in b.drift}
+    assert 0.02 <= curve[5.0] <= 5.0 and 0.02 <= curve[7.5] <= 5.0
+    assert curve[20.0] < 0.5
+    assert curve[50.0] > 0.0
+    far = [curve[d] for d in (5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 50.0)]
+    assert all(a > b for a, b in zip(far[:-1], far[1:], strict=True)), far
+    # the share that left the field (sedimenting + airborne out of the domain) and the airborne share are the
+    # surface layer's: both positive
+    assert b.fractions["ground_off_field"] > 0.0
 
 
 @pytest.fixture(scope="module")
@@ -68,10 +105,9 @@ def test_drift_air_inclusion_below_the_vineyard_basic_drift_values(drift_curves)
         assert drift_curves[False][d] <= drift_curves[True][d]
 
 
-def test_drift_conventional_between_ground_boom_and_orchard_airblast_near_the_field(drift_curves):
-    # Bonds et al. 2024: UASS drift is higher than ground booms' and lower than aerial, similar to orchard air-blast.
-    # The model: above the boom's and below the orchard air-blast's up to 10 m; beyond, its tail falls below the
-    # boom's (docs/budget.md: no far-field airborne transport above the outwash)
-    for d in (3.0, 5.0, 10.0):
-        assert RAUTMANN_2001["arable"][d] < drift_curves[True][d] < RAUTMANN_2001["fruit, late"][d]
-    assert drift_curves[True][20.0] < RAUTMANN_2001["arable"][20.0]
+def test_drift_conventional_above_the_boom_and_its_tail_reaches_50_m(drift_curves):
+    # Bonds et al. 2024 and Agroscope: UASS drift is higher than ground booms'; Sanchez-Fernandez et al. 2025: in vines
+    # above the ground sprayers' reference (fine drops from 3 m, the whole field sprayed in a 3 m/s crosswind)
+    for d in (3.0, 5.0, 10.0, 15.0, 20.0):
+        assert drift_curves[True][d] > RAUTMANN_2001["arable"][d]
+    assert drift_curves[True][50.0] > 0.0

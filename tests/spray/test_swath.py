@@ -25,8 +25,9 @@ def one_nozzle(cone_deg: float = 80.0):  # noqa: ANN201 - a VehicleSpec
 
 
 def test_the_calm_pattern_of_one_full_cone_is_its_disc_swept_along_the_track() -> None:
+    # without drag the drops fly on along the cone: the footprint is the cone's disc
     v = one_nozzle()
-    p = swath_pattern(v, 2.0, 2.0)
+    p = swath_pattern(v, 2.0, 2.0, config=DepositionConfig(drag_reach=False, downwash=False))
     dy = p.y_m[1] - p.y_m[0]
     assert p.forward.sum() * dy == pytest.approx(1.0)
     r = p.footprint_radius_m  # the cone's radius on the ground (no wind, no diffusion)
@@ -37,8 +38,23 @@ def test_the_calm_pattern_of_one_full_cone_is_its_disc_swept_along_the_track() -
     assert np.allclose(p.forward, p.backward[::-1], atol=1e-9)  # calm air: the return pass mirrors it
 
 
+def test_drag_and_the_wake_narrow_the_pattern_within_the_cone() -> None:
+    """The model every run uses: each class lands on the disc of its ballistic reach spread by the wake
+    (spray/wake.py), narrower than the cone; the pattern still holds all the volume and mirrors in calm air."""
+    v = one_nozzle()
+    p = swath_pattern(v, 2.0, 2.0)
+    cone = swath_pattern(v, 2.0, 2.0, config=DepositionConfig(drag_reach=False))
+    dy = p.y_m[1] - p.y_m[0]
+    assert p.forward.sum() * dy == pytest.approx(1.0)
+    assert np.allclose(p.forward, p.backward[::-1], atol=1e-9)
+    width = float(np.sqrt(np.sum(p.forward * p.y_m ** 2) * dy))  # cross-track standard deviation
+    cone_width = float(np.sqrt(np.sum(cone.forward * cone.y_m ** 2) * dy))
+    assert width < 0.5 * cone_width
+    assert p.effective_m < cone.effective_m
+
+
 def test_effective_swath_of_an_elliptic_pattern_and_the_non_monotone_cv() -> None:
-    p = swath_pattern(one_nozzle(), 2.0, 2.0)
+    p = swath_pattern(one_nozzle(), 2.0, 2.0, config=DepositionConfig(drag_reach=False))  # the cone's ellipse
     r = p.footprint_radius_m
     # an elliptic pattern overlaps evenly near pi R / 2 and poorly at 2 R (edge to edge): a gap between passes
     assert 1.45 * r <= p.effective_m <= 1.75 * r
@@ -70,9 +86,13 @@ def test_the_pattern_matches_the_full_model_raster_of_a_flown_pass() -> None:
     mid = (xc > -4.0) & (xc < 4.0)
     measured = vol[:, mid].mean(axis=1) / (grid.cell * grid.cell) * 1e4  # L/ha across the track
     expected = 1e4 * per_m * np.interp(yc, p.y_m, p.forward)
-    core = np.abs(yc) < 1.4
+    core = expected > 0.3 * expected.max()  # the pattern's body (its flanks are steeper than the 0.1 m raster draws)
     assert measured[core] == pytest.approx(expected[core], rel=0.03)
-    assert measured.sum() == pytest.approx(expected.sum(), rel=0.01)
+    # every litre sprayed over the middle lands in it (none leaves along the track in still air): q / v per metre
+    assert measured.sum() * grid.cell / 1e4 == pytest.approx(per_m, rel=0.01)
+    # and the pattern holds the same volume, within what sampling it at its own step and reading it on the 0.1 m
+    # raster loses at the steep flanks of the discs the wake's edge sheds (1.2 % on the x500)
+    assert measured.sum() == pytest.approx(expected.sum(), rel=0.02)
 
 
 def test_crosswind_moves_both_pass_directions_downwind() -> None:

@@ -11,6 +11,13 @@ waypoints are at least ``min_leg_m`` apart (besides the legs' own vertices) and 
 them is lifted until no point of it is more than 0.1 m below the height wanted: the path is a few long
 straight legs that clear the canopy (higher over a bump, never lower); a waypoint on the straight line of
 its neighbours is dropped, so flat ground gives none.
+
+A pass's row ends are no waypoints: on its straight run-on they would make a short leg that holds a firmware's
+jerk-limited speed (measured: ArduCopter at 0.89 m/s over a 1.85 m run-on leg after the run-in stop, below
+AC_Sprayer's 1 m/s minimum, so its sprayer came on 1.5 m into the row; at the far end both firmwares braked inside
+the row). A transit's run-in point carries the pass's heading (param4): the vehicle turns to face along the pass
+before it accelerates into it (measured: PX4 v1.15 yawing 180 deg while accelerating out of the run-in left it
+0.3 m beside the row over the first 3 m, the first metre dosed 0.54x).
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ from vinecli.rows.plan import Leg
 
 __all__ = ["SprayAction", "leg_actions"]
 
-#: ("wp", x, y, alt above home m) or ("spray", flow L/s, 0, 0)
+#: ("wp", x, y, alt above home m), ("spray", flow L/s, 0, 0) or ("face", yaw ENU rad, 0, 0): the last waypoint's yaw
 SprayAction = tuple[str, float, float, float]
 
 _SAMPLE_M, _LIFT_M, _CLEAR_M = 0.5, 1.0, 0.1
@@ -139,7 +146,9 @@ def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
             out += _pass_actions(legs[i:j + 1], leg_flows[i:j + 1], height_m, surface, home_z)
             i = j + 1
             continue
-        pts = _waypoints(leg.points, height_m, surface, home_z)
+        # a pass's row ends lie on the straight line of its run-on: no waypoint there (a firmware's jerk-limited
+        # trajectory would hold the short run-on leg at ~0.9 m/s, below AC_Sprayer's minimum speed)
+        pts = _waypoints(_straight(leg.points) if leg.spray else leg.points, height_m, surface, home_z)
         if leg.spray:
             out.append(("wp", *pts[0]))
             out.append(("spray", flow_lps, 0.0, 0.0))
@@ -147,6 +156,10 @@ def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
             out.append(("spray", 0.0, 0.0, 0.0))
         else:
             out.extend(("wp", *p) for p in pts[1:])
+            if leg.kind == "transit" and len(leg.points) >= 3 and len(pts) >= 2:  # face along the pass from the run-in
+                (ax, ay), (bx, by) = leg.points[-2], leg.points[-1]  # point on (its waypoint, or the nearest one)
+                k = min(range(1, len(pts)), key=lambda j: math.dist(pts[j][:2], (ax, ay)))
+                out.insert(len(out) - len(pts) + 1 + k, ("face", math.atan2(by - ay, bx - ax), 0.0, 0.0))
         i += 1
     # drop consecutive duplicate waypoints
     clean: list[SprayAction] = []

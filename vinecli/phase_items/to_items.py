@@ -212,6 +212,9 @@ def _fly_legs(out: _Items, legs: Sequence[Leg], speed_mps: float, height_m: floa
                                      home_z=ctx.home_ground_z(), leg_flows=leg_flows):
         if kind == "wp":
             out.wp(a, b, c)
+        elif kind == "face":  # the waypoint just added: its yaw (a heading from true north, deg)
+            if out.items[-1].command == M.CMD_NAV_WAYPOINT:
+                out.items[-1].param4 = math.degrees(yaw_enu_to_heading_ned(a + ctx.origin.convergence_rad))
         else:
             out.spray(a, where)
 

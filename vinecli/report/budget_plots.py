@@ -3,9 +3,10 @@
 Left: one stacked bar for the whole run, then one per sprayed row (the spray released over that row):
 canopy, ground in the field, ground off the field, airborne out of the drift domain, evaporated, in %
 of the volume. Right: sedimenting drift downwind of the last row, % of the applied rate, against the
-distance, both on log axes (no drift: on the floor, marked 0), with the German basic drift values of vineyards (Rautmann et al. 2001, 90th
-percentile, one application; ground air-blast sprayers) for scale and the default drift ceiling at
-5 m. Read from ``budget.json``; runs without one raise :class:`~vinecli.report.figure_base.NoData`.
+distance on log-log axes (the far-field model's curve reaches 50 m), with the German basic drift values
+(Rautmann et al. 2001, 90th percentile, one application: vineyard air-blast late and early, arable boom)
+for scale and the default drift ceiling at 5 m. :func:`trial_comparison` draws the model against a field
+trial's numbers (Biglia et al. 2022's band and broadcast deposits, benchmarks/published_trials.py). Read from ``budget.json``; runs without one raise :class:`~vinecli.report.figure_base.NoData`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BUDGET_COLOURS", "RAUTMANN_VINES_LATE", "draw_hedges", "fig25_budget", "load_budget"]
+__all__ = ["BASIC_DRIFT", "BUDGET_COLOURS", "RAUTMANN_VINES_LATE", "draw_hedges", "fig25_budget", "load_budget",
+           "trial_comparison"]
 
 #: destination -> (label, colour)
 BUDGET_COLOURS = {
@@ -101,6 +103,14 @@ def _bars(ax: Any, doc: dict[str, Any]) -> None:
     ax.grid(alpha=0.3, axis="x")
 
 
+#: German basic drift values (Rautmann et al. 2001; 90th percentiles, one application), % of applied, for scale
+BASIC_DRIFT = {
+    "vines, late (air-blast)": (RAUTMANN_VINES_LATE, "#616161", "s"),
+    "vines, early (air-blast)": ({3.0: 2.70, 5.0: 1.18, 10.0: 0.39, 15.0: 0.20, 20.0: 0.13}, "#9e9e9e", "D"),
+    "arable (boom)": ({3.0: 0.95, 5.0: 0.57, 10.0: 0.29, 15.0: 0.20, 20.0: 0.15}, "#8d6e63", "^"),
+}
+
+
 def _drift(ax: Any, doc: dict[str, Any]) -> None:
     """The run's drift curve against the reference values, both axes logarithmic (a regulator reads 3-50 m where
     the values are hundredths of the 1 m one); points with no drift sit on the axis' floor, marked "0"."""
@@ -110,26 +120,30 @@ def _drift(ax: Any, doc: dict[str, Any]) -> None:
 
     pts = [(p["distance_m"], p["percent_of_applied"]) for p in doc.get("drift_curve") or []
            if p.get("percent_of_applied") is not None and math.isfinite(p["percent_of_applied"])]
+    # % of applied: the log axis' bottom (a zero reading is drawn on it, open); lower when the far field is fainter
+    positive = [v for _d, v in pts if v > 0]
+    floor = min(DRIFT_FLOOR_PCT, 0.3 * min(positive)) if positive else DRIFT_FLOOR_PCT
     if pts:
         d, v = np.array(pts).T
-        wet = v >= DRIFT_FLOOR_PCT
-        ax.plot(d[wet], v[wet], marker="o", color="#c62828", lw=2, label="this run")
+        wet = v > 0
+        ax.plot(d[wet], v[wet], marker="o", color="#c62828", lw=2, label="this run", zorder=3)
         if (~wet).any():  # none on the ground there: on the axis' floor, not lost below a log axis
-            ax.plot(d[~wet], np.full((~wet).sum(), DRIFT_FLOOR_PCT), marker="o", mfc="white", color="#c62828",
-                    ls="", ms=6, clip_on=False, label=f"this run: none (< {DRIFT_FLOOR_PCT:g} %)")
+            ax.plot(d[~wet], np.full(int((~wet).sum()), floor), marker="o", mfc="white", color="#c62828", ls="", ms=6,
+                    clip_on=False, zorder=4, label="this run: nothing on the ground (drawn at the axis)")
         for di, vi in zip(d, v, strict=True):
-            ax.annotate(f"{vi:.2g}" if vi >= DRIFT_FLOOR_PCT else "0", (di, max(vi, DRIFT_FLOOR_PCT)), xytext=(0, 6),
-                        textcoords="offset points", ha="center", fontsize=8)
-    rd, rv = np.array(list(RAUTMANN_VINES_LATE.items())).T
-    ax.plot(rd, rv, ls="--", color="#616161", lw=1.2, label="vines, full leaf: basic drift\n(Rautmann 2001, air-blast)")
+            ax.annotate(f"{vi:.2g}" if vi > 0 else "0", (di, max(vi, floor)), xytext=(0, 6), textcoords="offset points",
+                        ha="center", fontsize=7)
+    for label, (vals, col, mk) in BASIC_DRIFT.items():
+        rd, rv = np.array(list(vals.items())).T
+        ax.plot(rd, rv, ls="--", marker=mk, ms=4, color=col, lw=1.0, label=f"basic drift, {label}")
     ax.plot([5.0], [DEFAULT_DRIFT_5M_MAX_PCT], marker="v", color="k", ls="", ms=8, label="ceiling at 5 m (check)")
     ax.set_xscale("log")
+    ax.set_yscale("log")
     ticks = [1, 3, 5, 10, 15, 20, 30, 50]
     ax.set_xticks(ticks, [str(t) for t in ticks])
     ax.set_xlim(0.8, 60)
-    ax.set_yscale("log")
     top = max([100.0, *(p[1] for p in pts)])
-    ax.set_ylim(DRIFT_FLOOR_PCT, 1.5 * top)
+    ax.set_ylim(floor, 1.5 * top)
     ax.yaxis.set_major_formatter(FuncFormatter(lambda y, _pos: f"{y:g}"))
     ax.set_xlabel("distance downwind of the last row, m (log)")
     ax.set_ylabel("drift on the ground, % of applied (log)")
@@ -140,7 +154,24 @@ def _drift(ax: Any, doc: dict[str, Any]) -> None:
     ax.xaxis.set_minor_locator(NullLocator())  # labelled majors only: log axes' minor ticks cost as much again
     ax.yaxis.set_minor_locator(NullLocator())
     ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+
+
+def trial_comparison(ax: Any, rows: list[tuple[str, float, float]]) -> None:
+    """Model against a field trial, side by side: ``rows`` of (label, paper, model), e.g. Biglia et al. 2022's
+    band and broadcast canopy deposits and ground losses (benchmarks/published_trials.py)."""
+    y = np.arange(len(rows))[::-1].astype(float)
+    paper = np.array([r[1] for r in rows])
+    model = np.array([r[2] for r in rows])
+    ax.barh(y + 0.18, paper, height=0.35, color="#616161", label="field trial")
+    ax.barh(y - 0.18, model, height=0.35, color="#2e7d32", label="vinecli")
+    for yi, p, m in zip(y, paper, model, strict=True):
+        ax.text(max(p, m) * 1.02, yi, f"{m / p:.2f}x" if p > 0 else "", va="center", fontsize=8)
+    ax.set_yticks(y, [r[0] for r in rows])
+    ax.set_xlim(0, 1.2 * float(max(paper.max(), model.max())))
+    ax.set_xlabel("deposit, µL/cm² (standardised)")
     ax.legend(fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3, axis="x")
 
 
 def fig25_budget(data: Any) -> bytes:

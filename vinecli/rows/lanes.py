@@ -5,8 +5,10 @@ rate on its canopy band. It works on the rows' positions across the block and th
 cross-track pattern of one pass (:class:`~vinecli.spray.swath.SwathPattern`):
 
 * one row: one pass over it; the flow doses its band (``flow_width`` = the single-pass width);
-* rows at least an effective swath apart: one pass over each row, doses as above (a row listed twice:
-  a pass per listed row, flown in the order listed, ``listed``);
+* rows at least an effective swath apart: one pass over each row, its flow dosing the band with the
+  neighbouring passes' overlap counted (the single-pass width over the midrange of the rows' expected doses:
+  the wake-narrowed plume can still reach the next row); a row listed twice: a pass per listed row, flown in the
+  order listed, ``listed``;
 * otherwise broadcast: n evenly spaced passes from ``first row + e`` to ``last row - e``, their
   spacing S at most the effective swath and within the CV limit of the overlapped pattern, with the
   flow of S (rate x S x speed). n and the edge offset e (passes beyond the edge rows for e < 0, inside
@@ -106,6 +108,14 @@ def _off_track(lanes: list[float]) -> list[list[float]]:
 
 def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target: float = ROW_TARGET) -> LaneLayout:
     """Passes for rows at ``across`` (m, any order) under ``pattern`` (a SwathPattern), canopy band ``band_m``."""
+    # a crosswind carries the plume across the rows: the passes are laid that far upwind (swath displacement)
+    drift = float(getattr(pattern, "centre_m", 0.0))
+    if abs(drift) > 1e-3:  # a millimetre: calm air (the pattern's centroid is 0 to rounding)
+        lay = layout_lanes(across, _Recentred(pattern, drift), band_m, target)
+        lanes = [c - drift for c in lay.across_m]
+        rows = np.asarray(across, dtype=np.float64) if lay.mode == "listed" else np.sort(np.asarray(across, float))
+        return LaneLayout(lanes, lay.flow_width_m, lay.spacing_m, _row_doses(pattern, rows, lanes, lay.flow_width_m,
+                                                                              band_m), lay.mode, lay.edge_offset_m)
     xs = np.sort(np.asarray(across, dtype=np.float64))
     w1 = pattern.single_pass_width_m(band_m)  # type: ignore[attr-defined]
     eff = float(pattern.effective_m)  # type: ignore[attr-defined]
@@ -117,7 +127,7 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
         lanes = [float(x) for x in xs]
         mode = "single" if xs.size == 1 else "rows"
         spacing = float(np.median(gaps)) if gaps.size else math.nan
-        return LaneLayout(lanes, w1, spacing, _row_doses(pattern, xs, lanes, w1, band_m), mode)
+        return _rows_layout(pattern, xs, lanes, w1, band_m, spacing, mode)
     span = float(xs[-1] - xs[0])
     n0 = int(math.ceil(span / eff - 1e-9)) + 1
     fallback: tuple[float, LaneLayout] | None = None
@@ -141,8 +151,25 @@ def layout_lanes(across: Sequence[float], pattern: object, band_m: float, target
                 return lay
     if fallback is None:  # no spacing passes the CV limit: one pass per row
         lanes = [float(x) for x in xs]
-        return LaneLayout(lanes, w1, float(np.median(gaps)), _row_doses(pattern, xs, lanes, w1, band_m), "rows")
+        return _rows_layout(pattern, xs, lanes, w1, band_m, float(np.median(gaps)), "rows")
     return fallback[1]
+
+
+def _rows_layout(pattern: object, xs: np.ndarray, lanes: list[float], w1: float, band_m: float, spacing: float,
+                 mode: str) -> LaneLayout:
+    """A pass over each row. Its flow doses the rows' bands at the asked rate with the neighbouring passes' overlap
+    and the vehicle's cross-track error counted: the single-pass width divided by the midrange of the rows'
+    expected doses as flown (passes on their lines or TRACK_ERROR_M off them), so the edge rows (one neighbour) and
+    the inner rows (two) are equally far from the asked rate (a plume wider than the row spacing lays part of each
+    pass on the neighbours; a plume much wider than the track error: 1 for a lone row)."""
+    doses = _row_doses(pattern, xs, lanes, w1, band_m)
+    own = _row_doses(pattern, np.zeros(1), [0.0], w1, band_m)[0]  # a row's own pass alone
+    # as flown: the passes TRACK_ERROR_M to either side as often as on their lines (a narrow plume loses part of
+    # the band to the estimate's cross-track error; the flow makes up for it)
+    flown = np.mean([_row_doses(pattern, xs, [c + d for c in lanes], w1, band_m)
+                     for d in (-TRACK_ERROR_M, 0.0, TRACK_ERROR_M)], axis=0)
+    k = 0.5 * (float(flown.min()) + float(flown.max())) / own if own > 0 else 1.0
+    return LaneLayout(lanes, w1 / k, spacing, [d / k for d in doses], mode)
 
 
 def _along_across(line: np.ndarray, u: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -175,3 +202,23 @@ def lane_polyline(rows: Sequence[Polyline], across: Sequence[float], c: float,
     s = (1.0 - w) * np.interp(t, ta, sa) + w * np.interp(t, tb, sb)
     pts = t[:, None] * u[None, :] + s[:, None] * n[None, :]
     return [(float(x), float(y)) for x, y in pts]
+
+
+class _Recentred:
+    """A pattern moved across so that its plume lands under the pass (its crosswind drift taken out): the layout of
+    passes over the rows, before they are displaced upwind by the drift."""
+
+    def __init__(self, pattern: object, drift_m: float) -> None:
+        self.pattern = pattern
+        self.drift_m = drift_m
+        self.effective_m = float(pattern.effective_m)  # type: ignore[attr-defined]
+
+    def good(self, spacing_m: float) -> bool:
+        return bool(self.pattern.good(spacing_m))  # type: ignore[attr-defined]
+
+    def single_pass_width_m(self, band_m: float) -> float:
+        mean = self.pattern.band_mean(0.5 * band_m, self.drift_m)  # type: ignore[attr-defined]
+        return 1.0 / mean if mean > 0 else math.inf
+
+    def dose(self, y: np.ndarray, lanes: list[tuple[float, int]]) -> np.ndarray:
+        return self.pattern.dose(np.asarray(y) + self.drift_m, lanes)  # type: ignore[attr-defined,no-any-return]

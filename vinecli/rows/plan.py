@@ -130,7 +130,7 @@ class RowPlan:
 
 
 # ---------------------------------------------------------------- geometry helpers
-def _direction(rows: Sequence[Polyline]) -> tuple[float, float]:
+def row_direction(rows: Sequence[Polyline]) -> tuple[float, float]:
     """Unit vector of the mean row direction (end-to-end vectors, sign-aligned)."""
     sx = sy = 0.0
     ref: Point | None = None
@@ -276,7 +276,7 @@ def plan_rows(
     keep = [(i, r) for i, r in zip(idx, work, strict=True) if len(r) >= 2 and LineString(r).length > 0.05]
     if not keep:
         return RowPlan([], v, a, [*warnings, "no rows left inside the fence"])
-    ux, uy = _direction([r for _, r in keep])
+    ux, uy = row_direction([r for _, r in keep])
     blocked = blocked_area(no_spray, clearance_m(pattern, end_margin_m))
     passes, layout = lay_passes(keep, (ux, uy), pattern, band_m, inner, warnings, end_margin_m, blocked)
     if not passes:

@@ -55,16 +55,31 @@ def flow_for_rate(rate_lpha: float, swath_m: float, speed_mps: float) -> float:
 
 
 @functools.lru_cache(maxsize=16)
-def _pattern(vehicle_json: str, height_agl_m: float, speed_mps: float, air_density: float) -> SwathPattern:
+def _pattern(vehicle_json: str, height_agl_m: float, speed_mps: float, air_density: float,
+             crosswind_mps: float = 0.0) -> SwathPattern:
     from vinecli.spray.swath import swath_pattern
 
-    return swath_pattern(VehicleSpec.model_validate_json(vehicle_json), height_agl_m, speed_mps, air_density=air_density)
+    return swath_pattern(VehicleSpec.model_validate_json(vehicle_json), height_agl_m, speed_mps, air_density=air_density,
+                         crosswind_mps=crosswind_mps)
 
 
-def spray_pattern(vehicle: VehicleSpec, height_agl_m: float, speed_mps: float, air_density: float = 1.225
-                  ) -> SwathPattern:
-    """The vehicle's pass pattern and effective swath at a spray height and speed in calm air (cached)."""
-    return _pattern(vehicle.model_dump_json(), float(height_agl_m), float(speed_mps), float(air_density))
+def spray_pattern(vehicle: VehicleSpec, height_agl_m: float, speed_mps: float, air_density: float = 1.225,
+                  crosswind_mps: float = 0.0) -> SwathPattern:
+    """The vehicle's pass pattern and effective swath at a spray height and speed, in calm air or a crosswind (m/s,
+    towards the left of the pass) (cached)."""
+    return _pattern(vehicle.model_dump_json(), float(height_agl_m), float(speed_mps), float(air_density),
+                    round(float(crosswind_mps), 2))
+
+
+def plan_crosswind_mps(phase: SprayPhase, rows: Rows) -> float:
+    """The phase's planning wind (``plan_wind_enu``) across its rows, m/s towards the left of the rows' direction (the
+    planner's across coordinate); 0 without one."""
+    if phase.plan_wind_enu is None or not rows:
+        return 0.0
+    from vinecli.rows.plan import row_direction
+
+    ux, uy = row_direction(rows)
+    return float(-uy * phase.plan_wind_enu[0] + ux * phase.plan_wind_enu[1])
 
 
 # parameters: keyword-only options, each with its default (the world the phase flies in: fence, terrain, air, climb, no-spray zones); a caller names the ones it sets
@@ -78,7 +93,7 @@ def phase_plan(phase: SprayPhase, vehicle: VehicleSpec, rows: Rows, start_xy: tu
     terrain and the world's no-spray zones ``no_spray`` less the footprint's clearance (:mod:`vinecli.rows.no_spray`).
     The built-in autopilot flies it, the run set-up takes its flow from it, the exports and the deposition
     evaluation use it."""
-    pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, air_density)
+    pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, air_density, plan_crosswind_mps(phase, rows))
     band = phase.canopy_width_m if phase.canopy_width_m is not None else DEFAULT_BAND_M
     pump = vehicle.sprayer.pump
     ramp = phase.speed_mps * max(pump.tau_up_s, pump.tau_down_s)  # the flow's ramp, spread by the pump's lag
@@ -140,21 +155,30 @@ def _check_rows(i: int, rows: Rows) -> None:
                              "a row needs two distinct points")
 
 
+# parameters: the plan's inputs (mission, vehicle, rows, fence, terrain, air, band, no-spray rows) and the wind the
+# passes are displaced against
 def resolve_spray_rates(mission: MissionSpec, vehicle: VehicleSpec, world_rows: Rows = (), *,
                         fence_enu: Sequence[tuple[float, float]] | None = None,
                         terrain_bounds: tuple[float, float, float, float] | None = None,
                         air_density: float = 1.225, canopy_width_m: float = DEFAULT_BAND_M,
-                        no_spray: Rows = ()) -> MissionSpec:
+                        no_spray: Rows = (), wind_xy: tuple[float, float] | None = None) -> MissionSpec:
     """``mission`` with every spray phase's canopy band resolved (the world's ``canopy_width_m`` unless the phase
-    gives one), every ``rate_lpha`` turned into the flow of its plan's track width at the phase's speed (both
-    fields kept), and the flow checked against the sprayer (see the module docstring)."""
+    gives one), its planning wind resolved (the mission's mean wind unless the phase gives one: the passes are
+    displaced upwind by the plume's drift), every ``rate_lpha`` turned into the flow of its plan's track width at the
+    phase's speed (both fields kept), and the flow checked against the sprayer (see the module docstring).
+    ``wind_xy``: the mean horizontal wind of the run (m/s ENU; default: the mission's law's, else calm)."""
     if not any(isinstance(p, SprayPhase) for p in mission.phases):
         return mission
+    if wind_xy is None:
+        wind_xy = mission.wind.mean_horizontal_enu() if mission.wind is not None else (0.0, 0.0)
+    wind = (float(wind_xy[0]), float(wind_xy[1]))
     phases = []
     for i, p in enumerate(mission.phases):
         if isinstance(p, SprayPhase):
             if p.canopy_width_m is None:
                 p = SprayPhase.model_construct(**{**dict(p), "canopy_width_m": float(canopy_width_m)})
+            if p.plan_wind_enu is None:
+                p = SprayPhase.model_construct(**{**dict(p), "plan_wind_enu": wind})
             rows = phase_rows(p, world_rows)
             _check_rows(i, rows)
             for _ in range(3) if rows else ():  # a slower speed changes the pattern a little: plan again

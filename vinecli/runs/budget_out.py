@@ -81,13 +81,23 @@ def _hedge_cells(grid: Any, canopy: Any) -> np.ndarray:
     return rasterise(grid, np.concatenate(xs), np.concatenate(ys), np.concatenate(ws))[0]
 
 
-def _release_rows(path_xy: np.ndarray, group: np.ndarray, rows: list[Any]) -> np.ndarray:
-    """Per parcel: the row it was released over (nearest row to its emission group's nozzle path point)."""
+def _release_rows(parcels: Any, group: np.ndarray, rows: list[Any]) -> np.ndarray:
+    """Per parcel: the row its emission group sprayed (the row nearest to where the group's cone and wake plume
+    landed, the volume-weighted mean of its primaries; the nozzle path point where none landed). A pass planned
+    upwind of its row in a crosswind (swath displacement) is flown nearer the upwind neighbour but sprays its row."""
+    path_xy = np.asarray(parcels.path_xy)
     if not rows or path_xy.size == 0 or group.size == 0:
         return np.full(group.size, -1, dtype=np.int64)
     from vinecli.geometry import point_polyline_distance
 
-    d = np.stack([point_polyline_distance(path_xy[:, 0], path_xy[:, 1], [r]) for r in rows])
+    n = int(getattr(parcels, "primaries", 0))
+    g, w = np.asarray(parcels.group[:n], dtype=np.int64), np.asarray(parcels.vol[:n], dtype=float)
+    vol = np.bincount(g, weights=w, minlength=len(path_xy))
+    at = path_xy[:, :2].astype(float)
+    landed = vol > 0.0
+    for k, c in enumerate((parcels.x, parcels.y)):
+        at[landed, k] = np.bincount(g, weights=w * np.asarray(c[:n]), minlength=len(path_xy))[landed] / vol[landed]
+    d = np.stack([point_polyline_distance(at[:, 0], at[:, 1], [r]) for r in rows])
     return np.argmin(d, axis=0)[group]
 
 
@@ -107,7 +117,7 @@ def evaluate_budget(dep: DepositionResult, world: Any, rows_all: list[Any], appl
     canopy_l, off = rasterise(g, cx, cy, cv)
     leaf = _hedge_cells(g, canopy)
     metrics = budget_metrics(b, canopy, applied_lpha)
-    release = _release_rows(np.asarray(p.path_xy), b.group, rows_all)
+    release = _release_rows(p, b.group, rows_all)
     doc = {**_document(b, dep, world, canopy, applied_lpha, config, release),
            "maps": {"canopy_on_grid_l": float(canopy_l.sum()), "canopy_off_grid_l": off, "grid": g.to_dict()},
            "metrics": metrics}

@@ -28,7 +28,7 @@ from vinecli.specs.mission import MissionSpec
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.spray.canopy import hedge_window, row_spacing
 from vinecli.spray.deposit_grid import FFT_BYTES_PER_CELL, GridSpec, fft_cells, grid_for
-from vinecli.spray.deposition import DepositionConfig
+from vinecli.spray.deposition import FAR_BINS, LIFT_BIN_S, MAX_FAR_PARCELS, DepositionConfig
 from vinecli.world.model import World
 
 __all__ = ["RUN_MEMORY_LIMIT_MB", "MemoryEstimate", "check_run_memory", "estimate_run_memory"]
@@ -146,8 +146,13 @@ def _budget_mb(world: World, grid: GridSpec, parcels: int, records: int, footpri
         reach = len(canopy.hedges) if not spacing > 0 else min(len(canopy.hedges), int(across / spacing) + 2)
     win = hedge_window(grid, canopy)
     n_rows = len(world.vine_rows_enu)
+    # the far field's parcels (spray/deposition.py MAX_FAR_PARCELS): up to FAR_BINS per lifted parcel, merged over
+    # LIFT_BIN_S, across every hedge (their discs reach tens of metres)
+    far = min(MAX_FAR_PARCELS, math.ceil(parcels * FAR_BINS * DepositionConfig().group_s / LIFT_BIN_S))
+    far_bytes = far * (PARCEL_BYTES + BUDGET_BYTES_PER_PARCEL + BUDGET_BYTES_PER_PARCEL_HEDGE * len(
+        canopy.hedges if canopy is not None else ()))
     return (parcels * (BUDGET_BYTES_PER_PARCEL + BUDGET_BYTES_PER_PARCEL_HEDGE * reach)
-            + win.nx * win.ny * CANOPY_BYTES_PER_CELL + 16 * n_rows * records) / MB
+            + win.nx * win.ny * CANOPY_BYTES_PER_CELL + 16 * n_rows * records + far_bytes) / MB
 
 
 def check_run_memory(mission: MissionSpec, vehicle: VehicleSpec, world: World, *, path: Any = None,

@@ -188,7 +188,8 @@ def prepare_run(
     flight = resolve_spray_rates(  # phases in L/ha fly the equivalent flow of their plan, within the pump's range
         dosed, veh, world.vine_rows_enu, fence_enu=fence.polygon_enu if fence is not None else None,
         terrain_bounds=tuple(world.terrain.bounds), air_density=float(world.air_density),
-        canopy_width_m=world.canopy_width_m, no_spray=world.no_spray_enu)
+        canopy_width_m=world.canopy_width_m, no_spray=world.no_spray_enu,
+        wind_xy=(mission.wind if mission.wind is not None else world.wind).mean_horizontal_enu())
     rate = float(world.physics_rate_hz)
     tank_spec = veh.tank
     if tank_spec is None:

@@ -7,6 +7,8 @@ all of them after the loop and rasterises onto a grid over the sprayed path and 
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from dataclasses import dataclass
 
@@ -18,7 +20,11 @@ from vinecli.spray.deposit_grid import GridSpec, flat_height, grid_for, rasteris
 from vinecli.spray.deposition import DepositionConfig, Parcels, SprayEmitter, SprayerGeometry, transport
 from vinecli.world.model import World
 
-__all__ = ["DepositionResult", "deposit"]
+__all__ = ["FAR_MAP_RADIUS_M", "DepositionResult", "deposit"]
+
+#: the widest disc a far-field drift parcel is drawn on in deposition.tif, m (within the map's 15 m margin the
+#: far field's landing bins are at most ~2 m wide, their discs ~4 m)
+FAR_MAP_RADIUS_M = 4.0
 
 
 @dataclass
@@ -56,6 +62,11 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     """Transport everything ``emitter`` recorded and rasterise it over the world's terrain."""
     t0 = time.perf_counter()
     cfg = config or DepositionConfig()
+    if config is None and math.isfinite(getattr(world, "obukhov_m", math.inf)):  # the world's air: its stability
+        cfg = dataclasses.replace(cfg, obukhov_m=float(world.obukhov_m))
+    canopy = world.canopy_model() if config is None else None
+    if canopy is not None and canopy.has_foliage:  # the rows' hedges lift the far field's wind profile
+        cfg = dataclasses.replace(cfg, displacement_m=canopy.displacement_m)
     ter = world.terrain
     gr = ter.grid
     height = gr.heights if gr is not None else flat_height(ter.flat_z)
@@ -66,10 +77,14 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     wsum = float(vol.sum())
     wind_xy = ((float(vol @ records[:, 11]) / wsum, float(vol @ records[:, 12]) / wsum) if wsum > 0 else (0.0, 0.0))
     rows_xy = [tuple(p) for row in world.vine_rows_enu for p in row]
-    footprint = float(parcels.radius.max()) if parcels.radius.size else 0.0
+    footprint = float(parcels.radius[:parcels.primaries].max()) if parcels.primaries else 0.0
+    # the far field's parcels (spray/surface_layer.py) stand for landing bins up to tens of metres wide far
+    # downwind, mostly beyond the map: drawn on discs of at most the spray's own footprint or FAR_MAP_RADIUS_M (the
+    # map keeps its cells; what they carry is counted on or off the map all the same)
+    radius = np.minimum(parcels.radius, max(footprint, FAR_MAP_RADIUS_M))
     grid = grid_for(parcels.path_xy, rows_xy, tuple(ter.bounds), cfg.cell_m, cfg.margin_m, cfg.max_cells,
-                    footprint_m=footprint, max_fft_cells=cfg.max_fft_cells)
-    vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, parcels.radius)
+                    footprint_m=float(radius.max()) if radius.size else 0.0, max_fft_cells=cfg.max_fft_cells)
+    vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, radius)
     xc, yc = grid.centres()
     bx0, by0, bx1, by1 = ter.bounds
     valid = ((xc >= bx0) & (xc <= bx1))[None, :] & ((yc >= by0) & (yc <= by1))[:, None]

@@ -8,6 +8,7 @@ world's surface model (the canopy height model of its DSM), ``rows`` overrides s
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import Field, model_validator
@@ -58,7 +59,17 @@ class CanopySpec(StrictModel):
 
 
 class AirSpec(StrictModel):
-    """Air temperature and relative humidity (drop evaporation in flight)."""
+    """Air temperature and relative humidity (drop evaporation in flight), and the surface layer's stability (the
+    far-field drift, docs/budget.md)."""
 
     temperature_c: float = Field(ge=-20, le=50, description="air temperature, °C")
     relative_humidity_pct: float = Field(ge=5, le=100, description="relative humidity, %")
+    obukhov_length_m: float | None = Field(
+        None, description="Obukhov length of the surface layer, m: > 0 stable (night, calm: tens of m), < 0 unstable "
+                          "(sunny afternoon: -10 to -100 m); none: neutral")
+
+    @model_validator(mode="after")
+    def _nonzero_length(self) -> AirSpec:
+        if self.obukhov_length_m is not None and (self.obukhov_length_m == 0 or not math.isfinite(self.obukhov_length_m)):
+            raise ValueError("obukhov_length_m: give a finite length other than 0 (or none for neutral air)")
+        return self

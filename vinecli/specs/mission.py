@@ -21,6 +21,7 @@ from vinecli.specs.limits import (
     MAX_HEIGHT_M,
     MAX_RATE_HZ,
     MAX_SPEED_MPS,
+    Speed,
     Vec2Coord,
     Vec3Coord,
     Vec3Speed,
@@ -133,6 +134,9 @@ class SprayPhase(StrictModel):
                                          "on, m (passes are laid out for it); default: the world's canopy_width_m")
     timeout_s: float = Field(900.0, gt=0, le=MAX_DURATION_S)
     refill: RefillSpec | None = Field(None, description="refill sorties until every row is sprayed (until: rows_done)")
+    plan_wind_enu: tuple[Speed, Speed] | None = Field(
+        None, description="wind the passes are planned for, m/s ENU: they are displaced upwind by the plume's drift "
+                          "across the rows (swath displacement); default: the mission's mean wind, set at the run's set-up")
 
     @model_validator(mode="after")
     def _refill_needs_rows_done(self) -> SprayPhase:

@@ -8,6 +8,7 @@ Headings are compass degrees the wind blows TOWARDS, measured from north clockwi
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
 from pydantic import Field
@@ -86,3 +87,20 @@ class WindSpec(StrictModel):
 
     law: WindLaw = ConstantWind()
     spatial: SpatialShear | None = None
+
+    def mean_horizontal_enu(self) -> tuple[float, float]:
+        """The law's mean horizontal wind (m/s, east, north): the constant, the sinusoid's and Dryden's means along
+        their heading, sums added; a discrete gust has none."""
+        return _mean_xy(self.law)
+
+
+def _mean_xy(law: object) -> tuple[float, float]:
+    if isinstance(law, ConstantWind):
+        return float(law.velocity_enu[0]), float(law.velocity_enu[1])
+    if isinstance(law, (SinusoidWind, DrydenWind)):
+        h = math.radians(law.heading_deg)
+        return law.mean_mps * math.sin(h), law.mean_mps * math.cos(h)
+    if isinstance(law, SumWind):
+        parts = [_mean_xy(t) for t in law.terms]
+        return sum(p[0] for p in parts), sum(p[1] for p in parts)
+    return 0.0, 0.0

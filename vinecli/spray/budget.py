@@ -16,7 +16,7 @@ The five shares add up to the emitted volume by construction (``balance_error`` 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,9 +24,12 @@ import numpy as np
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.geometry import Polyline, segments
 from vinecli.spray.canopy import Canopy
+from vinecli.spray.deposition import FAR_WALL_JET
+from vinecli.spray.downwash import wake_velocity
 from vinecli.spray.drift import drift_curve, drift_frames, field_polygon, field_split
 from vinecli.spray.evaporation import evaporation_constant, remaining_fraction
 from vinecli.spray.interception import capture_fraction, impaction_efficiency, semicircle_cdf, stokes_number
+from vinecli.spray.wake import plume_radius_at
 
 __all__ = ["BudgetConfig", "SprayBudget", "spray_budget"]
 
@@ -65,6 +68,9 @@ class SprayBudget:
     calm: bool
     last_rows: list[int | None] = field(default_factory=list)
     evaporation: bool = False
+    #: per parcel of the transport (its order): the share the canopy caught while it came down in a wake (the
+    #: primaries' whole catch; the wall jet's drops before the outwash lifted them; 0 for the others), 0..1
+    caught_in_wake: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def fractions(self) -> dict[str, float]:
@@ -127,6 +133,8 @@ def _row_coords(x: np.ndarray, y: np.ndarray, line: Polyline) -> tuple[np.ndarra
 # efficiency), one value per parcel each
 def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarray, avail: np.ndarray,
                   vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, eff: np.ndarray, nodes: int,
+                  plume: tuple[np.ndarray, ...] | None = None, wake: tuple[np.ndarray, ...] | None = None,
+                  downwash: Callable[[float, np.ndarray], np.ndarray] | None = None,
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(captured L per parcel, captured L per row, canopy points (3, k): x, y, L on the hedges).
 
@@ -161,8 +169,17 @@ def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarr
         r = np.maximum(radius[near], 1e-3)
         along = semicircle_cdf((length - arc) / r) - semicircle_cdf(-arc / r)
         sec = np.sqrt(1.0 + (speed_h[near] / vz[near]) ** 2)
+        diverge = 0.0
+        if plume is not None:  # the plume narrows upwards: paths to the footprint's edge diverge from above
+            reach, wake_var, rel = (a[near] for a in plume)
+            r_top = plume_radius_at(reach, wake_var, radius[near], rel, h.top_m)
+            diverge = np.where(rel > h.top_m, (radius[near] - r_top) / max(h.top_m, 1e-3), 0.0)
+        wake_near = None
+        if wake is not None and downwash is not None:  # the wake entering this hedge's top
+            tau, v_h, v_t, leaf_w = (a[near] for a in wake)
+            wake_near = (tau, v_h, v_t, downwash(h.top_m, near), leaf_w)
         frac = capture_fraction(s, r, k, sec, eff[near], canopy.g_factor, h.width_m, h.base_m, h.top_m,
-                                h.lad_m2m3, prof, nodes)
+                                h.lad_m2m3, prof, nodes, diverge, wake_near)
         got = np.minimum(avail[near] * along * frac, avail[near] - captured[near])
         captured[near] += got
         per_row[h.row] += float(got.sum())
@@ -186,6 +203,23 @@ class _Merged:
     vy: np.ndarray
     vz: np.ndarray
     group: np.ndarray
+    reach: np.ndarray
+    wake_var: np.ndarray
+    release_h: np.ndarray
+    wake_vi: np.ndarray
+    wake_zeta0: np.ndarray
+    wake_bend: np.ndarray
+    rotor_radius_m: float = 0.0
+    #: the wall jet's far-field parcels: the (merged) primary each stands for, -1 for all others
+    wall_source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    primaries: int = 0  # the first ``primaries`` parcels are the (merged) primaries
+    #: each original parcel's row here (the primaries merged, the far field's kept in order)
+    row_of: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    def downwash_at(self, z_m: float, index: np.ndarray) -> np.ndarray:
+        """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
+        zeta = self.wake_zeta0[index] + np.maximum(self.release_h[index] - z_m, 0.0)
+        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6), bending=self.wake_bend[index])
 
 
 def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
@@ -195,12 +229,24 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
     n = int(getattr(p, "primaries", 0))
     group = np.asarray(p.group, dtype=np.int64)  # type: ignore[attr-defined]
     vol = np.asarray(p.vol, dtype=np.float64)  # type: ignore[attr-defined]
-    names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land")
-    arrays = [np.asarray(getattr(p, k), dtype=np.float64) for k in names]
+    names = ("x", "y", "radius", "t_fall", "vx_land", "vy_land", "vz_land", "reach", "wake_var", "release_h", "wake_vi",
+             "wake_zeta0", "wake_bend")
+    arrays = [np.asarray(getattr(p, k, np.zeros(0)), dtype=np.float64) for k in names]
+    if arrays[-2].size != group.size:  # parcels without the footprint's parts: the disc is the plume at every height
+        arrays[-6:] = [arrays[2]] + [np.zeros(group.size)] * 5
+    if arrays[-1].size != group.size:  # a wake in still air
+        arrays[-1] = np.zeros(group.size)
+    radius_m = float(getattr(p, "rotor_radius_m", 0.0))
     cls = np.asarray(p.cls, dtype=np.int64)  # type: ignore[attr-defined]
+    kind = np.asarray(getattr(p, "far_kind", np.zeros(0)), dtype=np.int64)
+    source = np.asarray(getattr(p, "source", np.zeros(0)), dtype=np.int64)
+    wall = np.full(group.size, -1, dtype=np.int64)
+    if kind.size == group.size and source.size == group.size:
+        wall = np.where((kind == FAR_WALL_JET) & (source >= 0), source, -1)
     span = max(1, int(round(merge_s / group_s)))
     if n <= 0 or span <= 1 or group.size == 0:
-        return _Merged(*arrays[:2], vol, cls, *arrays[2:], group)
+        return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:], radius_m, wall, max(n, 0),
+                       np.arange(group.size))
     per_group = n // (int(group[:n].max()) + 1)
     idx = np.arange(n)
     key = (group[:n] // span) * per_group + idx % per_group
@@ -213,8 +259,38 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
         m = np.bincount(inv, weights=a[:n] * w) / safe
         plain = np.bincount(inv, weights=a[:n]) / np.bincount(inv)
         out.append(np.concatenate([np.where(wsum > 0, m, plain), a[n:]]))
+    # the far field's parcels keep their order after the merged primaries; their sources are merged with them
+    wall_far = wall[n:]
+    wall_far = np.where(wall_far >= 0, inv[np.clip(wall_far, 0, n - 1)], -1)
     return _Merged(out[0], out[1], np.concatenate([wsum, vol[n:]]), np.concatenate([cls[:n][first], cls[n:]]),
-                   out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]))
+                   out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]), *out[7:],
+                   radius_m, np.concatenate([np.full(uk.size, -1, dtype=np.int64), wall_far]), int(uk.size),
+                   np.concatenate([inv, uk.size + np.arange(group.size - n)]))
+
+
+def _canopy_first(p: _Merged, canopy: Canopy, landed: np.ndarray, vz: np.ndarray, eff: np.ndarray,
+                  wake: tuple[np.ndarray, ...], nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The canopy's catch (:func:`_interception`), in the order the drops meet it: the wall jet's drops came down in
+    their primary parcel's wake and crossed its hedges first (their primary carries them through the canopy, and
+    they keep the share of its catch), then the far field's parcels meet the hedges where they land. Also returns
+    each parcel's share caught on the way down in a wake (the primaries' whole catch)."""
+    n = p.primaries
+    first, rest = np.arange(n), np.arange(n, landed.size)
+
+    def run(sel: np.ndarray, avail: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _interception(canopy, p.x[sel], p.y[sel], p.radius[sel], avail, p.vx[sel], p.vy[sel], vz[sel],
+                             eff[sel], nodes, (p.reach[sel], p.wake_var[sel], p.release_h[sel]),
+                             tuple(a[sel] for a in wake), lambda z, i: p.downwash_at(z, sel[i]))
+
+    src = p.wall_source[rest]
+    carried = np.bincount(src[src >= 0], weights=landed[rest][src >= 0], minlength=n)[:n] if n else np.zeros(0)
+    c1, r1, pts1 = run(first, landed[first] + carried)
+    share = np.divide(c1, landed[first] + carried, out=np.zeros(n), where=(landed[first] + carried) > 0)
+    pre = np.where(src >= 0, landed[rest] * share[np.clip(src, 0, max(n - 1, 0))], 0.0) if n else np.zeros(rest.size)
+    c2, r2, pts2 = run(rest, landed[rest] - pre)
+    captured = np.concatenate([share * landed[first], pre + c2])
+    on_the_way = np.concatenate([share, np.divide(pre, landed[rest], out=np.zeros(rest.size), where=landed[rest] > 0)])
+    return captured, r1 + r2, np.concatenate([pts1, pts2], axis=1), on_the_way
 
 
 # parameters: the parcels and their size classes, the rows and the field's wind, then the air, the options and
@@ -239,19 +315,24 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
     else:
         landed = vol.copy()
     captured = np.zeros(vol.size)
+    on_the_way = np.zeros(vol.size)
     points = np.zeros((3, 0))
     per_row = np.zeros(len(canopy.rows) if canopy is not None else 0)
     if canopy is not None and canopy.has_foliage and vol.size:
         vz = np.maximum(p.vz, 1e-3)
         speed = np.sqrt(p.vx * p.vx + p.vy * p.vy + vz * vz)
         eff = impaction_efficiency(stokes_number(vt / g, speed, canopy.leaf_width_m))
-        captured, per_row, points = _interception(canopy, x, y, radius, landed, p.vx, p.vy, vz, eff, config.nodes)
+        wake = (vt / g, np.hypot(p.vx, p.vy), vt, np.full(vt.size, canopy.leaf_width_m))
+        captured, per_row, points, on_the_way = _canopy_first(p, canopy, landed, vz, eff, wake, config.nodes)
     ground = landed - captured
     cone = float(np.median(radius)) if radius.size else 0.5
     fieldg = field_polygon(rows, spacing_m, np.asarray(parcels.path_xy), cone)  # type: ignore[attr-defined]
     infield, offfield, beyond = field_split(fieldg, config.domain_m, x, y, radius, ground)
     frames, calm = drift_frames(rows, fieldg, wind_xy, config.central_share)
-    curve = drift_curve(frames, x, y, radius, ground, applied_lpha, config.drift_distances_m, config.drift_band_m)
+    # the drift curve is the sprayed product's (ISO 22866 trials measure a tracer, which does not evaporate with the
+    # water): each parcel's volume as emitted, less the canopy's share of it
+    product = vol * (1.0 - np.divide(captured, landed, out=np.zeros_like(landed), where=landed > 0))
+    curve = drift_curve(frames, x, y, radius, product, applied_lpha, config.drift_distances_m, config.drift_band_m)
     # the sum of the parts is the emitted volume: the parcels' volumes add up to it (transport), and each
     # parcel's volume is split exactly into evaporated + captured + in field + off field + beyond
     return SprayBudget(
@@ -260,4 +341,5 @@ def spray_budget(parcels: object, diam_m: np.ndarray, v_t: np.ndarray, canopy: C
         evaporated_l=float((vol - landed).sum()), row_canopy_l=per_row, drift=curve,
         parts=np.stack([captured, infield, offfield, beyond, vol - landed]), group=p.group, canopy_points=points,
         downwind_normal=frames[0].normal if frames and not calm else None, calm=calm,
-        last_rows=[f.row for f in frames], evaporation=air is not None)
+        last_rows=[f.row for f in frames], evaporation=air is not None,
+        caught_in_wake=on_the_way[p.row_of] if p.row_of.size else np.zeros(0))

@@ -121,6 +121,13 @@ class Canopy:
     def has_foliage(self) -> bool:
         return any(h.lad_m2m3 > 0 and h.width_m > 0 and h.depth_m > 0 for h in self.hedges)
 
+    @property
+    def displacement_m(self) -> float:
+        """Zero-plane displacement of the wind over the rows, m: 2/3 of the hedges' mean top (Brutsaert 1982,
+        *Evaporation into the Atmosphere*, §5.2; 0 without foliage)."""
+        tops = [h.top_m for h in self.hedges if h.lad_m2m3 > 0 and h.width_m > 0 and h.depth_m > 0]
+        return 2.0 / 3.0 * float(np.mean(tops)) if tops else 0.0
+
     def row_length_m(self, i: int) -> float:
         pts = np.asarray(self.rows[i], dtype=np.float64)
         return float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) if len(pts) >= 2 else 0.0

@@ -19,6 +19,7 @@ import numpy as np
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.spray.canopy import Canopy
 from vinecli.spray.interception import impaction_efficiency, leaf_area_on_path, stokes_number
+from vinecli.spray.wake import LEAF_DRAG_COEFFICIENT, mean_speed_through_foliage, plume_radius_at
 
 __all__ = ["UL_PER_CM2", "collector_deposit"]
 
@@ -29,27 +30,33 @@ UL_PER_CM2 = 100.0  # µL/cm² per L/m²
 # speed), one value per parcel each, then the collectors
 def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.ndarray, vx: np.ndarray,
                       vy: np.ndarray, vz: np.ndarray, v_t: np.ndarray, points: np.ndarray, canopy: Canopy | None,
-                      width_m: float | None = 0.12, g: float = STANDARD_GRAVITY) -> np.ndarray:
+                      width_m: float | None = 0.12, g: float = STANDARD_GRAVITY,
+                      plume: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                      w_top: np.ndarray | None = None) -> np.ndarray:
     """Deposit (µL/cm²) on the upward face of a collector at each of ``points`` ((m, 3): x, y, z above the ground).
 
     Parcels: landing centre (m), volume reaching the ground or canopy (L), disc radius (m), velocity on
     landing (m/s, vz down positive), terminal velocity (m/s). ``width_m``: the collector's width for
-    its impaction efficiency, None for a dish that catches everything.
+    its impaction efficiency, None for a dish that catches everything. ``plume``: the footprint's parts
+    (reach m, wake variance term m², release height m; :class:`~vinecli.spray.deposition.Parcels`): the plume
+    is then narrower at the collector's height; ``w_top``: the wake's speed entering the canopy (m/s), which the
+    foliage slows (:mod:`vinecli.spray.wake`).
     """
     vz = np.maximum(vz, 1e-3)
     r = np.maximum(radius, 1e-3)
-    eff_c = (np.ones_like(vol) if width_m is None else
-             impaction_efficiency(stokes_number(v_t / g, np.sqrt(vx * vx + vy * vy + vz * vz), width_m)))
+    tau = v_t / g
+    v_h = np.sqrt(vx * vx + vy * vy)
+    w_top = np.zeros_like(vz) if w_top is None else np.asarray(w_top, dtype=np.float64)
     leaf_w = canopy.leaf_width_m if canopy is not None else 0.12
-    eff_l = impaction_efficiency(stokes_number(v_t / g, np.sqrt(vx * vx + vy * vy + vz * vz), leaf_w))
     out = np.zeros(len(points))
     for i, (px, py, pz) in enumerate(np.asarray(points, dtype=np.float64)):
+        rz = r if plume is None else np.maximum(plume_radius_at(*plume[:2], r, plume[2], pz), 1e-3)
         cx, cy = x - vx / vz * pz, y - vy / vz * pz  # where each parcel's disc is at the collector's height
-        hit = (cx - px) ** 2 + (cy - py) ** 2 <= r * r
+        hit = (cx - px) ** 2 + (cy - py) ** 2 <= rz * rz
         if not hit.any():
             continue
-        flux = vol[hit] / (np.pi * r[hit] ** 2)  # L/m² of horizontal area
-        trans = np.ones(int(hit.sum()))
+        flux = vol[hit] / (np.pi * rz[hit] ** 2)  # L/m² of horizontal area
+        area_above = np.zeros(int(hit.sum()))
         if canopy is not None:
             for h in canopy.hedges:
                 if h.lad_m2m3 <= 0 or pz >= h.top_m:
@@ -68,8 +75,16 @@ def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.
                                          np.asarray(canopy.profile) if len(canopy.profile) == 1 else
                                          _profile_above(canopy.profile, h.base_m, h.top_m, pz))
                 sec = np.sqrt(1.0 + (vx[hit] ** 2 + vy[hit] ** 2) / vz[hit] ** 2)
-                trans *= np.exp(-canopy.g_factor * eff_l[hit] * sec * area)
-        out[i] = UL_PER_CM2 * float(np.sum(flux * trans * eff_c[hit]))
+                area_above += sec * area
+        # the foliage above filters the drops (at the wake's mean speed in it) and slows the wake reaching the collector
+        w_mean = mean_speed_through_foliage(w_top[hit], area_above)
+        e_path = impaction_efficiency(stokes_number(tau[hit], np.sqrt(v_h[hit] ** 2 + (v_t[hit] + w_mean) ** 2), leaf_w))
+        trans = np.exp(-(canopy.g_factor if canopy is not None else 0.5) * e_path * area_above)
+        w_here = w_top[hit] * np.exp(-LEAF_DRAG_COEFFICIENT * area_above)
+        speed_here = np.sqrt(v_h[hit] ** 2 + (v_t[hit] + w_here) ** 2)
+        eff_c = (np.ones(int(hit.sum())) if width_m is None else
+                 impaction_efficiency(stokes_number(tau[hit], speed_here, width_m)))
+        out[i] = UL_PER_CM2 * float(np.sum(flux * trans * eff_c))
     return out
 
 

@@ -5,8 +5,9 @@ The loop sums the emitted volume over up to 0.04 s of spraying steps and calls
 
 1. steps are grouped into bins of ``group_s`` (volume summed, state volume-weighted);
 2. each group's volume is split over the nozzles (``flow_share``) and the equal-volume droplet size
-   classes: one parcel each, spread on landing over the disc of the full cone (radius h tan(θ/2),
-   :func:`~vinecli.spray.deposit_grid.rasterise_discs`);
+   classes: one parcel each, spread on landing over a disc (:func:`~vinecli.spray.deposit_grid.rasterise_discs`):
+   the class's ballistic reach from the nozzle (at most the cone, h tan(θ/2)) spread by the rotor wake that
+   carries it down (:mod:`vinecli.spray.wake`);
 3. each parcel falls from its nozzle (world ENU from the body pose) to the terrain: fall time
    through the rotor downwash (:mod:`vinecli.spray.downwash`, momentum theory from the
    recorded rotor thrust and the airspeed), at terminal velocity (:mod:`vinecli.spray.droplets`);
@@ -32,8 +33,17 @@ from vinecli.constants import STANDARD_GRAVITY
 from vinecli.frames import quat_rotate_many
 from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
-from vinecli.spray.downwash import fall_time_s, induced_velocity
-from vinecli.spray.droplets import AIR_VISCOSITY, WATER_DENSITY, relaxation_time_s, size_classes_m, terminal_velocity
+from vinecli.spray.downwash import crossflow_bending, fall_time_s, induced_velocity, wake_velocity
+from vinecli.spray.droplets import (
+    AIR_DENSITY,
+    AIR_VISCOSITY,
+    WATER_DENSITY,
+    relaxation_time_s,
+    size_classes_m,
+    terminal_velocity,
+)
+from vinecli.spray.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
+from vinecli.spray.wake_escape import stripped_share, wake_edge_radius_m
 
 __all__ = ["EMIT_COLUMNS", "DepositionConfig", "Parcels", "SprayEmitter", "SprayerGeometry", "transport"]
 
@@ -44,7 +54,14 @@ EMIT_COLUMNS = ("t_s", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz
                 "lag_s")
 KARMAN = 0.41
 MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
-LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s
+LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s (about a metre of flight: their discs, at
+# least the wall jet's W/2, overlap along the track)
+#: the far field's parcels a run holds at most (each lifted parcel becomes up to FAR_BINS): a long run in calm air
+#: at a great height, where the wake lifts most of the spray, merges its lifted parcels over longer windows
+MAX_FAR_PARCELS = 60_000
+FAR_BINS = 65  # landing bins per lifted parcel at most (spray/surface_layer.py LOG_BINS + the airborne share)
+STRIP_LAYER_M = 0.25  # the wake edge's release layer (the nozzles' height) in steps of this, m
+FAR_WALL_JET, FAR_STRIPPED = 1, 2  # Parcels.far_kind of the far field's parcels
 
 
 @dataclass(frozen=True)
@@ -60,6 +77,13 @@ class DepositionConfig:
     diffusion: bool = True
     roughness_m: float = 0.1  # aerodynamic roughness of the crop for u*, m
     outwash: bool = True  # drops the wake does not drive into the ground follow the outwash (spray/outwash.py)
+    #: drag stops the drops' sideways motion (ballistic reach, spray/wake.py); False: they fly on along the cone
+    drag_reach: bool = True
+    #: Obukhov length of the surface layer the far-field drift crosses, m (inf: neutral; > 0 stable, < 0 unstable)
+    obukhov_m: float = math.inf
+    #: the crop's zero-plane displacement, m (2/3 of the hedges' height in a vineyard; 0: bare ground): the far field's
+    #: wind profile starts there, and drops released below it settle among the plants (spray/outwash.py)
+    displacement_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -75,6 +99,8 @@ class SprayerGeometry:
     n_rotors: int
     rotor_radius_m: float
     rotor_plane_z: float  # mean rotor hub z, m body FLU
+    exit_speed_mps: float = 24.5  # liquid speed leaving the nozzles (Bernoulli at the rated pressure, 3 bar), m/s
+    arm_m: float = 0.0  # the rotor hubs' mean distance from the vehicle's axis, m (the wake's edge: spray/wake_escape.py)
 
     @classmethod
     def from_vehicle(cls, veh: VehicleSpec, air_density: float) -> SprayerGeometry:
@@ -88,6 +114,8 @@ class SprayerGeometry:
             diam_m=d, fractions=frac, v_t=terminal_velocity(d, WATER_DENSITY, air_density, AIR_VISCOSITY),
             n_rotors=veh.n_rotors, rotor_radius_m=0.5 * veh.motor.prop_diameter_m,
             rotor_plane_z=float(np.mean([r.position_m[2] for r in veh.rotors])),
+            exit_speed_mps=exit_speed_mps(sp.rated_pressure_bar),
+            arm_m=float(np.mean([math.hypot(r.position_m[0], r.position_m[1]) for r in veh.rotors])),
         )
 
 
@@ -132,6 +160,29 @@ class Parcels:
     group: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # emission group (path_xy row)
     primaries: int = 0  # the first ``primaries`` parcels: one per (group, nozzle, size class), in that order
     sigma: np.ndarray = field(default_factory=lambda: np.zeros(0))  # σ of the turbulent-diffusion offset, m
+    #: the footprint's parts (spray/wake.py): ``radius² = reach² + wake_var``; the ballistic reach (m) is reached
+    #: just below the nozzle, the wake's spreading (variance term 4σ², m²) grows with the fall from ``release_h`` (m
+    #: above the ground): the plume is narrower higher up (0 / 0: parallel paths, the far-field drift's parcels)
+    reach: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    wake_var: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    release_h: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the wake that carried the parcel: induced velocity at the rotors (m/s, 0: none) and the nozzles' depth below
+    #: them (m); with ``rotor_radius_m`` the downwash at any height (:func:`vinecli.spray.downwash.wake_velocity`)
+    wake_vi: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    wake_zeta0: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rotor_radius_m: float = 0.0
+    #: how the crossflow bent the wake over: 1 / its momentum length (1/m, 0: still air; spray/downwash.py)
+    wake_bend: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: how each far-field parcel left the wake (FAR_WALL_JET, FAR_STRIPPED; 0 for the primaries) and the primary
+    #: parcel it stands for (-1 for the primaries): the wall jet's drops crossed that parcel's canopy on the way down
+    far_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+    source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    def downwash_at(self, z_m: float | np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
+        zeta = self.wake_zeta0[index] + np.maximum(self.release_h[index] - z_m, 0.0)
+        bend = self.wake_bend[index] if self.wake_bend.size == self.wake_vi.size else 0.0
+        return wake_velocity(zeta, self.wake_vi[index], max(self.rotor_radius_m, 1e-6), bending=bend)
 
 
 def _groups(rec: np.ndarray, group_s: float) -> np.ndarray:
@@ -194,6 +245,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
         v_i = induced_velocity(thrust / geo.n_rotors, air_density, geo.rotor_radius_m, air_h)
     else:
         v_i = np.zeros(ng)
+    bend = crossflow_bending(thrust, air_density, air_h)  # the wake in the crossflow of the airspeed (G,)
     zeta0 = np.maximum(geo.rotor_plane_z - geo.nozzles_flu[:, 2], 0.0)  # (n,)
 
     # wind at mid-fall height (release-time wind incl. gusts/Dryden, scaled by the shear law)
@@ -204,7 +256,7 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     vt = geo.v_t
     tau = relaxation_time_s(vt, g)
     t_fall, s_end = fall_time_s(h0[..., None], zeta0[None, :, None], vt[None, None, :], v_i[:, None, None],
-                                wnd[:, 2, None, None], geo.rotor_radius_m)  # (G, n, c)
+                                wnd[:, 2, None, None], geo.rotor_radius_m, bending=bend[:, None, None])  # (G, n, c)
 
     # eddy diffusivity K = κ u* z (neutral surface layer), u* from the log law at the release height
     if config.diffusion:
@@ -237,7 +289,8 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
     x, y = land(h1, t1)
 
     vp = vol[:, None, None] * geo.shares[None, :, None] * geo.fractions[None, None, :]
-    radius = h1 * geo.tan_half[None, :, None]
+    reach, wake_var = _footprint(geo, h1, t1, air_density, config)
+    radius = np.sqrt(reach * reach + wake_var)
     cls = np.broadcast_to(np.arange(nc)[None, None, :], shape)
     relax = np.exp(-t1 / tau3)  # share of the vehicle's velocity (relative to the air) the drops still carry
     vxl = ux[..., None] + (v[:, 0, None, None] - ux[..., None]) * relax
@@ -248,33 +301,108 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
 
     sig = np.sqrt(2.0 * kdiff[..., None] * t1)
     out = Parcels(x.ravel(), y.ravel(), flat(vp), flat(cls), pn.mean(axis=1)[:, :2], emitted, radius.ravel(), flat(t1),
-                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig))
+                  flat(vxl), flat(vyl), flat(s_end), flat(np.arange(ng)[:, None, None]), ng * nn * nc, flat(sig),
+                  flat(reach), flat(wake_var), flat(h1), flat(v_i[:, None, None]), flat(zeta0[None, :, None]),
+                  geo.rotor_radius_m, flat(bend[:, None, None]), np.zeros(ng * nn * nc, dtype=np.int8),
+                  np.full(ng * nn * nc, -1, dtype=np.int64))
     if config.downwash and config.outwash:
-        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), geo, wind_spec, height, wnd, p[:, 2],
-                    config)
+        # the crosswind strips the wake's edge (spray/wake_escape.py): the class's disc around its nozzle, moved by
+        # the drops' lag behind the air, beyond the wake's edge
+        lag = tau3 * (1.0 - relax)
+        off = ((pn[..., 0] - p[:, 0, None])[..., None] + (v[:, 0, None, None] - ux[..., None]) * lag,
+               (pn[..., 1] - p[:, 1, None])[..., None] + (v[:, 1, None, None] - uy[..., None]) * lag)
+        w_mid = wake_velocity(zeta0[None, :, None] + 0.5 * h1, v_i[:, None, None], geo.rotor_radius_m,
+                              bending=bend[:, None, None])
+        air_rel = ((ux - v[:, 0, None])[..., None], (uy - v[:, 1, None])[..., None])  # the air past the vehicle
+        strip = np.zeros(np.shape(radius))  # the cones alone (drag_reach off): no wake edge to strip
+        if config.drag_reach:
+            strip = stripped_share(radius, off, air_rel, (v[:, 0, None, None], v[:, 1, None, None]), t1,
+                                   wake_edge_radius_m(geo.arm_m, geo.rotor_radius_m), w_mid, tau3, h1)
+        _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), flat(np.broadcast_to(strip, t1.shape)), geo,
+                    height, wnd, p[:, 2], config)
     return out
 
 
-def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_spec: WindSpec,
+def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_density: float,
+               config: DepositionConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(G, n, c) footprint on the ground (:mod:`vinecli.spray.wake`): the ballistic reach of each nozzle's drop
+    classes (at most the cone at that height), m, and the wake's spreading as the disc's variance term 4σ², m²."""
+    cone = h * geo.tan_half[None, :, None]
+    if not config.drag_reach:
+        return cone, np.zeros_like(cone)
+    sideways = geo.exit_speed_mps * np.sin(np.arctan(geo.tan_half))  # (n,)
+    reach = ballistic_reach_m(np.broadcast_to(geo.diam_m[None, :], (sideways.size, geo.diam_m.size)),
+                              sideways[:, None], air_density)  # (n, c)
+    carried = h - geo.v_t[None, None, :] * t_fall  # the air's share of the fall
+    sigma = wake_spread_sigma_m(wake_half_width_m(geo.rotor_radius_m, geo.n_rotors), carried)
+    return np.minimum(cone, reach[None, :, :]), 4.0 * sigma * sigma
+
+
+def _class_speed_range(geo: SprayerGeometry) -> np.ndarray:
+    """(c, 2) terminal velocities (m/s) at the edges of each size class: the geometric means of neighbouring
+    classes' diameters, the outer edges as far out as the nearest neighbour (one class: its own speed)."""
+    d = np.asarray(geo.diam_m, dtype=np.float64)
+    if d.size < 2:
+        return np.stack([geo.v_t, geo.v_t], axis=1)
+    inner = np.sqrt(d[:-1] * d[1:])
+    edges = np.concatenate([[d[0] * d[0] / inner[0]], inner, [d[-1] * d[-1] / inner[-1]]])
+    vt = terminal_velocity(edges, WATER_DENSITY, AIR_DENSITY, AIR_VISCOSITY)
+    return np.stack([vt[:-1], vt[1:]], axis=1)
+
+
+def _add_lifted(out: Parcels, jet_speed: np.ndarray, stripped: np.ndarray, geo: SprayerGeometry,
                 height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray, z_release: np.ndarray,
                 config: DepositionConfig) -> None:
-    """Move the share of each parcel the wake does not drive into the ground to the outwash
-    (:mod:`vinecli.spray.outwash`): it is re-released near the ground and carried by the wind."""
-    from vinecli.flight.wind import height_factor
-    from vinecli.spray.outwash import impaction_share, lifted_parcels
+    """Move what the wake does not drive into the ground to the far field (:mod:`vinecli.spray.surface_layer`):
+    the share of each parcel ``stripped`` at the wake's edge by the crossflow (:mod:`vinecli.spray.wake_escape`;
+    released between the ground and the nozzles, from the wake's edge) and, of the rest, the fine drops that follow
+    the wall jet (:mod:`vinecli.spray.outwash`; released up to the jet's diameter W, W/2 downwind)."""
+    from vinecli.spray.outwash import impaction_share
 
     jet = 2.0 * geo.rotor_radius_m * math.sqrt(geo.n_rotors)
+    n = out.vol.size
+    strip = np.where(stripped >= MIN_LIFTED_SHARE, out.vol * stripped, 0.0)
+    rest = out.vol - strip
     share = 1.0 - impaction_share(geo.diam_m[out.cls], jet_speed, jet)
-    lifted = np.where(share >= MIN_LIFTED_SHARE, out.vol * share, 0.0)  # smaller shares stay with the parcel
+    wall = np.where(share >= MIN_LIFTED_SHARE, rest * share, 0.0)  # smaller shares stay with the parcel
+    out.vol = rest - wall
+    edge = wake_edge_radius_m(geo.arm_m, geo.rotor_radius_m)
+    # the edge's release layer: the nozzles' height, in steps of STRIP_LAYER_M (the far field's ensembles are cached
+    # per layer)
+    layer = np.maximum(np.round(out.release_h[:n] / STRIP_LAYER_M), 1.0) * STRIP_LAYER_M
+    for kind, lifted, top, offset, t_left in (
+            (FAR_WALL_JET, wall, np.full(n, jet), np.full(n, 0.5 * jet), out.t_fall[:n]),
+            (FAR_STRIPPED, strip, layer, np.full(n, edge), 0.5 * out.t_fall[:n])):
+        _release(out, kind, lifted, top, offset, t_left, geo, height, wnd, z_release, config)
+
+
+# parameters: one escape route's release (volumes, layer top, offset, time left, kind) and the transport's context
+def _release(out: Parcels, kind: int, lifted: np.ndarray, top: np.ndarray, offset: np.ndarray, t_left: np.ndarray,
+             geo: SprayerGeometry, height: Callable[[np.ndarray, np.ndarray], np.ndarray], wnd: np.ndarray,
+             z_release: np.ndarray, config: DepositionConfig) -> None:
+    """Append the far field's parcels of ``lifted`` (L per primary parcel), released between the ground and ``top``
+    (m), ``offset`` (m) downwind of each parcel's landing point, ``t_left`` (s) after the release."""
+    from vinecli.spray.outwash import lifted_parcels
+
     src = np.flatnonzero(lifted > 0.0)
     if src.size == 0:
         return
-    out.vol = out.vol - lifted
-    # lifted parcels of the same nozzle and size class are merged over LIFT_BIN_S of release time
-    # (volume-weighted landing point, fall time, release conditions): the outwash plume is smooth
-    per_group = out.vol.size // max(int(out.group.max()) + 1, 1)
-    key = (out.group[src] * config.group_s // LIFT_BIN_S).astype(np.int64) * per_group + src % per_group
-    uk, inv = np.unique(key, return_inverse=True)
+    # lifted parcels of the same nozzle, size class and release layer are merged over LIFT_BIN_S of release time
+    # (volume-weighted landing point, fall time, release conditions): the far field's plume is smooth
+    per_group = out.group.size and (out.primaries // max(int(out.group[:out.primaries].max()) + 1, 1))
+    layer_key = np.unique(top[src], return_inverse=True)[1]
+    # a merged parcel becomes FAR_BINS landing bins, one in still air (outwash.lifted_parcels: nothing carries it)
+    bins = np.where(np.hypot(wnd[out.group[src], 0], wnd[out.group[src], 1]) > 0.0, FAR_BINS, 1)
+    bin_s = LIFT_BIN_S
+    for _ in range(12):  # a long run: merged over longer windows so the far field stays within MAX_FAR_PARCELS
+        key = ((out.group[src] * config.group_s // bin_s).astype(np.int64) * per_group + src % per_group) * (
+            int(layer_key.max()) + 1) + layer_key
+        uk, inv = np.unique(key, return_inverse=True)
+        per_set = np.zeros(uk.size, dtype=np.int64)
+        np.maximum.at(per_set, inv, bins)
+        if int(per_set.sum()) <= MAX_FAR_PARCELS:
+            break
+        bin_s *= 2.0
     w = lifted[src]
     wsum = np.bincount(inv, weights=w)
 
@@ -283,25 +411,32 @@ def _add_lifted(out: Parcels, jet_speed: np.ndarray, geo: SprayerGeometry, wind_
 
     first = np.full(uk.size, src.size)
     np.minimum.at(first, inv, np.arange(src.size))
-    rep = src[first]  # a parcel of each merged set: its size class and (first) emission group
-    mx, my, mt = merged(out.x), merged(out.y), merged(out.t_fall)
+    rep = src[first]  # a parcel of each merged set: its size class, (first) emission group and release layer
+    mx, my, mt = merged(out.x), merged(out.y), merged(t_left)
     g = out.group[rep]
-    h_s = 0.5 * jet
-    ground = height(mx, my)
-    ratio = height_factor(wind_spec, ground + h_s) / height_factor(wind_spec, z_release[g])
-    wx, wy = wnd[g, 0] * ratio, wnd[g, 1] * ratio
-    ustar = KARMAN * np.hypot(wx, wy) / math.log(max(h_s, 2.0 * config.roughness_m) / config.roughness_m)
-    kdiff = KARMAN * ustar * max(0.5 * h_s, config.roughness_m) if config.diffusion else np.zeros(rep.size)
-    sec = lifted_parcels(mx, my, wsum, geo.v_t[out.cls[rep]], mt, wx, wy, np.broadcast_to(kdiff, rep.shape), jet)
+    # the drops leave the wake from under the whole footprint (the wall jet forms under it; the edge's drops were on
+    # its outer part): each landing bin spreads at least over the parcel's own disc
+    spread = np.maximum(offset[rep], merged(out.radius))
+    sec = lifted_parcels(mx, my, wsum, _class_speed_range(geo)[out.cls[rep]], mt, wnd[g, 0], wnd[g, 1],
+                         np.maximum(z_release[g] - height(mx, my), 2.0 * config.roughness_m), config.roughness_m,
+                         top[rep], config.obukhov_m, offset[rep], config.displacement_m, spread)
     k = rep[sec["src"]]
     out.x = np.concatenate([out.x, sec["x"]])
     out.y = np.concatenate([out.y, sec["y"]])
     out.vol = np.concatenate([out.vol, sec["vol"]])
     out.cls = np.concatenate([out.cls, out.cls[k]])
-    out.radius = np.concatenate([out.radius, np.full(k.size, h_s)])
+    out.radius = np.concatenate([out.radius, sec["radius"]])
     out.t_fall = np.concatenate([out.t_fall, sec["t_fall"]])
     out.vx_land = np.concatenate([out.vx_land, sec["vx"]])
     out.vy_land = np.concatenate([out.vy_land, sec["vy"]])
     out.vz_land = np.concatenate([out.vz_land, sec["vz"]])
     out.group = np.concatenate([out.group, out.group[k]])
-    out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the outwash's spread is in its landing points
+    out.sigma = np.concatenate([out.sigma, np.zeros(k.size)])  # the far field's spread is in its landing points
+    out.reach = np.concatenate([out.reach, sec["radius"]])
+    out.wake_var = np.concatenate([out.wake_var, np.zeros(k.size)])
+    out.release_h = np.concatenate([out.release_h, np.zeros(k.size)])
+    out.wake_vi = np.concatenate([out.wake_vi, np.zeros(k.size)])
+    out.wake_zeta0 = np.concatenate([out.wake_zeta0, np.zeros(k.size)])
+    out.wake_bend = np.concatenate([out.wake_bend, np.zeros(k.size)])
+    out.far_kind = np.concatenate([out.far_kind, np.full(k.size, kind, dtype=np.int8)])
+    out.source = np.concatenate([out.source, k.astype(np.int64)])

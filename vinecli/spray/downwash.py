@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 __all__ = ["CORE_RADII", "MIN_FALL_FRACTION", "fall_time_s", "hover_induced_velocity", "induced_velocity",
-           "wake_velocity"]
+           "crossflow_bending", "wake_velocity"]
 
 CORE_RADII = 4.0
 #: an updraft stronger than the fall speed would loft the drop: the fall speed is kept at least this share of v_t
@@ -45,16 +45,26 @@ def induced_velocity(thrust_n: np.ndarray | float, rho: float, radius_m: float,
     return np.sqrt(0.5 * (np.sqrt(v2 * v2 + 4.0 * vh ** 4) - v2))
 
 
-def wake_velocity(zeta_m: np.ndarray, v_i: np.ndarray, radius_m: float, core_radii: float = CORE_RADII) -> np.ndarray:
-    """Downward wake speed (m/s) at a depth ``zeta_m`` (m, ≥ 0) below the rotor plane."""
+def crossflow_bending(thrust_n: np.ndarray | float, rho: float, airspeed_mps: np.ndarray | float) -> np.ndarray:
+    """``1 / l_m`` (1/m) of the wake in a crossflow: ``U / sqrt(T/ρ)`` for the total thrust T (0 in still air)."""
+    u = np.abs(np.asarray(airspeed_mps, dtype=np.float64))
+    m = np.sqrt(np.maximum(np.asarray(thrust_n, dtype=np.float64), 0.0) / rho)
+    return np.where(m > 1e-9, u / np.maximum(m, 1e-9), 0.0)
+
+
+def wake_velocity(zeta_m: np.ndarray, v_i: np.ndarray, radius_m: float, core_radii: float = CORE_RADII,
+                  bending: np.ndarray | float = 0.0) -> np.ndarray:
+    """Downward wake speed (m/s) at a depth ``zeta_m`` (m, ≥ 0) below the rotor plane; ``bending`` = 1/l_m (1/m) of
+    the crossflow bends it over (:func:`crossflow_bending`; 0: still air)."""
     z = np.maximum(np.asarray(zeta_m, dtype=np.float64), 0.0)
     w0 = v_i * (1.0 + z / np.sqrt(z * z + radius_m * radius_m))
     lc = core_radii * radius_m
-    return w0 * np.minimum(1.0, lc / np.maximum(z, 1e-9))
+    return w0 * np.minimum(1.0, lc / np.maximum(z, 1e-9)) / (1.0 + z * np.asarray(bending, dtype=np.float64))
 
 
 def fall_time_s(height_m: np.ndarray, zeta0_m: np.ndarray, v_t: np.ndarray, v_i: np.ndarray, w_up: np.ndarray,
-                radius_m: float, core_radii: float = CORE_RADII) -> tuple[np.ndarray, np.ndarray]:
+                radius_m: float, core_radii: float = CORE_RADII, bending: np.ndarray | float = 0.0,
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Fall time (s) over ``height_m`` from a depth ``zeta0_m`` below the rotors, and the fall speed at the ground.
 
     Arrays broadcast together; ``v_i = 0`` gives the still-air fall ``h / v_t`` (with ``w_up`` = 0).
@@ -68,7 +78,7 @@ def fall_time_s(height_m: np.ndarray, zeta0_m: np.ndarray, v_t: np.ndarray, v_i:
     t = np.zeros(np.broadcast(h, zeta0, vt, v_i, w_up).shape)
     for k in range(_N_FALL):
         z = zeta0 + (k + 0.5) * dz
-        s = np.maximum(vt + wake_velocity(z, v_i, radius_m, core_radii) - w_up, floor)
+        s = np.maximum(vt + wake_velocity(z, v_i, radius_m, core_radii, bending) - w_up, floor)
         t = t + dz / s
-    s_end = np.maximum(vt + wake_velocity(zeta0 + h, v_i, radius_m, core_radii) - w_up, floor)
+    s_end = np.maximum(vt + wake_velocity(zeta0 + h, v_i, radius_m, core_radii, bending) - w_up, floor)
     return t, s_end

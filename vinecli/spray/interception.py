@@ -81,22 +81,35 @@ def leaf_area_on_path(s: np.ndarray, k: np.ndarray, width: np.ndarray, base: np.
 # hedge, one value per pair each, evaluated in one vectorised pass
 def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np.ndarray, eff: np.ndarray,
                      g_factor: float, width: np.ndarray, base: np.ndarray, top: np.ndarray, lad: np.ndarray,
-                     profile: np.ndarray, nodes: int = 8) -> np.ndarray:
+                     profile: np.ndarray, nodes: int = 8, diverge: np.ndarray | float = 0.0,
+                     wake: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """Share of a parcel's volume captured by one hedge, 0..1 (arrays over (parcel, hedge) pairs).
 
     ``s_c``: cross-row coordinate of the parcel's landing disc centre from the row line (m, along the
     row normal), ``radius``: disc radius (m), ``k``: cross-row slope of the drops' path (along the same
     normal), ``sec``: path length per metre of height, ``eff``: collection efficiency.
+    ``diverge``: how much steeper the path of a drop landing at the disc's edge is (m per m of height): the
+    plume narrows upwards (:mod:`vinecli.spray.wake`), a drop landing at ``s_c + u r`` crossed the hedge
+    along the slope ``k + u · diverge``. ``wake``: (relaxation time s, horizontal speed m/s, fall speed
+    without the wake m/s, wake speed entering the foliage m/s, leaf width m): the efficiency is then taken
+    per path at the wake's mean speed in the foliage (the leaves' drag slows it,
+    :func:`vinecli.spray.wake.mean_speed_through_foliage`) instead of ``eff``.
     """
-    s_c, r, k, sec, eff, w, b, h, a = np.broadcast_arrays(
-        *(np.asarray(v, dtype=np.float64) for v in (s_c, radius, k, sec, eff, width, base, top, lad)))
+    from vinecli.spray.wake import mean_speed_through_foliage
+
+    s_c, r, k, sec, eff, w, b, h, a, dv = np.broadcast_arrays(
+        *(np.asarray(v, dtype=np.float64) for v in (s_c, radius, k, sec, eff, width, base, top, lad, diverge)))
     r = np.maximum(r, 1e-3)
     half = 0.5 * w
-    s0 = np.minimum(k * b, k * h) - half  # the hedge's shadow on the ground along the drops' path
-    s1 = np.maximum(k * b, k * h) + half
+    adv = np.abs(dv)
+    k_lo, k_hi = k - adv, k + adv
+    s0 = np.minimum(k_lo * b, k_lo * h) - half  # the hedge's shadow on the ground along the drops' paths
+    s1 = np.maximum(k_hi * b, k_hi * h) + half
     step = (s1 - s0) / nodes
     out = np.zeros(s_c.shape)
     prof = np.asarray(profile, dtype=np.float64)
+    if wake is not None:
+        tau, v_h, v_t, w_top, leaf_w = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in wake))
     # the disc's mass between consecutive nodes' edges: one CDF evaluation per edge
     cdf = [semicircle_cdf((s0 + i * step - s_c) / r) for i in range(nodes + 1)]
     for i in range(nodes):
@@ -105,7 +118,15 @@ def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np
         if not live.any():
             continue
         s_mid = s0[live] + (i + 0.5) * step[live]
-        area = leaf_area_on_path(s_mid, k[live], w[live], b[live], h[live], a[live], prof)
-        p = 1.0 - np.exp(-g_factor * eff[live] * sec[live] * area)
+        u = np.clip((s_mid - s_c[live]) / r[live], -1.0, 1.0)
+        kk = k[live] + u * dv[live]
+        area = leaf_area_on_path(s_mid, kk, w[live], b[live], h[live], a[live], prof)
+        if wake is None:
+            e = eff[live]
+        else:
+            wm = mean_speed_through_foliage(w_top[live], area * sec[live])
+            speed = np.sqrt(v_h[live] ** 2 + (v_t[live] + wm) ** 2)
+            e = impaction_efficiency(stokes_number(tau[live], speed, leaf_w[live]))
+        p = 1.0 - np.exp(-g_factor * e * sec[live] * area)
         out[live] += mass[live] * p
     return out

@@ -8,14 +8,13 @@ air into the radial outwash. The share that impacts is the round-jet impactor ef
 Liu ed., Academic Press; Hinds, *Aerosol Technology*, 2nd ed., §5.5). The shape around the cut is this
 model's assumption: a logistic in ``√Stk`` going from 10 % to 90 % over ±0.1 (a sharp impactor).
 
-The drops that follow the outwash are released again at ``h_s = W/2`` above the ground (the
-recirculating ground vortex of a rotor near the ground, about a wake radius high), ``W/2`` downwind of
-their landing point, and fall at their terminal velocity ``v_t`` while the turbulence of the surface
-layer spreads them: with a constant eddy diffusivity ``K`` the time to reach the ground is the
-first-passage time of a Brownian motion with drift ``v_t`` from ``h_s``, inverse Gaussian with mean
-``μ = h_s / v_t`` and shape ``λ = h_s² / (2K)`` (Chhikara & Folks 1989). The wind carries them
-``u t``: each lifted parcel becomes :data:`NODE_MASSES` parcels at the conditional medians of that
-distribution's probability bands, so the drift curve keeps its tail (the last band holds the top 1 %).
+The drops that follow the outwash leave the wall jet ``W/2`` downwind of their landing point, spread evenly
+between the ground and the height ``W`` (the recirculating ground vortex of a rotor's wall jet reaches
+about a wake diameter up, as the ground vortex of a helicopter in ground effect reaches the rotor's height:
+Curtiss et al. 1984, J. Am. Helicopter Soc. 29(1)), and the surface layer carries them
+(:mod:`vinecli.spray.surface_layer`: wind profile, turbulence, settling). Each lifted parcel becomes one
+parcel per bin of its landing density (at the bin's middle, spread over a disc overlapping its neighbours),
+plus one for the share still airborne beyond the far-field model's reach.
 """
 
 from __future__ import annotations
@@ -24,16 +23,22 @@ import math
 
 import numpy as np
 
-__all__ = ["NODE_MASSES", "NODE_PROBS", "SQRT_STK50", "impaction_share", "inverse_gaussian_cdf", "inverse_gaussian_quantiles",
-           "lifted_parcels"]
+from vinecli.spray.surface_layer import SurfaceLayer, landing_bands
+
+__all__ = ["BEYOND_M", "SQRT_STK50", "impaction_share", "lifted_parcels"]
 
 SQRT_STK50 = 0.49  # Marple & Willeke 1976, round jets
 _WIDTH = 0.1 / np.log(9.0)  # logistic scale: 10 % -> 90 % over ±0.1 in √Stk
-#: probability bands the lifted volume is split into (sum 1), smallest last: the far tail
-NODE_MASSES = np.array([0.25, 0.25, 0.2, 0.15, 0.1, 0.04, 0.01])
-_EDGES = np.concatenate([[0.0], np.cumsum(NODE_MASSES)])
-#: each band's probability midpoint: its parcel lands at that quantile of the landing time
-NODE_PROBS = 0.5 * (_EDGES[:-1] + _EDGES[1:])
+#: where the share still airborne at the far-field model's reach is put (far beyond any drift domain), m downwind
+BEYOND_M = 1.0e4
+#: a bin's parcel spreads over a disc this many times the bin's half width: neighbouring bins overlap, so the
+#: deposit is smooth across bin edges (ripple about ±9 %; 1 would leave it falling to 0 between bins)
+BAND_SMOOTHING = 4.0
+#: the wind inside a canopy falls as exp(-a (1 - z/h)) below its top h (Cionco 1965, J. Appl. Meteorol. 4:517; a ≈ 2
+#: for moderately dense crops): the drops released among the hedges are carried by that slower wind
+CANOPY_ATTENUATION = 2.0
+#: how far downwind the far-field model follows the drops, m (beyond: airborne out of the drift domain)
+REACH_M = 250.0
 
 
 def impaction_share(d_m: np.ndarray, jet_speed_mps: np.ndarray, jet_diam_m: float, rho_w: float = 998.2,
@@ -44,90 +49,67 @@ def impaction_share(d_m: np.ndarray, jet_speed_mps: np.ndarray, jet_diam_m: floa
     return 1.0 / (1.0 + np.exp(-(np.sqrt(stk) - SQRT_STK50) / _WIDTH))
 
 
-def _erfcx(z: np.ndarray) -> np.ndarray:
-    """exp(z²) erfc(z) for z >= 0: the Chebyshev fit of Numerical Recipes (Press et al. 2007, §6.2.2,
-    ``erfcc``; relative error < 1.2e-7 everywhere), which is erfcx times exp(-z²) by construction."""
-    t = 1.0 / (1.0 + 0.5 * z)
-    poly = (-1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (-0.18628806 + t * (
-        0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-    return t * np.exp(poly)
-
-
-def _erfc(z: np.ndarray) -> np.ndarray:
-    a = np.abs(z)
-    e = _erfcx(a) * np.exp(-a * a)
-    return np.where(z >= 0, e, 2.0 - e)
-
-
-def inverse_gaussian_cdf(t: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """CDF at ``t`` > 0 of the unit-mean inverse Gaussian IG(1, φ) (IG(μ, λ) is μ · IG(1, λ/μ)); stable for large φ."""
-    t = np.maximum(np.asarray(t, dtype=np.float64), 1e-300)
-    r = np.sqrt(phi / t)
-    a = r * (t - 1.0)
-    b = r * (t + 1.0)
-    # exp(2φ) Φ(-b) = ½ exp(2φ - b²/2) erfcx(b/√2), and 2φ - b²/2 = -φ (t - 1)² / (2t)
-    return 0.5 * _erfc(-a / math.sqrt(2.0)) + 0.5 * np.exp(-phi * (t - 1.0) ** 2 / (2.0 * t)) * _erfcx(
-        b / math.sqrt(2.0))
-
-
-_LOG_PHI = np.linspace(math.log(1e-4), math.log(1e6), 241)
-_TABLE: np.ndarray | None = None
-
-
-def _quantile_table() -> np.ndarray:
-    """(len(_LOG_PHI), len(NODE_PROBS)) log-quantiles of IG(1, φ), by bisection in log t (built once, ~10 ms)."""
-    global _TABLE
-    if _TABLE is None:
-        phi = np.exp(_LOG_PHI)[:, None]
-        p = NODE_PROBS[None, :]
-        lo = np.full((phi.size, p.size), -30.0)
-        hi = np.full((phi.size, p.size), 30.0)
-        for _ in range(64):
-            mid = 0.5 * (lo + hi)
-            below = inverse_gaussian_cdf(np.exp(mid), phi) < p
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
-        _TABLE = 0.5 * (lo + hi)
-    return _TABLE
-
-
-def inverse_gaussian_quantiles(mu: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    """(n, len(NODE_PROBS)) quantiles of IG(μ_i, λ_i) at :data:`NODE_PROBS` (log-φ interpolation of a table)."""
-    mu = np.asarray(mu, dtype=np.float64)
-    lphi = np.clip(np.log(np.asarray(lam, dtype=np.float64) / mu), _LOG_PHI[0], _LOG_PHI[-1])
-    tab = _quantile_table()
-    f = (lphi - _LOG_PHI[0]) / (_LOG_PHI[1] - _LOG_PHI[0])
-    i = np.minimum(f.astype(np.int64), _LOG_PHI.size - 2)
-    w = (f - i)[:, None]
-    return mu[:, None] * np.exp(tab[i] * (1.0 - w) + tab[i + 1] * w)
-
-
-# parameters: the formula's inputs (module doc): arrays of the lifted parcels, one value per parcel each
+# parameters: the formula's inputs (module doc): arrays of the lifted parcels, one value per parcel each, and the
+# surface layer's (roughness, stability, the crop's displacement)
 def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.ndarray, t_fall: np.ndarray,
-                   wind_x: np.ndarray, wind_y: np.ndarray, kdiff: np.ndarray, jet_diam_m: float,
-                   ) -> dict[str, np.ndarray]:
-    """The parcels the outwash re-releases (see the module doc), one per lifted parcel and probability band.
+                   wind_x: np.ndarray, wind_y: np.ndarray, z_wind_m: np.ndarray, roughness_m: float,
+                   jet_diam_m: float | np.ndarray, obukhov_m: float = math.inf,
+                   offset_m: float | np.ndarray | None = None, displacement_m: float = 0.0,
+                   spread_m: float | np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The parcels the outwash re-releases (see the module doc), one per lifted parcel and landing band.
 
-    Inputs per lifted parcel: landing point (m ENU), lifted volume (L), terminal velocity (m/s), fall
-    time so far (s), wind at the release height (m/s ENU), eddy diffusivity there (m²/s). Returns
-    ``x, y, vol, t_fall, vx, vy, vz, src`` (src: index of the parcel it came from).
+    Inputs per lifted parcel: landing point (m ENU), lifted volume (L), terminal velocities (m/s, (n, 2): the
+    lowest and highest of its size class), fall time so far (s), wind (m/s ENU) at height ``z_wind_m`` (m above
+    the ground), the release layer's top (m: the wall jet's ``W``, or per parcel), where the layer starts downwind
+    of the landing point (m, per parcel; default half the top: the wall jet's ``W/2``), the crop's zero-plane
+    displacement (m: the share released below it stays among the plants, the rest rises into the surface layer
+    above them), the least radius each landing bin spreads over (m, per parcel; default the offset). Returns ``x, y,
+    vol, t_fall,
+    vx, vy, vz, radius, src`` (src: index of the parcel it came from; radius: the disc each bin spreads over, m: its
+    smoothed width, at least the release's offset).
     """
-    n = x.size
-    h_s = 0.5 * jet_diam_m
     speed = np.hypot(wind_x, wind_y)
+    top = np.broadcast_to(np.asarray(jet_diam_m, dtype=np.float64), x.shape)
+    offset = 0.5 * top if offset_m is None else np.broadcast_to(np.asarray(offset_m, dtype=np.float64), x.shape)
+    spread = offset if spread_m is None else np.broadcast_to(np.asarray(spread_m, dtype=np.float64), x.shape)
     ex = np.where(speed > 0, wind_x / np.maximum(speed, 1e-12), 0.0)
     ey = np.where(speed > 0, wind_y / np.maximum(speed, 1e-12), 0.0)
-    mu = h_s / np.maximum(v_t, 1e-6)
-    lam = h_s * h_s / (2.0 * np.maximum(kdiff, 1e-9))
-    t = inverse_gaussian_quantiles(mu, lam)  # (n, m)
-    m = NODE_PROBS.size
-    travel = wind_x[:, None] * t, wind_y[:, None] * t
-    out = {
-        "x": (x[:, None] + ex[:, None] * h_s + travel[0]).ravel(),
-        "y": (y[:, None] + ey[:, None] * h_s + travel[1]).ravel(),
-        "vol": (lifted_l[:, None] * NODE_MASSES[None, :]).ravel(),
-        "t_fall": (t_fall[:, None] + t).ravel(),
-        "vx": np.repeat(wind_x, m), "vy": np.repeat(wind_y, m), "vz": np.repeat(v_t, m),
-        "src": np.repeat(np.arange(n), m),
-    }
-    return out
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in ("x", "y", "vol", "t_fall", "vx", "vy", "vz", "radius", "src")}
+    d_plane = max(float(displacement_m), 0.0)
+    for i in range(x.size):
+        above = max(float(top[i]) - d_plane, 0.0)
+        sheltered = 1.0 - above / max(float(top[i]), 1e-9)  # released evenly over [0, top]: the share below d
+        if above > 0.0:
+            layer = SurfaceLayer.from_wind(float(speed[i]), max(float(z_wind_m[i]) - d_plane, 2.0 * roughness_m),
+                                           roughness_m, obukhov_m)
+            mass, dist, half, time = landing_bands(layer, (float(v_t[i, 0]), float(v_t[i, 1])), above, REACH_M)
+            mass = mass * (1.0 - sheltered)
+        else:
+            layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
+            mass, dist, half, time = (np.zeros(0),) * 4
+        if sheltered > 0.0:  # the share released among the plants: carried by the slower wind inside the canopy
+            low = min(float(top[i]), d_plane)
+            slow = math.exp(-CANOPY_ATTENUATION * (1.0 - 0.5 * low / (1.5 * d_plane)))
+            inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
+            m2, d2, h2, t2 = landing_bands(inner, (float(v_t[i, 0]), float(v_t[i, 1])), low, REACH_M)
+            mass, dist = np.append(mass, sheltered * m2), np.append(dist, d2)
+            half, time = np.append(half, h2), np.append(time, t2)
+            if above <= 0.0:
+                layer = inner
+        radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
+        if speed[i] <= 0.0 and mass.size:  # still air carries nothing away: every bin lands where it was released
+            time = np.array([float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)])
+            mass, dist, radius = np.array([mass.sum()]), np.zeros(1), np.array([spread[i]])
+        d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
+        cols["x"].append(x[i] + ex[i] * d)
+        cols["y"].append(y[i] + ey[i] * d)
+        cols["vol"].append(lifted_l[i] * mass)
+        cols["t_fall"].append(t_fall[i] + time)
+        cols["vx"].append(np.full(mass.size, wind_x[i]))
+        cols["vy"].append(np.full(mass.size, wind_y[i]))
+        # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
+        # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
+        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(layer.sigma_w(np.zeros(1))[0])))
+        cols["radius"].append(radius)
+        cols["src"].append(np.full(mass.size, i))
+    return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vinecli.spray.collectors import collector_deposit
+from vinecli.spray.deposition import FAR_WALL_JET
 from vinecli.spray.spray_trial import Trial, TrialVehicle, run_trial, vineyard_rows
 
 __all__ = ["BIGLIA_2022", "CONFIGS", "RAUTMANN_2001", "BigliaConfig", "biglia_trial", "drift_trial", "reading"]
@@ -102,7 +103,8 @@ def biglia_trial(c: BigliaConfig, seed: int = 0) -> Trial:
         y = 0.5 * ROW_LENGTH_M
         passes = [((-11.0, y), (11.0, y))] + ([((11.0, y), (-11.0, y))] if c.mode == "2-way" else [])
     veh = TrialVehicle(mass_kg=9.5 + 2.8 + 2.5, n_rotors=6, prop_diameter_m=0.533, nozzles_flu=nozzles,
-                       cone_angle_deg=c.cone_deg, vmd_um=c.dv[1], gsd=_gsd(c.dv), classes=7, rotor_plane_z=0.0)
+                       cone_angle_deg=c.cone_deg, vmd_um=c.dv[1], gsd=_gsd(c.dv), classes=7, rotor_plane_z=0.0,
+                       arm_m=0.5665)  # the M600's diagonal wheelbase, 1133 mm (DJI)
     towards = math.radians(c.wind_from_deg + 180.0 - ROW_AZIMUTH_DEG)  # in the frame whose +y is the row direction
     wind = (c.wind_mps * math.sin(towards), c.wind_mps * math.cos(towards), 0.0)
     flow = c.flow_lpm / 60.0
@@ -131,9 +133,21 @@ def reading(c: BigliaConfig, seed: int = 0) -> dict[str, float]:
     leaf_pts = np.array([(s, a, z) for a in along for z in (0.7, 1.3, 1.9) for s in (-0.2, 0.0, 0.2)])
     dish_pts = np.array([(s, a, 0.0) for a in along for s in (-1.25, -0.625, 0.0, 0.625, 1.25)])
     args = (p.x, p.y, landed, p.radius, p.vx_land, p.vy_land, p.vz_land, vt)
-    leaf = collector_deposit(*args, leaf_pts, canopy, width_m=0.12)
-    dish = collector_deposit(*args, dish_pts, canopy, width_m=None)
-    scale = STD_UL_PER_CM / (trial.flow_lps * 1e6 / (trial.speed_mps * 100.0))  # to 250 µL per cm travelled
+    plume = (p.reach, p.wake_var, p.release_h)
+    w_top = p.downwash_at(HEDGE[1])  # the wake entering the hedge's top
+    # the wall jet's drops came down in their primary's wake through the canopy before the outwash lifted them (what
+    # the leaves did not catch): the leaves see them with their primary, not where the far field lands them
+    wall = (p.far_kind == FAR_WALL_JET) & (p.source >= 0)
+    carried = np.bincount(p.source[wall], weights=landed[wall], minlength=p.vol.size)
+    leaf_vol = np.where(wall, 0.0, landed + carried)
+    leaf_args = (p.x, p.y, leaf_vol, *args[3:])
+    leaf = collector_deposit(*leaf_args, leaf_pts, canopy, width_m=0.12, plume=plume, w_top=w_top)
+    # the dishes get the wall jet's drops where the far field lands them, less what the canopy caught on their way down
+    dish_vol = np.where(wall, landed * (1.0 - budget.caught_in_wake), landed)
+    dish = collector_deposit(p.x, p.y, dish_vol, *args[3:], dish_pts, canopy, width_m=None, plume=plume, w_top=w_top)
+    # to 250 µL per cm of the line: the 2-way configurations apply their dose in two passes at half the flow
+    # (Table 1: 1.2 L/min there and back = the 1-way's 2.4 L/min), so the dose per cm is both passes' together
+    scale = STD_UL_PER_CM / (len(trial.passes) * trial.flow_lps * 1e6 / (trial.speed_mps * 100.0))
     return {"canopy": 0.5 * float(leaf.mean()) * scale, "ground": float(dish.mean()) * scale,
             "canopy_top": 0.5 * float(leaf.reshape(3, 3, 3)[:, 2].mean()) * scale,
             "canopy_bottom": 0.5 * float(leaf.reshape(3, 3, 3)[:, 0].mean()) * scale,

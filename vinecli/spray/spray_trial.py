@@ -40,6 +40,8 @@ class TrialVehicle:
     gsd: float
     classes: int = 5
     rotor_plane_z: float = 0.05
+    #: the rotor hubs' distance from the axis, m (None: the propellers' tips 10 % of a radius apart, R / sin(π/n) · 1.1)
+    arm_m: float | None = None
 
     def geometry(self, air_density: float) -> SprayerGeometry:
         d, frac = size_classes_m(self.vmd_um, self.gsd, self.classes)
@@ -48,7 +50,8 @@ class TrialVehicle:
             nozzles_flu=np.asarray(self.nozzles_flu, dtype=np.float64), shares=np.full(n, 1.0 / n),
             tan_half=np.full(n, math.tan(math.radians(self.cone_angle_deg) / 2.0)), diam_m=d, fractions=frac,
             v_t=terminal_velocity(d, WATER_DENSITY, air_density, AIR_VISCOSITY), n_rotors=self.n_rotors,
-            rotor_radius_m=0.5 * self.prop_diameter_m, rotor_plane_z=self.rotor_plane_z)
+            rotor_radius_m=0.5 * self.prop_diameter_m, rotor_plane_z=self.rotor_plane_z,
+            arm_m=self.arm_m if self.arm_m is not None else 0.55 * self.prop_diameter_m / math.sin(math.pi / self.n_rotors))
 
 
 # parameters: a straight pass as the published trials describe it: ends, height, speed, flow, thrust, wind,
@@ -122,7 +125,9 @@ def run_trial(trial: Trial) -> tuple[SprayBudget, Parcels]:
         t0 = float(r[-1, 0]) + 10.0
     records = np.vstack(recs)
     wind = WindSpec.model_validate({"law": {"type": "constant", "velocity_enu": list(trial.wind_enu)}})
-    parcels = transport(records, geo, flat_height(0.0), wind, trial.air_density, trial.seed, DepositionConfig())
-    budget = spray_budget(parcels, geo.diam_m, geo.v_t, trial.canopy(), trial.rows, row_spacing(trial.rows),
+    canopy = trial.canopy()
+    config = DepositionConfig(displacement_m=canopy.displacement_m if canopy is not None else 0.0)
+    parcels = transport(records, geo, flat_height(0.0), wind, trial.air_density, trial.seed, config)
+    budget = spray_budget(parcels, geo.diam_m, geo.v_t, canopy, trial.rows, row_spacing(trial.rows),
                           trial.applied_lpha, (trial.wind_enu[0], trial.wind_enu[1]), trial.air, trial.budget)
     return budget, parcels

@@ -79,6 +79,14 @@ class SwathPattern:
         return pattern_cv(self, spacing_m) <= self.cv_limit
 
     @property
+    def centre_m(self) -> float:
+        """Where the plume lands across the track on average, m (mean of both pass directions): 0 in calm air, the
+        crosswind's drift otherwise."""
+        f = float(np.dot(self.y_m, self.forward) / self.forward.sum()) if self.forward.sum() > 0 else 0.0
+        b = float(np.dot(self.y_m, self.backward) / self.backward.sum()) if self.backward.sum() > 0 else 0.0
+        return 0.5 * (f + b)
+
+    @property
     def cv_at_effective(self) -> float:
         """CV of the back-and-forth overlapped pattern at the effective swath."""
         return pattern_cv(self, self.effective_m)
@@ -118,10 +126,13 @@ def _pass_record(veh: VehicleSpec, height_agl_m: float, speed: float, heading: f
     """One emission record of a steady level pass along ``heading`` (rad from east), and its pitch (rad)."""
     fill = fill_fraction * (veh.tank.capacity_l if veh.tank is not None else 0.0)
     mass = veh.dry_mass() + veh.liquid_mass(fill)
-    air = speed  # crosswind adds to the airspeed only across the track; the drag balance is along it
-    pitch = math.atan2(_drag_n(veh, air, mass, rho, g), mass * g)
-    qx, qy, qz, qw = quat_from_euler(0.0, pitch, heading)
-    thrust = mass * g / math.cos(pitch)
+    # the drag balance: pitched into the airspeed along the track, rolled into the crosswind across it (the thrust
+    # tilts upwind, so the nozzles' cone leans downwind)
+    pitch = math.atan2(_drag_n(veh, speed, mass, rho, g), mass * g)
+    cross = crosswind * math.cos(heading)  # the wind along the body's +y (left) axis
+    roll = math.copysign(math.atan2(_drag_n(veh, abs(cross), mass, rho, g), mass * g), cross)
+    qx, qy, qz, qw = quat_from_euler(roll, pitch, heading)
+    thrust = mass * g / (math.cos(pitch) * math.cos(roll))
     z = height_agl_m + veh.frame.landing_gear_height_m
     vx, vy = speed * math.cos(heading), speed * math.sin(heading)
     rec = np.zeros(len(EMIT_COLUMNS))
@@ -182,11 +193,13 @@ def pattern_cv(pattern: SwathPattern, spacing_m: float, back_and_forth: bool = T
     return float(np.std(rel))
 
 
+# parameters: the pattern's physical inputs (vehicle, height, speed, crosswind, air, gravity, CV limit, tank fill, transport)
 def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, crosswind_mps: float = 0.0,
                   air_density: float = 1.225, g: float = STANDARD_GRAVITY, cv_limit: float = CV_LIMIT,
-                  fill_fraction: float = 0.5) -> SwathPattern:
+                  fill_fraction: float = 0.5, config: DepositionConfig | None = None) -> SwathPattern:
     """Patterns and effective swath of ``veh`` flying ``height_agl_m`` (skids above the ground) at ``speed_mps``
-    with a crosswind (m/s, blowing towards +y, the left of a pass along +x); tank ``fill_fraction`` full."""
+    with a crosswind (m/s, blowing towards +y, the left of a pass along +x); tank ``fill_fraction`` full.
+    ``config``: the transport's options (the runs' defaults; ``drag_reach=False`` for the geometric cone)."""
     geo = SprayerGeometry.from_vehicle(veh, air_density)
     wind = WindSpec(law=ConstantWind(velocity_enu=(0.0, crosswind_mps, 0.0)))
     nz = sum(n.position_m[2] for n in veh.sprayer.nozzles) / len(veh.sprayer.nozzles)
@@ -199,11 +212,13 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
     foot = along = 0.0
     for heading in (0.0, math.pi):
         rec, pitch = _pass_record(veh, height_agl_m, speed_mps, heading, crosswind_mps, air_density, g, fill_fraction)
-        p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, DepositionConfig(), g, expected=True)
+        p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, config or DepositionConfig(), g,
+                      expected=True)
         k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol)
         profiles.append(k / (k.sum() * dy))
-        if heading == 0.0:
-            foot = float(np.max(p.radius + 2.0 * p.sigma))
+        if heading == 0.0:  # the cone's footprint: the primaries (the far field's landing bins are drift, not it)
+            near = slice(0, p.primaries)
+            foot = float(np.max(p.radius[near] + 2.0 * p.sigma[near]))
             along = float(np.dot(p.x, p.vol) / p.vol.sum()) - float(np.mean(p.path_xy[:, 0]))
     fwd, back = profiles
     spacing = np.round(np.arange(0.2, 1.6 * geometric + 1e-9, ds) * 100.0) / 100.0

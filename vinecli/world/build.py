@@ -150,7 +150,7 @@ def _build(spec_path: Path, spec: WorldSpec, vehicle: VehicleSpec, out: Path, in
             "rows_detection": rows_detection,
             "canopy_width_m": spec.canopy_width_m,
             "canopy": {**canopy.to_dict(), "segments": canopy_doc} if canopy is not None else None,
-            "air": spec.air.model_dump(mode="json") if spec.air is not None else None,
+            "air": spec.air.model_dump(mode="json", exclude_none=True) if spec.air is not None else None,
             "geofence": json.loads(geofence.model_dump_json()) if geofence else None,
             "gis": gis_doc,
             "sdf": "world.sdf",

@@ -32,7 +32,7 @@
                 "segments": {"files", <CanopySegments.summary()>} | null} | null,
                                                          # each row's hedge (vinecli.spray.canopy, docs/budget.md),
                                                          # its segments (vinecli.world.canopy_files, docs/dose.md)
-     "air": {"temperature_c", "relative_humidity_pct"} | null,   # drop evaporation
+     "air": {"temperature_c", "relative_humidity_pct", "obukhov_length_m"} | null,   # drop evaporation, stability
      "sdf": "world.sdf"}
 """
 
@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import threading
 import zipfile
 from dataclasses import dataclass, field
@@ -107,6 +108,7 @@ class World:
     canopy_width_m: float = 0.6  # m, row band width for the spray metrics
     canopy: dict[str, Any] | None = None  # world.json "canopy": each row's hedge (canopy_model())
     air: tuple[float, float] | None = None  # temperature °C, relative humidity % (drop evaporation)
+    obukhov_m: float = math.inf  # Obukhov length of the surface layer (far-field drift), m; inf: neutral
     #: the grower's no-spray zones (world.json gis.no_spray_enu: rings grown by their buffer), ENU m
     no_spray_enu: list[list[tuple[float, float]]] = field(default_factory=list)
 
@@ -262,6 +264,7 @@ def _parse_world(root: Path, wj: Path, d: dict[str, Any]) -> World:
         canopy_width_m=float(d.get("canopy_width_m", 0.6)),
         canopy=d.get("canopy"),
         air=(float(d["air"]["temperature_c"]), float(d["air"]["relative_humidity_pct"])) if d.get("air") else None,
+        obukhov_m=float((d.get("air") or {}).get("obukhov_length_m") or math.inf),
         no_spray_enu=[[(float(p[0]), float(p[1])) for p in z] for z in (d.get("gis") or {}).get("no_spray_enu") or []],
     )
 
