@@ -106,8 +106,9 @@ class Px4Lockstep:
         §1, "PX4's lost wakeup"); the next step restarts its clock, this one flies with the last controls."""
         self.recoveries += 1
         self._emit(t - self.dt_us, "px4_lockstep_recovery",
-                   f"PX4 did not answer HIL_SENSOR {t} µs within {RECOVER_S:g} s of wall time (PX4's lockstep lost a "
-                   f"wakeup): the step flew with the last controls and the next HIL_SENSOR restarted PX4's clock",
+                   f"PX4 did not answer HIL_SENSOR {t} µs within {RECOVER_S:g} s of wall time (a wakeup lost in PX4's "
+                   f"lockstep, or PX4 paused): the step flew with the last controls and the next HIL_SENSOR went out to "
+                   f"restart PX4's clock",
                    {"t_usec": t, "recovery": self.recoveries})
 
     def _hang_note(self, t: int) -> str:
