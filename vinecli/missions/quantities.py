@@ -22,7 +22,8 @@ SIMULATOR_METRICS = frozenset({
     "liftoff_s", "touchdown_s", "tank_empty_s", "total_mass_start_kg", "rigid_mass_kg", "liquid_start_kg",
     "hover_w_pred", "physics_rate_hz", "max_impact_speed_mps", "spawn_settle_s", "spawn_tilt_rad", "steps",
     "final_mass_kg", "energy_wh", "battery_soc_end", "deposition_records",
-    "px4_stalls", "px4_resyncs", "px4_lockstep_steps", "px4_battery_warnings", "px4_scheduler_faults",
+    "px4_stalls", "px4_resyncs", "px4_lockstep_steps", "px4_lockstep_recoveries", "px4_battery_warnings",
+    "px4_scheduler_faults",
     "ardupilot_stalls", "ardupilot_lockstep_steps", "ardupilot_boot_s", "ardupilot_late_markers",
 })  # timing figures (wall time, µs per step, real-time factor) are SimResult.timing, not checkable metrics
 _ROTOR_RE = re.compile(r"rotor(\d+)_(w_radps|cmd_radps|thrust_n)")

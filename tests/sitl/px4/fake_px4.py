@@ -21,7 +21,9 @@ Failure modes for tests: ``reject_arm`` (arming denied with that STATUSTEXT), ``
 (stop sending anything on both links after that much simulated time), ``garbage_at_s`` (at that simulated time,
 1.5 kB of random bytes on the simulator link just before an answer, ending in the start of a MAVLink 2 frame
 that claims 255 bytes: the answer is swallowed, as line noise would), ``silent_from_item`` (items from that one on are
-never reported reached nor the mission complete: a PX4 that lands and disarms before the last report).
+never reported reached nor the mission complete: a PX4 that lands and disarms before the last report),
+``lost_wakeup_at_s`` (the HIL_SENSOR at that simulated time gets no answer and the next one is answered, as PX4 v1.15
+does when its lockstep loses a wakeup: its sender waits for a component that reports only once the clock moves).
 """
 
 from __future__ import annotations
@@ -95,7 +97,7 @@ class FakePx4:
                  instance: int = 0, host: str = "127.0.0.1", step_us: int = 4000, boot_steps: int = 25,
                  reject_arm: str | None = None, silent_after_s: float | None = None, connect_timeout_s: float = 20.0,
                  fill_l: float | None = None, garbage_at_s: float | None = None,
-                 silent_from_item: int | None = None) -> None:
+                 silent_from_item: int | None = None, lost_wakeup_at_s: float | None = None) -> None:
         self.vehicle, self.origin = vehicle, origin
         self.host, self.sim_port = host, sim_port
         self.api_local_port, self.api_remote_port = api_local_port, api_remote_port
@@ -106,6 +108,8 @@ class FakePx4:
         self.silent_after_s = silent_after_s
         self.garbage_at_s = garbage_at_s
         self.silent_from_item = silent_from_item
+        self.lost_wakeup_at_s = lost_wakeup_at_s
+        self.lost_answer_t: int | None = None  # the HIL_SENSOR time_usec left unanswered
         self.garbage_sent = 0
         self.connect_timeout_s = connect_timeout_s
         self.fill_l = (vehicle.tank.capacity_l if vehicle.tank else 0.0) if fill_l is None else fill_l
@@ -307,6 +311,9 @@ class FakePx4:
                     st.spray_u_max = max(st.spray_u_max, controls[px4.sprayer_channel])
         if st.hil_sensor <= self.boot_steps:
             return  # pwm_out_sim not running yet
+        if self.lost_wakeup_at_s is not None and self.lost_answer_t is None and sim_s >= self.lost_wakeup_at_s:
+            self.lost_answer_t = t
+            return
         st.answered += 1
         if mode & M.MODE_FLAG_SAFETY_ARMED:
             st.armed_answers += 1

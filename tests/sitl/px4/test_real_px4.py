@@ -175,6 +175,24 @@ def test_px4_paused_for_half_a_second_is_a_lockstep_pause_not_stale_steps(real_p
     assert res2.metrics["px4_stalls"] >= 3
 
 
+def test_px4_paused_for_three_seconds_is_recovered_and_flies_on(real_px4, tmp_path):
+    """A PX4 that does not answer for 3 s (stopped here; PX4's own lost wakeup looks the same from outside): after
+    2 s the lockstep sends the next HIL_SENSOR, and the real PX4 takes it and answers on (tests/sitl/px4/
+    test_px4_lost_wakeup.py has the lost wakeup itself, with the fake PX4)."""
+    def pause(pid: int) -> None:
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(3.0)
+        os.kill(pid, signal.SIGCONT)
+
+    ap = real_px4()
+    th = _after_liftoff(ap, pause, 0.5)
+    res = run_simulation(flat_world(tmp_path), _short_mission(), ap, seed=4)
+    th.join(5)
+    assert res.status is RunStatus.COMPLETED, res.detail
+    assert res.metrics["px4_lockstep_recoveries"] >= 1 and res.metrics["px4_stalls"] == 0
+    assert any(e.kind == "px4_lockstep_recovery" for e in res.events)
+
+
 def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
     """run_mission with --px4-bin; PX4 is killed in flight: status error, the run so far on disk."""
     from vinecli.runs import RunRequest, run_mission

@@ -16,8 +16,10 @@ HIL time = sim time + one step (never 0), strictly increasing by exactly the phy
 first HIL_ACTUATOR_CONTROLS): motors off, steps paced at wall-clock rate, so PX4 boots in real time. **Lockstep
 phase**: after sending HIL_SENSOR(t) the step waits for HIL_ACTUATOR_CONTROLS with ``time_usec >= t``: PX4's clock
 does not move until it gets the next HIL_SENSOR, so however long a loaded machine makes that take, the flight is the
-same (the wait is the lockstep, not a race with the wall clock). Only a PX4 that exited, closed the link or sent
-nothing for ``hang_timeout_s`` (default 30 s) ends the run, with an error. With an explicit ``step_timeout_s``
+same (the wait is the lockstep, not a race with the wall clock). One answer PX4 itself loses (a lost wakeup in its
+lockstep, :mod:`vinecli.sitl.px4.lockstep`) is recovered after 2 s of wall time by sending the next step
+(``px4_lockstep_recoveries``). Only a PX4 that exited, closed the link or sent nothing for ``hang_timeout_s``
+(default 30 s) ends the run, with an error. With an explicit ``step_timeout_s``
 (``--px4-lockstep-timeout``) a step instead proceeds after that long with the last controls and counts a stall
 (``px4_stalls``: any stall fails the run's checks); ``max_stalls`` consecutive stalls raise AutopilotError (PX4
 stopped answering). Outputs map to rotor speeds with the vehicle's ``px4.motor_channels``: w = w_min + u (w_max -
@@ -42,6 +44,7 @@ from vinecli.mavlink import px4modes as M
 from vinecli.mavlink.link import TcpServerLink
 from vinecli.sitl.converter import pump_max_flow_lps
 from vinecli.sitl.dose_follow import follow_event
+from vinecli.sitl.px4.lockstep import Px4Lockstep
 from vinecli.sitl.px4.log_audit import apply_audit
 from vinecli.sitl.px4.process import px4_start_command
 from vinecli.sitl.takeoff import TakeoffWatch
@@ -59,12 +62,11 @@ PX4_API_LOCAL_BASE = 14580  # PX4 binds (vinecli sends here)
 G0 = STANDARD_GRAVITY
 #: simulated UTC at t = 0 (HIL_GPS time_usec): 2025-07-01T00:00:00Z
 EPOCH_US = 1_751_328_000_000_000
-RESYNC_S = 0.5  # wall s without PX4's answer, after garbage on the link, before the lockstep resynchronises
 #: files of PX4's working directory kept in the run folder: its logs, console output, boot parameters
 KEEP = ("rootfs/log/*/*.ulg", "px4.log", "rc/px4-rc.params")
 
 
-class Px4SitlAutopilot:
+class Px4SitlAutopilot(Px4Lockstep):
     """Autopilot backend driving a real (or fake) PX4 over the SITL protocol.
 
     Options: ``host`` (bind address, default 127.0.0.1; a non-loopback address needs
@@ -162,7 +164,8 @@ class Px4SitlAutopilot:
         self.lockstep = False
         self.armed = False
         self.controls: tuple[float, ...] = (0.0,) * 16
-        self.stalls = self.resyncs = self.consecutive_stalls = 0
+        self.stalls = self.resyncs = self.consecutive_stalls = self.recoveries = 0
+        self._last_answer = (0, time.monotonic())  # PX4's last HIL_ACTUATOR_CONTROLS: time_usec, wall time received
         self.steps = 0
         self.lockstep_steps = 0
         self.hil_gps_sent = 0
@@ -256,6 +259,7 @@ class Px4SitlAutopilot:
         elif typ == "HIL_ACTUATOR_CONTROLS":
             self.controls = tuple(m.controls)
             self.armed = bool(m.mode & M.MODE_FLAG_SAFETY_ARMED)
+            self._last_answer = (int(m.time_usec), time.monotonic())
 
     # ------------------------------------------------------------------ per step
     def step(self, obs: Observation) -> ActuatorCommand:
@@ -322,55 +326,6 @@ class Px4SitlAutopilot:
         due = self._boot_wall0 + self.steps * self.dt_us * 1e-6
         if due > now:
             time.sleep(due - now)
-
-    def _lockstep_wait(self, t: int) -> None:
-        """PX4's HIL_ACTUATOR_CONTROLS for the HIL_SENSOR at ``t`` (see the module docstring)."""
-        link = self.link
-        assert link is not None
-        bounded = self.step_timeout_s is not None
-        limit = self.step_timeout_s if self.step_timeout_s is not None else self.hang_timeout_s
-        start = time.monotonic()
-        junk0 = link.undecoded_bytes
-        while True:
-            left = start + limit - time.monotonic()
-            m = link.recv(min(0.5, max(0.0, left))) if left > 0 else (link.recv(0.0) if not link.inbox.empty() else None)
-            if m is not None:
-                self._on_msg(m)
-                if m.get_type() == "HIL_ACTUATOR_CONTROLS" and m.time_usec >= t:
-                    self.consecutive_stalls = 0
-                    self.lockstep_steps += 1
-                    return
-                continue
-            if link.undecoded_bytes > junk0 and time.monotonic() - start >= RESYNC_S:
-                self._resync(t, link.undecoded_bytes - junk0)
-                return
-            if link.closed_by_peer.is_set():
-                raise AutopilotError(f"PX4 closed the simulator connection (TCP {self.host}:{self.port})" + self._px4_log())
-            if self.process is not None and not self.process.alive():
-                raise AutopilotError(f"PX4 exited (code {self.process.proc.returncode}) at {t / 1e6:.2f} s"
-                                     + self._px4_log())
-            if left <= 0:
-                break
-        if not bounded:
-            raise AutopilotError(f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
-                                 f"{self.hang_timeout_s:g} s of wall time (hung)" + self._px4_log())
-        self.stalls += 1
-        self.consecutive_stalls += 1
-        if self.consecutive_stalls == 1 or self.stalls % 100 == 0:
-            log.debug("lockstep stall at t=%d µs (%d total)", t, self.stalls)
-        if self.consecutive_stalls >= self.max_stalls:
-            raise AutopilotError(
-                f"PX4 stopped answering on TCP {self.host}:{self.port}: no HIL_ACTUATOR_CONTROLS for "
-                f"{self.consecutive_stalls} consecutive steps ({self.consecutive_stalls * limit:.1f} s)"
-                + self._px4_log())
-
-    def _resync(self, t: int, bad: int) -> None:
-        """Garbage swallowed PX4's one answer to HIL_SENSOR(``t``): go on with the last controls (a stall, as many raise)."""
-        self.stalls, self.consecutive_stalls, self.resyncs = self.stalls + 1, self.consecutive_stalls + 1, self.resyncs + 1
-        what = f"garbage on the simulator link (TCP {self.host}:{self.port}): {bad} bytes that decode to no message"
-        self._emit(t - self.dt_us, "px4", f"{what}; PX4's answer was lost, resynchronised", {"undecoded_bytes": bad})
-        if self.consecutive_stalls >= self.max_stalls:
-            raise AutopilotError(f"{what}: {self.consecutive_stalls} steps in a row without PX4's answer" + self._px4_log())
 
     def _command(self, u: list[float]) -> ActuatorCommand:
         """Rotor speeds from the motor outputs ``u`` (0..1, one per rotor), the sprayer from its channel."""
@@ -449,6 +404,7 @@ class Px4SitlAutopilot:
         ex = st.extra
         ex["px4_stalls"] = float(getattr(self, "stalls", 0))
         ex["px4_resyncs"] = float(getattr(self, "resyncs", 0))
+        ex["px4_lockstep_recoveries"] = float(getattr(self, "recoveries", 0))
         ex["px4_lockstep_steps"] = float(getattr(self, "lockstep_steps", 0))
         ex["px4_armed"] = 1.0 if getattr(self, "armed", False) else 0.0
         if self.mission_client is not None:
