@@ -22,8 +22,9 @@ state (mode, current item, events, error, finished). Sequence, each with a wall-
    Once PX4 has flown in Mission mode, a switch to any other mode before the mission is done
    (a failsafe: geofence Hold, RTL, Land...) is a ``failsafe`` event whose cause is PX4's latest
    warning STATUSTEXT, and ends the run with status ``failsafe``, except the switch to RTL that the
-   mission's own last item (NAV_RETURN_TO_LAUNCH) makes: PX4 executes it as its RTL mode, so the
-   mission is then complete once PX4 is on the ground and disarmed. PX4 v1.15 sends HEARTBEAT at 1 Hz
+   mission's own last item (NAV_RETURN_TO_LAUNCH) makes: PX4 executes it as its RTL mode (judged when PX4's
+   reports show that item, within :data:`RTL_REPORT_GRACE_US`), so the mission is then complete once PX4 is
+   on the ground and disarmed. PX4 v1.15 sends HEARTBEAT at 1 Hz
    and refuses a faster interval, so the switch is heard up to 1 s of flight after PX4 acted. A PX4 on the
    ground and disarmed after flying, before the mission's last item (a land item before the end), flies no
    further: after :data:`EARLY_LANDING_GRACE_US` the run ends as ``aborted``, naming the item reached.
@@ -62,6 +63,9 @@ PARAM_SETTLE_US = 2_000_000
 #: PX4 on the ground and disarmed before the mission's end for this long (simulated; its MISSION_CURRENT and
 #: HEARTBEAT come at 1 Hz) ends the run as aborted: it will not fly on
 EARLY_LANDING_GRACE_US = 3_000_000
+#: a switch to RTL before PX4 reported the mission's last navigation item is judged this long after (simulated):
+#: MISSION_CURRENT (1 Hz) or MISSION_ITEM_REACHED may follow the HEARTBEAT showing the mission's own closing RTL
+RTL_REPORT_GRACE_US = 2_000_000
 #: wall seconds a wait for PX4's answer lasts at most when the simulation does not move (its limit is simulated time)
 WAIT_WALL_S = 15.0
 
@@ -133,6 +137,7 @@ class Px4MissionClient:
         self.started = False
         self.in_mission = False
         self.rtl_item = False  # PX4 flies the mission's closing NAV_RETURN_TO_LAUNCH as its RTL mode
+        self._rtl_pending: tuple[int, str] | None = None  # (sim µs, PX4's warnings) of a switch to RTL, unjudged
         self.warnings: list[tuple[float, str]] = []  # (wall time, text) of STATUSTEXT <= WARNING
         self._chunks: dict[int, str] = {}
         # state messages are handled in the link's reader thread as they arrive, so the run sees a
@@ -246,13 +251,35 @@ class Px4MissionClient:
             return
         if self.rtl_item and self.landed_state == M.LANDED_ON_GROUND and not self.armed:
             return  # returned and disarmed: the mission's end, whatever mode PX4 shows next
-        if name == "rtl" and self._at_rtl_item():
-            if not self.rtl_item:
-                self.rtl_item = True
-                self._event("mission_rtl", f"PX4 returns to launch: the mission's last item {self.current_seq}",
-                            {"seq": self.current_seq})
+        if name == "rtl":
+            if self._at_rtl_item():
+                self._rtl_is_the_mission_s()
+            elif self._rtl_pending is None:  # judged by _judge_rtl once PX4's reports had time to arrive
+                self._rtl_pending = (self.sim_time_us, self.failsafe_cause())
             return
-        cause = self.failsafe_cause()
+        self._failsafe(name)
+
+    def _rtl_is_the_mission_s(self) -> None:
+        self._rtl_pending = None
+        if not self.rtl_item:
+            self.rtl_item = True
+            self._event("mission_rtl", f"PX4 returns to launch: the mission's last item {self.current_seq}",
+                        {"seq": self.current_seq})
+
+    def _judge_rtl(self) -> None:
+        """A pending RTL: the mission's closing item once PX4 reports it there, else a failsafe (grace over)."""
+        pending = self._rtl_pending
+        if pending is None or self.finished is not None:
+            return
+        if self.mode_name == "rtl" and self._at_rtl_item():
+            self._rtl_is_the_mission_s()
+        elif self.mode_name != "rtl" or self.sim_time_us - pending[0] >= RTL_REPORT_GRACE_US:
+            self._rtl_pending = None
+            self._failsafe("rtl", pending[1])
+
+    def _failsafe(self, name: str, cause: str | None = None) -> None:
+        """PX4 left the mission for mode ``name``: a failsafe, caused by PX4's latest warning (or ``cause``)."""
+        cause = self.failsafe_cause() if cause is None else cause
         data: dict[str, object] = {"cause": cause, "action": name, "mode": name, "seq": self.current_seq}
         self._event("failsafe", f"PX4 left the mission: {cause} -> {name}", data)
         self.finished = (RunStatus.FAILSAFE, f"PX4 failsafe: {cause} -> {name} (mission item {self.current_seq})")
@@ -431,6 +458,7 @@ class Px4MissionClient:
         down_since: int | None = None  # sim µs since PX4 is on the ground and disarmed before the mission's end
         while not self._stop.is_set() and self.finished is None:
             self._wait(set(), 0.2)
+            self._judge_rtl()
             done_items = self.mission_done()
             if self.finished is not None:
                 return
@@ -460,9 +488,7 @@ def _landed_early_text(seq: int, n: int, reached: set[int]) -> str:
 
 def _pname(m: Any) -> str:
     pid = m.param_id
-    if isinstance(pid, bytes):
-        pid = pid.decode(errors="replace")
-    return pid.rstrip("\x00")
+    return (pid.decode(errors="replace") if isinstance(pid, bytes) else pid).rstrip("\x00")
 
 
 def _mission_result(code: int) -> str:
