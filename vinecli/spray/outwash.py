@@ -20,6 +20,7 @@ plus one for the share still airborne beyond the far-field model's reach.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -76,6 +77,16 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
     ey = np.where(speed > 0, wind_y / np.maximum(speed, 1e-12), 0.0)
     cols: dict[str, list[np.ndarray]] = {k: [] for k in ("x", "y", "vol", "t_fall", "vx", "vy", "vz", "radius", "src")}
     d_plane = max(float(displacement_m), 0.0)
+    still = speed <= 0.0
+    if x.size and still.all():  # a calm run: every parcel lands where it was released, one bin each
+        keys, inv = np.unique(np.column_stack([top, v_t[:, 0], v_t[:, 1]]), axis=0, return_inverse=True)
+        per_key = np.array([_still_air(float(t), float(lo), float(hi), d_plane, roughness_m, obukhov_m)
+                            for t, lo, hi in keys]).reshape(-1, 2)
+        d = offset + 0.0
+        return {"x": x + 0.0 * d, "y": y + 0.0 * d, "vol": lifted_l * per_key[inv.ravel(), 0],
+                "t_fall": t_fall + per_key[inv.ravel(), 1], "vx": np.array(wind_x, dtype=np.float64),
+                "vy": np.array(wind_y, dtype=np.float64), "vz": np.sqrt(v_t[:, 0] * v_t[:, 1]) + 0.0,
+                "radius": np.array(spread, dtype=np.float64), "src": np.arange(x.size)}
     for i in range(x.size):
         above = max(float(top[i]) - d_plane, 0.0)
         sheltered = 1.0 - above / max(float(top[i]), 1e-9)  # released evenly over [0, top]: the share below d
@@ -113,3 +124,23 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
         cols["radius"].append(radius)
         cols["src"].append(np.full(mass.size, i))
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+
+
+@lru_cache(maxsize=4096)
+def _still_air(top: float, vt_lo: float, vt_hi: float, d_plane: float, roughness_m: float,
+               obukhov_m: float) -> tuple[float, float]:
+    """(landed share, mean time s) of a parcel released evenly over [0, ``top``] m in still air: nothing carries it
+    away, so it all lands where it was released (the loop of :func:`lifted_parcels` with u* = 0, computed once per
+    release layer and size class)."""
+    layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
+    above = max(top - d_plane, 0.0)
+    sheltered = 1.0 - above / max(top, 1e-9)
+    if above > 0.0:
+        mass, _, _, time = landing_bands(layer, (vt_lo, vt_hi), above, REACH_M)
+        mass = mass * (1.0 - sheltered)
+    else:
+        mass, time = np.zeros(0), np.zeros(0)
+    if sheltered > 0.0:
+        m2, _, _, t2 = landing_bands(layer, (vt_lo, vt_hi), min(top, d_plane), REACH_M)
+        mass, time = np.append(mass, sheltered * m2), np.append(time, t2)
+    return float(mass.sum()), float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)
