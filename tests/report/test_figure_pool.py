@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from vinecli.report.render import FigurePool, _pool_context, draw_item
+from vinecli.report.render import _pool_context
 
 
 def test_a_process_running_another_thread_is_not_forked() -> None:
@@ -28,20 +28,33 @@ def test_a_process_running_another_thread_is_not_forked() -> None:
     assert not forks and ctx.get_start_method() in ("forkserver", "spawn")
 
 
+_FORKED = """
+import signal, sys
+from vinecli.report.render import FigurePool, draw_item
+runs = sys.argv[1]
+items = [(runs + "/gust", "fig16"), (runs + "/gust", "map"), (runs + "/takeoff", "map")]
+with FigurePool(2) as pool:
+    assert pool._started is None  # forked at once, from this single-threaded process
+    drawn = [pool.submit(*item).result() for item in items]
+    handlers = pool._ex.submit(signal.getsignal, signal.SIGINT).result(), \\
+        pool._ex.submit(signal.getsignal, signal.SIGTERM).result()
+assert handlers == (signal.SIG_IGN, signal.SIG_DFL), handlers  # the report's process ends the pool
+for item, (run_dir, name, data, note) in zip(items, drawn, strict=True):
+    assert (run_dir, name) == item and data and not note
+    assert data == draw_item(*item)[2]  # byte for byte what this process draws
+print("forked workers drew", len(drawn))
+"""
+
+
 @pytest.mark.skipif(sys.platform != "linux", reason="workers are forked from the report's process on Linux only")
 def test_forked_workers_draw_what_this_process_draws(ci_runs: Path) -> None:
-    if threading.active_count() > 1:
-        pytest.skip("this test process runs other threads (a test runner's): the pool would use its fork server")
-    items = [(str(ci_runs / "gust"), "fig16"), (str(ci_runs / "gust"), "map"), (str(ci_runs / "takeoff"), "map")]
-    with FigurePool(2) as pool:
-        assert pool._started is None  # forked at once, from this thread
-        drawn = [pool.submit(*item).result() for item in items]
-        handlers = pool._ex.submit(signal.getsignal, signal.SIGINT).result(), \
-            pool._ex.submit(signal.getsignal, signal.SIGTERM).result()
-    assert handlers == (signal.SIG_IGN, signal.SIG_DFL)  # the report's process ends the pool, not the CLI's handler
-    for item, (run_dir, name, data, note) in zip(items, drawn, strict=True):
-        assert (run_dir, name) == item and data and not note
-        assert data == draw_item(*item)[2]  # byte for byte what this process draws
+    # in a fresh process: the test runner's own threads (pytest-xdist) would make the pool use its fork server
+    import os
+    import subprocess
+
+    res = subprocess.run([sys.executable, "-c", _FORKED, str(ci_runs)], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "MPLBACKEND": "Agg"})
+    assert res.returncode == 0 and "forked workers drew 3" in res.stdout, res.stderr[-2000:]
 
 
 def _children(pid: int) -> list[int]:

@@ -19,18 +19,24 @@ from vinecli.sitl.px4.backend import Px4SitlAutopilot
 pytestmark = pytest.mark.timeout(240)
 
 
-def test_garbage_on_the_simulator_link_is_resynchronised(world, ports):
+def fly_against_fake(world, ports, mission=None, hang_timeout_s: float = 30.0, **fake_kw):
+    """A run of ``mission`` (default: take off, hover, land) by the real Px4SitlAutopilot against the fake PX4 built
+    with ``fake_kw`` (its faults): (result, fake, wall seconds)."""
     fake = FakePx4(world.vehicle, world.origin, sim_port=ports["sim"], api_local_port=ports["px4"],
-                   api_remote_port=ports["api"], garbage_at_s=4.0).start()
+                   api_remote_port=ports["api"], **fake_kw).start()
     ap = Px4SitlAutopilot(port=ports["sim"], api_port=ports["api"], px4_api_port=ports["px4"], connect_timeout_s=10,
-                          health_timeout_s=20)  # the lockstep: no step timeout, a 30 s hang limit
+                          health_timeout_s=20, hang_timeout_s=hang_timeout_s)
     t0 = time.monotonic()
     try:
-        res = run_simulation(world, takeoff_hover_land(), ap, seed=3)
+        res = run_simulation(world, mission if mission is not None else takeoff_hover_land(), ap, seed=3)
     finally:
         ap.close()
         fake.stop()
-    took = time.monotonic() - t0
+    return res, fake, time.monotonic() - t0
+
+
+def test_garbage_on_the_simulator_link_is_resynchronised(world, ports):
+    res, fake, took = fly_against_fake(world, ports, garbage_at_s=4.0)  # no step timeout, a 30 s hang limit
     assert fake.garbage_sent > 1500
     assert res.status is RunStatus.COMPLETED, (res.status, res.detail)
     assert res.metrics["px4_resyncs"] >= 1 and res.metrics["px4_stalls"] >= res.metrics["px4_resyncs"]
@@ -42,15 +48,7 @@ def test_a_px4_that_lands_and_disarms_before_reporting_the_last_item_ends_the_ru
     """It used to wait for ``max_duration_s``; now the run ends ``aborted`` 3 s (simulated) after the disarm, naming
     the item PX4 was at."""
     mission = takeoff_hover_land()
-    fake = FakePx4(world.vehicle, world.origin, sim_port=ports["sim"], api_local_port=ports["px4"],
-                   api_remote_port=ports["api"], silent_from_item=2).start()
-    ap = Px4SitlAutopilot(port=ports["sim"], api_port=ports["api"], px4_api_port=ports["px4"], connect_timeout_s=10,
-                          health_timeout_s=20)
-    try:
-        res = run_simulation(world, mission, ap, seed=3)
-    finally:
-        ap.close()
-        fake.stop()
+    res, _fake, _took = fly_against_fake(world, ports, mission, silent_from_item=2)
     assert res.status is RunStatus.ABORTED, (res.status, res.detail)
     assert "landed and disarmed before the mission's end: at mission item 1 of" in res.detail
     disarm = next(e.t_us for e in res.events if e.kind == "arming" and e.message == "disarmed") * 1e-6

@@ -8,36 +8,17 @@ step timeout)."""
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
-from tests.sitl.px4.fake_px4 import FakePx4
-from tests.sitl.px4.test_px4_sitl_flight import takeoff_hover_land
+from tests.sitl.px4.test_px4_link_garbage import fly_against_fake
 from vinecli.autopilot.base import RunStatus
-from vinecli.sim.runner import run_simulation
-from vinecli.sitl.px4.backend import Px4SitlAutopilot
 from vinecli.sitl.px4.lockstep import RECOVER_S
 
 pytestmark = pytest.mark.timeout(240)
 
 
-def _fly(world, ports, hang_timeout_s: float = 30.0, **fake_kw):
-    fake = FakePx4(world.vehicle, world.origin, sim_port=ports["sim"], api_local_port=ports["px4"],
-                   api_remote_port=ports["api"], **fake_kw).start()
-    ap = Px4SitlAutopilot(port=ports["sim"], api_port=ports["api"], px4_api_port=ports["px4"], connect_timeout_s=10,
-                          health_timeout_s=20, hang_timeout_s=hang_timeout_s)
-    t0 = time.monotonic()
-    try:
-        res = run_simulation(world, takeoff_hover_land(), ap, seed=3)
-    finally:
-        ap.close()
-        fake.stop()
-    return res, fake, time.monotonic() - t0
-
-
 def test_an_answer_px4_loses_is_recovered_and_the_flight_goes_on(world, ports):
-    res, fake, took = _fly(world, ports, lost_wakeup_at_s=4.0)
+    res, fake, took = fly_against_fake(world, ports, lost_wakeup_at_s=4.0)
     assert fake.lost_answer_t is not None  # the fake left one HIL_SENSOR unanswered, in flight
     assert res.status is RunStatus.COMPLETED, (res.status, res.detail)
     assert res.metrics["px4_lockstep_recoveries"] == 1
@@ -50,7 +31,7 @@ def test_an_answer_px4_loses_is_recovered_and_the_flight_goes_on(world, ports):
 
 
 def test_a_px4_that_answers_nothing_more_still_ends_the_run_at_the_hang_limit(world, ports):
-    res, _fake, took = _fly(world, ports, hang_timeout_s=5.0, silent_after_s=3.0)
+    res, _fake, took = fly_against_fake(world, ports, hang_timeout_s=5.0, silent_after_s=3.0)
     assert res.status is RunStatus.ERROR
     assert "no HIL_ACTUATOR_CONTROLS for 5 s of wall time (hung)" in res.detail, res.detail
     # the last exchange: which HIL_SENSOR went unanswered, PX4's last answer one step before the first of them
