@@ -27,12 +27,14 @@ END_M = 3.0  # a pass end's stretch: a firmware's acceleration or braking at 2 m
 
 
 @pytest.fixture(scope="module")
-def three_way(px4_bin: Path, ardupilot_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:  # noqa: F811
+def three_way(px4_bin: Path, ardupilot_bin: Path, sample_world_dir: Path,  # noqa: F811
+              tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+    """The comparison on worlds/vineyard-sample.yaml as the session built it (``sample_world_dir``)."""
     from vinecli.batch.compare_autopilots import compare_autopilots
 
     out = tmp_path_factory.mktemp("three-way")
     _res, cmp = compare_autopilots(REPO / "pipelines" / "missions" / "spray-two-rows.yaml",
-                                   REPO / "worlds" / "vineyard-sample.yaml", out, workers=3, px4_bin=px4_bin,
+                                   sample_world_dir, out, workers=3, px4_bin=px4_bin,
                                    ardupilot_bin=ardupilot_bin)
     assert cmp is not None
     return cmp, out

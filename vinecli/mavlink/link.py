@@ -251,6 +251,9 @@ class TcpServerLink(Link):
             raise AutopilotError(f"TCP {self.host}:{self.port}: connection to PX4 lost ({exc.strerror or exc})") from None
 
     def _close_sockets(self) -> None:
+        if self._conn is not None:
+            with contextlib.suppress(OSError):
+                self._conn.shutdown(socket.SHUT_RDWR)  # wakes the reader now, not at its next 0.2 s timeout
         for s in (self._conn, self._srv):
             if s is not None:
                 with contextlib.suppress(OSError):
@@ -348,6 +351,8 @@ class UdpLink(Link):
                 continue
             except OSError:
                 break
+            if self._stop.is_set():  # closing (the wake-up datagram of close())
+                break
             self.last_sender = (addr[0], addr[1])
             if self.reply_to_sender:
                 self.remote = self.last_sender
@@ -362,6 +367,8 @@ class UdpLink(Link):
             log.debug("UDP send to %s failed: %s", self.remote, exc)
 
     def _close_sockets(self) -> None:
+        with contextlib.suppress(OSError):  # an empty datagram wakes the reader now, not at its next 0.2 s timeout
+            self._sock.sendto(b"", self._sock.getsockname())
         self._sock.close()
 
 

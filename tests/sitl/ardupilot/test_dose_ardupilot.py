@@ -19,11 +19,12 @@ pytestmark = [pytest.mark.ardupilot, pytest.mark.timeout(2400)]
 
 
 @pytest.fixture(scope="module")
-def ap_dose(ardupilot_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def ap_dose(ardupilot_bin: Path, sample_world_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """pipelines/dose-ardupilot.yaml on its world as the session built it (``sample_world_dir``)."""
     from vinecli.batch import run_batch
 
     out = tmp_path_factory.mktemp("dose-ardupilot")
-    run_batch(REPO / "pipelines" / "dose-ardupilot.yaml", out, workers=2, ardupilot_bin=ardupilot_bin)
+    run_batch(REPO / "pipelines" / "dose-ardupilot.yaml", out, workers=2, world=sample_world_dir, ardupilot_bin=ardupilot_bin)
     return out
 
 

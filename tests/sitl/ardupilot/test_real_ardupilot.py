@@ -28,12 +28,14 @@ pytestmark = [pytest.mark.ardupilot, pytest.mark.timeout(900)]
 
 
 @pytest.fixture(scope="module")
-def ci_ardupilot(ardupilot_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    """pipelines/ci-ardupilot.yaml run once with --workers 2 (three ArduPilot processes, two at a time)."""
+def ci_ardupilot(ardupilot_bin: Path, sample_world_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+    """pipelines/ci-ardupilot.yaml run once with --workers 2 (three ArduPilot processes, two at a time), on its
+    world as the session built it (``sample_world_dir``)."""
     from vinecli.batch import run_batch
 
     out = tmp_path_factory.mktemp("ci-ardupilot")
-    return run_batch(REPO / "pipelines" / "ci-ardupilot.yaml", out, workers=2, ardupilot_bin=ardupilot_bin), out
+    return run_batch(REPO / "pipelines" / "ci-ardupilot.yaml", out, workers=2, world=sample_world_dir,
+                     ardupilot_bin=ardupilot_bin), out
 
 
 def _summary(out: Path, case: str) -> dict[str, Any]:
@@ -56,6 +58,9 @@ def test_ci_ardupilot_passes_every_check_and_the_runs_are_audited(ci_ardupilot, 
         assert any(k["name"] == "ardupilot_stalls" and k.get("implicit") for k in s["checks"])  # a stall fails the run
         names = {Path(f).name for f in fw["files"]}
         assert {"vinecli.parm", "ardupilot.log"} <= names and any(n.endswith(".BIN") for n in names)
+        # stopped by SIGTERM, its clock moved on so that it could act on it: it exited by itself, its log closed
+        # (a frame left unanswered held it until the SIGKILL 3 s later)
+        assert "Exitting" in (out / c.case / "firmware" / "ardupilot.log").read_text()
         listed = json.dumps(json.loads((out / c.case / "manifest.json").read_text()))
         assert all(Path(f).name in listed for f in fw["files"])  # the kept files are in the manifest
         kinds = {e["kind"] for e in _events(out / c.case)}
@@ -119,7 +124,8 @@ def test_the_battery_arducopter_logged_is_the_simulated_pack(ci_ardupilot):
     assert np.median(di) < 0.05 * np.median(ts["battery_current_a"]) and min(v for _, v, _ in flying) > 13.0
 
 
-def test_compared_with_the_builtin_beside_a_cpu_hog_it_is_the_same_flight(ci_ardupilot, ardupilot_bin, tmp_path):
+def test_compared_with_the_builtin_beside_a_cpu_hog_it_is_the_same_flight(ci_ardupilot, ardupilot_bin, sample_world_dir,
+                                                                          tmp_path):
     """``run compare`` of the takeoff case (built-in vs ArduPilot, the batch's seed) beside twice as many busy
     processes as CPUs: the ArduPilot run is the batch's flight to the bit (lockstep: the load changes nothing),
     and the comparison (table, figure, report section) is written."""
@@ -130,7 +136,7 @@ def test_compared_with_the_builtin_beside_a_cpu_hog_it_is_the_same_flight(ci_ard
     result, out = ci_ardupilot
     case = next(c for c in result.cases if c.case == "takeoff")
     with cpu_hog(2.0):
-        res, cmp = compare_autopilots(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
+        res, cmp = compare_autopilots(REPO / "pipelines" / "missions" / "takeoff.yaml", sample_world_dir,
                                       tmp_path / "cmp", autopilots=("builtin", "ardupilot"), seed=case.seed, workers=2,
                                       ardupilot_bin=ardupilot_bin)
     assert res.passed and cmp is not None

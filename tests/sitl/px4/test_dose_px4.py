@@ -19,11 +19,12 @@ pytestmark = [pytest.mark.px4, pytest.mark.timeout(1200)]
 
 
 @pytest.fixture(scope="module")
-def px4_dose(px4_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+def px4_dose(px4_bin: Path, sample_world_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+    """pipelines/dose-px4.yaml on its world as the session built it (``sample_world_dir``)."""
     from vinecli.batch import run_batch
 
     out = tmp_path_factory.mktemp("dose-px4")
-    return run_batch(REPO / "pipelines" / "dose-px4.yaml", out, workers=2, px4_bin=px4_bin), out
+    return run_batch(REPO / "pipelines" / "dose-px4.yaml", out, workers=2, world=sample_world_dir, px4_bin=px4_bin), out
 
 
 def _summary(out: Path, case: str) -> dict[str, Any]:

@@ -27,12 +27,13 @@ pytestmark = [pytest.mark.px4, pytest.mark.timeout(300)]
 
 
 @pytest.fixture(scope="module")
-def ci_px4(px4_bin: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
-    """pipelines/ci-px4.yaml run once with --workers 2 (four PX4 processes, two at a time)."""
+def ci_px4(px4_bin: Path, sample_world_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Path]:
+    """pipelines/ci-px4.yaml run once with --workers 2 (four PX4 processes, two at a time), on its world
+    (worlds/vineyard-sample.yaml) as the session built it once for every test (``sample_world_dir``)."""
     from vinecli.batch import run_batch
 
     out = tmp_path_factory.mktemp("ci-px4")
-    return run_batch(REPO / "pipelines" / "ci-px4.yaml", out, workers=2, px4_bin=px4_bin), out
+    return run_batch(REPO / "pipelines" / "ci-px4.yaml", out, workers=2, world=sample_world_dir, px4_bin=px4_bin), out
 
 
 def _events(run_dir: Path) -> list[dict[str, Any]]:
@@ -79,7 +80,7 @@ def test_ci_px4_pipeline_passes_every_check_in_parallel(ci_px4, px4_bin):
     assert abs(alt["value"] - 8.0) <= 0.2  # NAV_MC_ALT_RAD = the phase's tolerance_m (PX4 default 0.8 m)
 
 
-def test_a_case_beside_a_cpu_hog_gets_the_same_verdict(ci_px4, px4_bin, tmp_path):
+def test_a_case_beside_a_cpu_hog_gets_the_same_verdict(ci_px4, px4_bin, sample_world_dir, tmp_path):
     """The takeoff case again beside twice as many busy processes as CPUs: every wait on PX4 is the lockstep
     or simulated time, so the same checks pass with no stall (PX4's mission link runs in its own threads,
     so the flight may shift by a few steps; the verdict may not)."""
@@ -90,7 +91,7 @@ def test_a_case_beside_a_cpu_hog_gets_the_same_verdict(ci_px4, px4_bin, tmp_path
     result, out = ci_px4
     case = next(c for c in result.cases if c.case == "takeoff")
     with cpu_hog(2.0):
-        s = run_mission(RunRequest(REPO / "pipelines" / "missions" / "takeoff.yaml", out / "_worlds" / "vineyard-sample",
+        s = run_mission(RunRequest(REPO / "pipelines" / "missions" / "takeoff.yaml", sample_world_dir,
                                    tmp_path, seed=case.seed, autopilot="px4", run_id="hog",
                                    autopilot_options=AutopilotOptions(px4_bin=str(px4_bin))))
     quiet = json.loads((out / "takeoff" / "summary.json").read_text())
@@ -235,13 +236,13 @@ def test_px4_dying_mid_flight_keeps_a_run_directory(px4_bin, tmp_path):
     assert (tmp_path / "runs" / "killed" / "timeseries.parquet").is_file()
 
 
-def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, tmp_path):
+def test_px4_and_builtin_fly_the_same_missions_alike(ci_px4, sample_world_dir, tmp_path):
     """Behaviour comparison (BENCHMARKS.md): the built-in autopilot on the same cases, world and seeds."""
     from vinecli.runs import RunRequest, run_mission
     from vinecli.runs.behaviour import behaviour_figures
 
     _result, out = ci_px4
-    world = next(p for p in (out / "_worlds").iterdir() if p.is_dir())  # beside the .vinecli marker
+    world = sample_world_dir  # the world the batch flew
     pipeline_dir = REPO / "pipelines"
     missions = {"takeoff": "missions/takeoff.yaml", "gust": "missions/gust.yaml", "spray-rows": "missions/px4/spray-rows.yaml"}
     fig: dict[str, dict[str, dict[str, float | None]]] = {}

@@ -131,7 +131,8 @@ class ArdupilotSitlAutopilot:
         self.boot_s = 0.0
         self._last_count: int | None = None
         self._frame: ServoFrame | None = None
-        self._line = b""
+        self._truth: RigidState | None = None  # the state of the last answer
+        self._answered: int | None = None  # the count of the last frame answered
         self._batt_us = -10**12
         self._booted = False
         self._stopping = False
@@ -218,16 +219,22 @@ class ArdupilotSitlAutopilot:
     def _answer(self, tr: RigidState) -> None:
         """The JSON answer to the pending frame: the state after one more physics step."""
         assert self.json is not None
+        self._truth = tr
+        line = self._state_line(tr)
+        self._deliver_mavlink()
+        self.json.answer(line)
+        self._answered = self._last_count
+
+    def _state_line(self, tr: RigidState) -> bytes:
+        """The JSON line of state ``tr`` one physics step after the last answer (counts the answer)."""
         self.answers += 1
         hx, hy, hz = self.frame.home_enu
         gamma = self.ctx.origin.convergence_rad  # world (CRS grid) -> true north
         p = grid_to_ned((tr.pos[0] - hx, tr.pos[1] - hy, tr.pos[2] - hz), gamma)
         sf = flu_to_frd(quat_rotate_inv(tr.quat, (tr.acc[0], tr.acc[1], tr.acc[2] + STANDARD_GRAVITY)))
         q = xyzw_to_wxyz(attitude_grid_to_ned_frd(tr.quat, gamma))
-        self._line = state_line(timestamp_s(self.answers, self.dt_us), flu_to_frd(tr.omega_body), sf, p,
-                                grid_to_ned(tr.vel, gamma), q)
-        self._deliver_mavlink()
-        self.json.answer(self._line)
+        return state_line(timestamp_s(self.answers, self.dt_us), flu_to_frd(tr.omega_body), sf, p,
+                          grid_to_ned(tr.vel, gamma), q)
 
     def _deliver_mavlink(self) -> None:
         """Before ArduPilot's clock moves: every MAVLink byte sent is in its socket (:mod:`vinecli.sitl.delivery`),
@@ -353,14 +360,18 @@ class ArdupilotSitlAutopilot:
         return ev
 
     def _answer_while_stopping(self) -> None:
-        """While ArduPilot shuts down: answer its frames with the last state (its clock must move to exit)."""
-        if self.json is None or not self._line:
+        """While ArduPilot shuts down: answer each frame not answered yet (the one the run ended on first, at once),
+        the last state one step later each time: ArduPilot only sees the SIGTERM in its main loop, which runs only
+        as its clock moves (measured: a frame left unanswered kept it from exiting until the SIGKILL 3 s later)."""
+        if self.json is None or self._truth is None:
             return
-        frame = self.json.recv_frame(0.05)
-        if frame is not None and frame.count != self._last_count:
+        if self._last_count is None or self._answered == self._last_count:
+            frame = self.json.recv_frame(0.05)
+            if frame is None or frame.count == self._answered:
+                return
             self._last_count = frame.count
-            self.answers += 1
-            self.json.answer(self._line)
+        self._answered = self._last_count
+        self.json.answer(self._state_line(self._truth))
 
     def close(self) -> None:
         """Stop ArduPilot (SIGTERM, answering its frames so it can exit and close its log; SIGKILL after 3 s),

@@ -152,9 +152,9 @@ class Px4MissionClient:
 
     def close(self) -> None:
         self._stop.set()
+        self.link.close()  # its reader first (woken at once), while this client's thread sees the stop flag
         if self._thread is not None:
             self._thread.join(timeout=2.0)
-        self.link.close()
 
     def drain_events(self) -> list[tuple[str, str, dict[str, object]]]:
         with self._lock:
