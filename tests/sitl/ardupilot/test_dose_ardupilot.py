@@ -12,9 +12,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import yaml
 
-from tests.repo_paths import REPO
+from tests.sitl.pipeline_subset import pipeline_subset
 
 pytestmark = [pytest.mark.ardupilot, pytest.mark.timeout(2400)]
 
@@ -25,11 +24,7 @@ def ap_dose(ardupilot_bin: Path, sample_world_dir: Path, tmp_path_factory: pytes
     by none, is left out: ~20 s of flight after the two), on its world as the session built it (``sample_world_dir``)."""
     from vinecli.batch import run_batch
 
-    doc = yaml.safe_load((REPO / "pipelines" / "dose-ardupilot.yaml").read_text())
-    doc["missions"] = [str(REPO / "pipelines" / m) for m in doc["missions"] if Path(m).stem in ("zones", "grid")]
-    doc["world"] = str(sample_world_dir)
-    pipeline = tmp_path_factory.mktemp("dose-ardupilot-pipeline") / "dose-ardupilot.yaml"
-    pipeline.write_text(yaml.safe_dump(doc))
+    pipeline = pipeline_subset("dose-ardupilot", ("zones", "grid"), sample_world_dir, tmp_path_factory.mktemp("dose-ardupilot-pipeline"))
     out = tmp_path_factory.mktemp("dose-ardupilot")
     run_batch(pipeline, out, workers=2, ardupilot_bin=ardupilot_bin)
     return out

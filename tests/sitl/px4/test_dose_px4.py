@@ -12,9 +12,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import yaml
 
-from tests.repo_paths import REPO
+from tests.sitl.pipeline_subset import pipeline_subset
 
 pytestmark = [pytest.mark.px4, pytest.mark.timeout(1200)]
 
@@ -26,11 +25,7 @@ def px4_dose(px4_bin: Path, sample_world_dir: Path, tmp_path_factory: pytest.Tem
     (``sample_world_dir``)."""
     from vinecli.batch import run_batch
 
-    doc = yaml.safe_load((REPO / "pipelines" / "dose-px4.yaml").read_text())
-    doc["missions"] = [str(REPO / "pipelines" / m) for m in doc["missions"] if Path(m).stem in ("zones", "lwa")]
-    doc["world"] = str(sample_world_dir)
-    pipeline = tmp_path_factory.mktemp("dose-px4-pipeline") / "dose-px4.yaml"
-    pipeline.write_text(yaml.safe_dump(doc))
+    pipeline = pipeline_subset("dose-px4", ("zones", "lwa"), sample_world_dir, tmp_path_factory.mktemp("dose-px4-pipeline"))
     out = tmp_path_factory.mktemp("dose-px4")
     return run_batch(pipeline, out, workers=2, px4_bin=px4_bin), out
 
