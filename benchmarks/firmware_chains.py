@@ -56,7 +56,7 @@ def run_chain(checkout: Path, ids: list[str], log: Path, phases: Path | None) ->
                         "-p", "no:cacheprovider", *plugin, "-q", "-rfE", "--durations=0", *ids],
                        cwd=checkout, env=env, stdout=out, stderr=subprocess.STDOUT)
     wall = time.monotonic() - t0
-    found = re.findall(r"=+ (.*(?:passed|failed|error).*) in [0-9.]+s", log.read_text())
+    found = re.findall(r"^=* ?(\d+ (?:passed|failed|error).*) in [0-9.]+s", log.read_text(), re.MULTILINE)
     return wall, found[-1] if found else "no summary", f"{load0:.1f} -> {os.getloadavg()[0]:.1f}"
 
 
