@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import logging
 import math
+import struct
 import threading
 import time
 from typing import Any
@@ -60,6 +61,9 @@ SEVERITY_WARNING = 4  # MAV_SEVERITY: 0 EMERGENCY ... 4 WARNING
 #: ~0.05 s (simulated) after the PARAM_SETs left the sprayer unmapped for the whole flight in 2 of 3
 #: runs (PX4 v1.15.4, seed 606006878), never with this delay. Arm no earlier than this after them.
 PARAM_SETTLE_US = 2_000_000
+#: wall s a parameter's confirmation is waited for at least, sent again every 1 s of PX4's clock (3 sends alone were
+#: too few when the lockstep outran PX4's starved MAVLink thread: at load 8-10 EKF2_HGT_REF went unconfirmed)
+PARAM_WALL_S = 10.0
 #: PX4 on the ground and disarmed before the mission's end for this long (simulated; its MISSION_CURRENT and
 #: HEARTBEAT come at 1 Hz) ends the run as aborted: it will not fly on
 EARLY_LANDING_GRACE_US = 3_000_000
@@ -347,14 +351,10 @@ class Px4MissionClient:
 
     def set_param(self, name: str, value: float | int) -> None:
         is_int = isinstance(value, int) or name in INT_PARAMS or name.startswith("PWM_")
-        if is_int:
-            import struct
-
-            wire = struct.unpack("<f", struct.pack("<i", int(value)))[0]
-            ptype = 6
-        else:
-            wire, ptype = float(value), 9
-        for _ in range(3):
+        wire, ptype = (struct.unpack("<f", struct.pack("<i", int(value)))[0], 6) if is_int else (float(value), 9)
+        tries, give_up = 0, time.monotonic() + PARAM_WALL_S
+        while not self._stop.is_set() and (tries < 3 or time.monotonic() < give_up):
+            tries += 1
             self.link.send(self.link.mav.param_set_encode(self.target, 1, name.encode(), wire, ptype))
             pv = self._wait({"PARAM_VALUE"}, self.command_timeout_s, lambda m: _pname(m) == name)
             if pv is not None:
