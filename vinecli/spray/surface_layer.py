@@ -84,6 +84,8 @@ class SurfaceLayer:
 def _psi_m(zeta: np.ndarray | float) -> np.ndarray:
     """Integrated stability function of momentum (Businger–Dyer; Paulson 1970 for ζ < 0)."""
     zeta = np.asarray(zeta, dtype=np.float64)
+    if not (zeta < 0).any():  # neutral or stable air (the default L = inf): the unstable form is not needed
+        return np.asarray(-5.0 * zeta)
     x = np.power(np.maximum(1.0 - 16.0 * np.minimum(zeta, 0.0), 1.0), 0.25)
     unstable = 2.0 * np.log((1.0 + x) / 2.0) + np.log((1.0 + x * x) / 2.0) - 2.0 * np.arctan(x) + math.pi / 2.0
     return np.where(zeta < 0, unstable, -5.0 * zeta)
@@ -91,6 +93,8 @@ def _psi_m(zeta: np.ndarray | float) -> np.ndarray:
 
 def _phi_h(zeta: np.ndarray) -> np.ndarray:
     """Dimensionless gradient of scalars (Businger–Dyer): 1 + 5ζ stable, (1 - 16ζ)^-1/2 unstable."""
+    if not (zeta < 0).any():  # neutral or stable air: the unstable form is not needed
+        return 1.0 + 5.0 * np.maximum(zeta, 0.0)
     return np.where(zeta < 0, 1.0 / np.sqrt(np.maximum(1.0 - 16.0 * zeta, 1.0)), 1.0 + 5.0 * np.maximum(zeta, 0.0))
 
 
