@@ -163,34 +163,34 @@ def _ensemble(layer: SurfaceLayer, vt_range: tuple[float, float], top: float, x_
     v_t = lo * (hi / lo) ** rng.permutation((np.arange(n) + 0.5) / n)  # the class's speeds, evenly in log
     x = np.zeros(n)
     t = np.zeros(n)
-    live = np.ones(n, dtype=bool)
     if layer.ustar < 1e-3 or top <= z_floor:  # no turbulence: each drop settles straight down
         fall = np.maximum(z - z_floor, 0.0) / v_t
         xx = layer.wind(0.5 * (z + z_floor)) * fall
         return xx, fall, xx <= x_max
     sw = layer.sigma_w(z)
     w = sw * rng.standard_normal(n)
+    # the airborne drops' state, kept compacted in index order (the arithmetic and the random draws of gathering
+    # them from the whole ensemble every step, without the gathers); a drop that lands or leaves is written back
+    idx, zi, wi, vt, xi, ti = np.arange(n), z, w, v_t, x, t
     for _ in range(MAX_STEPS):
-        idx = np.flatnonzero(live)
         if idx.size == 0:
             break
-        zi = z[idx]
         sw = layer.sigma_w(zi)
         tl = layer.diffusivity(zi) / (sw * sw)
-        vt = v_t[idx]
         tp = tl / np.sqrt(1.0 + (vt / sw) ** 2)
-        dt = np.maximum(np.minimum(0.1 * tp, 0.2 * (zi - z_floor + 0.02) / (np.abs(w[idx]) + vt + 1e-3)), 1e-3)
+        dt = np.maximum(np.minimum(0.1 * tp, 0.2 * (zi - z_floor + 0.02) / (np.abs(wi) + vt + 1e-3)), 1e-3)
         dsw2 = _dsigma2_dz(layer, zi)
-        wi = w[idx]
         wi = wi + (-wi / tp + 0.5 * (1.0 + wi * wi / (sw * sw)) * dsw2) * dt + np.sqrt(2.0 * sw * sw / tp * dt) * (
             rng.standard_normal(idx.size))
-        w[idx] = wi
-        z[idx] = zi + (wi - vt) * dt
-        x[idx] += layer.wind(zi) * dt
-        t[idx] += dt
-        landed = z[idx] <= z_floor
-        gone = x[idx] > x_max
-        live[idx[landed | gone]] = False
+        xi = xi + layer.wind(zi) * dt
+        zi = zi + (wi - vt) * dt
+        ti = ti + dt
+        done = (zi <= z_floor) | (xi > x_max)
+        if done.any():
+            x[idx[done]], t[idx[done]] = xi[done], ti[done]
+            keep = ~done
+            idx, zi, wi, vt, xi, ti = idx[keep], zi[keep], wi[keep], vt[keep], xi[keep], ti[keep]
+    x[idx], t[idx] = xi, ti
     # drops still airborne after MAX_STEPS (a few, within centimetres of the ground) land where they are
     return x, t, x <= x_max
 
