@@ -113,7 +113,7 @@ def landing_bands(layer: SurfaceLayer, v_t: tuple[float, float], release_top_m: 
                   float(f"{v_t[0]:.3g}"), float(f"{v_t[1]:.3g}"), round(release_top_m, 2), round(x_max_m))
 
 
-@lru_cache(maxsize=512)
+@lru_cache(maxsize=4096)  # a gusty or turbulent run asks for thousands (3,212 in the golden laws run), ~2 kB each
 def _bands(ustar: float, z0: float, obukhov_m: float, vt_lo: float, vt_hi: float, top: float,
            x_max: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     x, t, landed = _ensemble(SurfaceLayer(ustar, z0, obukhov_m), (vt_lo, vt_hi), top, x_max)
