@@ -1,9 +1,11 @@
 """Where the test suite's time goes: reads the output of ``pytest --durations=0`` (one or two runs) and prints the
 slowest tests, the seconds per file and per scheduling scope (tests/xdist_scopes.py: a module, or a firmware's
 chain of real-firmware tests), and the run's wall time; ``--write-scopes`` writes the seconds per scope to
-tests/scope_seconds.json, which the scheduler of tests/conftest.py reads to start the longest scopes first.
+tests/scope_seconds.json, which the scheduler of tests/conftest.py reads to start the longest scopes first;
+``--rescale-scopes`` (two runs of some scopes, before and after a change, on one machine in one session) keeps the
+table's whole-suite figures and multiplies each scope of both runs by its after/before ratio.
 
-    python benchmarks/suite_durations.py before.txt [after.txt] [--top 20] [--write-scopes]
+    python benchmarks/suite_durations.py before.txt [after.txt] [--top 20] [--write-scopes | --rescale-scopes]
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ def main() -> None:
     ap.add_argument("runs", nargs="+", type=Path, help="pytest --durations=0 outputs (before [after])")
     ap.add_argument("--top", type=int, default=20)
     ap.add_argument("--write-scopes", action="store_true", help=f"write {SCOPE_SECONDS.relative_to(REPO)}")
+    ap.add_argument("--rescale-scopes", action="store_true",
+                    help=f"multiply the scopes of both runs in {SCOPE_SECONDS.relative_to(REPO)} by after/before")
     a = ap.parse_args()
     runs = [read_durations(p) for p in a.runs]
     for path, (rows, summary) in zip(a.runs, runs, strict=True):
@@ -65,8 +69,20 @@ def main() -> None:
             print(f"  {before.get(f, 0.0):7.1f} -> {after.get(f, 0.0):7.1f}  {f}")
     if a.write_scopes:
         scopes = sums(runs[-1][0], lambda n: scope_of(REPO, n))
-        SCOPE_SECONDS.write_text(json.dumps({k: round(v, 1) for k, v in scopes.items()}, indent=1) + "\n")
-        print(f"\nwrote {SCOPE_SECONDS} ({len(scopes)} scopes)")
+        _write_scopes(scopes)
+    if a.rescale_scopes and len(runs) == 2:
+        before, after = (sums(rows, lambda n: scope_of(REPO, n)) for rows, _ in runs)
+        scopes = json.loads(SCOPE_SECONDS.read_text())
+        for scope in before.keys() & after.keys() & scopes.keys():
+            print(f"  {scopes[scope]:7.1f} -> {scopes[scope] * after[scope] / before[scope]:7.1f}  {scope}")
+            scopes[scope] *= after[scope] / before[scope]
+        _write_scopes(scopes)
+
+
+def _write_scopes(scopes: dict[str, float]) -> None:
+    ordered = dict(sorted(scopes.items(), key=lambda kv: -kv[1]))
+    SCOPE_SECONDS.write_text(json.dumps({k: round(v, 1) for k, v in ordered.items()}, indent=1) + "\n")
+    print(f"\nwrote {SCOPE_SECONDS} ({len(scopes)} scopes)")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import ast
 import re
+from collections.abc import Iterator
 from pathlib import Path
+
+import pytest
 
 from tests.repo_paths import REPO
 
@@ -33,6 +36,25 @@ LAYER_OF = {unit: i for i, units in enumerate(LAYERS) for unit in units}
 PKG = REPO / "vinecli"
 
 
+#: the syntax trees of the texts this module's tests parsed (several rules read every file of vinecli/: each parses
+#: it once), kept while the module runs; the trees are only read
+_TREES: dict[str, ast.Module] = {}
+
+
+def _parse(text: str, name: str = "<unknown>") -> ast.Module:
+    """``ast.parse(text, name)``, once per text while this module's tests run."""
+    tree = _TREES.get(text)
+    if tree is None:
+        tree = _TREES[text] = ast.parse(text, name)
+    return tree
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _trees_forgotten_after_the_module() -> Iterator[None]:
+    yield
+    _TREES.clear()
+
+
 def _module_name(path: Path) -> str:
     parts = path.relative_to(REPO).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
@@ -43,7 +65,7 @@ def _imports(path: Path, module: str, modules: set[str]) -> set[str]:
     ``from vinecli.x import y`` depends on module ``vinecli.x.y`` when that is a module, else on ``vinecli.x``."""
     found: set[str] = set()
     package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(_parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -177,7 +199,7 @@ def _private_uses(path: Path, module: str, modules: set[str]) -> list[tuple[int,
     ``from vinecli.x import _name``, a private module in an import path (``vinecli.x._mod``), or read as an
     attribute of an imported vinecli module (``import vinecli.x as m; m._name``)."""
     package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
-    tree = ast.parse(path.read_text(), str(path))
+    tree = _parse(path.read_text(), str(path))
     found: list[tuple[int, str]] = []
     aliases: dict[str, str] = {}  # local name -> vinecli module it is bound to
     for node in ast.walk(tree):
@@ -256,7 +278,7 @@ def _wide_without_reason(text: str) -> list[tuple[int, str, int]]:
     :data:`WIDE_REASON` comment: in the comment block right above it (above its decorators) or in its signature."""
     lines = text.splitlines()
     out = []
-    for node in ast.walk(ast.parse(text)):
+    for node in ast.walk(_parse(text)):
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and _parameter_count(node) > MAX_PARAMETERS:
             top = min([node.lineno, *(d.lineno for d in node.decorator_list)]) - 1  # 0-based index of the first line
             above = top - 1
@@ -295,7 +317,7 @@ def _any_annotated(text: str) -> list[tuple[int, str]]:
         return "Any" in words.split("|") or words.strip("'\"") == "Any"
 
     out = []
-    for node in ast.walk(ast.parse(text)):
+    for node in ast.walk(_parse(text)):
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
             a = node.args
             out += [(x.lineno, x.arg) for x in a.posonlyargs + a.args + a.kwonlyargs
@@ -339,7 +361,7 @@ def _sizes() -> tuple[dict[str, int], list[tuple[str, str, int]]]:
         rel = path.relative_to(REPO).as_posix()
         text = path.read_text()
         files[rel] = len(text.splitlines())
-        for node in ast.walk(ast.parse(text, rel)):
+        for node in ast.walk(_parse(text, rel)):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 n = (node.end_lineno or node.lineno) - node.lineno + 1
                 if n > MAX_FUNCTION_LINES:
@@ -377,7 +399,7 @@ def _in_family(path: str) -> bool:
 def test_every_package_says_what_lives_there_and_what_it_may_import() -> None:
     """Each package's ``__init__.py`` has a docstring, and it says what the package may import."""
     silent = sorted(p.relative_to(REPO).as_posix() for p in PKG.rglob("__init__.py")
-                    if "may import" not in " ".join((ast.get_docstring(ast.parse(p.read_text())) or "").lower().split()))
+                    if "may import" not in " ".join((ast.get_docstring(_parse(p.read_text(), str(p))) or "").lower().split()))
     assert not silent, f"packages whose __init__ docstring does not say what they may import: {silent}"
 
 

@@ -111,6 +111,14 @@ class Field:
         return self.grass_m * clumps * (strip & block)
 
 
+def _window(x: np.ndarray, y: np.ndarray, cx: float, cy: float, r: float) -> tuple[slice, slice]:
+    """The (rows, columns) of the grid with cell centres ``x[i]``, ``y[j]`` (ascending, m) that hold every cell
+    within ``r`` (m) of (``cx``, ``cy``), with a cell to spare on each side."""
+    i0, i1 = np.searchsorted(x, [cx - r, cx + r])
+    j0, j1 = np.searchsorted(y, [cy - r, cy + r])
+    return slice(max(int(j0) - 1, 0), int(j1) + 1), slice(max(int(i0) - 1, 0), int(i1) + 1)
+
+
 def lateral_errors(row: list[tuple[float, float]], truth: np.ndarray, end_margin_m: float = 0.3) -> np.ndarray:
     """Distances (m) from points along a detected row (every 5 cm) to the true centre line, for the points
     whose projection falls inside the true line (``end_margin_m`` from its ends)."""
@@ -187,19 +195,23 @@ class YoungCrop:
         z += self.rough_m * fine / fine.std() + 1.5 * self.rough_m * gaussian_filter(rng.normal(size=X.shape), 15) / 0.02
         for _ in range(int(self.width_m * self.height_m * 3)):  # clods
             cx, cy, r = rng.uniform(x[0], x[-1]), rng.uniform(y[0], y[-1]), rng.uniform(0.02, 0.06)
-            d2 = (X - cx) ** 2 + (Y - cy) ** 2
-            z += np.where(d2 < r * r, rng.uniform(0.01, 0.04) * np.sqrt(np.clip(1 - d2 / (r * r), 0, 1)), 0.0)
+            w = _window(x, y, cx, cy, r)  # the cells a clod can touch: the same values as the whole grid's
+            d2 = (X[w] - cx) ** 2 + (Y[w] - cy) ** 2
+            z[w] += np.where(d2 < r * r, rng.uniform(0.01, 0.04) * np.sqrt(np.clip(1 - d2 / (r * r), 0, 1)), 0.0)
         canopy = np.zeros_like(z)
+        cos, sin = math.cos(math.radians(self.direction_deg)), math.sin(math.radians(self.direction_deg))
         for sc in self.row_offsets():
             tt = float(t.min()) + rng.uniform(0, self.step_m)
             while tt < t.max():
                 if rng.random() > self.missing:
                     r, h = self.radius_m * rng.uniform(0.6, 1.3), self.tall_m * rng.uniform(0.5, 1.4)
                     ps, pt = sc + rng.normal(0, 0.02), tt + rng.normal(0, 0.02)
-                    sel = (np.abs(s - ps) < r) & (np.abs(t - pt) < r)
-                    d2 = (s[sel] - ps) ** 2 + (t[sel] - pt) ** 2
+                    w = _window(x, y, pt * cos - ps * sin, pt * sin + ps * cos, r * math.sqrt(2.0))
+                    sw, tw, cw = s[w], t[w], canopy[w]  # the plant's square lies inside this window
+                    sel = (np.abs(sw - ps) < r) & (np.abs(tw - pt) < r)
+                    d2 = (sw[sel] - ps) ** 2 + (tw[sel] - pt) ** 2
                     leaf = h * np.clip(1 - d2 / (r * r), 0, 1) ** 0.5 * (0.6 + 0.4 * rng.random(d2.shape))
-                    canopy[sel] = np.maximum(canopy[sel], leaf)
+                    cw[sel] = np.maximum(cw[sel], leaf)
                 tt += self.step_m * rng.uniform(0.7, 1.3)
         z = z + canopy
         for sc in self.row_offsets()[::4]:  # wheel tracks

@@ -98,8 +98,8 @@ def test_dsm_heightmap_world(bumpy_worlds):
     assert size[0] == pytest.approx(24.0, abs=1e-6)  # 240 pixel spacings of 0.1 m
 
 
-def test_vineyard_sample_builds_from_the_repo(repo, tmp_path):
-    d = build_world(repo / "worlds" / "vineyard-sample.yaml", tmp_path / "vy")
+def test_vineyard_sample_builds_from_the_repo(sample_world_dir):
+    d = sample_world_dir  # build_world of worlds/vineyard-sample.yaml, built once per session (tests/conftest.py)
     w = load_world(d)
     assert w.terrain.kind == "tiles"
     xmin, ymin, xmax, ymax = w.terrain.bounds

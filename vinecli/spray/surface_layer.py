@@ -84,6 +84,8 @@ class SurfaceLayer:
 def _psi_m(zeta: np.ndarray | float) -> np.ndarray:
     """Integrated stability function of momentum (Businger–Dyer; Paulson 1970 for ζ < 0)."""
     zeta = np.asarray(zeta, dtype=np.float64)
+    if not (zeta < 0).any():  # neutral or stable air (the default L = inf): the unstable form is not needed
+        return np.asarray(-5.0 * zeta)
     x = np.power(np.maximum(1.0 - 16.0 * np.minimum(zeta, 0.0), 1.0), 0.25)
     unstable = 2.0 * np.log((1.0 + x) / 2.0) + np.log((1.0 + x * x) / 2.0) - 2.0 * np.arctan(x) + math.pi / 2.0
     return np.where(zeta < 0, unstable, -5.0 * zeta)
@@ -91,6 +93,8 @@ def _psi_m(zeta: np.ndarray | float) -> np.ndarray:
 
 def _phi_h(zeta: np.ndarray) -> np.ndarray:
     """Dimensionless gradient of scalars (Businger–Dyer): 1 + 5ζ stable, (1 - 16ζ)^-1/2 unstable."""
+    if not (zeta < 0).any():  # neutral or stable air: the unstable form is not needed
+        return 1.0 + 5.0 * np.maximum(zeta, 0.0)
     return np.where(zeta < 0, 1.0 / np.sqrt(np.maximum(1.0 - 16.0 * zeta, 1.0)), 1.0 + 5.0 * np.maximum(zeta, 0.0))
 
 
@@ -109,7 +113,7 @@ def landing_bands(layer: SurfaceLayer, v_t: tuple[float, float], release_top_m: 
                   float(f"{v_t[0]:.3g}"), float(f"{v_t[1]:.3g}"), round(release_top_m, 2), round(x_max_m))
 
 
-@lru_cache(maxsize=512)
+@lru_cache(maxsize=4096)  # a gusty or turbulent run asks for thousands (3,212 in the golden laws run), ~2 kB each
 def _bands(ustar: float, z0: float, obukhov_m: float, vt_lo: float, vt_hi: float, top: float,
            x_max: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     x, t, landed = _ensemble(SurfaceLayer(ustar, z0, obukhov_m), (vt_lo, vt_hi), top, x_max)
@@ -159,34 +163,34 @@ def _ensemble(layer: SurfaceLayer, vt_range: tuple[float, float], top: float, x_
     v_t = lo * (hi / lo) ** rng.permutation((np.arange(n) + 0.5) / n)  # the class's speeds, evenly in log
     x = np.zeros(n)
     t = np.zeros(n)
-    live = np.ones(n, dtype=bool)
     if layer.ustar < 1e-3 or top <= z_floor:  # no turbulence: each drop settles straight down
         fall = np.maximum(z - z_floor, 0.0) / v_t
         xx = layer.wind(0.5 * (z + z_floor)) * fall
         return xx, fall, xx <= x_max
     sw = layer.sigma_w(z)
     w = sw * rng.standard_normal(n)
+    # the airborne drops' state, kept compacted in index order (the arithmetic and the random draws of gathering
+    # them from the whole ensemble every step, without the gathers); a drop that lands or leaves is written back
+    idx, zi, wi, vt, xi, ti = np.arange(n), z, w, v_t, x, t
     for _ in range(MAX_STEPS):
-        idx = np.flatnonzero(live)
         if idx.size == 0:
             break
-        zi = z[idx]
         sw = layer.sigma_w(zi)
         tl = layer.diffusivity(zi) / (sw * sw)
-        vt = v_t[idx]
         tp = tl / np.sqrt(1.0 + (vt / sw) ** 2)
-        dt = np.maximum(np.minimum(0.1 * tp, 0.2 * (zi - z_floor + 0.02) / (np.abs(w[idx]) + vt + 1e-3)), 1e-3)
+        dt = np.maximum(np.minimum(0.1 * tp, 0.2 * (zi - z_floor + 0.02) / (np.abs(wi) + vt + 1e-3)), 1e-3)
         dsw2 = _dsigma2_dz(layer, zi)
-        wi = w[idx]
         wi = wi + (-wi / tp + 0.5 * (1.0 + wi * wi / (sw * sw)) * dsw2) * dt + np.sqrt(2.0 * sw * sw / tp * dt) * (
             rng.standard_normal(idx.size))
-        w[idx] = wi
-        z[idx] = zi + (wi - vt) * dt
-        x[idx] += layer.wind(zi) * dt
-        t[idx] += dt
-        landed = z[idx] <= z_floor
-        gone = x[idx] > x_max
-        live[idx[landed | gone]] = False
+        xi = xi + layer.wind(zi) * dt
+        zi = zi + (wi - vt) * dt
+        ti = ti + dt
+        done = (zi <= z_floor) | (xi > x_max)
+        if done.any():
+            x[idx[done]], t[idx[done]] = xi[done], ti[done]
+            keep = ~done
+            idx, zi, wi, vt, xi, ti = idx[keep], zi[keep], wi[keep], vt[keep], xi[keep], ti[keep]
+    x[idx], t[idx] = xi, ti
     # drops still airborne after MAX_STEPS (a few, within centimetres of the ground) land where they are
     return x, t, x <= x_max
 
