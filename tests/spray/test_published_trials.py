@@ -87,6 +87,18 @@ def test_edge_row_drift_curve_in_a_2_mps_crosswind(vmd):
     assert b.fractions["ground_off_field"] > 0.0
 
 
+def test_edge_row_far_tail_decays_like_the_basic_drift_values():
+    # the far tail (docs/budget.md): fine drops the canopy's eddies lift out of the crop (spray/outwash.py) reach 50 m;
+    # trials report a few hundredths of a percent there, and the basic drift values for vines (Rautmann et al. 2001,
+    # the JKI table to 50 m: late 1.23 % at 10 m, 0.10 % at 50 m; early 0.39, 0.03) fall by a factor 12-13 from 10 to
+    # 50 m: the model's edge pass (150 µm, 2 m/s) within 2.5x of that decay, and at least 0.005 % at 50 m
+    b = edge_pass(150.0, 2.0)
+    assert b.balance_error <= 1e-9
+    curve = {p["distance_m"]: p["percent_of_applied"] for p in b.drift}
+    assert curve[50.0] >= 0.005
+    assert curve[10.0] / curve[50.0] <= 2.5 * 12.3
+
+
 @pytest.fixture(scope="module")
 def drift_curves() -> dict[bool, dict[float, float]]:
     out = {}
@@ -99,9 +111,10 @@ def drift_curves() -> dict[bool, dict[float, float]]:
 
 def test_drift_air_inclusion_below_the_vineyard_basic_drift_values(drift_curves):
     # Herbst et al. 2023: with air-induction nozzles the drones' 90th-percentile drift sediment is below the
-    # basic drift values of ground sprayers in vineyards
-    for d, ref in RAUTMANN_2001["vines, late"].items():
-        assert drift_curves[False][d] < ref
+    # basic drift values of ground sprayers in vineyards (3-20 m; the abstract does not say early or late vines, so
+    # the lower, early values are the bound)
+    for d, ref in RAUTMANN_2001["vines, early"].items():
+        assert drift_curves[False][d] < ref <= RAUTMANN_2001["vines, late"][d]
         assert drift_curves[False][d] <= drift_curves[True][d]
 
 
