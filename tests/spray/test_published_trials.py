@@ -56,9 +56,12 @@ def test_biglia_band_spraying_puts_more_on_the_canopy_than_broadcast(readings):
 
 
 def test_biglia_where_the_model_still_disagrees(readings):
-    # stated in docs/budget.md: band-mode ground losses 1.5-2.2x the paper's (the dishes right under the row catch
-    # the plume's core), broadcast canopy 1.2-1.7x (the flat fans are modelled as full cones)
-    assert 1.5 < mean(readings, BAND, "ground") / BIGLIA_2022["ground_band"] < 2.2
+    # stated in docs/budget.md: band-mode ground losses ~1.5x the paper's, carried by the air-inclusion passes (their
+    # hollow cones' coarse drops land on a ring, modelled as a disc), while the conventional band passes agree;
+    # broadcast canopy 1.2-1.7x (the flat fans are modelled as full cones)
+    assert 1.3 < mean(readings, BAND, "ground") / BIGLIA_2022["ground_band"] < 2.2
+    assert mean(readings, ["T9", "T10"], "ground") / BIGLIA_2022["ground_band"] < 1.5
+    assert mean(readings, ["T11", "T12"], "ground") > 1.5 * mean(readings, ["T9", "T10"], "ground")
     assert 1.2 < mean(readings, ONE_WAY + TWO_WAY, "canopy") / BIGLIA_2022["canopy_broadcast"] < 1.7
 
 

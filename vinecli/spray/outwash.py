@@ -104,12 +104,11 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
         if sheltered > 0.0:  # the share released among the plants
             low = min(float(top[i]), d_plane)
             # the canopy air's exchange with the surface layer lifts a share out of the crop (module doc)
-            w_e = CANOPY_BETA * layer.ustar
-            vent = w_e / (w_e + math.sqrt(vts[0] * vts[1])) if w_e > 0.0 else 0.0
-            if vent > 0.0:
-                hc = 1.5 * d_plane  # the canopy's top (d = 2/3 of it)
-                exch = landing_bands(layer, vts, hc - d_plane, REACH_M)
-                parts.append((sheltered * vent, (exch[0], exch[1], exch[2], exch[3] + low / (w_e + math.sqrt(vts[0] * vts[1])))))
+            w_e, vt_mid = CANOPY_BETA * layer.ustar, math.sqrt(vts[0] * vts[1])
+            vent = w_e / (w_e + vt_mid) if w_e > 0.0 else 0.0
+            if vent > 0.0:  # released from the canopy's top (d = 2/3 of it) after its time in the canopy's air
+                m1, d1, h1, t1 = landing_bands(layer, vts, 0.5 * d_plane, REACH_M)
+                parts.append((sheltered * vent, (m1, d1, h1, t1 + low / (w_e + vt_mid))))
             # the rest settles among the plants, carried by the slower wind inside the canopy
             slow = math.exp(-CANOPY_ATTENUATION * (1.0 - 0.5 * low / (1.5 * d_plane)))
             inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
@@ -129,7 +128,8 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
         cols["vy"].append(np.full(mass.size, wind_y[i]))
         # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
         # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
-        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(landing_layer.sigma_w(np.zeros(1))[0])))
+        sigma_w = float(landing_layer.sigma_w(np.zeros(1))[0])
+        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + sigma_w))
         cols["radius"].append(radius)
         cols["src"].append(np.full(mass.size, i))
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
