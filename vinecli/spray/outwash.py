@@ -114,11 +114,14 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
             inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
             parts.append((sheltered * (1.0 - vent), landing_bands(inner, vts, low, REACH_M)))
             landing_layer = layer if above > 0.0 else inner
-        mass, dist, half, time = _add_bands(parts)
-        radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
-        if speed[i] <= 0.0 and mass.size:  # still air carries nothing away: every bin lands where it was released
-            time = np.array([float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)])
+        if speed[i] <= 0.0 and parts:  # still air carries nothing away: everything lands where it was released
+            mass = np.concatenate([w * b[0] for w, b in parts])
+            time = np.array([float(np.dot(mass, np.concatenate([b[3] for _, b in parts]))) / max(float(mass.sum()),
+                                                                                                1e-300)])
             mass, dist, radius = np.array([mass.sum()]), np.zeros(1), np.array([spread[i]])
+        else:
+            mass, dist, half, time = _add_bands(parts)
+            radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
         d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
         cols["x"].append(x[i] + ex[i] * d)
         cols["y"].append(y[i] + ey[i] * d)
@@ -141,6 +144,9 @@ def _add_bands(parts: list[tuple[float, tuple[np.ndarray, ...]]]) -> tuple[np.nd
     distances are one bin (its time the mass-weighted mean)."""
     if not parts:
         return (np.zeros(0),) * 4
+    if len(parts) == 1:
+        w, (m1, d1, h1, t1) = parts[0]
+        return w * m1, d1, h1, t1
     mass = np.concatenate([w * b[0] for w, b in parts])
     dist = np.concatenate([b[1] for _, b in parts])
     half = np.concatenate([b[2] for _, b in parts])
