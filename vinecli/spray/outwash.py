@@ -15,6 +15,18 @@ Curtiss et al. 1984, J. Am. Helicopter Soc. 29(1)), and the surface layer carrie
 (:mod:`vinecli.spray.surface_layer`: wind profile, turbulence, settling). Each lifted parcel becomes one
 parcel per bin of its landing density (at the bin's middle, spread over a disc overlapping its neighbours),
 plus one for the share still airborne beyond the far-field model's reach.
+
+**The canopy air is exchanged with the air above.** Drops released below the crop's zero-plane displacement ``d``
+are among the hedges, where the wind is slow (:data:`CANOPY_ATTENUATION`). They do not all settle there: the
+canopy's coherent eddies (the mixing-layer eddies at the canopy top, Raupach, Finnigan & Brunet 1996,
+Boundary-Layer Meteorol. 78:351; Finnigan 2000, Annu. Rev. Fluid Mech. 32:519) exchange the canopy air with the
+surface layer at the transfer velocity ``w_e = u*² / U_h = β u*`` (the momentum flux carried through the canopy top
+by the wind there; ``β = u*/U_h ≈ 0.3`` for dense canopies, Raupach et al. 1996; Harman & Finnigan 2007,
+Boundary-Layer Meteorol. 123:339). A drop in that well-mixed layer leaves it either through the top at ``w_e`` or
+through the bottom at its fall speed ``v_t``, competing first-order losses: the share ``w_e / (w_e + v_t)`` rises
+out of the canopy and the surface layer carries it from the canopy's top (fine drops, whose ``v_t`` is comparable
+with ``w_e``, make the far tail of the drift curve), the rest settles among the plants. All landing bands share the
+same log-distance bins, so the three releases (above the crop, exchanged, settled in it) add up bin by bin.
 """
 
 from __future__ import annotations
@@ -37,6 +49,9 @@ BAND_SMOOTHING = 4.0
 #: the wind inside a canopy falls as exp(-a (1 - z/h)) below its top h (Cionco 1965, J. Appl. Meteorol. 4:517; a ≈ 2
 #: for moderately dense crops): the drops released among the hedges are carried by that slower wind
 CANOPY_ATTENUATION = 2.0
+#: u*/U_h at the top of a dense canopy (Raupach et al. 1996; Harman & Finnigan 2007): the canopy air's transfer
+#: velocity to the surface layer is β u*
+CANOPY_BETA = 0.3
 #: how far downwind the far-field model follows the drops, m (beyond: airborne out of the drift domain)
 REACH_M = 250.0
 
@@ -79,27 +94,34 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
     for i in range(x.size):
         above = max(float(top[i]) - d_plane, 0.0)
         sheltered = 1.0 - above / max(float(top[i]), 1e-9)  # released evenly over [0, top]: the share below d
+        vts = (float(v_t[i, 0]), float(v_t[i, 1]))
+        layer = SurfaceLayer.from_wind(float(speed[i]), max(float(z_wind_m[i]) - d_plane, 2.0 * roughness_m),
+                                       roughness_m, obukhov_m)
+        parts: list[tuple[float, tuple[np.ndarray, ...]]] = []
+        landing_layer = layer  # whose turbulence the drops come down through (the crop's own when all start in it)
         if above > 0.0:
-            layer = SurfaceLayer.from_wind(float(speed[i]), max(float(z_wind_m[i]) - d_plane, 2.0 * roughness_m),
-                                           roughness_m, obukhov_m)
-            mass, dist, half, time = landing_bands(layer, (float(v_t[i, 0]), float(v_t[i, 1])), above, REACH_M)
-            mass = mass * (1.0 - sheltered)
-        else:
-            layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
-            mass, dist, half, time = (np.zeros(0),) * 4
-        if sheltered > 0.0:  # the share released among the plants: carried by the slower wind inside the canopy
+            parts.append((1.0 - sheltered, landing_bands(layer, vts, above, REACH_M)))
+        if sheltered > 0.0:  # the share released among the plants
             low = min(float(top[i]), d_plane)
+            # the canopy air's exchange with the surface layer lifts a share out of the crop (module doc)
+            w_e, vt_mid = CANOPY_BETA * layer.ustar, math.sqrt(vts[0] * vts[1])
+            vent = w_e / (w_e + vt_mid) if w_e > 0.0 else 0.0
+            if vent > 0.0:  # released from the canopy's top (d = 2/3 of it) after its time in the canopy's air
+                m1, d1, h1, t1 = landing_bands(layer, vts, 0.5 * d_plane, REACH_M)
+                parts.append((sheltered * vent, (m1, d1, h1, t1 + low / (w_e + vt_mid))))
+            # the rest settles among the plants, carried by the slower wind inside the canopy
             slow = math.exp(-CANOPY_ATTENUATION * (1.0 - 0.5 * low / (1.5 * d_plane)))
             inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
-            m2, d2, h2, t2 = landing_bands(inner, (float(v_t[i, 0]), float(v_t[i, 1])), low, REACH_M)
-            mass, dist = np.append(mass, sheltered * m2), np.append(dist, d2)
-            half, time = np.append(half, h2), np.append(time, t2)
-            if above <= 0.0:
-                layer = inner
-        radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
-        if speed[i] <= 0.0 and mass.size:  # still air carries nothing away: every bin lands where it was released
-            time = np.array([float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)])
+            parts.append((sheltered * (1.0 - vent), landing_bands(inner, vts, low, REACH_M)))
+            landing_layer = layer if above > 0.0 else inner
+        if speed[i] <= 0.0 and parts:  # still air carries nothing away: everything lands where it was released
+            mass = np.concatenate([w * b[0] for w, b in parts])
+            time = np.array([float(np.dot(mass, np.concatenate([b[3] for _, b in parts]))) / max(float(mass.sum()),
+                                                                                                1e-300)])
             mass, dist, radius = np.array([mass.sum()]), np.zeros(1), np.array([spread[i]])
+        else:
+            mass, dist, half, time = _add_bands(parts)
+            radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
         d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
         cols["x"].append(x[i] + ex[i] * d)
         cols["y"].append(y[i] + ey[i] * d)
@@ -109,7 +131,27 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
         cols["vy"].append(np.full(mass.size, wind_y[i]))
         # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
         # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
-        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(layer.sigma_w(np.zeros(1))[0])))
+        sigma_w = float(landing_layer.sigma_w(np.zeros(1))[0])
+        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + sigma_w))
         cols["radius"].append(radius)
         cols["src"].append(np.full(mass.size, i))
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+
+
+def _add_bands(parts: list[tuple[float, tuple[np.ndarray, ...]]]) -> tuple[np.ndarray, ...]:
+    """Landing bands of several releases (weight, (mass, distance, half width, time)) added bin by bin: every
+    release's bins are the same log-distance bins (:func:`~vinecli.spray.surface_layer.landing_bands`), so equal
+    distances are one bin (its time the mass-weighted mean)."""
+    if not parts:
+        return (np.zeros(0),) * 4
+    if len(parts) == 1:
+        w, (m1, d1, h1, t1) = parts[0]
+        return w * m1, d1, h1, t1
+    mass = np.concatenate([w * b[0] for w, b in parts])
+    dist = np.concatenate([b[1] for _, b in parts])
+    half = np.concatenate([b[2] for _, b in parts])
+    time = np.concatenate([b[3] for _, b in parts])
+    key, first, inv = np.unique(dist, return_index=True, return_inverse=True)
+    m = np.bincount(inv, weights=mass)
+    t = np.bincount(inv, weights=mass * time) / np.maximum(m, 1e-300)
+    return m, key, half[first], np.where(m > 0, t, time[first])
