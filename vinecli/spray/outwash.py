@@ -32,6 +32,7 @@ same log-distance bins, so the three releases (above the crop, exchanged, settle
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -91,7 +92,19 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
     ey = np.where(speed > 0, wind_y / np.maximum(speed, 1e-12), 0.0)
     cols: dict[str, list[np.ndarray]] = {k: [] for k in ("x", "y", "vol", "t_fall", "vx", "vy", "vz", "radius", "src")}
     d_plane = max(float(displacement_m), 0.0)
+    still = speed <= 0.0
+    if x.size and still.all():  # a calm run: every parcel lands where it was released, one bin each
+        return _all_in_still_air(x, y, lifted_l, v_t, t_fall, wind_x, wind_y, top, offset, spread,
+                                 (d_plane, roughness_m, obukhov_m))
     for i in range(x.size):
+        if still[i]:  # still air carries nothing away: everything lands where it was released
+            share, fall_s = _still_air(float(top[i]), float(v_t[i, 0]), float(v_t[i, 1]), d_plane, roughness_m,
+                                       obukhov_m)
+            d = offset[i] + np.zeros(1)
+            _append(cols, i, (x[i] + ex[i] * d, y[i] + ey[i] * d, lifted_l[i] * np.array([share]),
+                              t_fall[i] + np.array([fall_s]), wind_x[i], wind_y[i],
+                              math.sqrt(v_t[i, 0] * v_t[i, 1]) + 0.0, np.array([spread[i]])))
+            continue
         above = max(float(top[i]) - d_plane, 0.0)
         sheltered = 1.0 - above / max(float(top[i]), 1e-9)  # released evenly over [0, top]: the share below d
         vts = (float(v_t[i, 0]), float(v_t[i, 1]))
@@ -114,28 +127,59 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
             inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
             parts.append((sheltered * (1.0 - vent), landing_bands(inner, vts, low, REACH_M)))
             landing_layer = layer if above > 0.0 else inner
-        if speed[i] <= 0.0 and parts:  # still air carries nothing away: everything lands where it was released
-            mass = np.concatenate([w * b[0] for w, b in parts])
-            time = np.array([float(np.dot(mass, np.concatenate([b[3] for _, b in parts]))) / max(float(mass.sum()),
-                                                                                                1e-300)])
-            mass, dist, radius = np.array([mass.sum()]), np.zeros(1), np.array([spread[i]])
-        else:
-            mass, dist, half, time = _add_bands(parts)
-            radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
+        mass, dist, half, time = _add_bands(parts)
         d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
-        cols["x"].append(x[i] + ex[i] * d)
-        cols["y"].append(y[i] + ey[i] * d)
-        cols["vol"].append(lifted_l[i] * mass)
-        cols["t_fall"].append(t_fall[i] + time)
-        cols["vx"].append(np.full(mass.size, wind_x[i]))
-        cols["vy"].append(np.full(mass.size, wind_y[i]))
         # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
         # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
         sigma_w = float(landing_layer.sigma_w(np.zeros(1))[0])
-        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + sigma_w))
-        cols["radius"].append(radius)
-        cols["src"].append(np.full(mass.size, i))
+        _append(cols, i, (x[i] + ex[i] * d, y[i] + ey[i] * d, lifted_l[i] * mass, t_fall[i] + time, wind_x[i],
+                          wind_y[i], math.sqrt(v_t[i, 0] * v_t[i, 1]) + sigma_w,
+                          np.maximum(BAND_SMOOTHING * half, spread[i])))  # at least the release's own spread
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+
+
+def _append(cols: dict[str, list[np.ndarray]], i: int, bins: tuple) -> None:
+    """Add parcel ``i``'s landing bins: (x, y, vol, t_fall arrays; vx, vy, vz per parcel; radius array)."""
+    bx, by, vol, t_fall, vx, vy, vz, radius = bins
+    n = vol.size
+    for k, v in (("x", bx), ("y", by), ("vol", vol), ("t_fall", t_fall), ("radius", radius)):
+        cols[k].append(v)
+    for k, c in (("vx", vx), ("vy", vy), ("vz", vz), ("src", i)):
+        cols[k].append(np.full(n, c))
+
+
+@lru_cache(maxsize=4096)
+def _still_air(top: float, vt_lo: float, vt_hi: float, d_plane: float, roughness_m: float,
+               obukhov_m: float) -> tuple[float, float]:
+    """(landed share, mean time s) of a parcel released evenly over [0, ``top``] m in still air: nothing carries it
+    away, so it all lands where it was released (u* = 0: no exchange out of the canopy either)."""
+    layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
+    above = max(top - d_plane, 0.0)
+    sheltered = 1.0 - above / max(top, 1e-9)
+    parts = []
+    if above > 0.0:
+        parts.append((1.0 - sheltered, landing_bands(layer, (vt_lo, vt_hi), above, REACH_M)))
+    if sheltered > 0.0:
+        parts.append((sheltered, landing_bands(layer, (vt_lo, vt_hi), min(top, d_plane), REACH_M)))
+    mass = np.concatenate([w * b[0] for w, b in parts])
+    time = float(np.dot(mass, np.concatenate([b[3] for _, b in parts]))) / max(float(mass.sum()), 1e-300)
+    return float(mass.sum()), time
+
+
+# parameters: the lifted parcels' arrays (as lifted_parcels takes them) and the surface layer's constants
+def _all_in_still_air(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.ndarray, t_fall: np.ndarray,
+                      wind_x: np.ndarray, wind_y: np.ndarray, top: np.ndarray, offset: np.ndarray,
+                      spread: np.ndarray, air: tuple[float, float, float]) -> dict[str, np.ndarray]:
+    """:func:`lifted_parcels` when no parcel has wind: one bin per parcel where it was released (the same numbers
+    as parcel by parcel, computed once per release layer and size class)."""
+    keys, inv = np.unique(np.column_stack([top, v_t[:, 0], v_t[:, 1]]), axis=0, return_inverse=True)
+    per_key = np.array([_still_air(float(t), float(lo), float(hi), *air) for t, lo, hi in keys]).reshape(-1, 2)
+    share, fall_s = per_key[inv.ravel(), 0], per_key[inv.ravel(), 1]
+    d = offset + 0.0
+    return {"x": x + 0.0 * d, "y": y + 0.0 * d, "vol": lifted_l * share, "t_fall": t_fall + fall_s,
+            "vx": np.array(wind_x, dtype=np.float64), "vy": np.array(wind_y, dtype=np.float64),
+            "vz": np.sqrt(v_t[:, 0] * v_t[:, 1]) + 0.0, "radius": np.array(spread, dtype=np.float64),
+            "src": np.arange(x.size)}
 
 
 def _add_bands(parts: list[tuple[float, tuple[np.ndarray, ...]]]) -> tuple[np.ndarray, ...]:
