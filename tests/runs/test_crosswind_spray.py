@@ -34,8 +34,8 @@ def test_a_crosswind_spray_lands_along_its_rows_without_lumps(crosswind_run: Pat
     print({k: c["value"] for k, c in checks.items() if k.startswith("dose")})
     for name in ("dose_gaps", "dose_row_rates", "dose_coverage"):
         assert checks[name]["passed"], (name, checks[name]["value"], checks[name]["bound"])
-    # lumps one merge window apart were a hot 1 m window every ~6.5 m (1.66x); this seed's spray, merged or not
-    # (1.300x unmerged), has at most one window at the check's 1.3x bound per row
+    # lumps one merge window apart were a hot 1 m window every ~6.5 m (1.66x); this seed's spray has at most one
+    # window at the check's 1.3x bound per row, merged or not (1.300x unmerged)
     hot = [[f["ratio"] for f in r["faults"] if f["kind"] == "hot"]
            for r in json.loads((crosswind_run / "deposition.json").read_text())["rows"]]
     assert len(hot) == 2 and all(len(h) <= 1 for h in hot) and max(sum(hot, [1.0])) < 1.35, hot

@@ -56,10 +56,11 @@ KARMAN = 0.41
 MIN_LIFTED_SHARE = 0.01  # a parcel's share lifted by the outwash below this lands with the parcel
 LIFT_BIN_S = 0.2  # lifted parcels merged over this much release time, s (about a metre of flight: their discs, at
 # least the wall jet's W/2, overlap along the track)
-#: the far field's parcels a run holds at most (each lifted parcel becomes up to FAR_BINS; ~160 bytes each): a long
-#: run, or one in wind, where every merged parcel lands in FAR_BINS bins, merges its lifted parcels over longer
-#: windows (60,000 let a 94 s crosswind spray merge over 3.2 s = 6.4 m of flight: hot spots 1.66x that often)
-MAX_FAR_PARCELS = 250_000
+#: the far field's parcels a run holds at most (each lifted parcel becomes up to FAR_BINS): a long run, or one in
+#: wind, where every merged parcel lands in FAR_BINS bins, merges its lifted parcels over longer windows (60,000 let
+#: a 94 s crosswind spray merge over 3.2 s = 6.4 m of flight: hot spots 1.66x that often; 150,000 keeps it at 0.8 s
+#: there, and the bundled job's memory bound, which counts the budget's work per far parcel and hedge, at 1.43 GB)
+MAX_FAR_PARCELS = 150_000
 FAR_BINS = 65  # landing bins per lifted parcel at most (spray/surface_layer.py LOG_BINS + the airborne share)
 STRIP_LAYER_M = 0.25  # the wake edge's release layer (the nozzles' height) in steps of this, m
 FAR_WALL_JET, FAR_STRIPPED = 1, 2  # Parcels.far_kind of the far field's parcels
