@@ -332,9 +332,11 @@ def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_dens
     cone = h * geo.tan_half[None, :, None]
     if not config.drag_reach:
         return cone, np.zeros_like(cone)
-    sideways = geo.exit_speed_mps * np.sin(np.arctan(geo.tan_half))  # (n,)
-    reach = ballistic_reach_m(np.broadcast_to(geo.diam_m[None, :], (sideways.size, geo.diam_m.size)),
-                              sideways[:, None], air_density)  # (n, c)
+    # the drops fly out along the cone's rays at the exit speed and drag acts on their whole speed (its Reynolds
+    # number is the full speed's): the ray's stopping distance, projected sideways by sin(θ/2)
+    sideways = np.sin(np.arctan(geo.tan_half))  # (n,)
+    along = ballistic_reach_m(geo.diam_m, geo.exit_speed_mps, air_density)  # (c,)
+    reach = sideways[:, None] * along[None, :]  # (n, c)
     carried = h - geo.v_t[None, None, :] * t_fall  # the air's share of the fall
     sigma = wake_spread_sigma_m(wake_half_width_m(geo.rotor_radius_m, geo.n_rotors), carried)
     return np.minimum(cone, reach[None, :, :]), 4.0 * sigma * sigma
