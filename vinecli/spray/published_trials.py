@@ -13,7 +13,8 @@ effects on canopy deposit, coverage, and off-target losses", Sci. Total Environ.
   VMD 145, Dv0.9 281 µm), air inclusion HCA 60 03 (203 / 597 / 1238 µm); broadcast flat fans, 110°:
   SF 110 03 (77 / 159 / 313), AFC 110 03 (121 / 306 / 669), SF 110 015 (70 / 140 / 265),
   AFC 110 015 (128 / 298 / 646). Log-normal fitted to Dv0.1 and Dv0.9 (GSD = (Dv0.9/Dv0.1)^(1/2.563));
-  flat fans modelled as full cones of their angle (the model has no flat fans);
+  the hollow cones land their drops on a ring, the flat fans on a line (:mod:`vinecli.spray.nozzle_pattern`),
+  the fans' sheets along the line of the two nozzles (as on a boom: across the flight line in broadcast mode);
 * vineyard (§2.4): VSP, cv. Barbera, BBCH 89, rows 2.5 m apart, 62 m long; vine height 2.21 m,
   vegetative strip 1.68 m, canopy width 0.55 m, LAI 1.5-1.9 (LAD 4.6 m²/m³);
 * weather (Table A1): per configuration (temperature, humidity, mean wind and its direction);
@@ -106,7 +107,8 @@ def biglia_trial(c: BigliaConfig, seed: int = 0) -> Trial:
         passes = [((-11.0, y), (11.0, y))] + ([((11.0, y), (-11.0, y))] if c.mode == "2-way" else [])
     veh = TrialVehicle(mass_kg=9.5 + 2.8 + 2.5, n_rotors=6, prop_diameter_m=0.533, nozzles_flu=nozzles,
                        cone_angle_deg=c.cone_deg, vmd_um=c.dv[1], gsd=_gsd(c.dv), classes=7, rotor_plane_z=0.0,
-                       arm_m=0.5665)  # the M600's diagonal wheelbase, 1133 mm (DJI)
+                       arm_m=0.5665,  # the M600's diagonal wheelbase, 1133 mm (DJI)
+                       pattern="hollow_cone" if c.mode == "band" else "flat_fan", fan_axis_deg=90.0)
     towards = math.radians(c.wind_from_deg + 180.0 - ROW_AZIMUTH_DEG)  # in the frame whose +y is the row direction
     wind = (c.wind_mps * math.sin(towards), c.wind_mps * math.cos(towards), 0.0)
     flow = c.flow_lpm / 60.0

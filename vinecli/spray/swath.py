@@ -218,7 +218,8 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
         profiles.append(k / (k.sum() * dy))
         if heading == 0.0:  # the cone's footprint: the primaries (the far field's landing bins are drift, not it)
             near = slice(0, p.primaries)
-            foot = float(np.max(p.radius[near] + 2.0 * p.sigma[near]))
+            part_r = p.part_r[near] if p.part_r.size == p.vol.size else 0.0  # a ring's or a line's parts
+            foot = float(np.max(part_r + p.radius[near] + 2.0 * p.sigma[near]))
             along = float(np.dot(p.x, p.vol) / p.vol.sum()) - float(np.mean(p.path_xy[:, 0]))
     fwd, back = profiles
     spacing = np.round(np.arange(0.2, 1.6 * geometric + 1e-9, ds) * 100.0) / 100.0
