@@ -41,7 +41,10 @@ FULL_CONE, HOLLOW_CONE, FLAT_FAN = 0, 1, 2
 PATTERN_CODES = {"full_cone": FULL_CONE, "hollow_cone": HOLLOW_CONE, "flat_fan": FLAT_FAN}
 MAX_PARTS = 12  # parts of a ring or a line at most (cost: each part is a parcel)
 PART_OVERLAP = 0.75  # a part's disc reaches at least this share of the spacing to its neighbours (they overlap)
-MIN_PARTS = {HOLLOW_CONE: 3, FLAT_FAN: 2}  # fewer: the shape is washed out, one disc of its variance
+#: fewer parts: the shape is washed out, one disc of its variance. A ring of radius r_b blurred by the wake's
+#: Gaussian σ keeps a hollow centre only for r_b > √2 σ (the centre's curvature of ring ⊗ Gaussian changes sign
+#: there), i.e. k = 2π r_b / 2σ > π √2 = 4.4; a line stays longer than wide from 2 r_b > 2σ on
+MIN_PARTS = {HOLLOW_CONE: 5, FLAT_FAN: 2}
 #: the start shape's variance per axis over r_b²/4 (a full disc's): ring 2, line 4/3 (along it)
 _VARIANCE = {FULL_CONE: 1.0, HOLLOW_CONE: 2.0, FLAT_FAN: 4.0 / 3.0}
 
