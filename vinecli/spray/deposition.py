@@ -42,7 +42,7 @@ from vinecli.spray.droplets import (
     size_classes_m,
     terminal_velocity,
 )
-from vinecli.spray.nozzle_pattern import FLAT_FAN, FULL_CONE, PATTERN_CODES, expand_parts, part_counts, variance_factor
+from vinecli.spray.nozzle_pattern import FULL_CONE, PATTERN_CODES, expand_parts, part_counts, variance_factor
 from vinecli.spray.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
 from vinecli.spray.wake_escape import stripped_share, wake_edge_radius_m
 
@@ -197,9 +197,12 @@ class Parcels:
     #: parcel it stands for (-1 for the primaries): the wall jet's drops crossed that parcel's canopy on the way down
     far_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
     source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    #: how far each parcel's disc sits from the centre of its nozzle's pattern, m: the parts of a hollow cone's ring or
-    #: a flat fan's line (spray/nozzle_pattern.py); empty when every nozzle is a full cone
-    part_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: where each parcel's disc sits from the centre of its nozzle's pattern, m ENU: the parts of a hollow cone's ring or
+    #: a flat fan's line (spray/nozzle_pattern.py), and a ring part's ring radius (m, 0 otherwise); empty when every
+    #: nozzle is a full cone
+    part_dx: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    part_dy: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ring_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def downwash_at(self, z_m: float | np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
         """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
@@ -351,18 +354,17 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
 
 def _shape_patterns(out: Parcels, geo: SprayerGeometry, q: np.ndarray, reach: np.ndarray,
                     wake_var: np.ndarray) -> None:
-    """Hollow cones' rings and flat fans' lines (spray/nozzle_pattern.py): each primary parcel of such a nozzle
-    becomes the parts of its shape, oriented by the body's attitude ``q`` (G, 4) of each emission group."""
+    """Hollow cones' rings and flat fans' lines (spray/nozzle_pattern.py): each primary parcel of such a nozzle lands
+    on its shape (an annulus, or parts along the sheet turned by the body's attitude ``q`` (G, 4) of each group)."""
     pattern = geo.patterns()
     if not np.any(pattern != FULL_CONE) or out.primaries == 0:
         return
-    counts = part_counts(pattern, reach, wake_var)
+    lengths = part_counts(pattern, reach, wake_var)
     fan = geo.fan_axis_flu if geo.fan_axis_flu is not None else fan_axes_flu([90.0] * pattern.size)
-    axes = np.stack([quat_rotate_many(q, np.array([1.0, 0.0, 0.0]) if pattern[j] != FLAT_FAN else fan[j])[:, :2]
-                     for j in range(pattern.size)], axis=1)  # (G, n, 2): forward for a ring, the sheet for a fan
+    axes = np.stack([quat_rotate_many(q, fan[j])[:, :2] for j in range(pattern.size)], axis=1)  # (G, n, 2) the sheets
     norm = np.linalg.norm(axes, axis=2, keepdims=True)
     axes = np.where(norm > 1e-9, axes / np.maximum(norm, 1e-12), np.array([1.0, 0.0]))
-    expand_parts(out, pattern, counts, axes)
+    expand_parts(out, pattern, lengths, axes)
 
 
 def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_density: float,

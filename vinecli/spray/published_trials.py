@@ -145,10 +145,11 @@ def reading(c: BigliaConfig, seed: int = 0) -> dict[str, float]:
     carried = np.bincount(p.source[wall], weights=landed[wall], minlength=p.vol.size)
     leaf_vol = np.where(wall, 0.0, landed + carried)
     leaf_args = (p.x, p.y, leaf_vol, *args[3:])
-    leaf = collector_deposit(*leaf_args, leaf_pts, canopy, width_m=0.12, plume=plume, w_top=w_top)
+    leaf = collector_deposit(*leaf_args, leaf_pts, canopy, width_m=0.12, plume=plume, w_top=w_top, ring_r=p.ring_r)
     # the dishes get the wall jet's drops where the far field lands them, less what the canopy caught on their way down
     dish_vol = np.where(wall, landed * (1.0 - budget.caught_in_wake), landed)
-    dish = collector_deposit(p.x, p.y, dish_vol, *args[3:], dish_pts, canopy, width_m=None, plume=plume, w_top=w_top)
+    dish = collector_deposit(p.x, p.y, dish_vol, *args[3:], dish_pts, canopy, width_m=None, plume=plume, w_top=w_top,
+                             ring_r=p.ring_r)
     # to 250 µL per cm of the line: the 2-way configurations apply their dose in two passes at half the flow
     # (Table 1: 1.2 L/min there and back = the 1-way's 2.4 L/min), so the dose per cm is both passes' together
     scale = STD_UL_PER_CM / (len(trial.passes) * trial.flow_lps * 1e6 / (trial.speed_mps * 100.0))
