@@ -50,15 +50,18 @@ def test_biglia_band_spraying_puts_more_on_the_canopy_than_broadcast(readings):
     # and the canopy's top catches more than its bottom, three times more in the paper (Fig. 11)
     for n in BAND:
         assert readings[n]["canopy_top"] > 2.0 * readings[n]["canopy_bottom"]
-    # the budget of a band pass at 1 m/s in light wind (T9, T11): 25-60 % of the spray on the canopy
-    for n in ("T9", "T11"):
-        assert 0.25 <= readings[n]["fraction_canopy"] <= 0.60
+    # the budget of a band pass at 1 m/s in light wind with conventional drops (T9): 25-60 % of the spray on the
+    # canopy (issue 31). The air-inclusion hollow cone (T11) lands its coarse drops on a 1.6 m ring, beyond the 0.55 m
+    # hedge, so less: the paper's air-inclusion band deposit is (4 x 0.161 - 2 x 0.237) / 2 = 0.085 µL/cm², 0.36x
+    # the conventional 0.237; the model's T11 share is ~0.6x T9's (0.23 against 0.37), above the paper's ratio
+    assert 0.25 <= readings["T9"]["fraction_canopy"] <= 0.60
+    assert 0.36 * readings["T9"]["fraction_canopy"] < readings["T11"]["fraction_canopy"] < readings["T9"]["fraction_canopy"]
 
 
 def test_biglia_where_the_model_still_disagrees(readings):
     # stated in docs/budget.md: band-mode ground losses ~1.5x the paper's, carried by the air-inclusion passes (their
-    # hollow cones' coarse drops land on a ring, modelled as a disc), while the conventional band passes agree;
-    # broadcast canopy 1.2-1.7x (the flat fans are modelled as full cones)
+    # hollow cones' coarse drops land on a 1.6 m ring: the dishes at 1.25 m catch its inner edge, where the paper
+    # found much less than at 0.625 m), while the conventional band passes agree; broadcast canopy 1.2-1.7x
     assert 1.3 < mean(readings, BAND, "ground") / BIGLIA_2022["ground_band"] < 2.2
     assert mean(readings, ["T9", "T10"], "ground") / BIGLIA_2022["ground_band"] < 1.5
     assert mean(readings, ["T11", "T12"], "ground") > 1.5 * mean(readings, ["T9", "T10"], "ground")
