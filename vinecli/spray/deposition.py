@@ -197,9 +197,9 @@ class Parcels:
     #: parcel it stands for (-1 for the primaries): the wall jet's drops crossed that parcel's canopy on the way down
     far_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
     source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    #: where each parcel's disc sits from the centre of its nozzle's pattern, m ENU: the parts of a hollow cone's ring or
-    #: a flat fan's line (spray/nozzle_pattern.py), and a ring part's ring radius (m, 0 otherwise); empty when every
-    #: nozzle is a full cone
+    #: the nozzles' patterns (spray/nozzle_pattern.py): a flat fan's parts, where each sits from the centre of its line
+    #: (m ENU), and a hollow cone's ring, the mean radius of the annulus it lands on (m; 0: a disc, whose inner radius
+    #: is 2 ring_r - radius); empty when every nozzle is a full cone
     part_dx: np.ndarray = field(default_factory=lambda: np.zeros(0))
     part_dy: np.ndarray = field(default_factory=lambda: np.zeros(0))
     ring_r: np.ndarray = field(default_factory=lambda: np.zeros(0))

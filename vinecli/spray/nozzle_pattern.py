@@ -25,8 +25,8 @@ of ring ⊗ Gaussian changes sign); then the parcel lands on the **annulus** of 
 radii ``r_b ± a`` with ``a = √2 σ`` (a ring of radius R spread by a disc of radius 2σ has the per-axis variance
 R²/2 + σ², the annulus (R_o² + R_i²)/4 = (R² + a²)/2). The annulus is a disc of radius R_o less one of radius R_i
 (each uniform), so every consumer (deposit grid, interception, collectors, swath) takes it with two disc terms
-(:func:`vinecli.spray.interception.annulus_cdf`, :func:`inner_radius`): one parcel, as cheap as a disc. A line is carried as ``k`` parts on
-it (equal volumes), each a disc of the wake's spreading (radius ``2σ``, at least 0.75 of the parts' spacing so
+(:func:`vinecli.spray.interception.annulus_cdf`, :func:`inner_radius`): one parcel, as cheap as a disc. A line
+is carried as ``k`` parts on it (equal volumes), each a disc of the wake's spreading (radius ``2σ``, at least 0.75 of the parts' spacing so
 neighbours overlap): ``k`` from its length over 2σ, at most :data:`MAX_PARTS`. A washed-out ring or line stays
 one disc with the shape's variance (a ring's r_b²/2 per axis, a line's r_b²/3 along it, against a full disc's
 r_b²/4). Volume is conserved exactly.
