@@ -51,7 +51,7 @@ def test_biglia_band_spraying_puts_more_on_the_canopy_than_broadcast(readings):
     for n in BAND:
         assert readings[n]["canopy_top"] > 2.0 * readings[n]["canopy_bottom"]
     # the budget of a band pass at 1 m/s in light wind with conventional drops (T9): 25-60 % of the spray on the
-    # canopy (issue 31). The air-inclusion hollow cone (T11) lands its coarse drops on a 1.6 m ring, beyond the 0.55 m
+    # canopy (the issue's bound). The air-inclusion hollow cone (T11) lands its coarse drops on a 1.6 m ring, beyond the 0.55 m
     # hedge, so less: the paper's air-inclusion band deposit is (4 x 0.161 - 2 x 0.237) / 2 = 0.085 µL/cm², 0.36x
     # the conventional 0.237; the model's T11 share is ~0.6x T9's (0.23 against 0.37), above the paper's ratio
     assert 0.25 <= readings["T9"]["fraction_canopy"] <= 0.60
