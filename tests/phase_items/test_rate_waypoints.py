@@ -48,3 +48,29 @@ def test_change_waypoint_on_the_profile_without_terrain() -> None:
     acts = leg_actions(_legs([18.0]), height_m=2.0, flow_lps=0.0, leg_flows=[0.01, 0.02])
     assert [(a[0], a[2] if a[0] == "wp" else a[1]) for a in acts] == [
         ("wp", 0.0), ("spray", 0.01), ("wp", 18.0), ("spray", 0.02), ("wp", 64.0), ("spray", 0.0)]
+
+
+def _turn_then_pass(run_in: float) -> list[Leg]:
+    """A pass north along x = 0, a stop turn (run-out, cross, run-in of ``run_in`` m), a pass south along x = 4
+    with a 2 m gap in it."""
+    return [Leg([(0.0, 0.0), (0.0, 20.0)], True, 0),
+            Leg([(0.0, 20.0), (0.0, 20.0 + run_in), (4.0, 20.0 + run_in), (4.0, 20.0)], False, None, "turn-stop"),
+            Leg([(4.0, 20.0), (4.0, 12.0)], True, 1), Leg([(4.0, 12.0), (4.0, 10.0)], False, None, "gap"),
+            Leg([(4.0, 10.0), (4.0, 0.0)], True, 1)]
+
+
+@pytest.mark.parametrize("flows", [None, [0.01, 0.0, 0.01, 0.0, 0.01]])
+def test_speed_gated_sprayer_goes_on_at_the_run_in(flows: list[float] | None) -> None:
+    """ArduPilot's AC_Sprayer sprays only above SPRAY_SPEED_MIN: switched on at the run-in point (measured: a
+    waypoint at the pass start 0.85 m after it held ArduCopter at 0.45-0.6 m/s, the first 2 m of the row at 0.7x);
+    not at a gap's start (the sections stay closed over the gap) nor from a run-in longer than the plan's."""
+    kw = {"height_m": 2.0, "flow_lps": 0.01, "leg_flows": flows}
+    plain = [(a[0], a[1:3] if a[0] == "wp" else a[1]) for a in leg_actions(_turn_then_pass(1.2), **kw)]
+    acts = [(a[0], a[1:3] if a[0] == "wp" else a[1]) for a in leg_actions(_turn_then_pass(1.2), open_at_run_in=1.5, **kw)]
+    i = plain.index(("wp", (4.0, 21.2)))
+    assert plain[i + 1:i + 3] == [("wp", (4.0, 20.0)), ("spray", 0.01)]
+    assert acts[i + 1] == ("spray", 0.01) and ("wp", (4.0, 20.0)) not in acts  # on at the run-in point
+    assert acts[:i + 1] == plain[:i + 1] and acts[i + 2:] == plain[i + 3:]  # the gap's switches unchanged
+    assert ("wp", (4.0, 10.0)) in acts and acts[acts.index(("wp", (4.0, 10.0))) + 1] == ("spray", 0.01)
+    far = leg_actions(_turn_then_pass(2.0), open_at_run_in=1.5, **kw)
+    assert ("wp", 4.0, 20.0, 2.0) in far  # a run-in longer than the plan's: the pass start stays
