@@ -198,8 +198,13 @@ class Spray(Phase):
         return climb + d / min(5.0, c.max_vel_xy) + (max(zr, ap.pos[2]) - ap.home[2]) / 0.7 + 5.0
 
     def _sortie_over(self, ap: PhaseHost, refill: RefillSpec) -> str:
-        """Why this sortie must end now ('' = it goes on): tank at the reserve, battery needed to get home."""
-        if ap.vehicle.tank is not None and ap.tank_level_l <= max(refill.reserve_l, 1e-6):
+        """Why this sortie must end now ('' = it goes on): tank at the reserve, battery needed to get home. With the
+        sections open the tank is empty at the litres the pump still delivers as it runs down (flow x tau_down): the
+        sortie closes them itself, so its deposit ends in the pump's fall that the next sortie's led opening
+        complements (run dry, the flow stopped at once and the led opening sprayed 0.4 m over what the sortie had
+        dosed: 1 m at 1.26-1.30x at the breakpoints of the ci job)."""
+        rundown = self.sprayer.flow_lps * self.tau_down if self._open else 0.0
+        if ap.vehicle.tank is not None and ap.tank_level_l <= max(refill.reserve_l, 1e-6, rundown):
             return "tank empty" if refill.reserve_l <= 0.0 else f"tank at the {refill.reserve_l:g} L reserve"
         soc = ap.battery_soc
         reserve = self._reserve_soc(ap, refill)
