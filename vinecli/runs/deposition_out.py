@@ -237,7 +237,9 @@ def evaluate_deposition(dep: DepositionResult, spec: MissionSpec, vehicle: Vehic
                   "covered_fraction": p["covered_fraction"], "mean_rate_lpha": p["mean_rate_lpha"],
                   "sprayed_m": p["sprayed_m"], "not_judged_m": p["holes_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
                   "in_band_fraction": p["in_band_fraction"],
-                  "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]]}
+                  "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]],
+                  **({"passes": p["passes"], "mean_rate_per_pass_lpha": p.get("mean_rate_per_pass_lpha")}
+                     if "passes" in p else {})}
                  for p in profiles],
     }
     return metrics, doc
