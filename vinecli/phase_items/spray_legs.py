@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from vinecli.geometry import distance_along
 from vinecli.rows.plan import Leg
 
 __all__ = ["SprayAction", "leg_actions"]
@@ -198,12 +199,12 @@ def leg_actions(legs: Sequence[Leg], *, height_m: float, flow_lps: float,
 
 def _on_at_run_in(acts: list[SprayAction], run_in_m: float, tol_m: float = 0.05) -> list[SprayAction]:
     """``acts`` with each pass's first waypoint dropped and its sprayer switched on at the run-in point before it,
-    where that waypoint lies on the straight line from the run-in point (at most ``run_in_m`` behind, the sprayer off
-    before it) to the next one. A waypoint a fence-limited
-    run-in (0.85 m) before the pass held ArduCopter at 0.45-0.6 m/s over it, 1 m/s (SPRAY_SPEED_MIN) came 1 m
-    before the row and AC_Sprayer (3 Hz, 100 ms delay) switched on 0.7 s later, at the row: its first 2 m at
-    0.7x (the sample field's 26 L/ha cells -12 %). Switched on at rest, AC_Sprayer sprays from its minimum speed
-    (the litres per metre follow the ground speed) and the vehicle accelerates through the pass start."""
+    where that waypoint lies on the straight line from the run-in point (at most ``run_in_m`` behind) to the next
+    one. A waypoint a fence-limited run-in (0.85 m) after the run-in point held ArduCopter at 0.45-0.6 m/s, it passed
+    1 m/s (SPRAY_SPEED_MIN) 1 m before the row and AC_Sprayer (3 Hz, 100 ms delay) switched on 0.7 s later, at the
+    row: its first 2 m at 0.7x (the sample field's 26 L/ha cells -12 %). Switched on at rest, AC_Sprayer sprays from
+    its minimum speed (the litres per metre follow the ground speed) as the vehicle accelerates through the pass
+    start."""
     out = list(acts)
     i = 0
     while i < len(out):
@@ -226,11 +227,8 @@ def _on_at_run_in(acts: list[SprayAction], run_in_m: float, tol_m: float = 0.05)
 
 def _between(a: Sequence[float], p: Sequence[float], b: Sequence[float], tol_m: float) -> bool:
     """``p`` lies on the segment from ``a`` to ``b`` (within ``tol_m``), strictly between them."""
-    ax, ay = a
-    bx, by = b
-    n = math.hypot(bx - ax, by - ay)
+    n = math.dist(a, b)
     if n <= tol_m:
         return False
-    t = ((p[0] - ax) * (bx - ax) + (p[1] - ay) * (by - ay)) / (n * n)
-    off = abs((p[0] - ax) * (by - ay) - (p[1] - ay) * (bx - ax)) / n
-    return 0.0 < t < 1.0 and off <= tol_m
+    d, s = distance_along(np.array([p[0]]), np.array([p[1]]), [(a[0], a[1]), (b[0], b[1])])
+    return 0.0 < float(s[0]) < n and float(d[0]) <= tol_m
