@@ -82,6 +82,22 @@ def main(argv: list[str] | None = None) -> int:
                                                                                                    30.0, 50.0)))
         out.setdefault("edge_row", {})[str(vmd)] = c  # type: ignore[union-attr]
 
+    from vinecli.spray.budget import BudgetConfig
+    from vinecli.spray.published_trials import bench_trial_mg1p, vineyard_bench_trial
+
+    far = (3.0, 5.0, 7.5, 10.0, 15.0, 20.0, 50.0)
+    print("\nThe drift trials named as targets (conditions as read; results not reachable), % of applied"
+          "\n" + " " * 52 + "".join(f"{d:>7g} m" for d in far))
+    for label, make in (("Wang C. et al. 2020, vineyard bench, one edge pass", vineyard_bench_trial),
+                        ("Agronomy 2023 13:270, MG-1P over the drift bench", bench_trial_mg1p)):
+        for conv in (True, False):
+            trial = dataclasses.replace(make(conv), budget=BudgetConfig(drift_distances_m=far))
+            b, _ = run_trial(trial)
+            c = {p["distance_m"]: p["percent_of_applied"] for p in b.drift}
+            name = f"{label}, {'conv' if conv else 'AI'}"
+            print(f"{name:60s}" + "".join(f"{c[d]:9.3g}" for d in far))
+            out.setdefault("targets", {})[name] = c  # type: ignore[union-attr]
+
     from vinecli.spray.swath import swath_pattern
     from vinecli.vehicle import load_vehicle
 

@@ -108,3 +108,20 @@ def test_terrain_step_is_climbed_before_it_is_reached() -> None:
     early = [sp[2] for sp, _, _, _ in out if sp[1] < 20.0 - p.lookahead - 0.5]
     assert max(early) == pytest.approx(2.0, abs=0.05)  # no climb before the step is in view
     assert out[-1][0][2] == pytest.approx(5.0, abs=0.05)  # and the set height above the step top
+
+
+@pytest.mark.parametrize("flow", [0.0, 0.01])
+def test_speeds_up_gently_with_the_sections_open(flow: float) -> None:
+    """From rest on a pass (a run-in the fence left no room for): up to the sprayer's minimum speed at the path's
+    acceleration, then at ``spray_accel`` while the sections are open (the pitch of a harder one tilts the nozzles:
+    the dip where it ends); with the sections closed at the path's acceleration throughout."""
+    p = PathFollower([(0.0, 0.0, 2.0), (40.0, 0.0, 2.0)], 3.0, accel=1.5, flows=[flow], spray_accel=0.25,
+                     spray_accel_above=1.0)
+    out = follow(p, 8.0)
+    speeds = [math.hypot(v[0], v[1]) for _, v, _, _ in out]
+    rises = [(a, (b - a) / DT) for a, b in zip(speeds, speeds[1:], strict=False) if b > a]
+    slow = [r for v, r in rises if v < 1.0 - 1.5 * DT]
+    fast = [r for v, r in rises if v >= 1.0]
+    assert max(slow) == pytest.approx(1.5)
+    assert max(fast) == pytest.approx(0.25 if flow > 0 else 1.5)
+    assert speeds[int(5.0 / DT)] == pytest.approx(min(3.0, 1.0 + 0.25 * (5.0 - 1.0 / 1.5)) if flow else 3.0, abs=0.05)

@@ -543,6 +543,7 @@ def _write_deposition(out: Path, cols: dict[str, np.ndarray], rate_hz: float) ->
     from vinecli.specs.wind import WindSpec
     from vinecli.spray.deposit_grid import grid_for, rasterise_discs
     from vinecli.spray.deposition import DepositionConfig, SprayEmitter, SprayerGeometry, transport
+    from vinecli.spray.nozzle_pattern import inner_radius
     from vinecli.vehicle import load_vehicle
 
     veh = load_vehicle("x500-sprayer")
@@ -556,7 +557,7 @@ def _write_deposition(out: Path, cols: dict[str, np.ndarray], rate_hz: float) ->
     par = transport(em.array(), SprayerGeometry.from_vehicle(veh, 1.225), terrain_height, WindSpec(), 1.225, 0, cfg)
     rows = [[tuple(p) for p in r] for r in vine_rows()]
     grid = grid_for(par.path_xy, [p for r in rows for p in r], (-20.0, -30.0, 20.0, 30.0), 0.1, 15.0, 6_000_000)
-    vol, off = rasterise_discs(grid, par.x, par.y, par.vol, par.radius)
+    vol, off = rasterise_discs(grid, par.x, par.y, par.vol, par.radius, inner=inner_radius(par.radius, par.ring_r))
     dep = DepositionResult(grid=grid, volume_l=vol, valid=np.ones(vol.shape, bool), parcels=par, emitted_l=par.emitted_l,
                            on_grid_l=float(vol.sum()), off_grid_l=off, config=cfg, transport_s=0.0, sprayer={})
     spec = MissionSpec.model_validate({"name": "spray", "phases": [

@@ -71,10 +71,12 @@ def test_rows_a_swath_apart_get_a_pass_each_and_one_row_its_band(pattern) -> Non
 
 
 def test_rows_closer_than_the_plume_count_the_neighbours_overlap(pattern) -> None:  # noqa: ANN001
-    # the x500-sprayer over the sample field's rows (0.92 m apart, more than its effective swath): a pass per row,
-    # but its plume reaches the neighbouring rows, so the flow is lowered until the edge rows (one neighbour) and the
-    # inner rows (two) are equally far from the asked rate as flown (track error counted)
-    across = [0.917 * i for i in range(16)]
+    # the x500-sprayer over rows 1.1 m apart (more than its effective swath, 1.0 m with its hollow cones' rings): a
+    # pass per row, but its plume reaches the neighbouring rows, so the flow is lowered until the edge rows (one
+    # neighbour) and the inner rows (two) are equally far from the asked rate as flown (track error counted)
+    assert 0.917 < pattern.effective_m < 1.1  # the sample field's rows (0.917 m apart) are now within one swath
+    assert layout_lanes([0.917 * i for i in range(16)], pattern, 0.6).mode == "broadcast"
+    across = [1.1 * i for i in range(16)]
     lay = layout_lanes(across, pattern, 0.6)
     assert lay.mode == "rows" and len(lay.across_m) == 16
     assert lay.flow_width_m < pattern.single_pass_width_m(0.6)

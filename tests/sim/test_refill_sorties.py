@@ -105,6 +105,28 @@ def test_resume_at_the_breakpoint_at_spraying_speed_and_the_dose_joins_evenly(jo
     assert m["dose_window_ratio_max"] <= 1.3 and m["dose_window_ratio_min"] >= 0.6
 
 
+def test_a_sortie_closes_its_sections_before_the_tank_runs_dry(job_run):
+    """The sortie ends with the pump's run-down (flow x tau_down) still in the tank and closes the sections itself, so
+    its deposit ends in the pump's fall that the next sortie's led opening complements: the metre either side of each
+    breakpoint within 15 % of the row's mean (run dry, the flow stopped at once and the led opening sprayed 0.4 m over
+    what the sortie had dosed: 1.26-1.30x at the ci job's breakpoints)."""
+    _world, r, plan = job_run
+    ts = r.timeseries
+    _m, rows = _dose(r, plan)
+    ends = [e for e in r.events if e.kind == "sortie" and e.data.get("event") == "end" and "breakpoint_enu" in e.data]
+    assert ends
+    for e in ends:
+        t = e.t_us * 1e-6
+        left = float(np.interp(t, ts["t_s"], ts["tank_level_l"]))
+        assert 0.0 < left <= 0.05 * 0.15 + 1e-4  # the run-down, closed by the sortie, not run dry
+        bx, by, _ = e.data["breakpoint_enu"]
+        k = min(range(len(ROWS)), key=lambda j: abs(ROWS[j][0][0] - bx))
+        rate = np.asarray(rows[k]["rate_lpha"], dtype=float)
+        i = int(by / 0.5)
+        near = [rate[j:j + 2].mean() / rows[k]["mean_rate_lpha"] for j in range(i - 2, i + 1) if 0 <= j < rate.size - 1]
+        assert all(abs(w - 1.0) <= 0.15 for w in near), (e.data["breakpoint_s_m"], near)
+
+
 def _small_pack(capacity_wh: float):
     from vinecli.vehicle import load_vehicle
 

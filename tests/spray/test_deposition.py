@@ -85,13 +85,15 @@ def test_drag_stops_the_drops_within_their_ballistic_reach() -> None:
     h = 2.0
     geo = one_nozzle(cone_deg=80.0, vmd_um=200.0, gsd=1.5, classes=5)
     par = transport(records(0.2, h + 0.1, 0.02), geo, FLAT, WindSpec(), RHO, seed=0, config=NO_DW)
-    side = geo.exit_speed_mps * math.sin(math.radians(40.0))
-    expected = np.minimum(ballistic_reach_m(geo.diam_m, side, RHO), h * math.tan(math.radians(40.0)))
+    # the drops fly along the cone's rays at the exit speed (drag on their whole speed), sideways by sin(θ/2)
+    side = math.sin(math.radians(40.0))
+    expected = np.minimum(side * ballistic_reach_m(geo.diam_m, geo.exit_speed_mps, RHO),
+                          h * math.tan(math.radians(40.0)))
     got = par.radius.reshape(-1, geo.diam_m.size)
     assert np.allclose(got, expected[None, :], rtol=1e-9)
     assert np.all(np.diff(expected) > 0) and expected[0] < 0.5 * h * math.tan(math.radians(40.0))
     # the same reach by a fine time integration of the drag law
-    d, v0 = 200e-6, side
+    d, v0 = 200e-6, geo.exit_speed_mps
     tau, x, v, dt = 998.2 * d * d / (18 * 1.81e-5), 0.0, v0, 1e-6
     while v > 1e-4 * v0:
         v -= v * (1 + 0.15 * (RHO * v * d / 1.81e-5) ** 0.687) / tau * dt

@@ -12,6 +12,7 @@ from vinecli.specs.sprayer import NozzleSpec, SprayerSpec
 from vinecli.specs.wind import WindSpec
 from vinecli.spray.deposit_grid import flat_height, grid_for, rasterise_discs
 from vinecli.spray.deposition import DepositionConfig, SprayerGeometry, transport
+from vinecli.spray.nozzle_pattern import inner_radius
 from vinecli.spray.swath import _pass_record, overlapped, pattern_cv, swath_pattern
 from vinecli.vehicle import load_vehicle
 
@@ -80,13 +81,19 @@ def test_the_pattern_matches_the_full_model_raster_of_a_flown_pass() -> None:
     recs[:, 15] = per_m * speed * dt
     geo = SprayerGeometry.from_vehicle(v, RHO)
     parcels = transport(recs, geo, flat_height(0.0), WindSpec(), RHO, 0, DepositionConfig())
-    grid = grid_for(parcels.path_xy, [], (-50.0, -50.0, 50.0, 50.0), 0.1, 5.0, 6_000_000)
-    vol, _off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, parcels.radius)
+    # on a 0.05 m raster: the hollow cones' annuli have inner flanks too, which the runs' 0.1 m cells read up to 4.4 %
+    # off in the pattern's body (1.7 % at 0.05 m)
+    grid = grid_for(parcels.path_xy, [], (-50.0, -50.0, 50.0, 50.0), 0.05, 5.0, 6_000_000)
+    # as the runs draw it (sim/spray_deposit.py): the hollow cones' rings on their annuli
+    vol, _off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, parcels.radius,
+                                inner=inner_radius(parcels.radius, parcels.ring_r))
     xc, yc = grid.centres()
     mid = (xc > -4.0) & (xc < 4.0)
     measured = vol[:, mid].mean(axis=1) / (grid.cell * grid.cell) * 1e4  # L/ha across the track
     expected = 1e4 * per_m * np.interp(yc, p.y_m, p.forward)
-    core = expected > 0.3 * expected.max()  # the pattern's body (its flanks are steeper than the 0.1 m raster draws)
+    # the pattern's body (its flanks are steeper than the 0.1 m raster draws: the x500's plume is 0.8 m wide, so the
+    # raster's cells at 30-50 % of the peak straddle the flank and read up to 4 % high)
+    core = expected > 0.5 * expected.max()
     assert measured[core] == pytest.approx(expected[core], rel=0.03)
     # every litre sprayed over the middle lands in it (none leaves along the track in still air): q / v per metre
     assert measured.sum() * grid.cell / 1e4 == pytest.approx(per_m, rel=0.01)

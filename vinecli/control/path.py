@@ -35,7 +35,8 @@ class PathFollower:
     ``flows[i]`` is the sprayer flow on segment i (points[i] -> points[i+1]), ``speeds[i]`` (m/s) a lower cruise
     speed there (None: ``speed`` everywhere; e.g. where a prescribed rate needs more flow than the pump has); ``max_up`` /
     ``max_down`` (m/s) cap the carrot's vertical speed on climbing / descending segments; the carrot comes to
-    rest at the points whose indices are in ``stops``.
+    rest at the points whose indices are in ``stops``. On a segment with flow, above ``spray_accel_above`` (m/s) the
+    carrot speeds up at ``spray_accel`` (m/s²) at most: the vehicle's pitch while it accelerates tilts the nozzles.
     """
 
     # parameters: keyword-only tuning with defaults (speeds, accelerations, lead and look-ahead);
@@ -46,7 +47,8 @@ class PathFollower:
                  max_vz: float = 1.5, max_up: float = math.inf, max_down: float = math.inf,
                  lookahead_s: float = 2.0, lookahead_m: float | None = None, climb_frac: float = 0.5,
                  floor_margin_frac: float = 0.25, stops: Sequence[int] = (),
-                 speeds: Sequence[float] | None = None) -> None:
+                 speeds: Sequence[float] | None = None, spray_accel: float = math.inf,
+                 spray_accel_above: float = 0.0) -> None:
         pts: list[Vec3] = [(float(p[0]), float(p[1]), float(p[2])) for p in points]
         # drop zero-length segments
         clean = [pts[0]]
@@ -65,6 +67,8 @@ class PathFollower:
         self.flows = clean_flows if clean_flows else [0.0]
         self.speed = speed
         self.accel = accel
+        self.spray_accel = spray_accel
+        self.spray_accel_above = spray_accel_above
         self.terrain = terrain
         self.terrain_tau = terrain_tau_s
         self.max_vz = max_vz
@@ -262,7 +266,10 @@ class PathFollower:
             v_allow = 0.0
         v = self.v
         dv = self.accel * dt
-        v = min(v_allow, v + dv) if v < v_allow else max(v_allow, v - 2.0 * dv)
+        up = dv
+        if self.flows[self.seg] > 0.0 and v >= self.spray_accel_above and self.spray_accel < self.accel:
+            up = self.spray_accel * dt
+        v = min(v_allow, v + up) if v < v_allow else max(v_allow, v - 2.0 * dv)
         self.v = v
         self.s = min(self.total, self.s + v * dt)
         new = self._at(self.s)

@@ -142,10 +142,16 @@ def _faults(s_m: np.ndarray, win: np.ndarray, k: int, seg: float, nominal: float
 
 
 def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: float, bands: tuple[float, float],
-              tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Fill ``pr`` (a row profile with ``planned_m``) with its dose figures; (pieces in the planned stretch, windows)."""
+              tolerance: float, passes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Fill ``pr`` (a row profile with ``planned_m``) with its dose figures; (pieces in the planned stretch, windows).
+    ``passes``: the passes over each piece of a phase that repeats them (:mod:`vinecli.missions.repeat_passes`): the
+    dose figures are per pass (the rate over the passes there), the returned pieces the totals."""
     s0, s1 = pr["planned_m"]
-    r, s = pr["rate_lpha"], pr["s_m"]
+    total, s = pr["rate_lpha"], pr["s_m"]
+    r = total
+    if passes is not None:
+        pr["passes"] = passes
+        r = np.where(passes > 1, total / np.maximum(passes, 1), total)
     inside = (s >= s0 - 1e-9) & (s <= s1 + 1e-9)
     for a, b in pr.get("holes_m", []):  # the taper beside a no-spray zone: expected, not judged
         inside &= (s <= a) | (s >= b)
@@ -158,13 +164,17 @@ def _row_dose(pr: dict[str, Any], nominal: float, segment_m: float, window_m: fl
     pr["sprayed_m"] = [float(s[idx[0]]), float(s[idx[-1]])] if idx.size else None
     vals = np.nan_to_num(rin, nan=0.0)
     pr["mean_rate_lpha"] = float(np.average(vals, weights=seg_len)) if planned > 0 else math.nan
+    if passes is not None:
+        pr["mean_rate_per_pass_lpha"] = pr["mean_rate_lpha"]
+        pr["mean_rate_lpha"] = float(np.average(np.nan_to_num(total[inside], nan=0.0), weights=seg_len)) \
+            if planned > 0 else math.nan
     near = np.abs(vals / nominal - 1.0) <= tolerance if nominal > 0 else np.zeros(vals.shape, bool)
     pr["in_band_fraction"] = float(min(seg_len[near].sum() / planned, 1.0)) if planned > 0 else math.nan
     k = max(1, int(round(window_m / segment_m)))
     win = _windows(rin, k) if rin.size else np.zeros(0)
     pr["window_ratio"] = [float(win.min() / nominal), float(win.max() / nominal)] if win.size and nominal > 0 else None
     pr["faults"] = _faults(s[inside], win, k, segment_m, nominal, bands) if win.size and nominal > 0 else []
-    return vals, win
+    return np.nan_to_num(total[inside], nan=0.0), win
 
 
 # parameters: the run's deposition, rows and fence, then the dose's settings with their defaults (DoseSpec's
@@ -174,8 +184,8 @@ def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_w
                        segment_m: float = 0.5, canopy_rows: Sequence[Polyline] | None = None,
                        stretches: dict[int, tuple[float, float]] | None = None, window_m: float = 1.0,
                        bands: tuple[float, float] = (0.6, 1.3), tolerance: float = 0.15,
-                       holes: dict[int, list[tuple[float, float]]] | None = None
-                       ) -> tuple[dict[str, float], list[dict[str, Any]]]:
+                       holes: dict[int, list[tuple[float, float]]] | None = None,
+                       passes: list[np.ndarray] | None = None) -> tuple[dict[str, float], list[dict[str, Any]]]:
     """(metrics, per-row figures) of a :class:`~vinecli.sim.spray_deposit.DepositionResult`.
 
     ``rows``: the rows the mission targeted (coverage, mean rate, CV, per-row figures);
@@ -183,7 +193,9 @@ def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_w
     ``stretches``: the planned stretch of each targeted row (index into ``rows``: (start, end) m along it; rows
     missing from it were not planned); default: every row whole. ``bands``: (gap, hot) ratios of the dose faults;
     ``tolerance``: the rate band of ``row_in_band_fraction_min`` (share of a row within ±tolerance of the asked rate);
-    ``holes``: stretches inside a row's planned stretch that are not judged (the taper beside a no-spray zone).
+    ``holes``: stretches inside a row's planned stretch that are not judged (the taper beside a no-spray zone);
+    ``passes``: per row, the passes over each piece of a phase that repeats them: its dose windows, row rates,
+    coverage and in-band share are per pass (the mean rate and the CV stay the totals).
     """
     p = dep.parcels
     em = float(dep.emitted_l)
@@ -233,13 +245,14 @@ def deposition_metrics(dep: DepositionResult, rows: Sequence[Polyline], canopy_w
             pr.update(covered_fraction=nan, sprayed_m=None, mean_rate_lpha=nan, window_ratio=None, faults=[],
                       in_band_fraction=nan)
             continue
-        vals, win = _row_dose(pr, nominal_rate_lpha, segment_m, window_m, bands, tolerance)
+        vals, win = _row_dose(pr, nominal_rate_lpha, segment_m, window_m, bands, tolerance,
+                              passes[i] if passes is not None else None)
         length = planned[1] - planned[0] - sum(b - a for a, b in pr["holes_m"])
         tot_len += length
         cov_len += pr["covered_fraction"] * length if pr["covered_fraction"] == pr["covered_fraction"] else 0.0
         pieces.append(vals)
         windows.append(win)
-        row_means.append(pr["mean_rate_lpha"])
+        row_means.append(pr.get("mean_rate_per_pass_lpha", pr["mean_rate_lpha"]))
         n_faults += len(pr["faults"])
     m["row_coverage_fraction"] = _fraction(cov_len, tot_len) if tot_len > 0 else nan
     allr = np.concatenate(pieces) if pieces else np.zeros(0)

@@ -201,6 +201,11 @@ def _rate_legs(ph: SprayPhase, plan: Any, rates: Any, rows: Any, out: _Items) ->
     return [leg for leg, _ in legs], [f * ph.speed_mps for _, f in legs]
 
 
+def _run_in_m(speed_mps: float, ctx: PlanContext) -> float:
+    """The longest run-in of a plan at ``speed_mps`` (its v² / 2a, rows.plan), with 0.1 m to spare, m."""
+    return speed_mps * speed_mps / (2.0 * ctx.accel_mps2) + 0.1
+
+
 def _fly_legs(out: _Items, legs: Sequence[Leg], speed_mps: float, height_m: float, flow_lps: float,
               where: str, leg_flows: Sequence[float] | None = None) -> None:
     """Planned legs as terrain-following waypoints, the sprayer on over the spray legs only (leg_actions)."""
@@ -209,7 +214,9 @@ def _fly_legs(out: _Items, legs: Sequence[Leg], speed_mps: float, height_m: floa
     out.spray(0.0, where)  # off during the transit, whatever an earlier phase left on
     surface = ctx.terrain_height if callable(ctx.terrain_height) else None
     for kind, a, b, c in leg_actions(legs, height_m=height_m, flow_lps=flow_lps, surface=surface,
-                                     home_z=ctx.home_ground_z(), leg_flows=leg_flows):
+                                     home_z=ctx.home_ground_z(), leg_flows=leg_flows,
+                                     open_at_run_in=_run_in_m(speed_mps, ctx) if out.sprayer.command == M.CMD_DO_SPRAYER
+                                     else 0.0):
         if kind == "wp":
             out.wp(a, b, c)
         elif kind == "face":  # the waypoint just added: its yaw (a heading from true north, deg)

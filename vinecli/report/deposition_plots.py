@@ -93,7 +93,8 @@ def _fig23_key_figures(doc: dict[str, Any], nominal: Any, m: dict[str, Any], fau
     n_rows = len(doc.get("rows") or [])
     in_tol = sum(1 for r in doc.get("rows") or [] if isinstance(r.get("mean_rate_lpha"), (int, float))
                  and isinstance(nominal, (int, float)) and nominal > 0
-                 and abs(r["mean_rate_lpha"] / nominal - 1.0) <= float((doc.get("dose_bands") or {}).get("rate_tolerance", 0.15)))
+                 and abs((r.get("mean_rate_per_pass_lpha") or r["mean_rate_lpha"]) / nominal - 1.0)
+                 <= float((doc.get("dose_bands") or {}).get("rate_tolerance", 0.15)))
     lines = [
         "Where the liquid landed",
         f"emitted            {_fmt(tot.get('emitted_l'), 'L', 3)}",
@@ -244,8 +245,11 @@ def fig23_deposition(data: Any) -> bytes:
 
 
 def _row_rates(r: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """(segment centres along the row m, rate L/ha with NaN outside the planned stretch) of a deposition.json row."""
+    """(segment centres along the row m, rate L/ha with NaN outside the planned stretch) of a deposition.json row; per
+    pass for a phase that repeats its passes (its ``passes``: judged per pass, missions/repeat_passes.py)."""
     rate = np.array([np.nan if v is None else v for v in r["rate_lpha"]], float)
+    if r.get("passes") is not None and len(r["passes"]) == rate.size:
+        rate = rate / np.maximum(np.asarray(r["passes"], float), 1.0)
     s = (np.arange(rate.size) + 0.5) * float(r.get("segment_m", 0.5))
     planned = r.get("planned_m") or [0.0, float(r.get("length_m", s[-1] if s.size else 0.0))]
     return s, np.where((s >= planned[0]) & (s <= planned[1]), rate, np.nan)
@@ -279,7 +283,7 @@ def _rate_curves(ax: Any, rows: list[dict[str, Any]], nominal: Any, bands: dict[
                    label=f"hot spot > {float(bands['hot_ratio']):g}x")
         ax.axhline(float(bands["gap_ratio"]) * nominal, color="#1565c0", lw=0.9, ls="--",
                    label=f"gap < {float(bands['gap_ratio']):g}x")
-    ax.set_ylabel("rate in the row band, L/ha")
+    ax.set_ylabel("rate in the row band" + (" per pass" if any(r.get("passes") for r in rows) else "") + ", L/ha")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     ax.set_ylim(bottom=0, top=max(ax.get_ylim()[1], 1.6 * nominal if _asked(nominal) else 0.0))
@@ -334,8 +338,9 @@ def fig24_row_coverage(data: Any) -> bytes:
         _rate_map(fig, ax, rows, nominal, bands)
     ax.set_xlabel("distance along the row (its planned stretch), m")
     names = [_row_name(r) for r in rows]
-    means = np.array([float(r["mean_rate_lpha"]) / nominal * 100 if _asked(nominal) and r.get("mean_rate_lpha") is not None
-                      else np.nan for r in rows])
+    # a phase that repeats its passes is judged per pass (missions/repeat_passes.py): its windows are per pass too
+    means = np.array([float(r.get("mean_rate_per_pass_lpha") or r["mean_rate_lpha"]) / nominal * 100
+                      if _asked(nominal) and r.get("mean_rate_lpha") is not None else np.nan for r in rows])
     lo = np.array([100 * r["window_ratio"][0] if r.get("window_ratio") else np.nan for r in rows])
     hi = np.array([100 * r["window_ratio"][1] if r.get("window_ratio") else np.nan for r in rows])
     good = [bool(abs(m / 100 - 1) <= tol and not r.get("faults")) for m, r in zip(means, rows, strict=True)]

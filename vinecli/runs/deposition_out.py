@@ -154,6 +154,19 @@ def world_row(phase: SprayPhase | None, i: int) -> int | None:
     return listed if isinstance(listed, int) else None
 
 
+def _repeated(phase: SprayPhase | None, plan: Any, dep: DepositionResult, rows: list[list[tuple[float, float]]]
+              ) -> list[np.ndarray] | None:
+    """The passes over each 0.5 m piece of every row (:mod:`vinecli.missions.repeat_passes`) of a phase that repeats
+    its passes until the tank is empty and flies one pass over each row; None otherwise (each row once: judged
+    whole, so a row sprayed twice by mistake stays a hot spot)."""
+    from vinecli.missions.repeat_passes import passes_per_piece
+
+    lay = plan.layout if plan is not None else None
+    if phase is None or phase.until != "empty" or lay is None or lay.mode == "broadcast":
+        return None
+    return passes_per_piece(dep.parcels.path_xy, rows, 0.5 * plan.flow_width_m, 0.5)
+
+
 def evaluate_deposition(dep: DepositionResult, spec: MissionSpec, vehicle: VehicleSpec, world: Any,
                         rows: list[list[tuple[float, float]]], fence: Any) -> tuple[dict[str, float], dict[str, Any]]:
     """(summary metrics, deposition.json document) of one run's deposition (:func:`write_deposition` adds
@@ -177,7 +190,8 @@ def evaluate_deposition(dep: DepositionResult, spec: MissionSpec, vehicle: Vehic
     metrics, profiles = deposition_metrics(dep, rows, canopy, polygon, nominal, canopy_rows=all_rows,
                                            stretches=plan.stretches if plan is not None else None,
                                            window_m=dose.window_m, bands=(dose.gap_ratio, dose.hot_ratio),
-                                           tolerance=dose.rate_tolerance, holes=plan.holes if plan is not None else None)
+                                           tolerance=dose.rate_tolerance, holes=plan.holes if plan is not None else None,
+                                           passes=_repeated(phase, plan, dep, rows))
     metrics["spray_swath_m"] = swath
     metrics["spray_track_width_m"] = plan.flow_width_m if plan is not None else math.nan
     pattern = spray_pattern(vehicle, phase.height_agl_m, phase.speed_mps, rho) if phase is not None else None
@@ -223,7 +237,9 @@ def evaluate_deposition(dep: DepositionResult, spec: MissionSpec, vehicle: Vehic
                   "covered_fraction": p["covered_fraction"], "mean_rate_lpha": p["mean_rate_lpha"],
                   "sprayed_m": p["sprayed_m"], "not_judged_m": p["holes_m"], "segment_m": 0.5, "window_ratio": p["window_ratio"],
                   "in_band_fraction": p["in_band_fraction"],
-                  "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]]}
+                  "faults": p["faults"], "rate_lpha": p["rate_lpha"], "polyline_enu": rows[p["row"]],
+                  **({"passes": p["passes"], "mean_rate_per_pass_lpha": p.get("mean_rate_per_pass_lpha")}
+                     if "passes" in p else {})}
                  for p in profiles],
     }
     return metrics, doc

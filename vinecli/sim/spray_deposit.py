@@ -18,6 +18,7 @@ from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import WindSpec
 from vinecli.spray.deposit_grid import GridSpec, flat_height, grid_for, rasterise_discs
 from vinecli.spray.deposition import DepositionConfig, Parcels, SprayEmitter, SprayerGeometry, transport
+from vinecli.spray.nozzle_pattern import inner_radius
 from vinecli.world.model import World
 
 __all__ = ["FAR_MAP_RADIUS_M", "DepositionResult", "deposit"]
@@ -84,7 +85,8 @@ def deposit(emitter: SprayEmitter, world: World, veh: VehicleSpec, wind_spec: Wi
     radius = np.minimum(parcels.radius, max(footprint, FAR_MAP_RADIUS_M))
     grid = grid_for(parcels.path_xy, rows_xy, tuple(ter.bounds), cfg.cell_m, cfg.margin_m, cfg.max_cells,
                     footprint_m=float(radius.max()) if radius.size else 0.0, max_fft_cells=cfg.max_fft_cells)
-    vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, radius)
+    vol, off = rasterise_discs(grid, parcels.x, parcels.y, parcels.vol, radius,
+                               inner=inner_radius(radius, parcels.ring_r))  # hollow cones' rings
     xc, yc = grid.centres()
     bx0, by0, bx1, by1 = ter.bounds
     valid = ((xc >= bx0) & (xc <= bx1))[None, :] & ((yc >= by0) & (yc <= by1))[:, None]

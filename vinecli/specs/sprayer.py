@@ -34,11 +34,23 @@ BAR_PA = 1e5
 
 
 class NozzleSpec(StrictModel):
-    """One spray nozzle: where it sits, its share of the flow and its cone (full cone, axis along -z FLU)."""
+    """One spray nozzle: where it sits, its share of the flow, its spray pattern and angle (axis along -z FLU).
+
+    ``pattern`` (docs/deposition.md item 5, :mod:`vinecli.spray.nozzle_pattern`): a *full cone* fills its cone
+    with drops, a *hollow cone* (swirl-chamber cone nozzles: TeeJet ConeJet, Albuz ATR/HCI/HCA) puts them on the
+    cone's shell, a *flat fan* (TeeJet XR/TT/AI, Albuz AFC) on a thin sheet of ``cone_angle_deg`` across and a few
+    degrees along, its long axis ``fan_axis_deg`` from the body's forward axis towards its left (90: across the
+    vehicle, as fans sit on a boom). Default full cone: older vehicle files keep their footprint.
+    """
 
     position_m: Vec3L = Field((0.0, 0.0, -0.10), description="nozzle orifice, m, body FLU")
     flow_share: float = Field(1.0, gt=0, description="share of the tank flow (normalised over the nozzles)")
-    cone_angle_deg: float = Field(80.0, gt=0, lt=170, description="full spray cone angle, deg")
+    cone_angle_deg: float = Field(80.0, gt=0, lt=170, description="spray angle, deg: the cone's full angle, or the "
+                                                                 "fan's across its sheet")
+    pattern: Literal["full_cone", "hollow_cone", "flat_fan"] = Field(
+        "full_cone", description="full cone (drops fill the cone), hollow cone (on its shell) or flat fan (a sheet)")
+    fan_axis_deg: float = Field(90.0, ge=-180, le=180, description="flat fan: its sheet's long axis, deg from the "
+                                                                   "body's forward axis towards its left (90: across)")
 
 
 class DropletSpectrumSpec(StrictModel):

@@ -28,7 +28,8 @@ from vinecli.spray.deposition import FAR_WALL_JET
 from vinecli.spray.downwash import wake_velocity
 from vinecli.spray.drift import drift_curve, drift_frames, field_polygon, field_split
 from vinecli.spray.evaporation import evaporation_constant, remaining_fraction
-from vinecli.spray.interception import capture_fraction, impaction_efficiency, semicircle_cdf, stokes_number
+from vinecli.spray.interception import annulus_cdf, capture_fraction, impaction_efficiency, stokes_number
+from vinecli.spray.nozzle_pattern import inner_radius
 from vinecli.spray.wake import plume_radius_at
 
 __all__ = ["BudgetConfig", "SprayBudget", "spray_budget"]
@@ -167,11 +168,13 @@ def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarr
         near = cand[ok]
         s, arc, length, k = s_c[ok], arc_c[ok], len_c[ok], k_c[ok]
         r = np.maximum(radius[near], 1e-3)
-        along = semicircle_cdf((length - arc) / r) - semicircle_cdf(-arc / r)
+        ring = plume[3][near] if plume is not None and len(plume) > 3 else None
+        inner = inner_radius(r, ring)  # a hollow cone's annulus (spray/nozzle_pattern.py), None: discs
+        along = annulus_cdf(length - arc, r, inner) - annulus_cdf(-arc, r, inner)
         sec = np.sqrt(1.0 + (speed_h[near] / vz[near]) ** 2)
         diverge = 0.0
         if plume is not None:  # the plume narrows upwards: paths to the footprint's edge diverge from above
-            reach, wake_var, rel = (a[near] for a in plume)
+            reach, wake_var, rel = (a[near] for a in plume[:3])
             r_top = plume_radius_at(reach, wake_var, radius[near], rel, h.top_m)
             diverge = np.where(rel > h.top_m, (radius[near] - r_top) / max(h.top_m, 1e-3), 0.0)
         wake_near = None
@@ -179,7 +182,7 @@ def _interception(canopy: Canopy, x: np.ndarray, y: np.ndarray, radius: np.ndarr
             tau, v_h, v_t, leaf_w = (a[near] for a in wake)
             wake_near = (tau, v_h, v_t, downwash(h.top_m, near), leaf_w)
         frac = capture_fraction(s, r, k, sec, eff[near], canopy.g_factor, h.width_m, h.base_m, h.top_m,
-                                h.lad_m2m3, prof, nodes, diverge, wake_near)
+                                h.lad_m2m3, prof, nodes, diverge, wake_near, inner)
         got = np.minimum(avail[near] * along * frac, avail[near] - captured[near])
         captured[near] += got
         per_row[h.row] += float(got.sum())
@@ -215,6 +218,8 @@ class _Merged:
     primaries: int = 0  # the first ``primaries`` parcels are the (merged) primaries
     #: each original parcel's row here (the primaries merged, the far field's kept in order)
     row_of: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: a hollow cone's ring: the annulus's mean radius, m (0: a disc; spray/nozzle_pattern.py)
+    ring_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def downwash_at(self, z_m: float, index: np.ndarray) -> np.ndarray:
         """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
@@ -244,9 +249,11 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
     if kind.size == group.size and source.size == group.size:
         wall = np.where((kind == FAR_WALL_JET) & (source >= 0), source, -1)
     span = max(1, int(round(merge_s / group_s)))
+    ring = np.asarray(getattr(p, "ring_r", np.zeros(0)), dtype=np.float64)
+    ring = ring if ring.size == group.size else np.zeros(group.size)
     if n <= 0 or span <= 1 or group.size == 0:
         return _Merged(*arrays[:2], vol, cls, *arrays[2:7], group, *arrays[7:], radius_m, wall, max(n, 0),
-                       np.arange(group.size))
+                       np.arange(group.size), ring)
     per_group = n // (int(group[:n].max()) + 1)
     idx = np.arange(n)
     key = (group[:n] // span) * per_group + idx % per_group
@@ -255,17 +262,18 @@ def _merge(p: object, group_s: float, merge_s: float) -> _Merged:
     wsum = np.bincount(inv, weights=w)
     safe = np.where(wsum > 0, wsum, 1.0)
     out = []
-    for a in arrays:
+    for a in [*arrays, ring]:
         m = np.bincount(inv, weights=a[:n] * w) / safe
         plain = np.bincount(inv, weights=a[:n]) / np.bincount(inv)
         out.append(np.concatenate([np.where(wsum > 0, m, plain), a[n:]]))
+    ring = out.pop()
     # the far field's parcels keep their order after the merged primaries; their sources are merged with them
     wall_far = wall[n:]
     wall_far = np.where(wall_far >= 0, inv[np.clip(wall_far, 0, n - 1)], -1)
     return _Merged(out[0], out[1], np.concatenate([wsum, vol[n:]]), np.concatenate([cls[:n][first], cls[n:]]),
                    out[2], out[3], out[4], out[5], out[6], np.concatenate([group[:n][first], group[n:]]), *out[7:],
                    radius_m, np.concatenate([np.full(uk.size, -1, dtype=np.int64), wall_far]), int(uk.size),
-                   np.concatenate([inv, uk.size + np.arange(group.size - n)]))
+                   np.concatenate([inv, uk.size + np.arange(group.size - n)]), ring)
 
 
 def _canopy_first(p: _Merged, canopy: Canopy, landed: np.ndarray, vz: np.ndarray, eff: np.ndarray,
@@ -279,7 +287,7 @@ def _canopy_first(p: _Merged, canopy: Canopy, landed: np.ndarray, vz: np.ndarray
 
     def run(sel: np.ndarray, avail: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return _interception(canopy, p.x[sel], p.y[sel], p.radius[sel], avail, p.vx[sel], p.vy[sel], vz[sel],
-                             eff[sel], nodes, (p.reach[sel], p.wake_var[sel], p.release_h[sel]),
+                             eff[sel], nodes, (p.reach[sel], p.wake_var[sel], p.release_h[sel], p.ring_r[sel]),
                              tuple(a[sel] for a in wake), lambda z, i: p.downwash_at(z, sel[i]))
 
     src = p.wall_source[rest]

@@ -19,6 +19,7 @@ import numpy as np
 from vinecli.constants import STANDARD_GRAVITY
 from vinecli.spray.canopy import Canopy
 from vinecli.spray.interception import impaction_efficiency, leaf_area_on_path, stokes_number
+from vinecli.spray.nozzle_pattern import inner_radius
 from vinecli.spray.wake import LEAF_DRAG_COEFFICIENT, mean_speed_through_foliage, plume_radius_at
 
 __all__ = ["UL_PER_CM2", "collector_deposit"]
@@ -32,7 +33,7 @@ def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.
                       vy: np.ndarray, vz: np.ndarray, v_t: np.ndarray, points: np.ndarray, canopy: Canopy | None,
                       width_m: float | None = 0.12, g: float = STANDARD_GRAVITY,
                       plume: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-                      w_top: np.ndarray | None = None) -> np.ndarray:
+                      w_top: np.ndarray | None = None, ring_r: np.ndarray | None = None) -> np.ndarray:
     """Deposit (µL/cm²) on the upward face of a collector at each of ``points`` ((m, 3): x, y, z above the ground).
 
     Parcels: landing centre (m), volume reaching the ground or canopy (L), disc radius (m), velocity on
@@ -40,7 +41,8 @@ def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.
     its impaction efficiency, None for a dish that catches everything. ``plume``: the footprint's parts
     (reach m, wake variance term m², release height m; :class:`~vinecli.spray.deposition.Parcels`): the plume
     is then narrower at the collector's height; ``w_top``: the wake's speed entering the canopy (m/s), which the
-    foliage slows (:mod:`vinecli.spray.wake`).
+    foliage slows (:mod:`vinecli.spray.wake`); ``ring_r``: the mean radius (m, 0: a disc) of parcels landing on an
+    annulus (a hollow cone's ring, :mod:`vinecli.spray.nozzle_pattern`), whose inner radius is ``2 ring_r - r``.
     """
     vz = np.maximum(vz, 1e-3)
     r = np.maximum(radius, 1e-3)
@@ -52,10 +54,13 @@ def collector_deposit(x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.
     for i, (px, py, pz) in enumerate(np.asarray(points, dtype=np.float64)):
         rz = r if plume is None else np.maximum(plume_radius_at(*plume[:2], r, plume[2], pz), 1e-3)
         cx, cy = x - vx / vz * pz, y - vy / vz * pz  # where each parcel's disc is at the collector's height
-        hit = (cx - px) ** 2 + (cy - py) ** 2 <= rz * rz
+        d2 = (cx - px) ** 2 + (cy - py) ** 2
+        inner = inner_radius(rz, ring_r)
+        hit = (d2 <= rz * rz) if inner is None else (d2 <= rz * rz) & (d2 >= inner * inner)
         if not hit.any():
             continue
-        flux = vol[hit] / (np.pi * rz[hit] ** 2)  # L/m² of horizontal area
+        hole = 0.0 if inner is None else inner[hit] ** 2
+        flux = vol[hit] / (np.pi * (rz[hit] ** 2 - hole))  # L/m² of horizontal area
         area_above = np.zeros(int(hit.sum()))
         if canopy is not None:
             for h in canopy.hedges:

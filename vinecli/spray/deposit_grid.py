@@ -163,15 +163,25 @@ def _fft_len(n: int) -> int:
 
 
 def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarray, radius: np.ndarray,
-                    rel_bin: float = REL_BIN) -> tuple[np.ndarray, float]:
+                    rel_bin: float = REL_BIN, inner: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """Volume per cell (ny, nx) with each parcel spread over its disc (radius m), and the off-grid volume.
 
     Radii are interpolated between log-spaced nodes ``rel_bin`` apart: each parcel's volume is shared
     linearly between the discs of the two nodes around its radius (one FFT convolution per node).
+    ``inner``: inner radii (m; 0 for a disc) of parcels landing on an annulus (a hollow cone's ring,
+    :mod:`vinecli.spray.nozzle_pattern`): its outer disc carries ``v R_o² / (R_o² - R_i²)``, the inner one takes
+    ``v R_i² / (R_o² - R_i²)`` off (the sum is linear, so the annulus is exact up to the radius nodes).
     """
     x, y, v, r = (np.asarray(a, dtype=np.float64).ravel() for a in (x, y, vol, radius))
     if v.size == 0:
         return np.zeros((grid.ny, grid.nx)), 0.0
+    if inner is not None:
+        ri = np.clip(np.asarray(inner, dtype=np.float64).ravel(), 0.0, 0.999 * r)
+        ring = ri > 0.0
+        frac = np.where(ring, ri * ri / np.maximum(r * r - ri * ri, 1e-300), 0.0)
+        x, y = np.concatenate([x, x[ring]]), np.concatenate([y, y[ring]])
+        v = np.concatenate([v * (1.0 + frac), -(v * frac)[ring]])
+        r = np.concatenate([r, ri[ring]])
     rc = np.maximum(r, 0.0) / grid.cell
     # log-spaced radius nodes r_b = r0 e^(b rel); a parcel is shared linearly between its two nodes,
     # so the footprint edge moves smoothly with the radius (no steps where a bin changes)
@@ -182,7 +192,7 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
     bidx = np.concatenate([b0, b0 + 1])
     vv = np.concatenate([v * (1.0 - w1), v * w1])
     x, y = np.concatenate([x, x]), np.concatenate([y, y])
-    keep = vv > 0.0
+    keep = vv != 0.0  # an annulus's inner disc carries a negative volume
     bins, v, x, y = bidx[keep], vv[keep], x[keep], y[keep]
     ubins = np.unique(bins)
     radii = [r0 * math.exp(float(b) * rel_bin) for b in ubins]

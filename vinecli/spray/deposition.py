@@ -42,10 +42,11 @@ from vinecli.spray.droplets import (
     size_classes_m,
     terminal_velocity,
 )
+from vinecli.spray.nozzle_pattern import FULL_CONE, PATTERN_CODES, expand_parts, part_counts, variance_factor
 from vinecli.spray.wake import ballistic_reach_m, exit_speed_mps, wake_half_width_m, wake_spread_sigma_m
 from vinecli.spray.wake_escape import stripped_share, wake_edge_radius_m
 
-__all__ = ["EMIT_COLUMNS", "DepositionConfig", "Parcels", "SprayEmitter", "SprayerGeometry", "transport"]
+__all__ = ["EMIT_COLUMNS", "DepositionConfig", "Parcels", "SprayEmitter", "SprayerGeometry", "fan_axes_flu", "transport"]
 
 #: one record: time s, CoM position m ENU, attitude quaternion xyzw (FLU -> ENU), velocity m/s ENU,
 #: wind m/s ENU at the CoM, total rotor thrust N, emitted volume L, and how long before ``t_s`` the
@@ -103,6 +104,15 @@ class SprayerGeometry:
     rotor_plane_z: float  # mean rotor hub z, m body FLU
     exit_speed_mps: float = 24.5  # liquid speed leaving the nozzles (Bernoulli at the rated pressure, 3 bar), m/s
     arm_m: float = 0.0  # the rotor hubs' mean distance from the vehicle's axis, m (the wake's edge: spray/wake_escape.py)
+    #: (n,) each nozzle's spray pattern (spray/nozzle_pattern.py: FULL_CONE, HOLLOW_CONE, FLAT_FAN; None: full cones)
+    pattern: np.ndarray | None = None
+    #: (n, 3) each flat fan's sheet axis, body FLU (unit; None: across the vehicle, +y)
+    fan_axis_flu: np.ndarray | None = None
+
+    def patterns(self) -> np.ndarray:
+        """(n,) the nozzles' pattern codes (full cones when not given)."""
+        n = self.nozzles_flu.shape[0]
+        return np.full(n, FULL_CONE, dtype=np.int64) if self.pattern is None else np.asarray(self.pattern, np.int64)
 
     @classmethod
     def from_vehicle(cls, veh: VehicleSpec, air_density: float) -> SprayerGeometry:
@@ -118,7 +128,15 @@ class SprayerGeometry:
             rotor_plane_z=float(np.mean([r.position_m[2] for r in veh.rotors])),
             exit_speed_mps=exit_speed_mps(sp.rated_pressure_bar),
             arm_m=float(np.mean([math.hypot(r.position_m[0], r.position_m[1]) for r in veh.rotors])),
+            pattern=np.array([PATTERN_CODES[n.pattern] for n in sp.nozzles], dtype=np.int64),
+            fan_axis_flu=fan_axes_flu([n.fan_axis_deg for n in sp.nozzles]),
         )
+
+
+def fan_axes_flu(fan_axis_deg: list[float] | tuple[float, ...]) -> np.ndarray:
+    """(n, 3) unit sheet axes in the body frame FLU of fans at ``fan_axis_deg`` from forward towards the left."""
+    a = np.radians(np.asarray(fan_axis_deg, dtype=np.float64))
+    return np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=1)
 
 
 class SprayEmitter:
@@ -179,6 +197,12 @@ class Parcels:
     #: parcel it stands for (-1 for the primaries): the wall jet's drops crossed that parcel's canopy on the way down
     far_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
     source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: the nozzles' patterns (spray/nozzle_pattern.py): a flat fan's parts, where each sits from the centre of its line
+    #: (m ENU), and a hollow cone's ring, the mean radius of the annulus it lands on (m; 0: a disc, whose inner radius
+    #: is 2 ring_r - radius); empty when every nozzle is a full cone
+    part_dx: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    part_dy: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ring_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def downwash_at(self, z_m: float | np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
         """The wake's downward speed (m/s) ``z_m`` above the ground where the parcels ``index`` fell through it."""
@@ -318,11 +342,29 @@ def transport(records: np.ndarray, geo: SprayerGeometry, height: Callable[[np.nd
         air_rel = ((ux - v[:, 0, None])[..., None], (uy - v[:, 1, None])[..., None])  # the air past the vehicle
         strip = np.zeros(np.shape(radius))  # the cones alone (drag_reach off): no wake edge to strip
         if config.drag_reach:
-            strip = stripped_share(radius, off, air_rel, (v[:, 0, None, None], v[:, 1, None, None]), t1,
+            # a ring or a line reaches further out than a disc of the same reach: the disc of the pattern's variance
+            shaped = np.sqrt(variance_factor(geo.patterns())[None, :, None] * reach * reach + wake_var)
+            strip = stripped_share(shaped, off, air_rel, (v[:, 0, None, None], v[:, 1, None, None]), t1,
                                    wake_edge_radius_m(geo.arm_m, geo.rotor_radius_m), w_mid, tau3, h1)
         _add_lifted(out, flat(np.maximum(s_end - vt[None, None, :], 0.0)), flat(np.broadcast_to(strip, t1.shape)), geo,
                     height, wnd, p[:, 2], config)
+    _shape_patterns(out, geo, q, reach, wake_var)
     return out
+
+
+def _shape_patterns(out: Parcels, geo: SprayerGeometry, q: np.ndarray, reach: np.ndarray,
+                    wake_var: np.ndarray) -> None:
+    """Hollow cones' rings and flat fans' lines (spray/nozzle_pattern.py): each primary parcel of such a nozzle lands
+    on its shape (an annulus, or parts along the sheet turned by the body's attitude ``q`` (G, 4) of each group)."""
+    pattern = geo.patterns()
+    if not np.any(pattern != FULL_CONE) or out.primaries == 0:
+        return
+    lengths = part_counts(pattern, reach, wake_var)
+    fan = geo.fan_axis_flu if geo.fan_axis_flu is not None else fan_axes_flu([90.0] * pattern.size)
+    axes = np.stack([quat_rotate_many(q, fan[j])[:, :2] for j in range(pattern.size)], axis=1)  # (G, n, 2) the sheets
+    norm = np.linalg.norm(axes, axis=2, keepdims=True)
+    axes = np.where(norm > 1e-9, axes / np.maximum(norm, 1e-12), np.array([1.0, 0.0]))
+    expand_parts(out, pattern, lengths, axes)
 
 
 def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_density: float,
@@ -332,9 +374,11 @@ def _footprint(geo: SprayerGeometry, h: np.ndarray, t_fall: np.ndarray, air_dens
     cone = h * geo.tan_half[None, :, None]
     if not config.drag_reach:
         return cone, np.zeros_like(cone)
-    sideways = geo.exit_speed_mps * np.sin(np.arctan(geo.tan_half))  # (n,)
-    reach = ballistic_reach_m(np.broadcast_to(geo.diam_m[None, :], (sideways.size, geo.diam_m.size)),
-                              sideways[:, None], air_density)  # (n, c)
+    # the drops fly out along the cone's rays at the exit speed and drag acts on their whole speed (its Reynolds
+    # number is the full speed's): the ray's stopping distance, projected sideways by sin(θ/2)
+    sideways = np.sin(np.arctan(geo.tan_half))  # (n,)
+    along = ballistic_reach_m(geo.diam_m, geo.exit_speed_mps, air_density)  # (c,)
+    reach = sideways[:, None] * along[None, :]  # (n, c)
     carried = h - geo.v_t[None, None, :] * t_fall  # the air's share of the fall
     sigma = wake_spread_sigma_m(wake_half_width_m(geo.rotor_radius_m, geo.n_rotors), carried)
     return np.minimum(cone, reach[None, :, :]), 4.0 * sigma * sigma

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["EFFICIENCY_A", "capture_fraction", "impaction_efficiency", "leaf_area_on_path", "semicircle_cdf",
+__all__ = ["EFFICIENCY_A", "annulus_cdf", "capture_fraction", "impaction_efficiency", "leaf_area_on_path", "semicircle_cdf",
            "stokes_number"]
 
 EFFICIENCY_A = 0.8  # Peters & Eiden 1992
@@ -46,6 +46,18 @@ def semicircle_cdf(u: np.ndarray) -> np.ndarray:
     """CDF of the cross-section of a uniform unit disc along one axis (``u`` in radii): 0 at -1, 1 at +1."""
     x = np.clip(np.asarray(u, dtype=np.float64), -1.0, 1.0)
     return 0.5 + (x * np.sqrt(1.0 - x * x) + np.arcsin(x)) / np.pi
+
+
+def annulus_cdf(s: np.ndarray, outer: np.ndarray, inner: np.ndarray | None = None) -> np.ndarray:
+    """Share of a uniform annulus (radii ``outer``, ``inner`` m; None or 0: a disc) lying below ``s`` (m from its
+    centre) along one axis: the outer disc's semicircle law less the inner disc's, by their areas."""
+    ro = np.maximum(np.asarray(outer, dtype=np.float64), 1e-12)
+    cdf = semicircle_cdf(np.asarray(s) / ro)
+    if inner is None:
+        return cdf
+    ri = np.clip(np.asarray(inner, dtype=np.float64), 0.0, 0.999 * ro)
+    ao, ai = ro * ro, ri * ri
+    return np.where(ri > 0.0, (ao * cdf - ai * semicircle_cdf(np.asarray(s) / np.maximum(ri, 1e-12))) / (ao - ai), cdf)
 
 
 def leaf_area_on_path(s: np.ndarray, k: np.ndarray, width: np.ndarray, base: np.ndarray, top: np.ndarray,
@@ -82,7 +94,7 @@ def leaf_area_on_path(s: np.ndarray, k: np.ndarray, width: np.ndarray, base: np.
 def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np.ndarray, eff: np.ndarray,
                      g_factor: float, width: np.ndarray, base: np.ndarray, top: np.ndarray, lad: np.ndarray,
                      profile: np.ndarray, nodes: int = 8, diverge: np.ndarray | float = 0.0,
-                     wake: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
+                     wake: tuple[np.ndarray, ...] | None = None, inner: np.ndarray | None = None) -> np.ndarray:
     """Share of a parcel's volume captured by one hedge, 0..1 (arrays over (parcel, hedge) pairs).
 
     ``s_c``: cross-row coordinate of the parcel's landing disc centre from the row line (m, along the
@@ -93,7 +105,8 @@ def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np
     along the slope ``k + u · diverge``. ``wake``: (relaxation time s, horizontal speed m/s, fall speed
     without the wake m/s, wake speed entering the foliage m/s, leaf width m): the efficiency is then taken
     per path at the wake's mean speed in the foliage (the leaves' drag slows it,
-    :func:`vinecli.spray.wake.mean_speed_through_foliage`) instead of ``eff``.
+    :func:`vinecli.spray.wake.mean_speed_through_foliage`) instead of ``eff``. ``inner``: the inner radius (m, 0 for
+    a disc) of parcels landing on an annulus (a hollow cone's ring, :mod:`vinecli.spray.nozzle_pattern`).
     """
     from vinecli.spray.wake import mean_speed_through_foliage
 
@@ -110,8 +123,10 @@ def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np
     prof = np.asarray(profile, dtype=np.float64)
     if wake is not None:
         tau, v_h, v_t, w_top, leaf_w = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in wake))
-    # the disc's mass between consecutive nodes' edges: one CDF evaluation per edge
-    cdf = [semicircle_cdf((s0 + i * step - s_c) / r) for i in range(nodes + 1)]
+    # the disc's (or annulus's) mass between consecutive nodes' edges: one CDF evaluation per edge
+    ri = None if inner is None else np.broadcast_to(np.asarray(inner, dtype=np.float64), s_c.shape)
+    cdf = [semicircle_cdf((s0 + i * step - s_c) / r) if ri is None else annulus_cdf(s0 + i * step - s_c, r, ri)
+           for i in range(nodes + 1)]
     for i in range(nodes):
         mass = cdf[i + 1] - cdf[i]
         live = mass > 0.0

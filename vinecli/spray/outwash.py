@@ -15,6 +15,18 @@ Curtiss et al. 1984, J. Am. Helicopter Soc. 29(1)), and the surface layer carrie
 (:mod:`vinecli.spray.surface_layer`: wind profile, turbulence, settling). Each lifted parcel becomes one
 parcel per bin of its landing density (at the bin's middle, spread over a disc overlapping its neighbours),
 plus one for the share still airborne beyond the far-field model's reach.
+
+**The canopy air is exchanged with the air above.** Drops released below the crop's zero-plane displacement ``d``
+are among the hedges, where the wind is slow (:data:`CANOPY_ATTENUATION`). They do not all settle there: the
+canopy's coherent eddies (the mixing-layer eddies at the canopy top, Raupach, Finnigan & Brunet 1996,
+Boundary-Layer Meteorol. 78:351; Finnigan 2000, Annu. Rev. Fluid Mech. 32:519) exchange the canopy air with the
+surface layer at the transfer velocity ``w_e = u*² / U_h = β u*`` (the momentum flux carried through the canopy top
+by the wind there; ``β = u*/U_h ≈ 0.3`` for dense canopies, Raupach et al. 1996; Harman & Finnigan 2007,
+Boundary-Layer Meteorol. 123:339). A drop in that well-mixed layer leaves it either through the top at ``w_e`` or
+through the bottom at its fall speed ``v_t``, competing first-order losses: the share ``w_e / (w_e + v_t)`` rises
+out of the canopy and the surface layer carries it from the canopy's top (fine drops, whose ``v_t`` is comparable
+with ``w_e``, make the far tail of the drift curve), the rest settles among the plants. All landing bands share the
+same log-distance bins, so the three releases (above the crop, exchanged, settled in it) add up bin by bin.
 """
 
 from __future__ import annotations
@@ -38,6 +50,9 @@ BAND_SMOOTHING = 4.0
 #: the wind inside a canopy falls as exp(-a (1 - z/h)) below its top h (Cionco 1965, J. Appl. Meteorol. 4:517; a ≈ 2
 #: for moderately dense crops): the drops released among the hedges are carried by that slower wind
 CANOPY_ATTENUATION = 2.0
+#: u*/U_h at the top of a dense canopy (Raupach et al. 1996; Harman & Finnigan 2007): the canopy air's transfer
+#: velocity to the surface layer is β u*
+CANOPY_BETA = 0.3
 #: how far downwind the far-field model follows the drops, m (beyond: airborne out of the drift domain)
 REACH_M = 250.0
 
@@ -79,68 +94,108 @@ def lifted_parcels(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.n
     d_plane = max(float(displacement_m), 0.0)
     still = speed <= 0.0
     if x.size and still.all():  # a calm run: every parcel lands where it was released, one bin each
-        keys, inv = np.unique(np.column_stack([top, v_t[:, 0], v_t[:, 1]]), axis=0, return_inverse=True)
-        per_key = np.array([_still_air(float(t), float(lo), float(hi), d_plane, roughness_m, obukhov_m)
-                            for t, lo, hi in keys]).reshape(-1, 2)
-        d = offset + 0.0
-        return {"x": x + 0.0 * d, "y": y + 0.0 * d, "vol": lifted_l * per_key[inv.ravel(), 0],
-                "t_fall": t_fall + per_key[inv.ravel(), 1], "vx": np.array(wind_x, dtype=np.float64),
-                "vy": np.array(wind_y, dtype=np.float64), "vz": np.sqrt(v_t[:, 0] * v_t[:, 1]) + 0.0,
-                "radius": np.array(spread, dtype=np.float64), "src": np.arange(x.size)}
+        return _all_in_still_air(x, y, lifted_l, v_t, t_fall, wind_x, wind_y, top, offset, spread,
+                                 (d_plane, roughness_m, obukhov_m))
     for i in range(x.size):
+        if still[i]:  # still air carries nothing away: everything lands where it was released
+            share, fall_s = _still_air(float(top[i]), float(v_t[i, 0]), float(v_t[i, 1]), d_plane, roughness_m,
+                                       obukhov_m)
+            d = offset[i] + np.zeros(1)
+            _append(cols, i, (x[i] + ex[i] * d, y[i] + ey[i] * d, lifted_l[i] * np.array([share]),
+                              t_fall[i] + np.array([fall_s]), wind_x[i], wind_y[i],
+                              math.sqrt(v_t[i, 0] * v_t[i, 1]) + 0.0, np.array([spread[i]])))
+            continue
         above = max(float(top[i]) - d_plane, 0.0)
         sheltered = 1.0 - above / max(float(top[i]), 1e-9)  # released evenly over [0, top]: the share below d
+        vts = (float(v_t[i, 0]), float(v_t[i, 1]))
+        layer = SurfaceLayer.from_wind(float(speed[i]), max(float(z_wind_m[i]) - d_plane, 2.0 * roughness_m),
+                                       roughness_m, obukhov_m)
+        parts: list[tuple[float, tuple[np.ndarray, ...]]] = []
+        landing_layer = layer  # whose turbulence the drops come down through (the crop's own when all start in it)
         if above > 0.0:
-            layer = SurfaceLayer.from_wind(float(speed[i]), max(float(z_wind_m[i]) - d_plane, 2.0 * roughness_m),
-                                           roughness_m, obukhov_m)
-            mass, dist, half, time = landing_bands(layer, (float(v_t[i, 0]), float(v_t[i, 1])), above, REACH_M)
-            mass = mass * (1.0 - sheltered)
-        else:
-            layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
-            mass, dist, half, time = (np.zeros(0),) * 4
-        if sheltered > 0.0:  # the share released among the plants: carried by the slower wind inside the canopy
+            parts.append((1.0 - sheltered, landing_bands(layer, vts, above, REACH_M)))
+        if sheltered > 0.0:  # the share released among the plants
             low = min(float(top[i]), d_plane)
+            # the canopy air's exchange with the surface layer lifts a share out of the crop (module doc)
+            w_e, vt_mid = CANOPY_BETA * layer.ustar, math.sqrt(vts[0] * vts[1])
+            vent = w_e / (w_e + vt_mid) if w_e > 0.0 else 0.0
+            if vent > 0.0:  # released from the canopy's top (d = 2/3 of it) after its time in the canopy's air
+                m1, d1, h1, t1 = landing_bands(layer, vts, 0.5 * d_plane, REACH_M)
+                parts.append((sheltered * vent, (m1, d1, h1, t1 + low / (w_e + vt_mid))))
+            # the rest settles among the plants, carried by the slower wind inside the canopy
             slow = math.exp(-CANOPY_ATTENUATION * (1.0 - 0.5 * low / (1.5 * d_plane)))
             inner = SurfaceLayer.from_wind(slow * float(speed[i]), float(z_wind_m[i]), roughness_m, obukhov_m)
-            m2, d2, h2, t2 = landing_bands(inner, (float(v_t[i, 0]), float(v_t[i, 1])), low, REACH_M)
-            mass, dist = np.append(mass, sheltered * m2), np.append(dist, d2)
-            half, time = np.append(half, h2), np.append(time, t2)
-            if above <= 0.0:
-                layer = inner
-        radius = np.maximum(BAND_SMOOTHING * half, spread[i])  # at least the release's own spread
-        if speed[i] <= 0.0 and mass.size:  # still air carries nothing away: every bin lands where it was released
-            time = np.array([float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)])
-            mass, dist, radius = np.array([mass.sum()]), np.zeros(1), np.array([spread[i]])
+            parts.append((sheltered * (1.0 - vent), landing_bands(inner, vts, low, REACH_M)))
+            landing_layer = layer if above > 0.0 else inner
+        mass, dist, half, time = _add_bands(parts)
         d = offset[i] + np.where(np.isfinite(dist), dist, BEYOND_M)
-        cols["x"].append(x[i] + ex[i] * d)
-        cols["y"].append(y[i] + ey[i] * d)
-        cols["vol"].append(lifted_l[i] * mass)
-        cols["t_fall"].append(t_fall[i] + time)
-        cols["vx"].append(np.full(mass.size, wind_x[i]))
-        cols["vy"].append(np.full(mass.size, wind_y[i]))
         # the drops reach the ground at their fall speed plus the turbulence's vertical speed (their paths through
         # the hedges on the way down are that steep; the far field itself is the surface layer's, without hedges)
-        cols["vz"].append(np.full(mass.size, math.sqrt(v_t[i, 0] * v_t[i, 1]) + float(layer.sigma_w(np.zeros(1))[0])))
-        cols["radius"].append(radius)
-        cols["src"].append(np.full(mass.size, i))
+        sigma_w = float(landing_layer.sigma_w(np.zeros(1))[0])
+        _append(cols, i, (x[i] + ex[i] * d, y[i] + ey[i] * d, lifted_l[i] * mass, t_fall[i] + time, wind_x[i],
+                          wind_y[i], math.sqrt(v_t[i, 0] * v_t[i, 1]) + sigma_w,
+                          np.maximum(BAND_SMOOTHING * half, spread[i])))  # at least the release's own spread
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+
+
+def _append(cols: dict[str, list[np.ndarray]], i: int, bins: tuple) -> None:
+    """Add parcel ``i``'s landing bins: (x, y, vol, t_fall arrays; vx, vy, vz per parcel; radius array)."""
+    bx, by, vol, t_fall, vx, vy, vz, radius = bins
+    n = vol.size
+    for k, v in (("x", bx), ("y", by), ("vol", vol), ("t_fall", t_fall), ("radius", radius)):
+        cols[k].append(v)
+    for k, c in (("vx", vx), ("vy", vy), ("vz", vz), ("src", i)):
+        cols[k].append(np.full(n, c))
 
 
 @lru_cache(maxsize=4096)
 def _still_air(top: float, vt_lo: float, vt_hi: float, d_plane: float, roughness_m: float,
                obukhov_m: float) -> tuple[float, float]:
     """(landed share, mean time s) of a parcel released evenly over [0, ``top``] m in still air: nothing carries it
-    away, so it all lands where it was released (the loop of :func:`lifted_parcels` with u* = 0, computed once per
-    release layer and size class)."""
+    away, so it all lands where it was released (u* = 0: no exchange out of the canopy either)."""
     layer = SurfaceLayer(0.0, roughness_m, obukhov_m)
     above = max(top - d_plane, 0.0)
     sheltered = 1.0 - above / max(top, 1e-9)
+    parts = []
     if above > 0.0:
-        mass, _, _, time = landing_bands(layer, (vt_lo, vt_hi), above, REACH_M)
-        mass = mass * (1.0 - sheltered)
-    else:
-        mass, time = np.zeros(0), np.zeros(0)
+        parts.append((1.0 - sheltered, landing_bands(layer, (vt_lo, vt_hi), above, REACH_M)))
     if sheltered > 0.0:
-        m2, _, _, t2 = landing_bands(layer, (vt_lo, vt_hi), min(top, d_plane), REACH_M)
-        mass, time = np.append(mass, sheltered * m2), np.append(time, t2)
-    return float(mass.sum()), float(np.dot(mass, time)) / max(float(mass.sum()), 1e-300)
+        parts.append((sheltered, landing_bands(layer, (vt_lo, vt_hi), min(top, d_plane), REACH_M)))
+    mass = np.concatenate([w * b[0] for w, b in parts])
+    time = float(np.dot(mass, np.concatenate([b[3] for _, b in parts]))) / max(float(mass.sum()), 1e-300)
+    return float(mass.sum()), time
+
+
+# parameters: the lifted parcels' arrays (as lifted_parcels takes them) and the surface layer's constants
+def _all_in_still_air(x: np.ndarray, y: np.ndarray, lifted_l: np.ndarray, v_t: np.ndarray, t_fall: np.ndarray,
+                      wind_x: np.ndarray, wind_y: np.ndarray, top: np.ndarray, offset: np.ndarray,
+                      spread: np.ndarray, air: tuple[float, float, float]) -> dict[str, np.ndarray]:
+    """:func:`lifted_parcels` when no parcel has wind: one bin per parcel where it was released (the same numbers
+    as parcel by parcel, computed once per release layer and size class)."""
+    keys, inv = np.unique(np.column_stack([top, v_t[:, 0], v_t[:, 1]]), axis=0, return_inverse=True)
+    per_key = np.array([_still_air(float(t), float(lo), float(hi), *air) for t, lo, hi in keys]).reshape(-1, 2)
+    share, fall_s = per_key[inv.ravel(), 0], per_key[inv.ravel(), 1]
+    d = offset + 0.0
+    return {"x": x + 0.0 * d, "y": y + 0.0 * d, "vol": lifted_l * share, "t_fall": t_fall + fall_s,
+            "vx": np.array(wind_x, dtype=np.float64), "vy": np.array(wind_y, dtype=np.float64),
+            "vz": np.sqrt(v_t[:, 0] * v_t[:, 1]) + 0.0, "radius": np.array(spread, dtype=np.float64),
+            "src": np.arange(x.size)}
+
+
+def _add_bands(parts: list[tuple[float, tuple[np.ndarray, ...]]]) -> tuple[np.ndarray, ...]:
+    """Landing bands of several releases (weight, (mass, distance, half width, time)) added bin by bin: every
+    release's bins are the same log-distance bins (:func:`~vinecli.spray.surface_layer.landing_bands`), so equal
+    distances are one bin (its time the mass-weighted mean)."""
+    if not parts:
+        return (np.zeros(0),) * 4
+    if len(parts) == 1:
+        w, (m1, d1, h1, t1) = parts[0]
+        return w * m1, d1, h1, t1
+    mass = np.concatenate([w * b[0] for w, b in parts])
+    dist = np.concatenate([b[1] for _, b in parts])
+    half = np.concatenate([b[2] for _, b in parts])
+    time = np.concatenate([b[3] for _, b in parts])
+    key, first, inv = np.unique(dist, return_index=True, return_inverse=True)
+    m = np.bincount(inv, weights=mass)
+    t = np.bincount(inv, weights=mass * time) / np.maximum(m, 1e-300)
+    return m, key, half[first], np.where(m > 0, t, time[first])

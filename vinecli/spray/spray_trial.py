@@ -21,8 +21,9 @@ from vinecli.specs.wind import WindSpec
 from vinecli.spray.budget import BudgetConfig, SprayBudget, spray_budget
 from vinecli.spray.canopy import Canopy, Hedge, row_spacing
 from vinecli.spray.deposit_grid import flat_height
-from vinecli.spray.deposition import DepositionConfig, Parcels, SprayerGeometry, transport
+from vinecli.spray.deposition import DepositionConfig, Parcels, SprayerGeometry, fan_axes_flu, transport
 from vinecli.spray.droplets import AIR_VISCOSITY, WATER_DENSITY, size_classes_m, terminal_velocity
+from vinecli.spray.nozzle_pattern import PATTERN_CODES
 
 __all__ = ["Trial", "TrialVehicle", "pass_records", "run_trial", "vineyard_rows"]
 
@@ -42,6 +43,10 @@ class TrialVehicle:
     rotor_plane_z: float = 0.05
     #: the rotor hubs' distance from the axis, m (None: the propellers' tips 10 % of a radius apart, R / sin(π/n) · 1.1)
     arm_m: float | None = None
+    #: every nozzle's spray pattern (full_cone, hollow_cone, flat_fan; spray/nozzle_pattern.py) and a fan's sheet axis,
+    #: deg from the body's forward axis towards its left
+    pattern: str = "full_cone"
+    fan_axis_deg: float = 90.0
 
     def geometry(self, air_density: float) -> SprayerGeometry:
         d, frac = size_classes_m(self.vmd_um, self.gsd, self.classes)
@@ -51,7 +56,8 @@ class TrialVehicle:
             tan_half=np.full(n, math.tan(math.radians(self.cone_angle_deg) / 2.0)), diam_m=d, fractions=frac,
             v_t=terminal_velocity(d, WATER_DENSITY, air_density, AIR_VISCOSITY), n_rotors=self.n_rotors,
             rotor_radius_m=0.5 * self.prop_diameter_m, rotor_plane_z=self.rotor_plane_z,
-            arm_m=self.arm_m if self.arm_m is not None else 0.55 * self.prop_diameter_m / math.sin(math.pi / self.n_rotors))
+            arm_m=self.arm_m if self.arm_m is not None else 0.55 * self.prop_diameter_m / math.sin(math.pi / self.n_rotors),
+            pattern=np.full(n, PATTERN_CODES[self.pattern], dtype=np.int64), fan_axis_flu=fan_axes_flu([self.fan_axis_deg] * n))
 
 
 # parameters: a straight pass as the published trials describe it: ends, height, speed, flow, thrust, wind,

@@ -31,6 +31,7 @@ from vinecli.specs.vehicle import VehicleSpec
 from vinecli.specs.wind import ConstantWind, WindSpec
 from vinecli.spray.deposit_grid import flat_height
 from vinecli.spray.deposition import EMIT_COLUMNS, DepositionConfig, SprayerGeometry, transport
+from vinecli.spray.nozzle_pattern import inner_radius
 
 __all__ = ["CV_LIMIT", "SwathPattern", "overlapped", "pattern_cv", "swath_pattern"]
 
@@ -153,14 +154,18 @@ def _step(y: np.ndarray) -> float:
 
 
 def _cross_profile(y: np.ndarray, centre: np.ndarray, radius: np.ndarray, sigma: np.ndarray,
-                   vol: np.ndarray) -> np.ndarray:
-    """Sum of disc chord profiles (centre, radius) convolved with Gaussians (sigma), weights ``vol``; 1/m."""
+                   vol: np.ndarray, inner: np.ndarray | None = None) -> np.ndarray:
+    """Sum of disc chord profiles (centre, radius; annuli with ``inner`` radii > 0) convolved with Gaussians
+    (sigma), weights ``vol``; 1/m."""
     out = np.zeros_like(y)
     dy = _step(y)
-    for c, r, s, w in zip(centre, radius, sigma, vol, strict=True):
+    holes = np.zeros(len(vol)) if inner is None else inner
+    for c, r, s, w, ri in zip(centre, radius, sigma, vol, holes, strict=True):
         r = max(float(r), dy)
+        ri = min(float(ri), 0.999 * r)
         u = y - c
-        prof = np.where(np.abs(u) < r, 2.0 * np.sqrt(np.maximum(r * r - u * u, 0.0)) / (math.pi * r * r), 0.0)
+        chord = 2.0 * (np.sqrt(np.maximum(r * r - u * u, 0.0)) - np.sqrt(np.maximum(ri * ri - u * u, 0.0)))
+        prof = chord / (math.pi * (r * r - ri * ri))
         if s > dy:
             k = int(math.ceil(4.0 * s / dy))
             gx = np.arange(-k, k + 1) * dy
@@ -214,11 +219,12 @@ def swath_pattern(veh: VehicleSpec, height_agl_m: float, speed_mps: float, *, cr
         rec, pitch = _pass_record(veh, height_agl_m, speed_mps, heading, crosswind_mps, air_density, g, fill_fraction)
         p = transport(rec[None, :], geo, flat_height(0.0), wind, air_density, 0, config or DepositionConfig(), g,
                       expected=True)
-        k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol)
+        k = _cross_profile(y, p.y, p.radius, p.sigma, p.vol, inner_radius(p.radius, p.ring_r))
         profiles.append(k / (k.sum() * dy))
         if heading == 0.0:  # the cone's footprint: the primaries (the far field's landing bins are drift, not it)
             near = slice(0, p.primaries)
-            foot = float(np.max(p.radius[near] + 2.0 * p.sigma[near]))
+            part_r = np.hypot(p.part_dx[near], p.part_dy[near]) if p.part_dx.size == p.vol.size else 0.0  # shapes
+            foot = float(np.max(part_r + p.radius[near] + 2.0 * p.sigma[near]))
             along = float(np.dot(p.x, p.vol) / p.vol.sum()) - float(np.mean(p.path_xy[:, 0]))
     fwd, back = profiles
     spacing = np.round(np.arange(0.2, 1.6 * geometric + 1e-9, ds) * 100.0) / 100.0

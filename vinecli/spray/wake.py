@@ -5,12 +5,14 @@ sideways motion within a short reach, and from then on the rotor wake carries th
 footprint a size class lands on is set by
 
 1. **the ballistic reach** of its drops: leaving the nozzle at the exit speed ``V0 = sqrt(2 Δp / ρ_w)``
-   (Bernoulli across the orifice, the sprayer's rated pressure) at the cone's half angle θ/2, a drop's
-   sideways speed ``V0 sin(θ/2)`` decays under the Schiller–Naumann drag
-   (``dv/dt = -v (1 + 0.15 Re^0.687) / τ_St``, :mod:`vinecli.spray.droplets`), so it moves sideways by
-   ``τ_St ∫_0^{V} dv / (1 + 0.15 Re(v)^0.687)`` at most (no further than the cone reaches at the ground).
-   Fine drops stop within centimetres (145 µm at 15 m/s: 0.30 m), coarse ones keep their momentum
-   (300 µm: 0.93 m; a boom nozzle's 110° fan at 0.5 m spreads ~0.7 m each side: the same scale);
+   (Bernoulli across the orifice, the sprayer's rated pressure) along a ray of the cone (half angle θ/2), a
+   drop slows under the Schiller–Naumann drag of its whole speed (``dv/dt = -v (1 + 0.15 Re^0.687) / τ_St``,
+   Re from ``|v|``, :mod:`vinecli.spray.droplets`): it stops ``τ_St ∫_0^{V0} dv / (1 + 0.15 Re(v)^0.687)``
+   along the ray, ``sin(θ/2)`` of that sideways (no further than the cone reaches at the ground). Taking the
+   sideways speed alone would understate its Reynolds number, hence the drag: 600 µm drops from a 60° cone at
+   3 bar stop 1.6 m sideways, not 2.4 m. Fine drops stop within centimetres (145 µm, 60° cone: 0.20 m),
+   coarse ones keep their momentum (330 µm: 0.68 m; a boom nozzle's 110° fan at 0.5 m spreads ~0.7 m each
+   side: the same scale);
 2. **the wake's turbulent spreading** while it carries them: the vehicle's rotors make one wake that
    contracts to half the disc area below the rotors (momentum theory: radius ``R_w = R_eq / √2`` with
    ``R_eq = R √n``, Leishman 2006, ch. 2) and mixes like a round turbulent jet (Bauersfeld et al. 2024,
