@@ -196,3 +196,25 @@ def test_records_summed_over_steps_land_where_the_single_steps_do() -> None:
     ca = float(np.dot(a.x, a.vol) / a.vol.sum())
     cb = float(np.dot(b.x, b.vol) / b.vol.sum())
     assert abs(ca - cb) < 0.005
+
+
+def test_a_disc_wider_than_its_reach_of_the_grid_changes_nothing_on_it() -> None:
+    # far-field parcels spread over discs ~100 m wide that land too far away to touch the map: they leave the grid's
+    # deposit as it was (within FFT round-off; their width no longer sizes the convolution) and their volume is
+    # counted off the grid; one that does reach it adds its uniform share on every cell
+
+    grid = GridSpec(-5.0, -5.0, 0.05, 200, 200)
+    x, y = np.array([0.0, 1.0]), np.array([0.0, -0.5])
+    vol, rad = np.array([1e-3, 2e-3]), np.array([0.3, 0.8])
+    base, off0 = rasterise_discs(grid, x, y, vol, rad)
+    far_x, far_y = np.array([120.0, 3.0]), np.array([0.0, -160.0])
+    more, off1 = rasterise_discs(grid, np.concatenate([x, far_x]), np.concatenate([y, far_y]),
+                                 np.concatenate([vol, [5e-4, 7e-4]]), np.concatenate([rad, [50.0, 45.0]]))
+    assert np.abs(more - base).max() <= 1e-12 * base.max()
+    assert off1 - off0 == pytest.approx(1.2e-3, rel=1e-9)
+    assert base.sum() + off0 == pytest.approx(vol.sum(), rel=1e-12)
+    reach, off2 = rasterise_discs(grid, np.append(x, 40.0), np.append(y, 0.0), np.append(vol, 5e-4),
+                                  np.append(rad, 50.0))
+    uniform = 5e-4 * grid.cell ** 2 / (math.pi * 50.0 ** 2)  # its disc covers the whole 10 m map
+    assert np.allclose(reach - base, uniform, rtol=0.02, atol=0.0)
+    assert reach.sum() + off2 == pytest.approx(vol.sum() + 5e-4, rel=1e-12)

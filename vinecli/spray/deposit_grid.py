@@ -196,26 +196,35 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
     bins, v, x, y = bidx[keep], vv[keep], x[keep], y[keep]
     ubins = np.unique(bins)
     radii = [r0 * math.exp(float(b) * rel_bin) for b in ubins]
-    kers = [disc_kernel(rb) for rb in radii]
-    k = max(ker.shape[0] // 2 for ker in kers)  # one padded grid for all bins
-    # convolve only the window the parcels reach: their bounding box (inside the grid + k) grown by 2k
+    reach = max(int(math.ceil(rb)) + 1 for rb in radii)  # the widest disc's half-width (disc_kernel's k), cells
+    # convolve only the window the parcels reach: their bounding box (inside the grid + reach) grown by 2k
     cx = (x - grid.x0) / grid.cell
     cy = (y - grid.y0) / grid.cell
-    near = (cx > -k - 1) & (cx < grid.nx + k + 1) & (cy > -k - 1) & (cy < grid.ny + k + 1)
+    near = (cx > -reach - 1) & (cx < grid.nx + reach + 1) & (cy > -reach - 1) & (cy < grid.ny + reach + 1)
     off = float(v[~near].sum())  # too far to reach the grid at all
     if not near.any():
         return np.zeros((grid.ny, grid.nx)), off
-    ix0 = max(int(np.floor(cx[near].min())) - 1, -k)
-    ix1 = min(int(np.ceil(cx[near].max())) + 2, grid.nx + k)
-    iy0 = max(int(np.floor(cy[near].min())) - 1, -k)
-    iy1 = min(int(np.ceil(cy[near].max())) + 2, grid.ny + k)
+    ix0 = max(int(np.floor(cx[near].min())) - 1, -reach)
+    ix1 = min(int(np.ceil(cx[near].max())) + 2, grid.nx + reach)
+    iy0 = max(int(np.floor(cy[near].min())) - 1, -reach)
+    iy1 = min(int(np.ceil(cy[near].max())) + 2, grid.ny + reach)
     win = GridSpec(grid.x0 + ix0 * grid.cell, grid.y0 + iy0 * grid.cell, grid.cell, ix1 - ix0, iy1 - iy0)
-    sy, sx = _fft_len(win.ny + 2 * k), _fft_len(win.nx + 2 * k)
-    spec = None
-    for b, ker in zip(ubins, kers, strict=True):
+    # each node's parcels on the window; a node with nothing on it (its parcels beyond the window's cells: far-field
+    # bins of a drift far wider than the grid) adds nothing, so neither its disc nor its width enters the convolution
+    accs, kers = [], []
+    for b, rb in zip(ubins, radii, strict=True):
         sel = near & (bins == b)
         acc, o = rasterise(win, x[sel], y[sel], v[sel])
         off += o
+        if acc.any():
+            accs.append(acc)
+            kers.append(disc_kernel(rb))
+    if not accs:
+        return np.zeros((grid.ny, grid.nx)), off
+    k = max(ker.shape[0] // 2 for ker in kers)  # one padded grid for the nodes that land on the window
+    sy, sx = _fft_len(win.ny + 2 * k), _fft_len(win.nx + 2 * k)
+    spec = None
+    for acc, ker in zip(accs, kers, strict=True):
         kb = ker.shape[0] // 2
         kpad = np.zeros((2 * k + 1, 2 * k + 1))
         kpad[k - kb: k + kb + 1, k - kb: k + kb + 1] = ker  # centred in the common (2k+1)² support
