@@ -125,8 +125,7 @@ def capture_fraction(s_c: np.ndarray, radius: np.ndarray, k: np.ndarray, sec: np
         tau, v_h, v_t, w_top, leaf_w = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in wake))
     # the disc's (or annulus's) mass between consecutive nodes' edges: one CDF evaluation per edge
     ri = None if inner is None else np.broadcast_to(np.asarray(inner, dtype=np.float64), s_c.shape)
-    cdf = [semicircle_cdf((s0 + i * step - s_c) / r) if ri is None else annulus_cdf(s0 + i * step - s_c, r, ri)
-           for i in range(nodes + 1)]
+    cdf = [annulus_cdf(s0 + i * step - s_c, r, ri) for i in range(nodes + 1)]
     for i in range(nodes):
         mass = cdf[i + 1] - cdf[i]
         live = mass > 0.0
