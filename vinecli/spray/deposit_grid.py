@@ -128,12 +128,17 @@ def rasterise(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarray) -> 
     return acc.reshape(grid.ny, grid.nx), off
 
 
+def disc_reach(radius_cells: float) -> int:
+    """Half-width k (cells) of :func:`disc_kernel`'s (2k+1)² square for a disc of ``radius_cells``."""
+    return int(math.ceil(radius_cells)) + 1
+
+
 def disc_kernel(radius_cells: float, sub: int = 4) -> np.ndarray:
     """Square kernel (2k+1)² of a uniform disc of ``radius_cells`` (cell units), area-weighted, sum 1.
 
     Each cell's weight is the count of its ``sub`` × ``sub`` sample points inside the disc, counted one
     sample offset pair at a time (memory: a few (2k+1)² arrays, not (2k·sub)²)."""
-    k = int(math.ceil(radius_cells)) + 1
+    k = disc_reach(radius_cells)
     off = (np.arange(sub) + 0.5) / sub - 0.5
     c = np.arange(-k, k + 1)
     r2 = max(radius_cells, 0.5 / sub) ** 2
@@ -196,7 +201,7 @@ def rasterise_discs(grid: GridSpec, x: np.ndarray, y: np.ndarray, vol: np.ndarra
     bins, v, x, y = bidx[keep], vv[keep], x[keep], y[keep]
     ubins = np.unique(bins)
     radii = [r0 * math.exp(float(b) * rel_bin) for b in ubins]
-    reach = max(int(math.ceil(rb)) + 1 for rb in radii)  # the widest disc's half-width (disc_kernel's k), cells
+    reach = max(disc_reach(rb) for rb in radii)  # the widest disc's half-width, cells
     # convolve only the window the parcels reach: their bounding box (inside the grid + reach) grown by 2k
     cx = (x - grid.x0) / grid.cell
     cy = (y - grid.y0) / grid.cell
